@@ -1,0 +1,104 @@
+"""The pinhole camera: y up, yaw about +y (0 looks toward -z), pitch up positive, degrees."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+PLANE_NAMES = ("left", "right", "bottom", "top", "near", "far")
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A view: position (3,), yaw and pitch in degrees, vertical fov in degrees, aspect = w/h."""
+
+    position: tuple
+    yaw: float = 0.0
+    pitch: float = 0.0
+    fov: float = 45.0
+    aspect: float = 240 / 320
+    near: float = 0.1
+    far: float = 1000.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "position", tuple(float(c) for c in np.reshape(self.position, 3)))
+        if not 0.0 < self.fov < 180.0:
+            raise ValueError(f"fov must be in (0, 180) degrees, got {self.fov}")
+        if not 0.0 < self.near < self.far:
+            raise ValueError(f"need 0 < near < far, got near={self.near} far={self.far}")
+        if not self.aspect > 0.0:
+            raise ValueError(f"aspect must be positive, got {self.aspect}")
+        if not np.all(np.isfinite(self.eye)) or not np.isfinite([self.yaw, self.pitch]).all():
+            raise ValueError("camera position and angles must be finite")
+
+    @property
+    def eye(self) -> np.ndarray:
+        """(3,) float64 eye position."""
+        return np.array(self.position, dtype=np.float64)
+
+    def basis(self) -> tuple:
+        """(right, up, forward): three orthonormal (3,) float64 vectors in world space."""
+        yaw, pitch = np.radians(self.yaw), np.radians(self.pitch)
+        cy, sy, cp, sp = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch)
+        forward = np.array([-sy * cp, sp, -cy * cp])
+        right = np.array([cy, 0.0, -sy])
+        up = np.cross(right, forward)
+        return right, up, forward
+
+    @property
+    def forward(self) -> np.ndarray:
+        return self.basis()[2]
+
+    def view_matrix(self) -> np.ndarray:
+        """(4, 4) float64 world-to-eye matrix (OpenGL: eye looks down -z)."""
+        right, up, forward = self.basis()
+        rotation = np.stack([right, up, -forward])
+        view = np.eye(4)
+        view[:3, :3] = rotation
+        view[:3, 3] = -rotation @ self.eye
+        return view
+
+    def projection_matrix(self) -> np.ndarray:
+        """(4, 4) float64 OpenGL perspective matrix (gluPerspective)."""
+        f = 1.0 / np.tan(np.radians(self.fov) / 2.0)
+        n, fa = self.near, self.far
+        return np.array([
+            [f / self.aspect, 0.0, 0.0, 0.0],
+            [0.0, f, 0.0, 0.0],
+            [0.0, 0.0, (fa + n) / (n - fa), 2.0 * fa * n / (n - fa)],
+            [0.0, 0.0, -1.0, 0.0],
+        ])
+
+    def view_projection(self) -> np.ndarray:
+        return self.projection_matrix() @ self.view_matrix()
+
+    def frustum_planes(self) -> np.ndarray:
+        """(6, 4) float64 planes (n, d), unit inward n: inside where n.x + d >= 0.
+
+        Built from the camera basis rather than the clip matrix, so the near and far planes
+        keep full precision at far/near ratios of 1e7. Order: left, right, bottom, top, near, far.
+        """
+        right, up, forward = self.basis()
+        half_v = np.radians(self.fov) / 2.0
+        half_h = np.arctan(np.tan(half_v) * self.aspect)
+        normals = np.stack([
+            np.cos(half_h) * right + np.sin(half_h) * forward,
+            -np.cos(half_h) * right + np.sin(half_h) * forward,
+            np.cos(half_v) * up + np.sin(half_v) * forward,
+            -np.cos(half_v) * up + np.sin(half_v) * forward,
+            forward,
+            -forward,
+        ])
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        eye = self.eye
+        d = -normals @ eye
+        d[4] -= self.near
+        d[5] += self.far
+        return np.column_stack([normals, d])
+
+    def with_(self, **changes) -> "Camera":
+        """A copy with some fields replaced."""
+        fields = dict(position=self.position, yaw=self.yaw, pitch=self.pitch, fov=self.fov,
+                      aspect=self.aspect, near=self.near, far=self.far)
+        fields.update(changes)
+        return Camera(**fields)

@@ -1,0 +1,45 @@
+"""Command-line entry point: `vismobile <command> ...`; each command lives in commands/."""
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from importlib import import_module
+
+from .errors import VisMobileError
+
+# Each module in commands/ offers add_parser(subparsers) and run(args) -> int.
+COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="vismobile", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name in COMMANDS:
+        try:
+            module = import_module(f"vismobile.commands.{name}")
+        except ModuleNotFoundError as error:
+            if error.name != f"vismobile.commands.{name}":
+                raise
+            continue
+        module.add_parser(sub).set_defaults(handler=module.run)
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        warnings.formatwarning = lambda message, *rest: f"warning: {message}\n"
+        try:
+            return int(args.handler(args) or 0)
+        except VisMobileError as error:
+            print(f"vismobile: error: {error}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print("vismobile: interrupted", file=sys.stderr)
+            return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

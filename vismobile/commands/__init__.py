@@ -1,0 +1,1 @@
+"""CLI commands, one module each: add_parser(subparsers) -> parser, run(args) -> exit code."""

@@ -1,0 +1,163 @@
+"""The world model: a triangle soup with per-triangle normals, areas, boxes and object ids."""
+from __future__ import annotations
+
+import hashlib
+import io
+import os
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import WorldError
+
+# Triangles whose doubled area is below this fraction of the world's squared extent are dropped.
+ZERO_AREA_RELATIVE = 1e-14
+
+
+@dataclass(eq=False)
+class World:
+    """Triangles of a scene; every array is indexed by triangle id.
+
+    vertices   : (V, 3) float64
+    triangles  : (T, 3) int32, indices into vertices, counter-clockwise = front
+    object_ids : (T,) int32, index into object_names
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    object_ids: np.ndarray | None = None
+    object_names: list = field(default_factory=list)
+    name: str = "world"
+
+    def __post_init__(self):
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
+        self.triangles = np.ascontiguousarray(self.triangles, dtype=np.int32).reshape(-1, 3)
+        if self.object_ids is None:
+            self.object_ids = np.zeros(len(self.triangles), dtype=np.int32)
+        self.object_ids = np.ascontiguousarray(self.object_ids, dtype=np.int32)
+        if not self.object_names:
+            count = int(self.object_ids.max()) + 1 if len(self.object_ids) else 1
+            self.object_names = [f"object{i}" for i in range(count)]
+        self._derive()
+
+    def _derive(self):
+        corners = self.vertices[self.triangles]  # (T, 3, 3)
+        cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        length = np.linalg.norm(cross, axis=1)
+        self.areas = 0.5 * length
+        with np.errstate(invalid="ignore", divide="ignore"):
+            normals = cross / length[:, None]
+        self.normals = np.where(length[:, None] > 0, normals, 0.0)
+        self.bounds = np.stack([corners.min(axis=1), corners.max(axis=1)], axis=1)  # (T, 2, 3)
+        self.centroids = corners.mean(axis=1)
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.triangles)
+
+    @property
+    def corners(self) -> np.ndarray:
+        """(T, 3, 3) float64 triangle corner positions."""
+        return self.vertices[self.triangles]
+
+    @property
+    def extent(self) -> np.ndarray:
+        """(2, 3) float64 box around every referenced vertex."""
+        if not len(self.triangles):
+            return np.zeros((2, 3))
+        used = self.vertices[np.unique(self.triangles)]
+        return np.stack([used.min(axis=0), used.max(axis=0)])
+
+    def digest(self) -> bytes:
+        """32-byte SHA-256 of the geometry; partition files carry it to refuse a different world."""
+        h = hashlib.sha256()
+        h.update(np.ascontiguousarray(self.vertices, "<f8").tobytes())
+        h.update(np.ascontiguousarray(self.triangles, "<i4").tobytes())
+        h.update(np.ascontiguousarray(self.object_ids, "<i4").tobytes())
+        return h.digest()
+
+    def subset(self, triangle_ids) -> "World":
+        """World of the given triangles only (same vertex array, object names kept)."""
+        ids = np.asarray(triangle_ids, dtype=np.int64)
+        return World(self.vertices, self.triangles[ids], self.object_ids[ids],
+                     list(self.object_names), self.name)
+
+    def transformed(self, scale=1.0, offset=(0.0, 0.0, 0.0)) -> "World":
+        """World with vertices scaled about the origin, then translated."""
+        v = self.vertices * float(scale) + np.asarray(offset, dtype=np.float64)
+        return World(v, self.triangles, self.object_ids, list(self.object_names), self.name)
+
+    @classmethod
+    def concatenate(cls, parts, name="world") -> "World":
+        """One world of several, object ids renumbered so names stay unique per part."""
+        vertices, triangles, ids, names = [], [], [], []
+        offset = 0
+        for part in parts:
+            vertices.append(part.vertices)
+            triangles.append(part.triangles + offset)
+            ids.append(part.object_ids + len(names))
+            names.extend(part.object_names)
+            offset += len(part.vertices)
+        return cls(np.concatenate(vertices), np.concatenate(triangles),
+                   np.concatenate(ids), names, name)
+
+    # ---- OBJ I/O -------------------------------------------------------------------------
+    @classmethod
+    def from_obj(cls, path) -> "World":
+        """Load an OBJ through trimesh; groups (o/g) become object ids.
+
+        Raises WorldError naming the file (and line) on missing, empty, unparsable, non-finite,
+        out-of-range or fully degenerate input. Zero-area triangles are dropped with a warning.
+        """
+        from .obj import load_obj  # trimesh stays out of the import path of the runtime
+
+        path = Path(path)
+        vertices, triangles, object_ids, names = load_obj(path)
+        return cls.from_arrays(vertices, triangles, object_ids, names, path)
+
+    @classmethod
+    def from_arrays(cls, vertices, triangles, object_ids, names, path="<arrays>") -> "World":
+        """World from raw arrays, dropping zero-area triangles with a warning."""
+        world = cls(vertices, triangles, object_ids, list(names), Path(str(path)).stem)
+        scale = float(np.ptp(world.extent, axis=0).max()) if world.triangle_count else 0.0
+        keep = world.areas * 2.0 > ZERO_AREA_RELATIVE * max(scale, 1e-300) ** 2
+        dropped = int((~keep).sum())
+        if dropped:
+            warnings.warn(f"{path}: dropped {dropped} zero-area triangle(s)", stacklevel=2)
+            world = world.subset(np.flatnonzero(keep))
+        if world.triangle_count == 0:
+            raise WorldError(path, "no triangles left after dropping zero-area ones"
+                             if dropped else "no triangles")
+        return world
+
+    def to_obj(self, path) -> None:
+        """Write a deterministic OBJ (one `o` record per object), atomically."""
+        buffer = io.StringIO()
+        buffer.write(f"# vismobile world {self.name}: {self.triangle_count} triangles\n")
+        np.savetxt(buffer, self.vertices, fmt="v %.6g %.6g %.6g")
+        order = np.argsort(self.object_ids, kind="stable")
+        ids = self.object_ids[order]
+        starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else []
+        ends = list(starts[1:]) + [len(ids)]
+        for start, end in zip(starts, ends):
+            buffer.write(f"o {self.object_names[ids[start]]}\n")
+            np.savetxt(buffer, self.triangles[order[start:end]] + 1, fmt="f %d %d %d")
+        atomic_write_bytes(path, buffer.getvalue().encode("ascii"))
+
+
+def atomic_write_bytes(path, data: bytes) -> None:
+    """Write data to path through a temporary file and a rename: readers never see a part."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
