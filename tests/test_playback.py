@@ -1,0 +1,195 @@
+"""Playback: frames.csv / summary.json contents, images identical across runs, refusals."""
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from vismobile.cli import main
+from vismobile.errors import ProfileError, VisMobileError
+from vismobile.playback import (COLUMNS, Scene, load_scene, parse_stages, parse_structure,
+                                pearson, play)
+from vismobile.profile import get_profile
+from vismobile.trajectory import Trajectory
+from vismobile.world import World
+
+
+def hills(n=30):
+    xs, zs = np.meshgrid(np.linspace(-30, 30, n + 1), np.linspace(-30, 30, n + 1))
+    ys = np.sin(xs * 0.3) * np.cos(zs * 0.2) * 2.0
+    vertices = np.stack([xs, ys, zs], -1).reshape(-1, 3)
+    i = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    triangles = np.concatenate([np.stack([i, i + n + 1, i + 1], 1),
+                                np.stack([i + 1, i + n + 1, i + n + 2], 1)])
+    return World(vertices, triangles, (np.arange(len(triangles)) // 300).astype(np.int32),
+                 name="hills")
+
+
+def walk(frames=12):
+    t = np.linspace(0.0, 1.0, frames)
+    poses = np.column_stack([-20 + 40 * t, np.full(frames, 6.0), 25 - 30 * t, 60 * t,
+                             np.full(frames, -15.0)])
+    return Trajectory(poses, {"A": 3, "B": 9})
+
+
+def read_csv(path):
+    with open(path, newline="") as handle:
+        return list(csv.reader(handle))
+
+
+def test_frames_csv_and_summary_are_consistent(tmp_path):
+    world, trajectory = hills(), walk()
+    result = play(Scene(world), trajectory, "bfc", "ipaq-hx2490b", tmp_path / "run")
+    rows = read_csv(tmp_path / "run" / "frames.csv")
+    assert tuple(rows[0]) == COLUMNS and len(rows) == 1 + len(trajectory)
+    table = {name: [row[k] for row in rows[1:]] for k, name in enumerate(COLUMNS)}
+    assert table["frame"] == [str(i) for i in range(len(trajectory))]
+    assert [w for w in table["waypoint"] if w] == ["A", "B"]
+    assert table["waypoint"][3] == "A" and table["waypoint"][9] == "B"
+    cull, render, total = (np.array(table[c], float) for c in ("cull_ms", "render_ms",
+                                                                "frame_ms"))
+    assert np.all(render > 0) and np.allclose(cull + render, total, atol=2e-4)
+    assert set(table["triangles_sent"]) == {str(world.triangle_count)}
+    memory = get_profile("ipaq-hx2490b").estimate_memory(world)["total"]
+    assert set(table["memory_bytes"]) == {str(memory)}
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary == json.loads(json.dumps(result.summary))
+    assert summary["frames"] == len(trajectory) and summary["stages"] == ["bfc"]
+    for column in COLUMNS[1:8]:
+        values = np.array(table[column], float)
+        assert summary[column]["median"] == pytest.approx(np.median(values), abs=1e-3)
+        assert summary[column]["mean"] == pytest.approx(values.mean(), abs=1e-3)
+        assert values.min() - 1e-3 <= summary[column]["p95"] <= values.max() + 1e-3
+    assert summary["fps"] == pytest.approx(1000.0 / summary["frame_ms"]["mean"])
+    assert summary["pearson_frame_ms_triangles"] is None  # constant triangle count
+
+
+def test_images_are_identical_across_runs(tmp_path):
+    world, trajectory = hills(), walk()
+    for name in ("one", "two"):
+        play(Scene(world), trajectory, (), "ipaq-hx2490b", tmp_path / name, frames_every=4,
+             gif=True, hud=False)
+    one = sorted((tmp_path / "one" / "frames").iterdir())
+    two = sorted((tmp_path / "two" / "frames").iterdir())
+    assert [p.name for p in one] == ["frame_00000.png", "frame_00004.png", "frame_00008.png"]
+    assert [p.name for p in two] == [p.name for p in one]
+    assert all(a.read_bytes() == b.read_bytes() for a, b in zip(one, two))
+    gifs = [(tmp_path / name / "run.gif").read_bytes() for name in ("one", "two")]
+    assert gifs[0] == gifs[1]
+    assert one[0].read_bytes() != one[1].read_bytes()  # the camera moved
+
+
+def test_images_are_identical_in_another_process(tmp_path):
+    import subprocess
+    import sys
+
+    world, trajectory = hills(), walk(5)
+    world.to_obj(tmp_path / "hills.obj")
+    trajectory.save(tmp_path / "walk.csv")
+    here = play(load_scene(tmp_path / "hills.obj"), Trajectory.load(tmp_path / "walk.csv"),
+                "bfc", "ipaq-hx2490b", tmp_path / "here", frames_every=2)
+    subprocess.run([sys.executable, "-m", "vismobile", "play", str(tmp_path / "hills.obj"),
+                    "--trajectory", str(tmp_path / "walk.csv"), "--cull", "bfc", "--out",
+                    str(tmp_path / "there"), "--frames", "2", "--quiet"], check=True,
+                   capture_output=True)
+    for frame, data in here.images.items():
+        assert (tmp_path / "there" / "frames" / f"frame_{frame:05d}.png").read_bytes() == data
+
+
+def test_hud_changes_only_the_top_band(tmp_path):
+    world, trajectory = hills(), walk(2)
+    plain = play(Scene(world), trajectory, (), "ipaq-hx2490b", tmp_path / "a", frames_every=1)
+    hud = play(Scene(world), trajectory, (), "ipaq-hx2490b", tmp_path / "b", frames_every=1,
+               hud=True)
+    from PIL import Image
+    import io
+    a = np.asarray(Image.open(io.BytesIO(plain.images[0])))
+    b = np.asarray(Image.open(io.BytesIO(hud.images[0])))
+    assert not np.array_equal(a[:48], b[:48]) and np.array_equal(a[48:], b[48:])
+
+
+def test_heap_and_partition_refusals_come_before_any_output(tmp_path):
+    world = hills()
+    tiny = get_profile("ipaq-hx2490b").with_(heap_bytes=10_000)
+    with pytest.raises(ProfileError, match="10,000 bytes"):
+        play(Scene(world), walk(), (), tiny, tmp_path / "run")
+    with pytest.raises(VisMobileError, match="vfc.*need a partition"):
+        play(Scene(world), walk(), "vfc,bfc", "ipaq-hx2490b", tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+
+
+def test_parsers():
+    assert parse_stages("vfc, BFC,cbfc") == ("vfc", "bfc", "cbfc")
+    assert parse_stages("none") == () and parse_stages("") == ()
+    with pytest.raises(VisMobileError, match="twice"):
+        parse_stages("vfc,vfc")
+    assert parse_structure("octree:5") == ("octree", {"depth": 5})
+    assert parse_structure("grid:resolution=8") == ("grid", {"resolution": 8})
+    assert parse_structure("none") == (None, {})
+    assert pearson([1, 2, 3], [2, 4, 6]) == pytest.approx(1.0)
+    assert pearson([1, 2, 3], [3, 2, 1]) == pytest.approx(-1.0)
+    assert pearson([1, 1], [1, 2]) is None
+
+
+def test_cli_plays_an_obj_and_reports_errors_in_one_line(tmp_path, capsys):
+    hills().to_obj(tmp_path / "hills.obj")
+    walk(5).save(tmp_path / "walk.csv")
+    code = main(["play", str(tmp_path / "hills.obj"), "--trajectory", str(tmp_path / "walk.csv"),
+                 "--cull", "bfc", "--profile", "nokia-n82", "--vertex-format", "fixed16.16",
+                 "--out", str(tmp_path / "out"), "--frames", "2", "--hud", "--quiet"])
+    assert code == 0
+    assert len(read_csv(tmp_path / "out" / "frames.csv")) == 6
+    assert sorted(p.name for p in (tmp_path / "out" / "frames").iterdir()) == [
+        "frame_00000.png", "frame_00002.png", "frame_00004.png"]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["profile"] == "nokia-n82" and summary["vertex_format"] == "fixed16.16"
+    assert load_scene(tmp_path / "hills.obj").world.triangle_count == hills().triangle_count
+    code = main(["play", str(tmp_path / "hills.obj"), "--trajectory", str(tmp_path / "walk.csv"),
+                 "--profile", "palm", "--out", str(tmp_path / "bad")])
+    assert code == 2 and "unknown profile 'palm'" in capsys.readouterr().err
+
+
+def test_culled_playback_draws_the_same_pictures_with_fewer_triangles(tmp_path):
+    # Conservative culling never drops a visible triangle, so every frame is pixel-identical.
+    world, trajectory = hills(40), walk(10)
+    culled = load_scene_from(world, "octree:3")
+    result = play(culled, trajectory, "vfc,bfc,cbfc", "ipaq-hx2490b", tmp_path / "culled",
+                  frames_every=3)
+    full = play(Scene(world), trajectory, "bfc", "ipaq-hx2490b", tmp_path / "full",
+                frames_every=3)
+    assert result.images.keys() == full.images.keys() == {0, 3, 6, 9}
+    assert all(result.images[f] == full.images[f] for f in result.images)
+    sent = result.frames["triangles_sent"]
+    assert np.all(sent <= world.triangle_count) and sent.mean() < 0.8 * world.triangle_count
+    assert np.all(result.frames["nodes_visited"] > 0)
+    summary = result.summary
+    assert summary["structure"] == "octree:depth=3" and summary["stages"] == ["vfc", "bfc", "cbfc"]
+    assert summary["memory"]["partition"] > 0
+    assert summary["pearson_frame_ms_triangles"] is not None
+
+
+def load_scene_from(world, structure):
+    from vismobile.partition import partition
+
+    kind, params = parse_structure(structure)
+    return Scene(world, partition(world, kind, **params), f"{kind}:depth={params['depth']}")
+
+
+def test_partition_files_and_bad_settings(tmp_path):
+    from vismobile.partition.store import save_partition
+
+    world = hills(10)
+    world.to_obj(tmp_path / "hills.obj")
+    scene = load_scene(tmp_path / "hills.obj", "octree:2")
+    assert scene.structure == "octree:depth=2" and scene.partition.kind == "octree"
+    save_partition(scene.partition, tmp_path / "hills.vmp")
+    again = load_scene(tmp_path / "hills.vmp")
+    assert again.partition.kind == "octree" and again.world.triangle_count == world.triangle_count
+    result = play(again, walk(3), "vfc", "desktop")
+    assert result.out is None and result.summary["resolution"] == [640, 480]
+    with pytest.raises(VisMobileError, match="--structure octree:depth=99"):
+        load_scene(tmp_path / "hills.obj", "octree:depth=99")
+    with pytest.raises(VisMobileError, match="--structure cone:2"):
+        load_scene(tmp_path / "hills.obj", "cone:2")
+    with pytest.raises(VisMobileError, match="--cull vfx"):
+        play(scene, walk(3), "vfx", "ipaq-hx2490b")

@@ -1,0 +1,123 @@
+"""Benchmark: a thesis world played along its trajectory at the iPaq profile, end to end.
+
+Usage: .venv/bin/python tools/bench_play.py [--world w1] [--trajectory trajectories/indoor.csv]
+       [--structure octree:4] [--cull vfc,bfc,cbfc] [--profile ipaq-hx2490b] [--out runs/bench_play]
+       [--fixed-check]
+
+Prints the wall time of the whole run (world build + partition + playback), and from
+summary.json the mean/median/p95 ms per frame, fps, triangles sent and the Pearson
+correlation; then the same path with no culling and no partition in this process, as the
+baseline the thesis compares against ("culling saved N%"). --fixed-check renders waypoint
+item buffers of all six worlds in fixed16.16 and float32 and reports how many pixels agree
+(or the ProfileError a world raises).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from vismobile.errors import ProfileError  # noqa: E402
+from vismobile.playback import load_scene, play  # noqa: E402
+from vismobile.profile import get_profile  # noqa: E402
+from vismobile.trajectory import Trajectory  # noqa: E402
+
+INDOOR = {"w1", "w2", "w3", "w4"}
+
+
+def run(world, trajectory, structure, cull, profile, out):
+    start = time.perf_counter()
+    scene = load_scene(world, structure)
+    built = time.perf_counter() - start
+    result = play(scene, trajectory, cull, profile, out, progress=True)
+    return time.perf_counter() - start, built, result.summary
+
+
+def line(label, wall, built, s):
+    r = s["pearson_frame_ms_triangles"]
+    return (f"{label:<28} wall {wall:6.1f} s (build {built:4.1f} s)  frame ms mean "
+            f"{s['frame_ms']['mean']:6.2f} median {s['frame_ms']['median']:6.2f} p95 "
+            f"{s['frame_ms']['p95']:6.2f}  cull {s['cull_ms']['median']:5.2f}  render "
+            f"{s['render_ms']['median']:5.2f}  fps {s['fps']:6.1f}  triangles "
+            f"{s['triangles_sent']['mean']:8,.0f}  batches {s['draw_batches']['mean']:.1f}  "
+            f"r {'n/a' if r is None else f'{r:+.2f}'}")
+
+
+def fixed_check(profile_name):
+    from vismobile.render import item_buffer
+    from vismobile.scenes import build_world
+
+    float_profile = get_profile(profile_name, "float32")
+    fixed_profile = get_profile(profile_name, "fixed16.16")
+    for name in ("w1", "w2", "w3", "w4", "w5", "w6"):
+        world = build_world(name)
+        path = ROOT / "trajectories" / ("indoor.csv" if name in INDOOR else "outdoor.csv")
+        trajectory = Trajectory.load(path)
+        largest = float(np.abs(world.extent).max())
+        try:
+            differ, pixels = 0, 0
+            for frame in sorted(trajectory.waypoints.values()):
+                camera = trajectory.camera(frame, float_profile.aspect)
+                a = item_buffer(world, None, camera, float_profile, cull_back=True)
+                b = item_buffer(world, None, camera, fixed_profile, cull_back=True)
+                differ, pixels = differ + int((a != b).sum()), pixels + a.size
+            print(f"fixed16.16 {name}: {world.triangle_count:,} triangles, largest |coordinate| "
+                  f"{largest:,.1f}: item buffer differs from float32 on {differ} of {pixels:,} "
+                  f"pixels over {len(trajectory.waypoints)} waypoints")
+        except ProfileError as error:
+            print(f"fixed16.16 {name}: refused: {error}")
+    moved = build_world("w5").transformed(1.0, (40_000.0, 0.0, 0.0))
+    try:
+        item_buffer(moved, None, Trajectory.load(ROOT / "trajectories/outdoor.csv").camera(0),
+                    fixed_profile)
+        print("fixed16.16 w5 moved by 40,000: NOT refused")
+    except ProfileError as error:
+        print(f"fixed16.16 w5 moved by 40,000: refused: {error}")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--world", default="w1")
+    parser.add_argument("--trajectory", type=Path, default=ROOT / "trajectories" / "indoor.csv")
+    parser.add_argument("--structure", default="octree:4")
+    parser.add_argument("--cull", default="vfc,bfc,cbfc")
+    parser.add_argument("--profile", default="ipaq-hx2490b")
+    parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_play")
+    parser.add_argument("--no-baseline", action="store_true")
+    parser.add_argument("--fixed-check", action="store_true")
+    args = parser.parse_args(argv)
+
+    trajectory = Trajectory.load(args.trajectory)
+    profile = get_profile(args.profile)
+    report = {}
+    wall, built, summary = run(args.world, trajectory, args.structure, args.cull, profile,
+                               args.out / "culled")
+    print(line(f"{args.world} {args.structure} {args.cull}", wall, built, summary))
+    report["culled"] = {"wall_s": wall, "build_s": built, **summary}
+    if not args.no_baseline:
+        wall0, built0, base = run(args.world, trajectory, "none", "none", profile,
+                                  args.out / "none")
+        print(line(f"{args.world} none (baseline)", wall0, built0, base))
+        saved = 1 - summary["frame_ms"]["mean"] / base["frame_ms"]["mean"]
+        sent = summary["triangles_sent"]["mean"] / base["triangles_sent"]["mean"]
+        print(f"culling saved {100 * saved:.0f}% of the mean frame time; sends "
+              f"{100 * sent:.1f}% of the triangles")
+        report["baseline"] = {"wall_s": wall0, "build_s": built0, **base}
+        report["saved_fraction"] = saved
+    print(f"end to end: {wall:.1f} s for {summary['frames']} frames at "
+          f"{profile.width}x{profile.height} ({'under' if wall < 120 else 'OVER'} 2 minutes)")
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "bench.json").write_text(json.dumps(report, indent=2, sort_keys=True) + "\n")
+    if args.fixed_check:
+        fixed_check(args.profile)
+
+
+if __name__ == "__main__":
+    main()

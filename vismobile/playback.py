@@ -1,0 +1,292 @@
+"""Trajectory playback: cull and render every frame of a recorded path, log and summarise it.
+
+The Controller of the thesis's runtime replaying a recorded path (SPEC §1, §6): per frame the
+Culler picks the triangles (cull_ms), the Renderer draws them and waits on glFinish
+(render_ms), and one row goes to frames.csv. summary.json holds mean, median and p95 of each
+column, the fps and the Pearson correlation of frame_ms with triangles_sent.
+
+frames.csv columns:
+- cull_ms: Culler.cull wall time; render_ms: clear + index upload + draws + glFinish;
+  frame_ms = cull_ms + render_ms (image read-back and file output are not timed);
+- triangles_sent: triangles in this frame's index buffers;
+- draw_batches: glDrawElements calls actually made (uint16 batches touched), not the
+  Culler's count of id runs;
+- nodes_visited: the Culler's counter (0 without a partition);
+- memory_bytes: Profile.estimate_memory total (buffers sized for the worst frame, so constant);
+- waypoint: the trajectory's label at this frame, or empty.
+"""
+from __future__ import annotations
+
+import io
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VisMobileError
+from .profile import get_profile
+from .progress import Progress
+from .world import World, atomic_write_bytes
+
+COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
+           "nodes_visited", "memory_bytes", "waypoint")
+SUMMARISED = COLUMNS[1:8]
+STAGES_NONE = ("none", "")
+
+
+@dataclass
+class Scene:
+    """What playback draws: a world and its partition (None for --structure none)."""
+
+    world: World
+    partition: object = None
+    structure: str = "none"
+
+
+@dataclass
+class PlaybackResult:
+    """frames: {column: (F,) array}; summary: the summary.json dict; out: output folder."""
+
+    frames: dict
+    summary: dict
+    out: Path | None = None
+    images: dict = field(default_factory=dict)
+
+
+def parse_stages(text) -> tuple:
+    """'vfc,bfc,cbfc' -> ('vfc', 'bfc', 'cbfc'); 'none' or '' -> ()."""
+    if isinstance(text, (tuple, list)):
+        parts = [str(p) for p in text]
+    else:
+        parts = [p.strip() for p in str(text or "").split(",")]
+    stages = tuple(p.lower() for p in parts if p.strip() and p.strip().lower() not in STAGES_NONE)
+    if len(set(stages)) != len(stages):
+        raise VisMobileError(f"culling stage listed twice in {text!r}")
+    return stages
+
+
+def parse_structure(text) -> tuple:
+    """'octree:5' -> ('octree', {'depth': 5}); 'grid:8' -> ('grid', {'slabs': 8});
+    'none' -> (None, {}). A bare number is the structure's main parameter."""
+    text = str(text).strip()
+    if text.lower() in STAGES_NONE:
+        return None, {}
+    kind, _, rest = text.partition(":")
+    kind = kind.strip().lower()
+    params = {}
+    for item in filter(None, (p.strip() for p in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq:
+            key, value = _MAIN_PARAMETER.get(kind, "depth"), item
+        params[key.strip()] = _number(value.strip())
+    return kind, params
+
+
+# The parameter a bare number sets, per structure.
+_MAIN_PARAMETER = {"octree": "depth", "portal": "depth", "grid": "slabs", "bsp": "max_depth"}
+
+
+def _number(value):
+    if value.lower() in ("true", "false"):
+        return value.lower() == "true"
+    for cast in (int, float):
+        try:
+            return cast(value)
+        except ValueError:
+            pass
+    return value
+
+
+def load_scene(path, structure="none", progress=False) -> Scene:
+    """World (OBJ, or a thesis world name w1..w6) partitioned by structure, or a .vmp file.
+
+    Raises VisMobileError (WorldError, PartitionError, ...) naming the file or the bad setting.
+    """
+    path_text = str(path)
+    if path_text.lower().endswith(".vmp"):
+        from .partition import load_partition
+
+        partition = load_partition(path_text)
+        return Scene(partition.world, partition, _describe(partition.kind, partition.params))
+    if path_text.lower() in {f"w{i}" for i in range(1, 7)}:
+        from .scenes import build_world
+
+        world = build_world(path_text.lower())
+    else:
+        world = World.from_obj(path_text)
+    kind, params = parse_structure(structure)
+    if kind is None:
+        return Scene(world, None, "none")
+    from .partition import partition as build_partition
+
+    bar = Progress(f"partition {kind}", enabled=None if progress else False)
+    try:
+        built = build_partition(world, kind, progress=bar, **params)
+    except ValueError as error:  # unknown kind or parameter, parameter out of range
+        raise VisMobileError(f"--structure {structure}: {error}") from None
+    finally:
+        bar.close()
+    return Scene(world, built, _describe(kind, params))
+
+
+def _describe(kind, params) -> str:
+    """'octree:depth=5' style label of a structure."""
+    shown = ",".join(f"{k}={v}" for k, v in sorted(dict(params).items()))
+    return f"{kind}:{shown}" if shown else kind
+
+
+class _WholeWorld:
+    """Culling without a partition: every triangle is sent; only bfc (a render flag) applies."""
+
+    def __init__(self, world, stages):
+        unsupported = [s for s in stages if s != "bfc"]
+        if unsupported:
+            raise VisMobileError(f"stage(s) {', '.join(unsupported)} need a partition; "
+                                 "pass --structure (e.g. octree:5)")
+        self.all = np.arange(world.triangle_count, dtype=np.int64)
+        self.cull_back = "bfc" in stages
+
+    def cull(self, camera):
+        return _Culled(self.all, {"nodes_visited": 0, "triangles_sent": len(self.all)},
+                       self.cull_back)
+
+
+@dataclass
+class _Culled:
+    triangles: np.ndarray
+    stats: dict
+    cull_back: bool
+
+
+def make_culler(scene: Scene, stages):
+    """vismobile.culling.Culler over the scene's partition, or all triangles without one."""
+    if scene.partition is None:
+        return _WholeWorld(scene.world, stages)
+    from .culling import Culler
+
+    try:
+        return Culler(scene.partition, list(stages))
+    except ValueError as error:  # unknown stage, or a stage the structure cannot run
+        raise VisMobileError(f"--cull {','.join(stages)}: {error}") from None
+
+
+def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
+         frames_every=0, gif=False, hud=False, progress=False, frame_limit=None,
+         gif_every=None) -> PlaybackResult:
+    """Play trajectory through the scene; write outputs to out (if given) atomically.
+
+    stages       : culling stage names (see vismobile.culling), () for none
+    profile      : Profile or profile name; the heap check runs before the first frame
+    frames_every : save every Nth frame as PNG (0: none)
+    gif          : write run.gif of every gif_every-th frame (default frames_every or 10)
+    hud          : draw the thesis HUD onto saved frames
+    frame_limit  : play only the first frame_limit frames
+    progress     : draw a progress bar on stderr when it is a terminal
+    Raises ProfileError (heap, fixed16.16 range) before playing.
+    """
+    from .render import Renderer
+    from .render.hud import draw_hud, hud_lines
+    from .render.images import png_bytes, save_gif
+
+    profile = get_profile(profile)
+    stages = parse_stages(stages)
+    world = scene.world
+    profile.check_range(world.extent, f"world {world.name!r}")
+    memory = profile.check_memory(world, scene.partition)
+    culler = make_culler(scene, stages)
+    renderer = Renderer(world, profile)
+
+    count = len(trajectory) if frame_limit is None else min(int(frame_limit), len(trajectory))
+    labels = {int(f): label for label, f in trajectory.waypoints.items()}
+    gif_every = int(gif_every or frames_every or 10)
+    table = {name: np.zeros(count) for name in SUMMARISED}
+    waypoints = [""] * count
+    gif_images, saved = [], {}
+    recent = []
+    bar = Progress(f"play {world.name}", enabled=None if progress else False)
+    step = max(count // 200, 1)  # redraw the bar about 200 times
+    for frame in range(count):
+        camera = trajectory.camera(frame, profile.aspect)
+        start = time.perf_counter()
+        culled = culler.cull(camera)
+        cull_ms = (time.perf_counter() - start) * 1000.0
+        drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
+        frame_ms = cull_ms + drawn.render_ms
+        row = (cull_ms, drawn.render_ms, frame_ms, drawn.triangles, drawn.draw_batches,
+               culled.stats.get("nodes_visited", 0), memory)
+        for name, value in zip(SUMMARISED, row):
+            table[name][frame] = value
+        waypoints[frame] = labels.get(frame, "")
+        recent = (recent + [frame_ms])[-10:]
+        want_png = out is not None and frames_every and frame % frames_every == 0
+        want_gif = gif and frame % gif_every == 0
+        if want_png or want_gif:
+            image = renderer.read_rgb()
+            if hud:
+                image = draw_hud(image, hud_lines(stages, memory, drawn.triangles,
+                                                  1000.0 / max(np.mean(recent), 1e-9),
+                                                  scene.structure))
+            if want_png:
+                saved[frame] = png_bytes(image, optimize=False)
+            if want_gif:
+                gif_images.append(image)
+        if (frame + 1) % step == 0 or frame + 1 == count:
+            bar(frame + 1, count)
+    bar.close()
+
+    frames = {"frame": np.arange(count), **table, "waypoint": np.array(waypoints, dtype=object)}
+    summary = summarise(frames)
+    summary.update({
+        "world": world.name, "triangles": world.triangle_count, "structure": scene.structure,
+        "stages": list(stages), "profile": profile.name, "vertex_format": profile.vertex_format,
+        "resolution": list(profile.resolution), "memory": profile.estimate_memory(
+            world, scene.partition),
+    })
+    result = PlaybackResult(frames, summary, Path(out) if out is not None else None)
+    if out is not None:
+        out = Path(out)
+        for frame, data in saved.items():
+            atomic_write_bytes(out / "frames" / f"frame_{frame:05d}.png", data)
+        if gif and gif_images:
+            save_gif(out / "run.gif", gif_images)
+        atomic_write_bytes(out / "frames.csv", frames_csv(frames).encode("ascii"))
+        atomic_write_bytes(out / "summary.json",
+                           (json.dumps(summary, indent=2, sort_keys=True) + "\n").encode())
+    result.images = saved
+    return result
+
+
+def summarise(frames: dict) -> dict:
+    """mean, median, p95 of each timing/counter column, fps and Pearson(frame_ms, triangles)."""
+    summary = {"frames": int(len(frames["frame"]))}
+    for name in SUMMARISED:
+        values = np.asarray(frames[name], dtype=np.float64)
+        summary[name] = {"mean": float(values.mean()), "median": float(np.median(values)),
+                         "p95": float(np.percentile(values, 95))} if len(values) else None
+    mean_ms = summary["frame_ms"]["mean"] if summary["frame_ms"] else 0.0
+    summary["fps"] = 1000.0 / mean_ms if mean_ms > 0 else None
+    summary["pearson_frame_ms_triangles"] = pearson(frames["frame_ms"], frames["triangles_sent"])
+    return summary
+
+
+def pearson(x, y):
+    """Pearson correlation of two (F,) arrays, None when either is constant or F < 2."""
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if len(x) < 2 or np.ptp(x) == 0 or np.ptp(y) == 0:
+        return None
+    return float(np.corrcoef(x, y)[0, 1])
+
+
+def frames_csv(frames: dict) -> str:
+    """frames.csv text: the COLUMNS header and one row per frame."""
+    buffer = io.StringIO()
+    buffer.write(",".join(COLUMNS) + "\n")
+    for i in range(len(frames["frame"])):
+        buffer.write(f"{i},{frames['cull_ms'][i]:.4f},{frames['render_ms'][i]:.4f},"
+                     f"{frames['frame_ms'][i]:.4f},{int(frames['triangles_sent'][i])},"
+                     f"{int(frames['draw_batches'][i])},{int(frames['nodes_visited'][i])},"
+                     f"{int(frames['memory_bytes'][i])},{frames['waypoint'][i]}\n")
+    return buffer.getvalue()

@@ -1,0 +1,209 @@
+"""Device profiles (thesis Table 5.1): screen, index type, vertex format and heap budget.
+
+A profile is the set of limits an OpenGL ES 1.1 device puts on the runtime:
+- 16-bit indices, so one draw batch addresses at most 65,535 vertices;
+- positions (and normals) as float32 or as GL_FIXED 16.16 (1/65536 units, range +-32767);
+- a heap the world, its partition and the GL buffers must fit in.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .errors import ProfileError
+
+__all__ = ["Profile", "ProfileError", "PROFILES", "get_profile", "VERTEX_FORMATS",
+           "to_fixed", "from_fixed", "FIXED_ONE", "FIXED_LIMIT"]
+
+VERTEX_FORMATS = ("float32", "fixed16.16")
+FIXED_ONE = 65536            # 1.0 in 16.16
+FIXED_LIMIT = 32767.0        # largest |coordinate| the profiles accept in fixed16.16
+MAX_INDEX_VERTICES = 65535   # uint16 indices 0..65534 plus one spare (primitive restart value)
+
+# Per-corner vertex layout the renderer uploads (the GL buffers of memory estimates):
+# position 3 x 4 bytes (float32 or GL_FIXED), normal 3 x 4 bytes, colour 4 x uint8.
+POSITION_BYTES = 12
+NORMAL_BYTES = 12
+COLOR_BYTES = 4
+VERTEX_BYTES = POSITION_BYTES + NORMAL_BYTES + COLOR_BYTES
+INDEX_BYTES = 2
+
+MB = 1 << 20
+
+
+@dataclass(frozen=True)
+class Profile:
+    """Limits of one device.
+
+    name               : registry key, e.g. "ipaq-hx2490b"
+    device, cpu        : Table 5.1 description
+    gpu                : True when the device has graphics hardware
+    heap_bytes         : int, heap budget the world + partition + buffers must fit in
+    resolution         : (width, height) pixels; (240, 320) portrait on the devices
+    vertex_format      : "float32" or "fixed16.16"
+    index_type         : "uint16" (OpenGL ES 1.1 has no 32-bit indices)
+    max_batch_vertices : vertices one draw batch may address (65,535 for uint16)
+    """
+
+    name: str
+    device: str
+    cpu: str
+    gpu: bool
+    heap_bytes: int
+    resolution: tuple = (240, 320)
+    vertex_format: str = "float32"
+    index_type: str = "uint16"
+    max_batch_vertices: int = MAX_INDEX_VERTICES
+
+    def __post_init__(self):
+        if self.vertex_format not in VERTEX_FORMATS:
+            raise ProfileError(f"profile {self.name}: vertex format {self.vertex_format!r} "
+                               f"is not one of {', '.join(VERTEX_FORMATS)}")
+        if self.index_type != "uint16":
+            raise ProfileError(f"profile {self.name}: index type must be uint16 (ES 1.1)")
+        if not 3 <= self.max_batch_vertices <= MAX_INDEX_VERTICES:
+            raise ProfileError(f"profile {self.name}: max_batch_vertices must be 3.."
+                               f"{MAX_INDEX_VERTICES}, got {self.max_batch_vertices}")
+        width, height = (int(v) for v in self.resolution)
+        if width <= 0 or height <= 0:
+            raise ProfileError(f"profile {self.name}: bad resolution {self.resolution}")
+        object.__setattr__(self, "resolution", (width, height))
+
+    @property
+    def width(self) -> int:
+        return self.resolution[0]
+
+    @property
+    def height(self) -> int:
+        return self.resolution[1]
+
+    @property
+    def aspect(self) -> float:
+        """Width over height, the camera aspect that fills the screen."""
+        return self.width / self.height
+
+    @property
+    def batch_triangles(self) -> int:
+        """Triangles per draw batch when each triangle owns its three corners."""
+        return self.max_batch_vertices // 3
+
+    @property
+    def fixed(self) -> bool:
+        return self.vertex_format == "fixed16.16"
+
+    def with_(self, **changes) -> "Profile":
+        """A copy with some fields replaced (e.g. vertex_format="fixed16.16")."""
+        return replace(self, **changes)
+
+    def describe(self) -> str:
+        gpu = "GPU" if self.gpu else "no GPU"
+        return (f"{self.name}: {self.device}, {self.cpu}, {gpu}, heap {self.heap_bytes / MB:g} MB,"
+                f" {self.width}x{self.height}, {self.vertex_format}, {self.index_type} indices")
+
+    # ---- vertex formats ---------------------------------------------------------------------
+    def vertex_positions(self, positions, what="world") -> np.ndarray:
+        """(N, 3) positions as uploaded: float32, or int32 raw 16.16 (range-checked).
+
+        Raises ProfileError naming the largest |coordinate| when fixed16.16 cannot hold it.
+        """
+        if self.fixed:
+            return to_fixed(positions, what)
+        return np.ascontiguousarray(positions, dtype=np.float32)
+
+    def check_range(self, positions, what="world") -> None:
+        """Raise ProfileError when fixed16.16 cannot hold these positions (no-op for float32)."""
+        if self.fixed:
+            to_fixed(positions, what)
+
+    # ---- memory ----------------------------------------------------------------------------
+    def estimate_memory(self, world, partition=None) -> dict:
+        """Bytes the runtime holds for a world (and its partition), by part, plus "total".
+
+        vertex_buffers   : 3 corners per triangle x VERTEX_BYTES (unwelded, one normal each)
+        index_buffers    : worst case, every triangle in this frame's uint16 index buffers
+        culling_geometry : per-triangle data the culler reads: corners index (3 x int32),
+                           normal and box (9 x 4 bytes), and the vertex array (3 x 4 bytes)
+        partition        : every array of the partition (nodes, references, extras) as held
+        """
+        triangles = int(world.triangle_count)
+        parts = {
+            "vertex_buffers": 3 * triangles * VERTEX_BYTES,
+            "index_buffers": 3 * triangles * INDEX_BYTES,
+            "culling_geometry": triangles * (12 + 36) + len(world.vertices) * 12,
+            "partition": partition_bytes(partition),
+        }
+        parts["total"] = sum(parts.values())
+        return parts
+
+    def check_memory(self, world, partition=None) -> int:
+        """Total bytes of estimate_memory; ProfileError naming both sizes when over the heap."""
+        parts = self.estimate_memory(world, partition)
+        total = parts["total"]
+        if total > self.heap_bytes:
+            what = getattr(world, "name", "world")
+            if partition is not None:
+                what += f" with its {getattr(partition, 'kind', 'partition')} partition"
+            raise ProfileError(
+                f"{what} needs {total / MB:.1f} MB ({total:,} bytes) but profile {self.name} "
+                f"has a {self.heap_bytes / MB:.1f} MB heap ({self.heap_bytes:,} bytes)")
+        return total
+
+
+def partition_bytes(partition) -> int:
+    """Bytes of a partition's flat arrays and extras (0 for no partition)."""
+    if partition is None:
+        return 0
+    arrays = [getattr(partition, name) for name in getattr(partition, "ARRAYS", ())]
+    arrays += [value for value in getattr(partition, "extras", {}).values()
+               if isinstance(value, np.ndarray)]
+    return int(sum(np.asarray(a).nbytes for a in arrays))
+
+
+def to_fixed(values, what="world") -> np.ndarray:
+    """float -> int32 16.16 raw values, rounded to nearest: error <= 2^-17 per coordinate.
+
+    Raises ProfileError naming the largest |value| when any lies beyond +-FIXED_LIMIT
+    (or is not finite): 16.16 would wrap around, not degrade.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    if values.size:
+        largest = float(np.max(np.abs(values)))
+        if not np.isfinite(largest) or largest > FIXED_LIMIT:
+            raise ProfileError(
+                f"{what}: fixed16.16 holds coordinates within +-{FIXED_LIMIT:g} units, but the "
+                f"largest |coordinate| is {largest:,.6g} units; use vertex format float32 "
+                f"or scale/recentre the world")
+    # x * 65536 is exact in float64, so rint is the only rounding.
+    return np.rint(values * FIXED_ONE).astype(np.int32)
+
+
+def from_fixed(raw) -> np.ndarray:
+    """int32 16.16 raw -> float64 (exact)."""
+    return np.asarray(raw, dtype=np.float64) / FIXED_ONE
+
+
+PROFILES = {
+    profile.name: profile for profile in (
+        Profile("ipaq-hx2490b", "HP iPaq hx2490b (Windows Mobile 5)", "520 MHz Intel PXA270",
+                gpu=False, heap_bytes=64 * MB),
+        Profile("nokia-n82", "Nokia N82 (Symbian S60)", "332 MHz ARM11",
+                gpu=True, heap_bytes=128 * MB),
+        Profile("desktop", "desktop reference", "x86-64", gpu=True, heap_bytes=4096 * MB,
+                resolution=(640, 480)),
+    )
+}
+
+
+def get_profile(name, vertex_format=None) -> Profile:
+    """The profile registered under name, optionally with another vertex format."""
+    if isinstance(name, Profile):
+        profile = name
+    else:
+        try:
+            profile = PROFILES[name]
+        except KeyError:
+            raise ProfileError(f"unknown profile {name!r}; known: {', '.join(PROFILES)}") from None
+    if vertex_format is not None and vertex_format != profile.vertex_format:
+        profile = profile.with_(vertex_format=vertex_format)
+    return profile

@@ -1,0 +1,52 @@
+"""The headless OpenGL context (EGL; Mesa llvmpipe where there is no GPU) and render targets."""
+from __future__ import annotations
+
+from ..errors import VisMobileError
+
+_CONTEXT = None
+_TARGETS = {}
+
+
+class RenderError(VisMobileError):
+    """No usable OpenGL context, or a GL object that could not be created."""
+
+
+def gl_context():
+    """The process's one moderngl standalone context (EGL backend), created on first use.
+
+    Raises RenderError with the backend's message when EGL or OpenGL 3.3 is unavailable.
+    """
+    global _CONTEXT
+    if _CONTEXT is None:
+        try:
+            import moderngl
+        except ImportError as error:
+            raise RenderError(f"moderngl is not installed ({error})") from None
+        try:
+            ctx = moderngl.create_standalone_context(backend="egl", require=330)
+        except Exception as error:  # moderngl raises plain Exception subclasses per backend
+            raise RenderError(
+                "cannot create a headless OpenGL 3.3 context through EGL "
+                f"({type(error).__name__}: {error}); install Mesa's EGL (libegl1, "
+                "libgl1-mesa-dri) or run where a GPU driver provides EGL") from None
+        ctx.gc_mode = "auto"  # GL objects die with their Python wrappers
+        _CONTEXT = ctx
+    return _CONTEXT
+
+
+def render_target(size, kind):
+    """Cached framebuffer of size (width, height): kind "rgb" (RGBA8) or "ids" (R32UI), + depth.
+
+    Both kinds use the same 24-bit depth renderbuffer format, so they rasterise alike.
+    """
+    key = (tuple(size), kind)
+    if key not in _TARGETS:
+        ctx = gl_context()
+        if kind == "rgb":
+            color = ctx.renderbuffer(size, components=4, dtype="f1")
+        elif kind == "ids":
+            color = ctx.renderbuffer(size, components=1, dtype="u4")
+        else:
+            raise ValueError(f"unknown render target kind {kind!r}")
+        _TARGETS[key] = ctx.framebuffer([color], ctx.depth_renderbuffer(size))
+    return _TARGETS[key]
