@@ -12,6 +12,7 @@ _EXPORTS = {
     "World": "vismobile.world",
     "Camera": "vismobile.camera",
     "Trajectory": "vismobile.trajectory",
+    "build_world": "vismobile.scenes",
     "VisMobileError": "vismobile.errors",
     "WorldError": "vismobile.errors",
     "PartitionError": "vismobile.errors",

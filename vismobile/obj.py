@@ -93,8 +93,9 @@ def load_obj(path) -> tuple:
         raise WorldError(path, "file holds only white space")
     validate_obj(path, text)
     try:
-        scene = trimesh.load(path, file_type="obj", force="scene", split_object=True,
-                             group_material=False, process=True, skip_materials=True)
+        scene = trimesh.load(path, file_type="obj", force="scene", split_objects=True,
+                             split_groups=True, group_material=False, process=True,
+                             skip_materials=True)
     except Exception as error:  # trimesh raises assorted types on malformed input
         raise WorldError(path, f"unparsable OBJ ({type(error).__name__}: {error})") from None
     meshes = [(name, geometry) for name, geometry in scene.geometry.items()

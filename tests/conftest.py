@@ -1,0 +1,27 @@
+"""Session fixtures shared by all tests: the thesis worlds, built once and cached in worlds/."""
+import pytest
+
+from vismobile.scenes import build_world
+
+
+@pytest.fixture(scope="session")
+def thesis_world():
+    """Factory: thesis_world("w2") -> World, cached per session and on disk in worlds/."""
+    cache = {}
+
+    def get(name: str):
+        if name not in cache:
+            cache[name] = build_world(name)
+        return cache[name]
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def w1(thesis_world):
+    return thesis_world("w1")
+
+
+@pytest.fixture(scope="session")
+def w5(thesis_world):
+    return thesis_world("w5")

@@ -1,0 +1,116 @@
+"""The six thesis worlds: Table 5.2 counts, determinism, single-sided walls, real occlusion."""
+import numpy as np
+import pytest
+
+from vismobile.open3d_import import raycast_primitive_ids
+from vismobile.scenes import TARGETS, build_world
+from vismobile.scenes.building import make_plan
+from vismobile.scenes.thesis import TOLERANCE, W2_OBJECTS
+
+
+@pytest.mark.parametrize("name", sorted(TARGETS))
+def test_world_totals_within_half_a_percent_of_table_5_2(thesis_world, name):
+    world = thesis_world(name)
+    assert abs(world.triangle_count / TARGETS[name].triangles - 1) <= TOLERANCE
+
+
+def test_w1_and_w4_hit_their_targets_exactly(thesis_world):
+    assert thesis_world("w1").triangle_count == 6199
+    assert thesis_world("w4").triangle_count == 30199
+
+
+def test_w2_and_w3_hold_the_same_objects(thesis_world):
+    w1, w2, w3 = (thesis_world(n) for n in ("w1", "w2", "w3"))
+    extra = lambda w: sorted(set(w.object_names) - set(w1.object_names))  # noqa: E731
+    assert extra(w2) == extra(w3)
+    assert len(extra(w2)) == len(W2_OBJECTS)
+    for world in (w2, w3):
+        counts = np.bincount(world.object_ids, minlength=len(world.object_names))
+        by_name = dict(zip(world.object_names, counts))
+        assert all(by_name[n] == 5288 for n in extra(world) if n.startswith("flower"))
+
+
+def test_object_names_are_distinct(thesis_world):
+    for name in TARGETS:
+        names = thesis_world(name).object_names
+        assert len(names) == len(set(names))
+
+
+@pytest.mark.parametrize("name", ["w1", "w5"])
+def test_building_twice_gives_byte_identical_obj(tmp_path, name):
+    build_world(name, tmp_path / "a", rebuild=True)
+    build_world(name, tmp_path / "b", rebuild=True)
+    assert (tmp_path / "a" / f"{name}.obj").read_bytes() == (tmp_path / "b" / f"{name}.obj").read_bytes()
+
+
+def test_cache_is_rebuilt_when_stale(tmp_path):
+    first = build_world("w5", tmp_path)
+    (tmp_path / "w5.key").write_text("stale\n")
+    (tmp_path / "w5.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert build_world("w5", tmp_path).digest() == first.digest()
+
+
+def test_unknown_world_name_raises():
+    with pytest.raises(KeyError):
+        build_world("w9")
+
+
+def room_eyes(plan):
+    """(R, 3) eye points 1.7 m above the middle of every room's floor."""
+    return np.array([[b[:, 0].mean(), b[0, 1] + 1.7, b[:, 2].mean()] for b in plan.rooms.values()])
+
+
+def test_every_surface_seen_from_inside_faces_the_viewer(w1):
+    eyes = room_eyes(make_plan())
+    rng = np.random.default_rng(7)
+    directions = rng.normal(size=(len(eyes) * 400, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    origins = np.repeat(eyes, 400, axis=0)
+    ids = raycast_primitive_ids(w1.vertices, w1.triangles, origins, directions)
+    hit = ids >= 0
+    assert hit.mean() > 0.98  # the rest leave through windows
+    facing = np.einsum("ij,ij->i", w1.normals[ids[hit]], directions[hit])
+    assert (facing < 0).all()
+
+
+def test_the_building_occludes_most_rooms_from_each_room(w1):
+    """From each room's middle, at most 5 of the 39 other rooms' middles are in sight."""
+    eyes = room_eyes(make_plan())
+    count = len(eyes)
+    origins = np.repeat(eyes, count, axis=0)
+    offsets = np.tile(eyes, (count, 1)) - origins
+    lengths = np.linalg.norm(offsets, axis=1)
+    mask = lengths > 0
+    directions = offsets[mask] / lengths[mask, None]
+    ids = raycast_primitive_ids(w1.vertices, w1.triangles, origins[mask], directions)
+    corners = w1.corners[ids]
+    normal = w1.normals[ids]
+    # distance to the hit triangle's plane along the ray
+    t = np.einsum("ij,ij->i", normal, corners[:, 0] - origins[mask]) / np.einsum(
+        "ij,ij->i", normal, directions)
+    blocked = (ids >= 0) & (t < lengths[mask] - 1e-6)
+    seen = (~blocked).reshape(count, count - 1).sum(axis=1)
+    assert seen.max() <= 5
+    assert np.median(seen) <= 1
+
+
+def test_closed_objects_are_wound_outward(thesis_world):
+    w2 = thesis_world("w2")
+    w1_names = set(thesis_world("w1").object_names)
+    for index, name in enumerate(w2.object_names):
+        if name in w1_names:
+            continue
+        corners = w2.corners[w2.object_ids == index]
+        centre = corners.reshape(-1, 3).mean(axis=0)
+        a, b, c = (corners[:, k] - centre for k in range(3))
+        volume = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
+        assert volume > 0, name
+
+
+def test_objects_stand_on_floors(thesis_world):
+    w2 = thesis_world("w2")
+    w1_names = set(thesis_world("w1").object_names)
+    for index, name in enumerate(w2.object_names):
+        if name not in w1_names:
+            low = w2.corners[w2.object_ids == index][:, :, 1].min()
+            assert min(abs(low - 0.0), abs(low - 3.2)) < 1e-3, name
