@@ -96,6 +96,12 @@ class Partition:
             "max_leaf_refs": int(leaf_refs.max()) if len(leaves) else 0,
         }
 
+    def save(self, path) -> None:
+        """Write this partition to a .vmp file, atomically (see store.py)."""
+        from .store import save_partition
+
+        save_partition(self, path)
+
     def check(self) -> None:
         """Raise ValueError when the layout contract above does not hold (cheap, vectorised)."""
         n = self.node_count

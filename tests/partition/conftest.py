@@ -1,0 +1,100 @@
+"""Small worlds for the partition tests: a real mesh and two rooms joined by a doorway."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vismobile.partition.base import gather_ranges
+from vismobile.world import World
+
+MODELS = Path(__file__).resolve().parents[2].parent / "shared" / "models"
+
+
+def quad(a, b, c, d):
+    return [a, b, c, a, c, d]
+
+
+def rooms_with_doorway():
+    """Two 4 x 3 x 4 rooms side by side (x in [-4, 0] and [0, 4]); the wall x = 0 has a doorway
+    z in [1.5, 2.5], y in [0, 2]."""
+    v = []
+    v += quad((-4, 0, 0), (4, 0, 0), (4, 0, 4), (-4, 0, 4))  # floor
+    v += quad((-4, 3, 0), (-4, 3, 4), (4, 3, 4), (4, 3, 0))  # ceiling
+    for x in (-4, 4):
+        v += quad((x, 0, 0), (x, 3, 0), (x, 3, 4), (x, 0, 4))
+    for z in (0, 4):
+        v += quad((-4, 0, z), (4, 0, z), (4, 3, z), (-4, 3, z))
+    v += quad((0, 0, 0), (0, 3, 0), (0, 3, 1.5), (0, 0, 1.5))  # middle wall, left of door
+    v += quad((0, 0, 2.5), (0, 3, 2.5), (0, 3, 4), (0, 0, 4))  # right of door
+    v += quad((0, 2, 1.5), (0, 3, 1.5), (0, 3, 2.5), (0, 2, 2.5))  # lintel
+    vertices = np.array(v, dtype=float)
+    return World(vertices, np.arange(len(v)).reshape(-1, 3), name="rooms")
+
+
+@pytest.fixture(scope="session")
+def cow():
+    return World.from_obj(MODELS / "cow.obj")
+
+
+@pytest.fixture(scope="session")
+def suzanne():
+    return World.from_obj(MODELS / "suzanne.obj")
+
+
+@pytest.fixture(scope="session")
+def rooms():
+    return rooms_with_doorway()
+def clip_overlaps(tri, lo, hi, slack):
+    poly = [np.asarray(p, dtype=float) for p in tri]
+    for axis in range(3):
+        for sign, bound in ((1, lo[axis] - slack), (-1, hi[axis] + slack)):
+            out = []
+            for i, a in enumerate(poly):
+                b = poly[(i + 1) % len(poly)]
+                da, db = sign * (a[axis] - bound), sign * (b[axis] - bound)
+                if da >= 0:
+                    out.append(a)
+                if (da >= 0) != (db >= 0):
+                    out.append(a + (b - a) * (da / (da - db)))
+            poly = out
+            if not poly:
+                return False
+    return True
+
+
+def leaf_pairs(p):
+    leaves = p.leaf_ids
+    counts = p.ref_end[leaves] - p.ref_start[leaves]
+    return np.repeat(leaves, counts), gather_ranges(p.tri_refs, p.ref_start[leaves], p.ref_end[leaves])
+
+
+def assert_covered(p, sample=400, seed=0):
+    """Every triangle is referenced by a leaf whose box it overlaps (sampled for the oracle)."""
+    leaf, tri = leaf_pairs(p)
+    assert np.array_equal(np.unique(tri), np.arange(p.world.triangle_count))
+    rng = np.random.default_rng(seed)
+    slack = 1e-9 * np.ptp(p.world.extent, axis=0).max()
+    corners = p.world.corners
+    for t in rng.choice(p.world.triangle_count, min(sample, p.world.triangle_count), replace=False):
+        boxes = p.node_bounds[leaf[tri == t]]
+        assert any(clip_overlaps(corners[t], b[0], b[1], slack) for b in boxes), t
+
+
+def assert_exact(p, sample=1500, seed=0):
+    """No sampled leaf reference is to a triangle that misses the leaf's box."""
+    leaf, tri = leaf_pairs(p)
+    rng = np.random.default_rng(seed)
+    slack = 1e-7 * np.ptp(p.world.extent, axis=0).max()
+    corners = p.world.corners
+    for k in rng.choice(len(tri), min(sample, len(tri)), replace=False):
+        b = p.node_bounds[leaf[k]]
+        assert clip_overlaps(corners[tri[k]], b[0], b[1], slack), (leaf[k], tri[k])
+
+
+@pytest.fixture(scope="session")
+def checks():
+    """The oracle checks above, for test modules (importlib mode cannot import conftest)."""
+    import types
+
+    return types.SimpleNamespace(covered=assert_covered, exact=assert_exact,
+                                 leaf_pairs=leaf_pairs, overlaps=clip_overlaps)

@@ -1,0 +1,20 @@
+"""`vismobile partition`: builds, saves, reports; bad parameters exit 2 with one line."""
+from vismobile.cli import main
+
+from pathlib import Path
+
+MODEL = Path(__file__).resolve().parents[2].parent / "shared" / "models" / "suzanne.obj"
+
+
+def test_partition_command(tmp_path, capsys):
+    out = tmp_path / "s.vmp"
+    assert main(["partition", str(MODEL), "--structure", "grid", "--slabs", "x:0.2,0.2,0.3,0.3",
+                 "--slabs", "z:2", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert out.exists() and "build time" in text and "refs/tri" in text and "KB" in text
+    assert main(["partition", str(MODEL), "--structure", "bsp", "--min-leaf", "4", "-o", str(out)]) == 0
+
+
+def test_bad_depth_exits_2(tmp_path, capsys):
+    assert main(["partition", str(MODEL), "--depth", "9", "-o", str(tmp_path / "x.vmp")]) == 2
+    assert "octree depth" in capsys.readouterr().err

@@ -1,0 +1,99 @@
+"""Partition build time, size and shape for the thesis worlds, beside thesis Table 5.3.
+
+Usage: .venv/bin/python tools/bench_partition.py [--worlds w1,w2] [--runs 3] [--million]
+Prints a markdown table: median build seconds, nodes, leaves, refs/triangle, .vmp KB, OBJ KB,
+and the thesis's file size (KB). --million also times an octree-5 build of a synthetic
+1,000,000-triangle world (copies of the cow on a grid).
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from vismobile.partition import partition  # noqa: E402
+from vismobile.world import World  # noqa: E402
+
+THESIS_KB = {  # SPEC §4, Table 5.3
+    "grid": (784, 12455, 11948, 4262, 226, 910),
+    "octree 3": (633, None, None, 2955, 271, 976),
+    "octree 4": (822, 11098, 11133, 3227, 390, 1103),
+    "octree 5": (1478, 13171, 13242, 4035, 920, 1657),
+    "octree 6": (4459, None, None, None, 3988, 4815),
+    "portal 1": (987, 13043, 12810, 3926, 299, 1087),
+    "portal 2": (1429, 14771, 14597, 5146, 353, 1143),
+    "portal 3": (3293, None, None, 5591, 528, 1338),
+    "BSP": (568, 9449, 9512, 2772, 229, 939),
+}
+STRUCTURES = [("grid", "grid", {"auto": True})] + \
+    [(f"octree {d}", "octree", {"depth": d}) for d in (3, 4, 5, 6)] + \
+    [(f"portal {d}", "portal", {"depth": d}) for d in (1, 2, 3)] + [("BSP", "bsp", {})]
+
+
+def timed(world, kind, params, runs):
+    times, result = [], None
+    for _ in range(runs):
+        start = time.perf_counter()
+        result = partition(world, kind, **params)
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), result
+
+
+def million_world(target=1_000_000):
+    cow = World.from_obj(ROOT.parent / "shared" / "models" / "cow.obj")
+    copies = -(-target // cow.triangle_count)
+    side = int(np.ceil(np.sqrt(copies)))
+    size = np.ptp(cow.extent, axis=0) * 1.2
+    parts = [cow.transformed(1.0, (i % side * size[0], 0.0, i // side * size[2]))
+             for i in range(copies)]
+    world = World.concatenate(parts, "million")
+    return world.subset(np.arange(target))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--worlds", default="w1,w2,w3,w4,w5,w6")
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--million", action="store_true")
+    args = parser.parse_args(argv)
+    from vismobile.scenes import build_world, default_cache_dir
+
+    names = args.worlds.split(",")
+    print("| world | structure | build s (median) | nodes | leaves | refs/tri | .vmp KB | OBJ KB "
+          "| vmp/OBJ | thesis KB |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in names:
+            world = build_world(name)
+            obj_kb = (default_cache_dir() / f"{name}.obj").stat().st_size / 1024
+            column = int(name[1:]) - 1
+            for label, kind, params in STRUCTURES:
+                seconds, result = timed(world, kind, params, args.runs)
+                path = Path(tmp) / "p.vmp"
+                result.save(path)
+                kb = path.stat().st_size / 1024
+                stats = result.stats()
+                thesis = THESIS_KB[label][column]
+                print(f"| {name.upper()} | {label} | {seconds:.2f} | {stats['nodes']:,} | "
+                      f"{stats['leaves']:,} | {stats['refs_per_triangle']:.2f} | {kb:,.0f} | "
+                      f"{obj_kb:,.0f} | {kb / obj_kb:.2f} | {thesis if thesis else '–'} |",
+                      flush=True)
+    if args.million:
+        world = million_world()
+        seconds, result = timed(world, "octree", {"depth": 5}, 1)
+        stats = result.stats()
+        print(f"\n1,000,000-triangle synthetic world, octree 5: {seconds:.1f} s, "
+              f"{stats['nodes']:,} nodes, {stats['refs_per_triangle']:.2f} refs/triangle")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

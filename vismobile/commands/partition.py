@@ -1,0 +1,84 @@
+"""`vismobile partition WORLD.obj --structure KIND [params] -o OUT.vmp`: build and save."""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+
+def add_parser(sub):
+    parser = sub.add_parser("partition", help="partition a world into a .vmp file")
+    parser.add_argument("world", type=Path, help="OBJ file")
+    parser.add_argument("--structure", "-s", choices=("grid", "octree", "portal", "bsp"),
+                        default="octree")
+    parser.add_argument("-o", "--output", type=Path, required=True, help=".vmp file to write")
+    parser.add_argument("--depth", type=int, help="octree depth 1..8 (default 5); portal 1..3 (2)")
+    parser.add_argument("--slabs", action="append", default=[], metavar="AXIS:SPEC",
+                        help="grid/portal cells on one axis: x:0.2,0.2,0.3,0.3 (shares) or z:4 "
+                             "(count); axes not given get one slab")
+    parser.add_argument("--auto", action="store_true", help="grid/portal: automatic cells")
+    parser.add_argument("--cells", type=int, help="grid/portal --auto: target cell count")
+    parser.add_argument("--min-leaf", type=int, default=8, help="bsp: smallest splittable node")
+    parser.add_argument("--max-depth", type=int, default=24, help="bsp: deepest level")
+    parser.add_argument("--candidates", type=int, default=16, help="bsp: planes tried per node")
+    parser.add_argument("--seed", type=int, default=0, help="bsp: candidate sampling seed")
+    return parser
+
+
+def parse_slabs(items):
+    """['x:0.2,0.2,0.3,0.3', 'z:4'] -> per-axis specs (count or shares), 1 for missing axes."""
+    slabs = [1, 1, 1]
+    for item in items:
+        axis, _, spec = item.partition(":")
+        if axis not in ("x", "y", "z") or not spec:
+            raise ValueError(f"--slabs {item!r}: expected AXIS:SPEC with AXIS x, y or z")
+        values = [v for v in spec.split(",") if v]
+        try:
+            slabs["xyz".index(axis)] = (int(values[0]) if len(values) == 1 and values[0].isdigit()
+                                        else tuple(float(v) for v in values))
+        except ValueError:
+            raise ValueError(f"--slabs {item!r}: SPEC must be a count or comma-separated shares") from None
+    return tuple(slabs)
+
+
+def run(args) -> int:
+    from ..errors import PartitionError
+    from ..partition import partition
+    from ..progress import Progress
+    from ..world import World
+
+    world = World.from_obj(args.world)
+    kind = args.structure
+    params = {}
+    try:
+        if kind in ("octree", "portal") and args.depth is not None:
+            params["depth"] = args.depth
+        if kind in ("grid", "portal"):
+            if args.slabs:
+                params["slabs"] = parse_slabs(args.slabs)
+            else:
+                params["auto"] = True if kind == "grid" else False
+            if args.cells is not None:
+                params["cells"] = args.cells
+        if kind == "bsp":
+            params.update(min_leaf=args.min_leaf, max_depth=args.max_depth,
+                          candidates=args.candidates, seed=args.seed)
+        bar = Progress(f"{kind} {args.world.name}")
+        start = time.perf_counter()
+        try:
+            result = partition(world, kind, progress=bar, **params)
+        finally:
+            bar.close()
+    except ValueError as error:
+        raise PartitionError(f"{args.world}: {error}") from None
+    elapsed = time.perf_counter() - start
+    result.save(args.output)
+    stats = result.stats()
+    size = args.output.stat().st_size
+    print(f"structure   {kind} {result.params}")
+    print(f"build time  {elapsed:.2f} s")
+    print(f"nodes       {stats['nodes']:,}")
+    print(f"leaves      {stats['leaves']:,}")
+    print(f"refs/tri    {stats['refs_per_triangle']:.3f}")
+    print(f"file        {args.output} {size / 1024:,.1f} KB "
+          f"({size / args.world.stat().st_size:.2f} x the OBJ)")
+    return 0

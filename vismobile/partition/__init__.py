@@ -1,0 +1,46 @@
+"""The offline partitioner: `partition(world, kind, **params)` builds a Partition (base.py
+layout) as a grid, octree, portal octree or BSP tree; `load_partition` reads a .vmp file."""
+from __future__ import annotations
+
+import sys
+import types
+
+from .base import KINDS, Partition
+from .store import load_partition
+
+__all__ = ["partition", "load_partition", "Partition", "KINDS"]
+
+
+def partition(world, kind: str, progress=None, **params) -> Partition:
+    """Partition a World.
+
+    kind     : "grid" (slabs=..., auto=, cells=), "octree" (depth=1..8, default 5),
+               "portal" (depth=1..3, slabs=, cells=, thickness=, samples=) or
+               "bsp" (min_leaf=, max_depth=, candidates=, balance=, straddle_weight=, seed=)
+    progress : optional callable(done, total) for long builds
+    Raises ValueError on an unknown kind or parameter, or a parameter out of range.
+    """
+    from . import bsp, grid, octree, portal
+
+    builders = {"grid": grid.build, "octree": octree.build, "portal": portal.build,
+                "bsp": bsp.build}
+    if kind not in builders:
+        raise ValueError(f"unknown partition kind {kind!r}; expected one of {', '.join(KINDS)}")
+    build = builders[kind]
+    known = set(build.__code__.co_varnames[1:build.__code__.co_argcount]) - {"progress"}
+    unknown = sorted(set(params) - known)
+    if unknown:
+        raise ValueError(f"unknown parameter(s) for {kind}: {', '.join(unknown)}; "
+                         f"expected {', '.join(sorted(known))}")
+    return build(world, progress=progress, **params)
+
+
+class _CallableModule(types.ModuleType):
+    """`vismobile.partition` is both this package and the function: importing the package
+    rebinds the attribute on `vismobile`, so the package itself must be callable."""
+
+    def __call__(self, *args, **kwargs):
+        return partition(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
