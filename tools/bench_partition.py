@@ -1,8 +1,10 @@
 """Partition build time, size and shape for the thesis worlds, beside thesis Table 5.3.
 
-Usage: .venv/bin/python tools/bench_partition.py [--worlds w1,w2] [--runs 3] [--million]
-Prints a markdown table: median build seconds, nodes, leaves, refs/triangle, .vmp KB, OBJ KB,
-and the thesis's file size (KB). --million also times an octree-5 build of a synthetic
+Usage: .venv/bin/python tools/bench_partition.py [--worlds w1,w2] [--structures bsp,portal]
+       [--runs 3] [--million]
+Prints a markdown table: median build seconds, nodes, leaves, refs/triangle, largest leaf
+(references), .vmp KB, OBJ KB, and the thesis's file size (KB). --structures keeps the rows whose
+label starts with one of the given prefixes (case-insensitive: "bsp", "portal 2", "octree"). --million also times an octree-5 build of a synthetic
 1,000,000-triangle world (copies of the cow on a grid).
 """
 from __future__ import annotations
@@ -33,9 +35,11 @@ THESIS_KB = {  # SPEC §4, Table 5.3
     "portal 3": (3293, None, None, 5591, 528, 1338),
     "BSP": (568, 9449, 9512, 2772, 229, 939),
 }
+THESIS_KB["BSP thesis"] = THESIS_KB["BSP"]
 STRUCTURES = [("grid", "grid", {"auto": True})] + \
     [(f"octree {d}", "octree", {"depth": d}) for d in (3, 4, 5, 6)] + \
-    [(f"portal {d}", "portal", {"depth": d}) for d in (1, 2, 3)] + [("BSP", "bsp", {})]
+    [(f"portal {d}", "portal", {"depth": d}) for d in (1, 2, 3)] + [("BSP", "bsp", {}),
+                                                                   ("BSP thesis", "bsp", {"rule": "thesis"})]
 
 
 def timed(world, kind, params, runs):
@@ -61,21 +65,26 @@ def million_world(target=1_000_000):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", default="w1,w2,w3,w4,w5,w6")
+    parser.add_argument("--structures", default="",
+                        help="comma-separated label prefixes, e.g. bsp,portal 2 (default: all)")
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--million", action="store_true")
     args = parser.parse_args(argv)
     from vismobile.scenes import build_world, default_cache_dir
 
     names = args.worlds.split(",")
-    print("| world | structure | build s (median) | nodes | leaves | refs/tri | .vmp KB | OBJ KB "
-          "| vmp/OBJ | thesis KB |")
-    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    prefixes = [p.strip().lower() for p in args.structures.split(",") if p.strip()]
+    rows = [row for row in STRUCTURES
+            if not prefixes or any(row[0].lower().startswith(p) for p in prefixes)]
+    print("| world | structure | build s (median) | nodes | leaves | refs/tri | max leaf | .vmp KB "
+          "| OBJ KB | vmp/OBJ | thesis KB |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     with tempfile.TemporaryDirectory() as tmp:
         for name in names:
             world = build_world(name)
             obj_kb = (default_cache_dir() / f"{name}.obj").stat().st_size / 1024
             column = int(name[1:]) - 1
-            for label, kind, params in STRUCTURES:
+            for label, kind, params in rows:
                 seconds, result = timed(world, kind, params, args.runs)
                 path = Path(tmp) / "p.vmp"
                 result.save(path)
@@ -83,7 +92,8 @@ def main(argv=None) -> int:
                 stats = result.stats()
                 thesis = THESIS_KB[label][column]
                 print(f"| {name.upper()} | {label} | {seconds:.2f} | {stats['nodes']:,} | "
-                      f"{stats['leaves']:,} | {stats['refs_per_triangle']:.2f} | {kb:,.0f} | "
+                      f"{stats['leaves']:,} | {stats['refs_per_triangle']:.2f} | "
+                      f"{stats['max_leaf_refs']:,} | {kb:,.0f} | "
                       f"{obj_kb:,.0f} | {kb / obj_kb:.2f} | {thesis if thesis else '–'} |",
                       flush=True)
     if args.million:
