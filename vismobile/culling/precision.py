@@ -1,0 +1,113 @@
+"""Keeping culling conservative when the device stores and tests geometry in float32 or fixed16.16.
+
+The Culler itself computes in float64. A device in another arithmetic mode (geometry/arithmetic.py)
+differs in two ways: it renders rounded vertices from a rounded camera, and it evaluates plane
+tests with rounding. Both are bounded; the functions here turn the bounds into inflated planes,
+boxes or a widened camera, so a float64 decision that keeps a triangle still keeps every
+triangle the device could show.
+
+Hooks: `Culler.cull(conservative_camera(quantize_camera(camera, mode), mode, scale))` needs no
+change to the Culler; the direct form is `conservative_planes` in place of
+`camera.frustum_planes()` inside Culler.cull.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..camera import Camera
+from ..errors import ProfileError
+from ..geometry import arithmetic
+from ..world import World
+
+# A plane the mode cannot hold is replaced by this always-inside plane (dropping a plane only
+# grows the frustum, so it is conservative).
+_ALWAYS_INSIDE = np.array([0.0, 0.0, 0.0, 1.0])
+
+
+def world_scale(vertices, camera: Camera | None = None) -> float:
+    """Largest |coordinate| of the vertices (V, 3) and the camera eye: the magnitude bounds use."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    scale = float(np.abs(vertices).max()) if vertices.size else 0.0
+    if camera is not None:
+        scale = max(scale, float(np.abs(camera.eye).max()))
+    return scale
+
+
+def margin(mode: str, scale: float) -> float:
+    """Distance by which every plane must be pushed out: plane-test error in the mode plus the
+    largest move of a rounded vertex (sqrt(3) x its per-coordinate error), plus float64's own
+    plane-test error, for coordinates up to `scale`."""
+    move = np.sqrt(3.0) * float(arithmetic.representation_error(scale, mode))
+    own = arithmetic.distance_error_bound("float64", scale)
+    return arithmetic.distance_error_bound(mode, scale) + move + own
+
+
+def conservative_planes(planes, mode: str, scale: float) -> np.ndarray:
+    """(K, 4) float64 planes with offsets raised by margin(mode, scale); errs outward by it.
+
+    A plane whose inflated offset the mode cannot hold is replaced by an always-inside plane.
+    planes : (K, 4) float64 unit-normal planes (n, d), inside where n.x + d >= 0
+    """
+    planes = np.array(planes, dtype=np.float64).reshape(-1, 4)
+    planes[:, 3] += margin(mode, scale)
+    limit = arithmetic.max_magnitude(mode)
+    planes[np.abs(planes[:, 3]) > limit] = _ALWAYS_INSIDE
+    return planes
+
+
+def conservative_boxes(boxes, mode: str) -> np.ndarray:
+    """(N, 2, 3) boxes grown by the mode's rounding of their coordinates (errs outward)."""
+    return arithmetic.inflate_boxes(boxes, mode)
+
+
+def quantize_camera(camera: Camera, mode: str) -> Camera:
+    """The camera as the device holds it: eye rounded to the mode, angles and fov kept.
+
+    Raises ProfileError when the eye, near or far is out of the mode's range, or when near is
+    below the mode's resolution (fixed16.16: 2^-16).
+    """
+    eye = arithmetic.quantize(camera.eye, mode, "camera position")
+    near, far = arithmetic.quantize([camera.near, camera.far], mode, "camera near/far")
+    if near <= 0.0:
+        raise ProfileError(f"camera near plane {camera.near:g} is below the {mode} resolution")
+    return camera.with_(position=eye, near=float(near), far=float(max(far, near * 2)))
+
+
+@dataclass(frozen=True)
+class ConservativeCamera(Camera):
+    """A Camera whose frustum_planes() are pushed out by `margin`; eye, angles and fov unchanged.
+
+    Hands the inflation to a Culler that knows nothing of arithmetic modes: every stage that
+    reads camera.frustum_planes() gets the inflated planes, stages reading the eye (backface,
+    cones, occlusion) see the camera unchanged. with_() returns a plain Camera.
+    """
+
+    margin: float = 0.0
+
+    def frustum_planes(self) -> np.ndarray:
+        """(6, 4) float64 Camera.frustum_planes with d raised by margin; errs outward by margin."""
+        planes = super().frustum_planes()
+        planes[:, 3] += self.margin
+        return planes
+
+
+def conservative_camera(camera: Camera, mode: str, scale: float) -> ConservativeCamera:
+    """camera as a ConservativeCamera with margin(mode, scale): its frustum errs outward by the
+    mode's plane-test error plus the largest move of a rounded vertex (coordinates <= scale)."""
+    return ConservativeCamera(camera.position, camera.yaw, camera.pitch, camera.fov,
+                              camera.aspect, camera.near, camera.far, margin(mode, scale))
+
+
+def quantize_world(world: World, mode: str) -> World:
+    """The world as the device stores it: vertices rounded to the mode, triangle ids unchanged.
+
+    Raises ProfileError (arithmetic.check_resolution) when the mode cannot hold or resolve it.
+    Zero-area triangles made by the rounding are kept, so ids still match the float64 world.
+    """
+    arithmetic.check_resolution(world.vertices[np.unique(world.triangles)], mode,
+                                f"world {world.name}")
+    vertices = arithmetic.quantize(world.vertices, mode, f"world {world.name}")
+    return World(vertices, world.triangles, world.object_ids, list(world.object_names),
+                 world.name)
