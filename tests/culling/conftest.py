@@ -1,0 +1,107 @@
+"""Fixtures for the culling tests: thesis worlds and their partitions (built once per session),
+tiny literal rooms, random and boundary cameras, and the ground-truth oracle."""
+import numpy as np
+import pytest
+
+from vismobile.camera import Camera
+from vismobile.partition import partition
+from vismobile.profile import get_profile
+from vismobile.render import SENTINEL, item_buffer
+from vismobile.scenes import build_world
+from vismobile.world import World
+
+PROFILE = get_profile("ipaq-hx2490b")
+ASPECT = PROFILE.aspect
+BACKFACE_STAGES = {"bfc", "cbfc", "cone"}
+
+# Structure parameters per world: small enough to build quickly, deep enough to cull.
+STRUCTURES = {"octree": {"depth": 4}, "portal": {"depth": 2}, "bsp": {}, "grid": {}}
+BIG = {"w2", "w3", "w4"}  # 30k-100k triangles: shallower trees keep the session short
+BIG_STRUCTURES = {"octree": {"depth": 3}, "portal": {"depth": 1}, "bsp": {"min_leaf": 256},
+                  "grid": {}}
+
+_WORLDS, _PARTITIONS = {}, {}
+
+
+def world(name):
+    if name not in _WORLDS:
+        _WORLDS[name] = build_world(name)
+    return _WORLDS[name]
+
+
+def structure(name, kind):
+    key = (name, kind)
+    if key not in _PARTITIONS:
+        params = (BIG_STRUCTURES if name in BIG else STRUCTURES)[kind]
+        _PARTITIONS[key] = partition(world(name), kind, **params)
+    return _PARTITIONS[key]
+
+
+def visible_ids(world_, camera, cull_back):
+    """(K,) int64 triangle ids the full world's item buffer shows (the ground truth)."""
+    ids = item_buffer(world_, None, camera, PROFILE, cull_back=cull_back)
+    ids = np.unique(ids)
+    return ids[ids != SENTINEL].astype(np.int64)
+
+
+def random_cameras(part, count, seed):
+    """Cameras inside the world's box (random yaw, pitch in [-60, 60]) and, every other one,
+    placed exactly on a corner of a random node box (node and cell boundaries)."""
+    rng = np.random.default_rng(seed)
+    low, high = part.world.extent
+    cams = []
+    for i in range(count):
+        if i % 2:
+            node = rng.integers(part.node_count)
+            box = part.node_bounds[node]
+            corner = rng.integers(0, 2, 3)
+            pos = box[corner, np.arange(3)]
+            if not np.all((pos >= low) & (pos <= high)):
+                pos = np.clip(pos, low, high)
+        else:
+            pos = rng.uniform(low, high)
+        yaw = float(rng.choice([0.0, 90.0, 180.0, 270.0])) if i % 4 == 1 else rng.uniform(0, 360)
+        pitch = 0.0 if i % 4 == 1 else rng.uniform(-60, 60)
+        cams.append(Camera(pos, yaw=yaw, pitch=pitch, aspect=ASPECT))
+    return cams
+
+
+def quad(x0, x1, y0, y1, z, facing=1.0):
+    """(4, 3) vertices and (2, 3) triangles of an axis-aligned quad in the plane z, facing +z
+    (facing=1) or -z (facing=-1)."""
+    v = np.array([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]], dtype=float)
+    t = np.array([[0, 1, 2], [0, 2, 3]]) if facing > 0 else np.array([[0, 2, 1], [0, 3, 2]])
+    return v, t
+
+
+def literal_world(quads, name="literal"):
+    """World from a list of (vertices, triangles) parts, one object each."""
+    vertices, triangles, ids, offset = [], [], [], 0
+    for k, (v, t) in enumerate(quads):
+        vertices.append(v)
+        triangles.append(t + offset)
+        ids.append(np.full(len(t), k))
+        offset += len(v)
+    return World(np.concatenate(vertices), np.concatenate(triangles), np.concatenate(ids),
+                 name=name)
+
+
+@pytest.fixture(scope="session")
+def w1_octree():
+    return structure("w1", "octree")
+
+
+@pytest.fixture(scope="session")
+def w1_portal():
+    return structure("w1", "portal")
+
+
+@pytest.fixture(scope="session")
+def kit():
+    """The helpers above, for test modules (importlib mode cannot import conftest)."""
+    import types
+
+    return types.SimpleNamespace(
+        structure=structure, world=world, visible_ids=visible_ids,
+        random_cameras=random_cameras, quad=quad, literal_world=literal_world,
+        BACKFACE_STAGES=BACKFACE_STAGES, BIG=BIG, ASPECT=ASPECT, PROFILE=PROFILE)

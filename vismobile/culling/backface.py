@@ -1,0 +1,98 @@
+"""Back-face culling: the driver's flag (`bfc`) and the thesis's region method made safe in 3D
+(`cbfc`, thesis 4.3.4, Algorithm 3).
+
+Why the region test is safe. A triangle with unit normal n is back-facing (or edge-on) seen
+from the eye e when n.(p - e) >= 0 for one point p of its plane (the value is the same for all).
+Every point p the camera can show lies in the frustum, so p - e = t r with t > 0 and r a
+non-negative combination of the four corner rays c_1..c_4. Hence if n.c_i >= 0 for the four
+corner rays, the triangle is back-facing wherever it is in the frustum, and dropping it never
+removes a front-facing triangle inside the frustum. Per frame we drop whole regions of normal
+directions: a region inside a cap (centre m, radius rho) is droppable when
+angle(m, c_i) + rho <= 90 degrees for the four corners, i.e. m.c_i >= sin(rho).
+
+The thesis (2D) drops a triangle when its normal's yaw sector equals the view's yaw sector,
+with n = 360 / (90 - FOV) sectors. That ignores pitch, the vertical field of view and the
+aspect: a floor (normal straight up) sits in some yaw sector and is dropped whenever the camera
+yaws into it, though it faces the eye. Here sectors are split further into elevation bands, and
+the per-frame table is derived from the actual frustum, so any FOV, aspect and pitch are safe.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.sphere_regions import caps_within, direction_regions, region_caps
+from .state import CullState
+from .tree import Tree
+
+
+def corner_rays(camera) -> np.ndarray:
+    """(4, 3) float64 directions of the frustum's four corner rays (from the eye, unnormalised)."""
+    right, up, forward = camera.basis()
+    ty = np.tan(np.radians(camera.fov) / 2.0)
+    tx = ty * camera.aspect
+    sx = np.array([-1.0, 1.0, 1.0, -1.0])
+    sy = np.array([-1.0, -1.0, 1.0, 1.0])
+    return forward + (sx * tx)[:, None] * right + (sy * ty)[:, None] * up
+
+
+def thesis_region_count(fov: float = 45.0) -> int:
+    """n = 360 / (90 - FOV) yaw sectors (thesis Algorithm 3), at least 1."""
+    return max(1, int(round(360.0 / (90.0 - fov)))) if fov < 90.0 else 1
+
+
+class BackfaceFlag:
+    """`bfc`: sets the render flag GL_CULL_FACE; sends the same triangles."""
+
+    name = "bfc"
+    cost = 90
+
+    def prepare(self, tree: Tree) -> None:
+        pass
+
+    def apply(self, state: CullState) -> None:
+        state.cull_back = True
+        state.count("bfc.render_flag", 1)
+
+
+class ConservativeBackface:
+    """`cbfc`: drops triangles whose normal region is back-facing for every frustum ray.
+
+    yaw_regions : sectors about the vertical axis (default the thesis's 360/(90-45) = 8)
+    pitch_bands : elevation bands of the normal (the 3D extension)
+    Contract: never drops a triangle that faces the eye and has a point inside the frustum.
+    Per frame: a (R,) table from 4 R dot products, then one lookup per candidate reference.
+    """
+
+    name = "cbfc"
+    cost = 80
+
+    def __init__(self, yaw_regions: int | None = None, pitch_bands: int = 6):
+        self.yaw_regions = thesis_region_count() if yaw_regions is None else int(yaw_regions)
+        self.pitch_bands = int(pitch_bands)
+        if self.yaw_regions < 1 or self.pitch_bands < 1:
+            raise ValueError("cbfc needs yaw_regions >= 1 and pitch_bands >= 1")
+
+    def prepare(self, tree: Tree) -> None:
+        self.regions = direction_regions(tree.world.normals, self.yaw_regions, self.pitch_bands)
+        self.centers, self.radii = region_caps(self.yaw_regions, self.pitch_bands)
+
+    def droppable(self, camera) -> np.ndarray:
+        """(R + 1,) bool per region (last: degenerate normals, never dropped)."""
+        table = np.zeros(len(self.radii) + 1, dtype=bool)
+        table[:-1] = caps_within(self.centers, self.radii, corner_rays(camera))
+        return table
+
+    def apply(self, state: CullState) -> None:
+        table = self.droppable(state.camera)
+        state.count(f"{self.name}.regions_dropped", table.sum())
+        if not table.any():
+            return
+        regions = self.regions
+
+        def keep_of(ids):
+            keep = ~table[regions[ids]]
+            state.count("triangles_tested", len(ids))
+            state.count(f"{self.name}.refs_culled", len(ids) - np.count_nonzero(keep))
+            return keep
+
+        state.filters.append(keep_of)

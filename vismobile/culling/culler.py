@@ -1,0 +1,83 @@
+"""The Culler: runs any combination of culling stages on a Partition, cheapest first."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..partition.base import Partition
+from .backface import BackfaceFlag, ConservativeBackface
+from .cones import NormalConeStage
+from .frustum import FrustumStage, ThesisFrustumStage
+from .occlusion import DepthBufferOcclusion
+from .occlusion_thesis import ThesisOcclusion
+from .portals import PortalStage
+from .state import CullResult, CullState
+from .tree import Tree
+
+# name -> stage class. Each has `name`, `cost` (order of application), prepare(tree), apply(state).
+STAGES = {cls.name: cls for cls in (PortalStage, FrustumStage, ThesisFrustumStage,
+                                    NormalConeStage, ThesisOcclusion, DepthBufferOcclusion,
+                                    ConservativeBackface, BackfaceFlag)}
+
+# Stages that never drop a triangle the full world's item buffer shows (proved by the tests).
+CONSERVATIVE = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "occlusion", "occlusion_thesis",
+                "portals")
+
+
+def parse_stages(stages) -> tuple:
+    """Stage names from a list/tuple or a comma string ("vfc,bfc,cbfc"), deduplicated, ordered
+    by cost. Raises ValueError naming the valid stages on an unknown one."""
+    if isinstance(stages, str):
+        stages = [s for s in stages.replace("+", ",").split(",")]
+    names = [str(s).strip().lower() for s in stages if str(s).strip() and str(s).strip() != "none"]
+    unknown = [n for n in names if n not in STAGES]
+    if unknown:
+        raise ValueError(f"unknown culling stage(s) {', '.join(map(repr, unknown))}; "
+                         f"valid: {', '.join(sorted(STAGES))} (or none)")
+    return tuple(sorted(dict.fromkeys(names), key=lambda n: STAGES[n].cost))
+
+
+class Culler:
+    """Culls a Partition for a camera with a chosen set of stages.
+
+    partition : Partition (layout contract in partition/base.py)
+    stages    : list/tuple of names or a comma string, e.g. "vfc,bfc,cbfc"; "" or "none" = no
+                culling. Valid names: STAGES. Applied in order of cost: node stages (portals,
+                vfc, vfc_thesis, cone, occlusion_thesis, occlusion) refine the set of draw nodes,
+                triangle stages (cbfc) then filter the gathered references, bfc sets a flag.
+    options   : per-stage keyword dicts, e.g. occlusion={"occluders": 32}, cbfc={"pitch_bands": 8}
+    """
+
+    def __init__(self, partition: Partition, stages=("vfc",), **options):
+        self.names = parse_stages(stages)
+        extra = sorted(set(options) - set(STAGES))
+        if extra:
+            raise ValueError(f"options for unknown stage(s) {extra}; valid: {sorted(STAGES)}")
+        self.tree = Tree(partition)
+        self.partition = partition
+        self.stages = [STAGES[n](**options.get(n, {})) for n in self.names]
+        for stage in self.stages:
+            stage.prepare(self.tree)
+
+    @property
+    def cull_back(self) -> bool:
+        """The render flag GL_CULL_FACE: True when `bfc` is a stage."""
+        return "bfc" in self.names
+
+    def cull(self, camera) -> CullResult:
+        """Cull for one camera: CullResult with sorted unique `triangles`, `stats`, `cull_back`.
+
+        stats counters: nodes_visited, plane_tests, triangles_tested, triangles_sent,
+        draw_batches (runs of consecutive triangle ids), nodes_drawn, and per stage
+        "<stage>.<counter>" (nodes_culled, refs_culled, clusters_culled, occluders, ...).
+        """
+        state = CullState(self.tree, camera, camera.frustum_planes(),
+                          np.zeros(1, dtype=np.int64),
+                          stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})
+        for stage in self.stages:
+            stage.apply(state)
+        result = state.finish()
+        for stage in self.stages:
+            observe = getattr(stage, "observe", None)
+            if observe is not None:
+                observe(result)
+        return result

@@ -1,0 +1,121 @@
+"""View-frustum culling of the partition tree, one tree level per step.
+
+`vfc`: the AABB p-vertex/n-vertex test with plane masking (Assarsson & Moller 2000): each node
+carries the planes its parent straddled, nodes wholly inside are accepted whole (their subtree's
+ref range), straddling inner nodes are expanded, straddling leaves are accepted.
+
+`vfc_thesis`: the thesis's test (SPEC 2): a node is kept when one of its 8 corners is inside
+the frustum, else unless its bounding sphere (centre, r = sqrt(3) * l, l its longest edge) is
+outside a plane. The sphere holds the box, so the test is conservative, but loose: a node is
+never accepted whole, so every kept node is expanded down to its leaves.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.boxes import box_centers, box_corners, box_sizes
+from ..geometry.planes import box_plane_distances, points_inside, spheres_outside
+from .state import CullState
+from .tree import Tree
+
+
+def frustum_traverse(tree: Tree, roots, plane_sets, root_sets, state: CullState,
+                     prefix: str) -> np.ndarray:
+    """Hierarchical p/n-vertex culling from `roots`: (A,) int64 accepted nodes.
+
+    roots      : (K,) int64 start nodes
+    plane_sets : (S, P, 4) float64 inward planes; root k is tested against plane_sets[root_sets[k]]
+    root_sets  : (K,) int64
+    Errs toward keeping by tree.tol (never rejects a box touching the frustum).
+    Counts nodes_visited, plane_tests and <prefix>.nodes_culled/.nodes_accepted in state.
+    """
+    plane_sets = np.asarray(plane_sets, dtype=np.float64)
+    active = np.asarray(roots, dtype=np.int64)
+    sets = np.asarray(root_sets, dtype=np.int64)
+    masks = np.ones((len(active), plane_sets.shape[1]), dtype=bool)
+    single = plane_sets.shape[0] == 1
+    accepted, visited, tests, culled = [], 0, 0, 0
+    while len(active):
+        live = tree.nonempty[active]
+        active, sets, masks = active[live], sets[live], masks[live]
+        if not len(active):
+            break
+        planes = plane_sets[0] if single else plane_sets[sets]
+        p_dist, n_dist = box_plane_distances(tree.node_bounds[active], planes)
+        outside = ((p_dist < -tree.tol) & masks).any(axis=1)
+        straddles = masks & (n_dist < tree.tol)
+        inner = straddles.any(axis=1)
+        leaf = tree.child_count[active] == 0
+        keep = ~outside & (~inner | leaf)
+        accepted.append(active[keep])
+        visited += len(active)
+        tests += int(masks.sum())
+        culled += int(outside.sum())
+        grow = ~outside & inner & ~leaf
+        kids, parent = tree.children(active[grow])
+        active = kids
+        sets = sets[grow][parent]
+        masks = straddles[grow][parent]
+    result = np.concatenate(accepted) if accepted else np.zeros(0, dtype=np.int64)
+    state.count("nodes_visited", visited)
+    state.count("plane_tests", tests)
+    state.count(f"{prefix}.nodes_culled", culled)
+    state.count(f"{prefix}.nodes_accepted", len(result))
+    return result
+
+
+class FrustumStage:
+    """`vfc`: hierarchical AABB frustum culling with plane masks; refines state.nodes."""
+
+    name = "vfc"
+    cost = 10
+
+    def prepare(self, tree: Tree) -> None:
+        self.tree = tree
+
+    def apply(self, state: CullState) -> None:
+        roots = state.nodes
+        state.nodes = frustum_traverse(self.tree, roots, state.planes[None],
+                                       np.zeros(len(roots), dtype=np.int64), state, self.name)
+
+
+class ThesisFrustumStage:
+    """`vfc_thesis`: the thesis's 8-corner test, then the r = sqrt(3) l sphere; refines state.nodes.
+
+    Conservative (the sphere contains the box) but accepts nothing whole: kept nodes are
+    expanded to their leaves. Counts 6 plane tests per corner and per sphere, as the thesis does.
+    """
+
+    name = "vfc_thesis"
+    cost = 11
+
+    def prepare(self, tree: Tree) -> None:
+        self.tree = tree
+        bounds = tree.node_bounds
+        self.corners = box_corners(bounds)
+        self.centers = box_centers(bounds)
+        self.radii = np.sqrt(3.0) * box_sizes(bounds).max(axis=1)
+
+    def apply(self, state: CullState) -> None:
+        tree, planes = self.tree, state.planes
+        active = state.nodes
+        accepted, visited, tests, culled = [], 0, 0, 0
+        while len(active):
+            active = active[tree.nonempty[active]]
+            if not len(active):
+                break
+            corner_in = points_inside(self.corners[active].reshape(-1, 3), planes, tree.tol)
+            corner_in = corner_in.reshape(-1, 8).any(axis=1)
+            sphere_out = spheres_outside(self.centers[active], self.radii[active], planes, tree.tol)
+            keep = corner_in | ~sphere_out
+            visited += len(active)
+            tests += 6 * 8 * len(active) + 6 * int((~corner_in).sum())
+            culled += int((~keep).sum())
+            leaf = tree.child_count[active] == 0
+            accepted.append(active[keep & leaf])
+            active, _ = tree.children(active[keep & ~leaf])
+        state.nodes = np.concatenate(accepted) if accepted else np.zeros(0, dtype=np.int64)
+        state.count("nodes_visited", visited)
+        state.count("plane_tests", tests)
+        state.count(f"{self.name}.nodes_culled", culled)
+        state.count(f"{self.name}.nodes_accepted", len(state.nodes))

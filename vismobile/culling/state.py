@@ -1,0 +1,60 @@
+"""What flows between stages within one frame, and the result handed to the renderer."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..camera import Camera
+from .tree import Tree
+
+
+@dataclass
+class CullResult:
+    """One frame's culling output.
+
+    triangles : (S,) int64 sorted unique triangle ids to send to the pipeline
+    nodes     : (D,) int64 draw nodes (each sends its subtree's refs, minus dropped triangles)
+    stats     : dict str -> int counters (see Culler.cull)
+    cull_back : bool, the driver's GL_CULL_FACE render flag (set by the `bfc` stage)
+    """
+
+    triangles: np.ndarray
+    nodes: np.ndarray
+    stats: dict
+    cull_back: bool = False
+
+
+@dataclass
+class CullState:
+    """Per-frame working set: node stages refine `nodes`; triangle stages append filters.
+
+    nodes   : (D,) int64 draw nodes; initially the root (everything)
+    filters : list of functions (ids (n,) int64) -> (n,) bool keep, applied after gathering
+    """
+
+    tree: Tree
+    camera: Camera
+    planes: np.ndarray
+    nodes: np.ndarray
+    stats: dict = field(default_factory=dict)
+    filters: list = field(default_factory=list)
+    cull_back: bool = False
+
+    def count(self, key: str, amount) -> None:
+        self.stats[key] = self.stats.get(key, 0) + int(amount)
+
+    def finish(self) -> CullResult:
+        """Gather the draw nodes' refs, apply the filters, and count what is sent."""
+        tree = self.tree
+        refs = tree.refs(self.nodes)
+        keep = np.ones(len(refs), dtype=bool)
+        for keep_of in self.filters:
+            keep &= keep_of(refs)
+        mask = np.zeros(tree.world.triangle_count, dtype=bool)
+        mask[refs] = keep  # a triangle's verdict is the same in every leaf that holds it
+        ids = np.flatnonzero(mask)
+        self.count("triangles_sent", len(ids))
+        self.count("draw_batches", 0 if not len(ids) else 1 + np.count_nonzero(np.diff(ids) != 1))
+        self.count("nodes_drawn", len(self.nodes))
+        return CullResult(ids, self.nodes, self.stats, self.cull_back)

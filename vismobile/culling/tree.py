@@ -1,0 +1,59 @@
+"""Read-only indexes over a Partition that every stage shares: children, leaves in depth-first
+order, each node's leaf range, and the world's coordinate scale."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.planes import slack
+from ..partition.base import Partition, gather_ranges
+
+
+class Tree:
+    """A Partition plus derived index arrays, built once per Culler.
+
+    leaf_order : (L,) int64 leaves sorted by ref_start (depth-first order of tri_refs)
+    leaf_lo, leaf_hi : (N,) int64 each node's leaves are leaf_order[leaf_lo:leaf_hi]
+    tol        : float distance slack for plane tests at this world's coordinate scale
+    """
+
+    def __init__(self, partition: Partition):
+        self.partition = p = partition
+        self.world = partition.world
+        self.node_bounds = np.asarray(p.node_bounds, dtype=np.float64)
+        self.first_child = np.asarray(p.first_child, dtype=np.int64)
+        self.child_count = np.asarray(p.child_count, dtype=np.int64)
+        self.ref_start = np.asarray(p.ref_start, dtype=np.int64)
+        self.ref_end = np.asarray(p.ref_end, dtype=np.int64)
+        self.tri_refs = np.asarray(p.tri_refs, dtype=np.int64)
+        self.node_count = len(self.first_child)
+        self.nonempty = self.ref_end > self.ref_start
+        leaves = np.flatnonzero(self.child_count == 0)
+        # Ties (empty leaves) go first, so a non-empty leaf sits right where its refs start.
+        self.leaf_order = leaves[np.lexsort((self.ref_end[leaves] - self.ref_start[leaves],
+                                             self.ref_start[leaves]))]
+        starts = self.ref_start[self.leaf_order]
+        self.leaf_lo = np.searchsorted(starts, self.ref_start, side="left")
+        self.leaf_hi = np.searchsorted(starts, self.ref_end, side="left")
+        # A node whose range ends where an empty leaf of the next subtree starts is harmless:
+        # empty leaves hold no triangles.
+        self.tol = slack(self.node_bounds[self.nonempty]) if self.node_count else 0.0
+        self.scale = self.tol / 1e-9
+
+    def children(self, nodes) -> tuple:
+        """(children (C,) int64, parent_index (C,) int64 index into nodes) of inner nodes."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        counts = self.child_count[nodes]
+        kids = gather_ranges(np.arange(self.node_count, dtype=np.int64),
+                             self.first_child[nodes], self.first_child[nodes] + counts)
+        return kids, np.repeat(np.arange(len(nodes)), counts)
+
+    def leaves_under(self, nodes) -> np.ndarray:
+        """(K,) int64 ranks (positions in leaf_order) of the leaves of the nodes' subtrees."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        return gather_ranges(np.arange(len(self.leaf_order), dtype=np.int64),
+                             self.leaf_lo[nodes], self.leaf_hi[nodes])
+
+    def refs(self, nodes) -> np.ndarray:
+        """Concatenated tri_refs (int64, may repeat ids) of the nodes' subtrees."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        return gather_ranges(self.tri_refs, self.ref_start[nodes], self.ref_end[nodes])
