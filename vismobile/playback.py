@@ -160,14 +160,17 @@ class _Culled:
     cull_back: bool
 
 
-def make_culler(scene: Scene, stages):
-    """vismobile.culling.Culler over the scene's partition, or all triangles without one."""
+def make_culler(scene: Scene, stages, arithmetic="float64"):
+    """vismobile.culling.Culler over the scene's partition, or all triangles without one.
+
+    arithmetic: the profile's vertex format, so culling stays conservative for rounded vertices.
+    """
     if scene.partition is None:
         return _WholeWorld(scene.world, stages)
     from .culling import Culler
 
     try:
-        return Culler(scene.partition, list(stages))
+        return Culler(scene.partition, list(stages), arithmetic=arithmetic)
     except ValueError as error:  # unknown stage, or a stage the structure cannot run
         raise VisMobileError(f"--cull {','.join(stages)}: {error}") from None
 
@@ -195,7 +198,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     world = scene.world
     profile.check_range(world.extent, f"world {world.name!r}")
     memory = profile.check_memory(world, scene.partition)
-    culler = make_culler(scene, stages)
+    culler = make_culler(scene, stages, profile.vertex_format)
     renderer = Renderer(world, profile)
 
     count = len(trajectory) if frame_limit is None else min(int(frame_limit), len(trajectory))

@@ -63,3 +63,17 @@ def test_every_stage_combines_with_every_other(w1_octree):
         for other in STAGES:
             sent = Culler(w1_octree, [name, other]).cull(cam).triangles
             assert set(sent) <= reference
+
+
+def test_unknown_arithmetic_mode_is_a_value_error(w1_octree):
+    with pytest.raises(ValueError, match="valid: float64, float32, fixed16.16"):
+        Culler(w1_octree, "vfc", arithmetic="float16")
+
+
+def test_coarser_arithmetic_only_widens_the_frustum(w1_octree):
+    cameras = [Camera((20.0, 1.6, 16.0), yaw=y, pitch=p, aspect=0.75)
+               for y, p in ((0.0, 0.0), (37.5, 10.0), (-120.0, -30.0))]
+    exact, fixed = Culler(w1_octree, "vfc"), Culler(w1_octree, "vfc", arithmetic="fixed16.16")
+    for camera in cameras:
+        kept = exact.cull(camera).triangles
+        assert np.isin(kept, fixed.cull(camera).triangles).all()

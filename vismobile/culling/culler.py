@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.arithmetic import MODES
 from ..partition.base import Partition
 from .backface import BackfaceFlag, ConservativeBackface
 from .cones import NormalConeStage
@@ -10,6 +11,7 @@ from .frustum import FrustumStage, ThesisFrustumStage
 from .occlusion import DepthBufferOcclusion
 from .occlusion_thesis import ThesisOcclusion
 from .portals import PortalStage
+from .precision import conservative_planes, world_scale
 from .state import CullResult, CullState
 from .tree import Tree
 
@@ -44,10 +46,16 @@ class Culler:
                 culling. Valid names: STAGES. Applied in order of cost: node stages (portals,
                 vfc, vfc_thesis, cone, occlusion_thesis, occlusion) refine the set of draw nodes,
                 triangle stages (cbfc) then filter the gathered references, bfc sets a flag.
+    arithmetic: the device's arithmetic mode (float64, float32, fixed16.16); frustum planes are
+                pushed out by its error bound so every decision stays conservative in that mode
     options   : per-stage keyword dicts, e.g. occlusion={"occluders": 32}, cbfc={"pitch_bands": 8}
     """
 
-    def __init__(self, partition: Partition, stages=("vfc",), **options):
+    def __init__(self, partition: Partition, stages=("vfc",), arithmetic="float64", **options):
+        if arithmetic not in MODES:
+            raise ValueError(f"unknown arithmetic mode {arithmetic!r}; valid: {', '.join(MODES)}")
+        self.arithmetic = arithmetic
+        self.world_scale = world_scale(partition.world.vertices)
         self.names = parse_stages(stages)
         extra = sorted(set(options) - set(STAGES))
         if extra:
@@ -70,7 +78,9 @@ class Culler:
         draw_batches (runs of consecutive triangle ids), nodes_drawn, and per stage
         "<stage>.<counter>" (nodes_culled, refs_culled, clusters_culled, occluders, ...).
         """
-        state = CullState(self.tree, camera, camera.frustum_planes(),
+        scale = max(self.world_scale, float(np.abs(camera.eye).max()))
+        planes = conservative_planes(camera.frustum_planes(), self.arithmetic, scale)
+        state = CullState(self.tree, camera, planes,
                           np.zeros(1, dtype=np.int64),
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})
         for stage in self.stages:
