@@ -1,5 +1,6 @@
-"""BSP tree: balance rule, straddlers on both sides, front-to-back order from any eye."""
+"""BSP tree: balance rules, candidate scoring, straddlers on both sides, front-to-back order."""
 import numpy as np
+import pytest
 
 import vismobile
 from vismobile.partition import bsp
@@ -24,19 +25,80 @@ def test_children_lie_on_their_side(cow):
     p = bsp.build(cow)
     planes = p.extras["split_planes"]
     corners = cow.corners
-    for node in np.flatnonzero(~p.is_leaf)[:50]:
+    for node in np.flatnonzero(~p.is_leaf)[::7][:60]:
         f = p.first_child[node]
+        own = np.unique(p.tri_refs[p.ref_start[node]:p.ref_end[node]])
+        d_own = corners[own] @ planes[node, :3] + planes[node, 3]
         for child, sign in ((f, 1), (f + 1, -1)):
-            tris = p.tri_refs[p.ref_start[child]:p.ref_end[child]]
+            tris = np.unique(p.tri_refs[p.ref_start[child]:p.ref_end[child]])
             d = corners[tris] @ planes[node, :3] + planes[node, 3]
             # each referenced triangle reaches into the child's half-space (straddlers both)
             assert np.all((sign * d).max(axis=1) >= -1e-6)
+            # and every triangle of the node reaching clearly into it is referenced there
+            assert np.isin(own[(sign * d_own).max(axis=1) > 1e-6], tris).all()
 
 
-def test_balance_rule_stops_unbalanced_nodes(cow):
-    coarse = bsp.build(cow, balance=(0.99, 1.01))
-    loose = bsp.build(cow, balance=(0.5, 2.0))
+def test_thesis_rule_stops_unbalanced_nodes(cow):
+    coarse = bsp.build(cow, balance=(0.99, 1.01), rule="thesis")
+    loose = bsp.build(cow, balance=(0.5, 2.0), rule="thesis")
     assert coarse.node_count < loose.node_count
+    assert coarse.params["rule"] == "thesis"
+
+
+def test_balanced_rule_splits_where_the_thesis_rule_stops(cow):
+    thesis = bsp.build(cow, candidates=16, rule="thesis")
+    balanced = bsp.build(cow, candidates=16)
+    assert balanced.stats()["leaves"] > 2 * thesis.stats()["leaves"]
+    # a balanced split gives both children at least min_leaf references
+    sizes = balanced.ref_end[balanced.leaf_ids] - balanced.ref_start[balanced.leaf_ids]
+    assert sizes.min() >= 8
+
+
+def test_same_seed_same_tree_other_seed_other_tree(suzanne):
+    a, b = bsp.build(suzanne, seed=4), bsp.build(suzanne, seed=4)
+    for name in a.ARRAYS:
+        assert np.array_equal(getattr(a, name), getattr(b, name))
+    assert np.array_equal(a.extras["split_planes"], b.extras["split_planes"], equal_nan=True)
+    c = bsp.build(suzanne, seed=5)
+    assert not np.array_equal(a.extras["split_planes"], c.extras["split_planes"], equal_nan=True)
+
+
+def test_side_counts_match_per_reference_classification():
+    rng = np.random.default_rng(1)
+    counts = np.array([1, 5, 40, 3, 130])
+    owner = np.repeat(np.arange(len(counts)), counts)
+    corners = rng.uniform(-1, 1, (len(owner), 3, 3))
+    corners[::9] = corners[::9] * [1, 0, 1]  # some triangles lie in the plane y = 0
+    normals = rng.normal(size=(len(counts), 6, 3))
+    normals[:, 0] = [0, 1, 0]
+    normals /= np.linalg.norm(normals, axis=2, keepdims=True)
+    planes = np.concatenate([normals, rng.uniform(-0.3, 0.3, (len(counts), 6, 1))], axis=2)
+    planes[:, 0, 3] = 0
+    front, back = bsp.side_counts(corners, owner, counts, planes, 1e-9)
+    f, b = bsp._classify(corners, planes[owner], 1e-9)
+    assert np.array_equal(front, np.stack([f[owner == i].sum(0) for i in range(len(counts))]))
+    assert np.array_equal(back, np.stack([b[owner == i].sum(0) for i in range(len(counts))]))
+    assert front[:, 0].sum() >= len(owner[::9])  # in-plane triangles count as front
+
+
+def test_choose_rules():
+    counts = np.array([20, 20, 20])
+    # candidates: (front, back) -> node 0: in range (10, 10) and lopsided (18, 2);
+    # node 1: only lopsided; node 2: nothing separates
+    front = np.array([[10, 18], [16, 17], [20, 0]])
+    back = np.array([[10, 2], [4, 3], [0, 20]])
+    args = ((0.8, 1.25), 2.0, 2)
+    assert list(bsp.choose(front, back, counts, "thesis", *args)) == [0, -1, -1]
+    assert list(bsp.choose(front, back, counts, "balanced", *args)) == [0, 0, -1]
+    # a child below min_leaf disqualifies a balanced split
+    assert list(bsp.choose(front, back, counts, "balanced", (0.8, 1.25), 2.0, 5)) == [0, -1, -1]
+    # mostly straddlers does not pay off
+    assert bsp.choose(np.array([[2]]), np.array([[2]]), np.array([20]), "balanced", *args)[0] == -1
+
+
+def test_unknown_rule(cow):
+    with pytest.raises(ValueError, match="BSP rule"):
+        bsp.build(cow, rule="best")
 
 
 def test_front_to_back_order_is_correct(cow):

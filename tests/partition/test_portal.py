@@ -67,3 +67,60 @@ def test_layout_cells_and_adjacency(cow, checks):
 def test_bad_depth(cow, depth):
     with pytest.raises(ValueError, match="portal octree depth"):
         portal.build(cow, depth)
+
+
+def test_crossing_segment_through_a_vertex():
+    # plane x = 0; corner 0 lies on it, corners 1 and 2 on opposite sides
+    corners = np.array([[[0.0, 1.0, 1.0], [1.0, 3.0, 1.0], [-1.0, 3.0, 3.0]]])
+    cu, cv, flat, crossing, seg, box = portal.plane_footprints(corners, 0, 0.0, 1e-9)
+    assert crossing[0] and not flat[0]
+    ends = sorted(map(tuple, seg[0]))
+    assert np.allclose(ends, [(1.0, 1.0), (3.0, 2.0)])  # (y, z): the vertex, the edge midpoint
+    assert np.allclose(box[0], [[1.0, 1.0], [3.0, 2.0]])
+
+
+def brute_covered(corners, plane_thickness, lo_uv, s, nu, nv):
+    """Per-sample reference: within s/2 of an in-plane triangle or of a crossing segment."""
+    cu, cv, flat, crossing, seg, _ = portal.plane_footprints(corners, 0, 0.0, plane_thickness)
+    out = np.zeros((nu, nv), dtype=bool)
+    for i in range(nu):
+        for j in range(nv):
+            p = lo_uv + (np.array([i, j]) + 0.5) * s
+            for t in range(len(corners)):
+                if flat[t]:
+                    a, b, c = np.stack([cu[t], cv[t]], axis=1)
+                    cross = [(y - x)[0] * (p - x)[1] - (y - x)[1] * (p - x)[0]
+                             for x, y in ((a, b), (b, c), (c, a))]
+                    inside = all(k >= 0 for k in cross) or all(k <= 0 for k in cross)
+                    edges = [(a, b), (b, c), (c, a)]
+                elif crossing[t]:
+                    inside, edges = False, [(seg[t, 0], seg[t, 1])]
+                else:
+                    continue
+                near = min(portal._point_segment_sq(p[0], p[1], x[0], x[1], y[0], y[1])
+                           for x, y in edges)
+                if inside or near <= (s / 2) ** 2:
+                    out[i, j] = True
+                    break
+    return out
+
+
+def test_vectorised_coverage_matches_per_sample_reference():
+    rng = np.random.default_rng(7)
+    centres = rng.uniform(0, 4, (30, 3)) * [0, 1, 1]
+    corners = centres[:, None, :] + rng.normal(scale=0.4, size=(30, 3, 3))
+    corners[:12, :, 0] = 0.0  # in the plane
+    corners[12:, 0, 0] = np.abs(corners[12:, 0, 0]) + 0.05  # the others cross it
+    corners[12:, 1, 0] = -np.abs(corners[12:, 1, 0]) - 0.05
+    lo_uv, hi_uv = np.array([0.0, 0.0]), np.array([4.0, 3.0])
+    s, nu, nv = portal._face_grid(lo_uv, hi_uv, 24)
+    cu, cv, flat, crossing, seg, box = portal.plane_footprints(corners, 0, 0.0, 1e-9)
+    mask = portal._covered(cu, cv, flat, seg, box, lo_uv, s, nu, nv)
+    assert np.array_equal(mask, brute_covered(corners, 1e-9, lo_uv, s, nu, nv))
+    assert 0 < mask.sum() < mask.size
+    # conservative: every open sample lies in some opening rectangle
+    rects = portal._open_rectangles(mask, lo_uv, hi_uv, s)
+    oi, oj = np.nonzero(~mask)
+    pts = lo_uv + (np.stack([oi, oj], axis=1) + 0.5) * s
+    inside = ((pts[:, None] >= rects[None, :, 0]) & (pts[:, None] <= rects[None, :, 1])).all(axis=2)
+    assert inside.any(axis=1).all()

@@ -1,17 +1,35 @@
-"""BSP tree (thesis §4.4): split planes are the world's own triangle planes, chosen for balance;
-a node stays a leaf when no sampled plane gives 0.8 <= h+/h- <= 1.25; straddlers are referenced
-on both sides, never split. Built level by level, all nodes of a level at once."""
+"""BSP tree (thesis §4.4): split planes are the world's own triangle planes, sampled per node and
+chosen for balance; straddlers are referenced on both sides, never split. Built level by level:
+the candidates of every node of a level are scored in one vectorised pass.
+
+Two stopping rules:
+- "thesis": a node stays a leaf when no sampled plane gives 0.8 <= h+/h- <= 1.25 (SPEC §3).
+  On real worlds this stops early (W1 ends with a handful of leaves).
+- "balanced" (default): a node above min_leaf references and above max_depth is split by the
+  best in-range candidate, else by the best-scoring one, among candidates whose split pays off:
+  both children keep at least min_leaf references, straddlers are at most MAX_STRADDLE_SHARE of
+  the node and the larger child at most MAX_CHILD_SHARE of it. With none, the node is a leaf
+  (so every leaf below the root holds at least min_leaf references)."""
 from __future__ import annotations
 
 import numpy as np
 
 from .layout import make_partition
 
-DEFAULTS = {"min_leaf": 8, "max_depth": 24, "candidates": 16, "balance": (0.8, 1.25),
-            "straddle_weight": 1.0, "seed": 0}
+DEFAULTS = {"min_leaf": 8, "max_depth": 32, "candidates": 64, "balance": (0.8, 1.25),
+            "straddle_weight": 2.0, "seed": 0, "rule": "balanced"}
+RULES = ("balanced", "thesis")
 # Corners within this fraction of the world's size of a plane count as on it.
 PLANE_TOLERANCE = 1e-7
+# Rows of the final per-reference classification handled at once.
 CHUNK = 1 << 16
+# Float64 values per candidate-scoring batch: (blocks x block x 3 corners x K) distances.
+SCORE_BATCH = 1 << 22
+# Balanced rule: a split pays off when its straddlers are at most this share of the node
+# (each is referenced twice) and its larger child holds at most this share (no long chains
+# that peel off a few triangles per level). Tuned on W1-W6: refs/triangle vs leaf size.
+MAX_STRADDLE_SHARE = 0.25
+MAX_CHILD_SHARE = 0.85
 
 
 def _classify(corners, planes, tol):
@@ -27,20 +45,98 @@ def _classify(corners, planes, tol):
     return front, back
 
 
-def build(world, min_leaf=8, max_depth=24, candidates=16, balance=(0.8, 1.25),
-          straddle_weight=1.0, seed=0, progress=None):
+def side_counts(corners, owner, counts, planes, tol):
+    """Front-only and back-only reference counts of every node against each of its K planes.
+
+    corners : (R, 3, 3) float64 corners of the references, grouped by node (owner sorted)
+    owner   : (R,) int64 node (0..n-1) of each reference, non-decreasing
+    counts  : (n,) int64 references per node (>= 1 each, bincount of owner)
+    planes  : (n, K, 4) float64 candidate planes (unit n, d) of each node
+    returns : front (n, K) int64, back (n, K) int64 as _classify counts them (straddlers =
+              counts - front - back)
+
+    References are packed into fixed-size blocks of one node each (NaN padding classifies as
+    neither side), so one batched (block x 3) @ (3 x K) product replaces a per-reference plane
+    gather; batches bound the memory to SCORE_BATCH distances.
+    """
+    n, k = planes.shape[:2]
+    total = len(owner)
+    block = int(np.clip(2 ** np.floor(np.log2(max(total / max(n, 1) / 2, 1))), 4, 512))
+    nblocks = -(-counts // block)
+    block_first = np.cumsum(nblocks) - nblocks
+    node_first = np.cumsum(counts) - counts
+    rank = np.arange(total) - node_first[owner]
+    slot_block = block_first[owner] + rank // block
+    padded = np.full((int(nblocks.sum()), block, 3, 3), np.nan)
+    padded[slot_block, rank % block] = corners
+    block_node = np.repeat(np.arange(n), nblocks)
+    normals_t = np.ascontiguousarray(planes[..., :3].transpose(0, 2, 1))  # (n, 3, K)
+    low = -planes[..., 3] - tol  # front: n.c >= low for every corner
+    high = -planes[..., 3] + tol  # back: n.c <= high for every corner
+    front_b = np.empty((len(block_node), k), dtype=np.int64)
+    back_b = np.empty_like(front_b)
+    step = max(1, SCORE_BATCH // (block * 3 * k))
+    for s in range(0, len(block_node), step):
+        nodes = block_node[s:s + step]
+        dist = (padded[s:s + step].reshape(len(nodes), block * 3, 3) @ normals_t[nodes])
+        dist = dist.reshape(len(nodes), block, 3, k)
+        lo = np.minimum(np.minimum(dist[:, :, 0], dist[:, :, 1]), dist[:, :, 2])
+        hi = np.maximum(np.maximum(dist[:, :, 0], dist[:, :, 1]), dist[:, :, 2])
+        front = lo >= low[nodes][:, None, :]
+        back = (hi <= high[nodes][:, None, :]) & ~front
+        front_b[s:s + step] = front.sum(axis=1)
+        back_b[s:s + step] = back.sum(axis=1)
+    return (np.add.reduceat(front_b, block_first, axis=0),
+            np.add.reduceat(back_b, block_first, axis=0))
+
+
+def choose(front, back, counts, rule, balance, straddle_weight, min_leaf):
+    """Index of the chosen candidate per node, -1 to stay a leaf.
+
+    front, back : (n, K) int64 side counts (side_counts); counts : (n,) int64
+    rule        : "thesis" (only 0.8 <= h+/h- <= 1.25 splits) or "balanced" (see module doc)
+    min_leaf    : smallest child of a balanced split
+    returns     : (n,) int64 in -1..K-1; lowest score |h+ - h-| + straddle_weight * straddlers
+                  wins, ties to the lowest index
+    """
+    m = counts[:, None]
+    straddle = m - front - back
+    hp, hm = m - back, m - front
+    separates = (front > 0) & (back > 0)  # both children smaller than the node
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = hp / hm
+    in_range = separates & (ratio >= balance[0]) & (ratio <= balance[1])
+    score = np.abs(hp - hm) + float(straddle_weight) * straddle
+    if rule == "thesis":
+        usable = in_range
+    else:
+        big = ((np.minimum(hp, hm) >= min_leaf) & (straddle <= MAX_STRADDLE_SHARE * m)
+               & (np.maximum(hp, hm) <= MAX_CHILD_SHARE * m))
+        usable = np.where((in_range & big).any(axis=1, keepdims=True), in_range & big,
+                          separates & big)
+    score = np.where(usable, score, np.inf)
+    best = np.argmin(score, axis=1)
+    return np.where(np.isfinite(score[np.arange(len(best)), best]), best, -1)
+
+
+def build(world, min_leaf=8, max_depth=32, candidates=64, balance=(0.8, 1.25),
+          straddle_weight=2.0, seed=0, rule="balanced", progress=None):
     """BSP tree; front child = first_child (n.x + d >= 0), back child = first_child + 1.
 
-    min_leaf        : nodes with at most this many references stay leaves
+    min_leaf        : nodes with at most this many references stay leaves; "balanced" also
+                      keeps at least this many in each child of a split
     max_depth       : deepest level
-    candidates      : triangle planes sampled per node (seeded)
-    balance         : (low, high) allowed h+/h- of a split
+    candidates      : triangle planes sampled per node (seeded, with replacement)
+    balance         : (low, high) h+/h- range of a balanced split
     straddle_weight : score = |h+ - h-| + straddle_weight * straddlers, lowest wins
+    rule            : "balanced" (default) or "thesis" (stop when no candidate is in range)
     returns         : Partition; extras split_planes (N, 4) float64 (NaN rows for leaves),
                       node_bounds = AABB of the subtree's referenced triangles
     """
     if int(min_leaf) < 1 or int(max_depth) < 0 or int(candidates) < 1:
         raise ValueError("min_leaf and candidates must be >= 1 and max_depth >= 0")
+    if rule not in RULES:
+        raise ValueError(f"unknown BSP rule {rule!r}; expected one of {', '.join(RULES)}")
     low_ratio, high_ratio = float(balance[0]), float(balance[1])
     rng = np.random.default_rng(int(seed))
     corners_all = world.corners
@@ -70,24 +166,11 @@ def build(world, min_leaf=8, max_depth=24, candidates=16, balance=(0.8, 1.25),
             local[idx] = np.arange(len(idx))
             in_split = local[np.searchsorted(nodes, pair_node)]
             sel = np.flatnonzero(in_split >= 0)
-            hp = np.zeros((len(idx), k), dtype=np.int64)
-            hm = np.zeros_like(hp)
-            st = np.zeros_like(hp)
-            for s in range(0, len(sel), CHUNK):
-                part = sel[s:s + CHUNK]
-                front, back = _classify(corners_all[pair_tri[part]], planes[in_split[part]], tol)
-                straddle = ~front & ~back
-                owner = in_split[part]
-                np.add.at(hp, owner, (front | straddle).astype(np.int64))
-                np.add.at(hm, owner, (back | straddle).astype(np.int64))
-                np.add.at(st, owner, straddle.astype(np.int64))
-            m = count[idx, None]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = hp / hm
-            valid = (hp > 0) & (hm > 0) & (hp < m) & (hm < m) & (ratio >= low_ratio) & (ratio <= high_ratio)
-            score = np.where(valid, np.abs(hp - hm) + float(straddle_weight) * st, np.inf)
-            best = np.argmin(score, axis=1)
-            has = np.isfinite(score[np.arange(len(idx)), best])
+            front, back = side_counts(corners_all[pair_tri[sel]], in_split[sel], count[idx],
+                                      planes, tol)
+            best = choose(front, back, count[idx], rule, (low_ratio, high_ratio),
+                          straddle_weight, int(min_leaf))
+            has = best >= 0
             chosen[idx[has]] = cand_tri[has, best[has]]
         # Leaves: every node of this level without a chosen plane.
         is_leaf = chosen[np.searchsorted(nodes, pair_node)] < 0
@@ -132,7 +215,7 @@ def build(world, min_leaf=8, max_depth=24, candidates=16, balance=(0.8, 1.25),
     split[inner, 3] = plane_d[plane_tri[inner]]
     params = {"min_leaf": int(min_leaf), "max_depth": int(max_depth),
               "candidates": int(candidates), "balance": [low_ratio, high_ratio],
-              "straddle_weight": float(straddle_weight), "seed": int(seed)}
+              "straddle_weight": float(straddle_weight), "seed": int(seed), "rule": rule}
     result, _ = make_partition("bsp", params, world, parent, np.concatenate(leaf_node),
                                np.concatenate(leaf_tri), None,
                                node_extras={"split_planes": split})

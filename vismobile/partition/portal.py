@@ -74,81 +74,93 @@ def _point_segment_sq(px, py, ax, ay, bx, by):
     return ex * ex + ey * ey
 
 
-def face_openings(world, axis, plane, lo_uv, hi_uv, thickness, samples=FACE_SAMPLES):
-    """Open rectangles of one shared face: (Q, 2, 2) float64 [[u0, v0], [u1, v1]] in the face's
-    (axis + 1, axis + 2) coordinates.
+def plane_footprints(corners, axis, plane, thickness):
+    """What each triangle leaves on the plane x[axis] = plane, in the (axis + 1, axis + 2) coords.
 
-    Errs large: each rectangle is an open region's sample box grown by one sample spacing s
-    (openings narrower than about s are missed). A sample is covered when it lies within s/2 of
-    a triangle lying in the plane (within `thickness`) or of the line where a triangle crosses it.
+    corners   : (n, 3, 3) float64
+    returns   : cu, cv (n, 3) float64 corner coordinates on the plane; flat (n,) bool (all
+                corners within thickness of the plane: the triangle lies in it); crossing (n,)
+                bool (corners strictly on both sides); seg (n, 2, 2) float64 [[u0, v0], [u1, v1]]
+                the exact segment where a crossing triangle cuts the plane (zeros elsewhere);
+                box (n, 2, 2) float64 [[u0, v0], [u1, v1]] bounds of the footprint (triangle or
+                segment)
     """
     u_axis, v_axis = (axis + 1) % 3, (axis + 2) % 3
-    size = hi_uv - lo_uv
-    s = max(float(size.max()) / samples, 1e-300)
-    nu, nv = (np.maximum(1, np.ceil(size / s - 1e-9)).astype(int))
-    tb = world.bounds
-    near = np.flatnonzero((tb[:, 0, axis] <= plane + thickness) & (tb[:, 1, axis] >= plane - thickness)
-                          & (tb[:, 0, u_axis] <= hi_uv[0] + s) & (tb[:, 1, u_axis] >= lo_uv[0] - s)
-                          & (tb[:, 0, v_axis] <= hi_uv[1] + s) & (tb[:, 1, v_axis] >= lo_uv[1] - s))
+    h = corners[:, :, axis] - plane
+    cu, cv = corners[:, :, u_axis], corners[:, :, v_axis]
+    flat = (np.abs(h) <= thickness).all(axis=1)
+    crossing = ~flat & (h.min(axis=1) < 0) & (h.max(axis=1) > 0)
+    # Where each edge (0,1), (1,2), (2,0) meets h = 0; the cut is the longest pair of them.
+    hb, ub, vb = (np.roll(x, -1, axis=1) for x in (h, cu, cv))
+    meets = (np.minimum(h, hb) <= 0) & (np.maximum(h, hb) >= 0) & (h != hb)
+    w = np.where(meets, h / np.where(h != hb, h - hb, 1.0), 0.0)
+    pu, pv = cu + w * (ub - cu), cv + w * (vb - cv)
+    pair_a, pair_b = np.array([0, 1, 2]), np.array([1, 2, 0])
+    gap = (pu[:, pair_a] - pu[:, pair_b]) ** 2 + (pv[:, pair_a] - pv[:, pair_b]) ** 2
+    gap = np.where(meets[:, pair_a] & meets[:, pair_b], gap, -1.0)
+    best = np.argmax(gap, axis=1)
+    rows = np.arange(len(h))
+    a, b = pair_a[best], pair_b[best]
+    seg = np.stack([np.stack([pu[rows, a], pv[rows, a]], axis=1),
+                    np.stack([pu[rows, b], pv[rows, b]], axis=1)], axis=1)
+    seg = np.where(crossing[:, None, None], seg, 0.0)
+    box = np.where(flat[:, None, None],
+                   np.stack([np.stack([cu.min(axis=1), cv.min(axis=1)], axis=1),
+                             np.stack([cu.max(axis=1), cv.max(axis=1)], axis=1)], axis=1),
+                   np.stack([seg.min(axis=1), seg.max(axis=1)], axis=1))
+    return cu, cv, flat, crossing, seg, box
+
+
+def _covered(cu, cv, flat, seg, box, lo_uv, s, nu, nv):
+    """(nu, nv) bool samples within s/2 of a footprint (a flat triangle or a crossing segment).
+
+    All footprints at once: each one's sample rectangle (its box grown by s/2) is enumerated
+    with repeat/arange, every sample tested exactly, hits scattered into the mask.
+    """
     covered = np.zeros(nu * nv, dtype=bool)
-    if len(near):
-        c = world.corners[near]
-        h = c[:, :, axis] - plane
-        cu, cv = c[:, :, u_axis], c[:, :, v_axis]
-        flat = (np.abs(h) <= thickness).all(axis=1)
-        # Crossing triangles: the segment where the plane h = 0 cuts them.
-        crossing = ~flat & (h.min(axis=1) < 0) & (h.max(axis=1) > 0)
-        seg = np.zeros((len(near), 2, 2))
-        for t in np.flatnonzero(crossing):  # few per face; clarity over vectorising
-            pts = []
-            for a, b in ((0, 1), (1, 2), (2, 0)):
-                if (h[t, a] < 0) != (h[t, b] < 0) and h[t, a] != h[t, b]:
-                    w = h[t, a] / (h[t, a] - h[t, b])
-                    pts.append((cu[t, a] + w * (cu[t, b] - cu[t, a]), cv[t, a] + w * (cv[t, b] - cv[t, a])))
-                elif h[t, a] == 0:
-                    pts.append((cu[t, a], cv[t, a]))
-            pts = np.array(pts)
-            seg[t] = [pts.min(axis=0), pts.max(axis=0)] if len(pts) < 2 else [pts[0], pts[-1]]
-        use = np.flatnonzero(flat | crossing)
-        # Sample rectangle of each triangle's footprint, grown by s/2.
-        fu0 = np.where(flat, cu.min(axis=1), np.minimum(seg[:, 0, 0], seg[:, 1, 0]))[use]
-        fu1 = np.where(flat, cu.max(axis=1), np.maximum(seg[:, 0, 0], seg[:, 1, 0]))[use]
-        fv0 = np.where(flat, cv.min(axis=1), np.minimum(seg[:, 0, 1], seg[:, 1, 1]))[use]
-        fv1 = np.where(flat, cv.max(axis=1), np.maximum(seg[:, 0, 1], seg[:, 1, 1]))[use]
-        i0 = np.clip(np.floor((fu0 - lo_uv[0]) / s - 1).astype(int), 0, nu - 1)
-        i1 = np.clip(np.ceil((fu1 - lo_uv[0]) / s).astype(int), 0, nu - 1)
-        j0 = np.clip(np.floor((fv0 - lo_uv[1]) / s - 1).astype(int), 0, nv - 1)
-        j1 = np.clip(np.ceil((fv1 - lo_uv[1]) / s).astype(int), 0, nv - 1)
-        span_i, span_j = i1 - i0 + 1, j1 - j0 + 1
-        total = span_i * span_j
-        owner = np.repeat(np.arange(len(use)), total)
-        local = np.arange(total.sum()) - np.repeat(np.cumsum(total) - total, total)
-        si = i0[owner] + local // span_j[owner]
-        sj = j0[owner] + local % span_j[owner]
-        pu = lo_uv[0] + (si + 0.5) * s
-        pv = lo_uv[1] + (sj + 0.5) * s
-        tri = use[owner]
-        reach = (0.5 * s) ** 2
-        hit = np.zeros(len(owner), dtype=bool)
-        is_flat = flat[tri]
-        ft = np.flatnonzero(is_flat)
-        if len(ft):
-            t = tri[ft]
-            x, y = pu[ft], pv[ft]
-            d0 = (cu[t, 1] - cu[t, 0]) * (y - cv[t, 0]) - (cv[t, 1] - cv[t, 0]) * (x - cu[t, 0])
-            d1 = (cu[t, 2] - cu[t, 1]) * (y - cv[t, 1]) - (cv[t, 2] - cv[t, 1]) * (x - cu[t, 1])
-            d2 = (cu[t, 0] - cu[t, 2]) * (y - cv[t, 2]) - (cv[t, 0] - cv[t, 2]) * (x - cu[t, 2])
-            inside = ((d0 >= 0) & (d1 >= 0) & (d2 >= 0)) | ((d0 <= 0) & (d1 <= 0) & (d2 <= 0))
-            dist = np.minimum.reduce([_point_segment_sq(x, y, cu[t, a], cv[t, a], cu[t, b], cv[t, b])
-                                      for a, b in ((0, 1), (1, 2), (2, 0))])
-            hit[ft] = inside | (dist <= reach)
-        st = np.flatnonzero(~is_flat)
-        if len(st):
-            t = tri[st]
-            hit[st] = _point_segment_sq(pu[st], pv[st], seg[t, 0, 0], seg[t, 0, 1],
-                                        seg[t, 1, 0], seg[t, 1, 1]) <= reach
-        covered[(si * nv + sj)[hit]] = True
-    labels = _components(~covered.reshape(nu, nv))
+    if not len(flat):
+        return covered.reshape(nu, nv)
+    i0 = np.clip(np.floor((box[:, 0, 0] - lo_uv[0]) / s - 1).astype(np.int64), 0, nu - 1)
+    i1 = np.clip(np.ceil((box[:, 1, 0] - lo_uv[0]) / s).astype(np.int64), 0, nu - 1)
+    j0 = np.clip(np.floor((box[:, 0, 1] - lo_uv[1]) / s - 1).astype(np.int64), 0, nv - 1)
+    j1 = np.clip(np.ceil((box[:, 1, 1] - lo_uv[1]) / s).astype(np.int64), 0, nv - 1)
+    span_j = j1 - j0 + 1
+    total = (i1 - i0 + 1) * span_j
+    tri = np.repeat(np.arange(len(flat)), total)
+    local = np.arange(int(total.sum())) - np.repeat(np.cumsum(total) - total, total)
+    si = i0[tri] + local // span_j[tri]
+    sj = j0[tri] + local % span_j[tri]
+    pu = lo_uv[0] + (si + 0.5) * s
+    pv = lo_uv[1] + (sj + 0.5) * s
+    reach = (0.5 * s) ** 2
+    hit = np.zeros(len(tri), dtype=bool)
+    is_flat = flat[tri]
+    ft = np.flatnonzero(is_flat)
+    if len(ft):
+        t = tri[ft]
+        x, y = pu[ft], pv[ft]
+        u, v = cu[t], cv[t]
+        d = [(u[:, b] - u[:, a]) * (y - v[:, a]) - (v[:, b] - v[:, a]) * (x - u[:, a])
+             for a, b in ((0, 1), (1, 2), (2, 0))]
+        inside = (((d[0] >= 0) & (d[1] >= 0) & (d[2] >= 0))
+                  | ((d[0] <= 0) & (d[1] <= 0) & (d[2] <= 0)))
+        dist = np.minimum.reduce([_point_segment_sq(x, y, u[:, a], v[:, a], u[:, b], v[:, b])
+                                  for a, b in ((0, 1), (1, 2), (2, 0))])
+        hit[ft] = inside | (dist <= reach)
+    st = np.flatnonzero(~is_flat)
+    if len(st):
+        t = tri[st]
+        hit[st] = _point_segment_sq(pu[st], pv[st], seg[t, 0, 0], seg[t, 0, 1],
+                                    seg[t, 1, 0], seg[t, 1, 1]) <= reach
+    covered[(si * nv + sj)[hit]] = True
+    return covered.reshape(nu, nv)
+
+
+def _open_rectangles(covered, lo_uv, hi_uv, s):
+    """(Q, 2, 2) float64 boxes of the 4-connected open regions of a coverage mask, each grown by
+    one sample spacing and clipped to the face."""
+    nu, nv = covered.shape
+    labels = _components(~covered)
     found = np.unique(labels[labels >= 0])
     if not len(found):
         return np.zeros((0, 2, 2))
@@ -166,9 +178,50 @@ def face_openings(world, axis, plane, lo_uv, hi_uv, thickness, samples=FACE_SAMP
     return np.stack([np.maximum(lo, lo_uv), np.minimum(hi, hi_uv)], axis=1)
 
 
+def _face_grid(lo_uv, hi_uv, samples):
+    """Sample spacing s and sample counts (nu, nv) of a face: `samples` along its longer side."""
+    size = hi_uv - lo_uv
+    s = max(float(size.max()) / samples, 1e-300)
+    nu, nv = (np.maximum(1, np.ceil(size / s - 1e-9)).astype(int))
+    return s, int(nu), int(nv)
+
+
+def _openings(footprints, lo_uv, hi_uv, samples):
+    """face_openings for footprints (plane_footprints) of the triangles touching the plane."""
+    cu, cv, flat, crossing, seg, box = footprints
+    s, nu, nv = _face_grid(lo_uv, hi_uv, samples)
+    use = np.flatnonzero((flat | crossing)
+                         & (box[:, 0, 0] <= hi_uv[0] + s) & (box[:, 1, 0] >= lo_uv[0] - s)
+                         & (box[:, 0, 1] <= hi_uv[1] + s) & (box[:, 1, 1] >= lo_uv[1] - s))
+    covered = _covered(cu[use], cv[use], flat[use], seg[use], box[use], lo_uv, s, nu, nv)
+    return _open_rectangles(covered, lo_uv, hi_uv, s)
+
+
+def _touching(world, axis, plane, thickness):
+    """(n,) int64 ids of triangles whose AABB reaches within thickness of x[axis] = plane."""
+    tb = world.bounds
+    return np.flatnonzero((tb[:, 0, axis] <= plane + thickness) & (tb[:, 1, axis] >= plane - thickness))
+
+
+def face_openings(world, axis, plane, lo_uv, hi_uv, thickness, samples=FACE_SAMPLES):
+    """Open rectangles of one shared face: (Q, 2, 2) float64 [[u0, v0], [u1, v1]] in the face's
+    (axis + 1, axis + 2) coordinates.
+
+    Errs large: each rectangle is an open region's sample box grown by one sample spacing s
+    (openings narrower than about s are missed). A sample is covered when it lies within s/2 of
+    a triangle lying in the plane (within `thickness`) or of the line where a triangle crosses it.
+    """
+    lo_uv, hi_uv = np.asarray(lo_uv, dtype=np.float64), np.asarray(hi_uv, dtype=np.float64)
+    near = _touching(world, axis, plane, thickness)
+    footprints = plane_footprints(world.vertices[world.triangles[near]], axis, plane, thickness)
+    return _openings(footprints, lo_uv, hi_uv, samples)
+
+
 def find_portals(world, edges, thickness, samples=FACE_SAMPLES):
     """Portals between face-adjacent cells of the grid `edges`.
 
+    Footprints are computed once per interior grid plane; the faces of that plane (a loop over
+    cell faces, tens to a few hundred) each rasterise only the footprints reaching them.
     returns : portal_cells (P, 2) int32 (low cell, high cell along the face axis),
               portal_start (P + 1,) int64, portal_vertices (4P, 3) float64 rectangles wound
               so their right-hand normal points from portal_cells[:, 0] to portal_cells[:, 1]
@@ -178,12 +231,16 @@ def find_portals(world, edges, thickness, samples=FACE_SAMPLES):
     for axis in range(3):
         u_axis, v_axis = (axis + 1) % 3, (axis + 2) % 3
         for b in range(1, shape[axis]):
+            plane = edges[axis][b]
+            near = _touching(world, axis, plane, thickness)
+            footprints = plane_footprints(world.vertices[world.triangles[near]], axis, plane,
+                                          thickness)
             for iu in range(shape[u_axis]):
                 for iv in range(shape[v_axis]):
-                    lo_uv = np.array([edges[u_axis][iu], edges[v_axis][iv]])
-                    hi_uv = np.array([edges[u_axis][iu + 1], edges[v_axis][iv + 1]])
-                    rects = face_openings(world, axis, edges[axis][b], lo_uv, hi_uv,
-                                          thickness, samples)
+                    lo_uv = np.array([edges[u_axis][iu], edges[v_axis][iv]], dtype=np.float64)
+                    hi_uv = np.array([edges[u_axis][iu + 1], edges[v_axis][iv + 1]],
+                                     dtype=np.float64)
+                    rects = _openings(footprints, lo_uv, hi_uv, samples)
                     if not len(rects):
                         continue
                     idx = [0, 0, 0]
@@ -191,13 +248,12 @@ def find_portals(world, edges, thickness, samples=FACE_SAMPLES):
                     low = np.ravel_multi_index(idx, shape)
                     idx[axis] = b
                     high = np.ravel_multi_index(idx, shape)
-                    for r in rects:
-                        quad = np.zeros((4, 3))
-                        quad[:, axis] = edges[axis][b]
-                        quad[:, u_axis] = [r[0, 0], r[1, 0], r[1, 0], r[0, 0]]
-                        quad[:, v_axis] = [r[0, 1], r[0, 1], r[1, 1], r[1, 1]]
-                        cells.append((low, high))
-                        polys.append(quad)
+                    quads = np.zeros((len(rects), 4, 3))
+                    quads[:, :, axis] = plane
+                    quads[:, :, u_axis] = rects[:, [0, 1, 1, 0], 0]
+                    quads[:, :, v_axis] = rects[:, [0, 0, 1, 1], 1]
+                    cells.extend([(low, high)] * len(rects))
+                    polys.append(quads.reshape(-1, 3))
     count = len(cells)
     portal_cells = np.array(cells, dtype=np.int32).reshape(count, 2)
     vertices = np.concatenate(polys) if polys else np.zeros((0, 3))
