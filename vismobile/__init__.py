@@ -23,6 +23,8 @@ _EXPORTS = {
     "load_partition": "vismobile.partition",
     "Culler": "vismobile.culling",
     "Profile": "vismobile.profile",
+    "AdaptiveCuller": "vismobile.culling.adaptive",
+    "tune": "vismobile.study.tune",
 }
 
 __all__ = sorted(_EXPORTS)

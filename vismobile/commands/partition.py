@@ -18,8 +18,10 @@ def add_parser(sub):
     parser.add_argument("--auto", action="store_true", help="grid/portal: automatic cells")
     parser.add_argument("--cells", type=int, help="grid/portal --auto: target cell count")
     parser.add_argument("--min-leaf", type=int, default=8, help="bsp: smallest splittable node")
-    parser.add_argument("--max-depth", type=int, default=24, help="bsp: deepest level")
-    parser.add_argument("--candidates", type=int, default=16, help="bsp: planes tried per node")
+    parser.add_argument("--max-depth", type=int, default=32, help="bsp: deepest level")
+    parser.add_argument("--candidates", type=int, default=64, help="bsp: planes tried per node")
+    parser.add_argument("--rule", choices=("balanced", "thesis"), default="balanced",
+                        help="bsp: 'thesis' stops when no split has h+/h- in [0.8, 1.25]")
     parser.add_argument("--seed", type=int, default=0, help="bsp: candidate sampling seed")
     return parser
 
@@ -61,7 +63,7 @@ def run(args) -> int:
                 params["cells"] = args.cells
         if kind == "bsp":
             params.update(min_leaf=args.min_leaf, max_depth=args.max_depth,
-                          candidates=args.candidates, seed=args.seed)
+                          candidates=args.candidates, seed=args.seed, rule=args.rule)
         bar = Progress(f"{kind} {args.world.name}")
         start = time.perf_counter()
         try:

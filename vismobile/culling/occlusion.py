@@ -3,43 +3,52 @@ Culling (Hasselgren, Andersson, Akenine-Moller 2016) and the hierarchical Z-buff
 
 OpenGL ES 1.1 has no occlusion queries and no depth readback, so all of this runs on the CPU.
 Each frame:
-1. Occluders: the largest triangles of the world (precomputed candidates) that face the eye,
-   grouped by plane; groups ranked by their best member's estimated solid angle
-   A |n.d| / |d|^3 (d from the eye to the centroid), taken whole within a triangle budget.
-   Any front-facing world triangle is opaque in the final image (with or without
-   GL_CULL_FACE), so this needs no frame history.
-2. They are clipped to the near plane and each coplanar group is rasterised shrunk as one
-   union (a pixel only when wholly inside; shared edges leave no cracks), writing the farthest
-   depth over the pixel (geometry/raster.py), then a max pyramid.
-3. Node boxes are tested: hidden when the box is in front of no part of the occluders, i.e. its
-   nearest depth is beyond the pyramid's max over a superset of its screen rectangle.
-   Visible inner nodes whose rectangle touches covered pixels are expanded and retested.
-4. The boxes of the triangles gathered from the surviving nodes get the same test.
+1. Occluders: the world's largest triangles (precomputed pool) that face the eye and reach the
+   frustum, ranked by estimated solid angle A |n.d| / |d|^3 (d eye to centroid), best
+   `occluders` taken. Any front-facing world triangle is opaque in the final image (with or
+   without GL_CULL_FACE), so this needs no frame history.
+2. They are clipped to the near plane and rasterised as one UNION (geometry/raster.py): a pixel
+   is covered only when wholly inside it; edges are split at T-junctions beforehand, so shared
+   edges, creases and T-junctions leave no cracks. Each covered pixel holds a depth bound >=
+   the nearest occluder's depth everywhere over it. A sparse table answers exact
+   "max depth over a pixel rectangle" queries.
+3. Node boxes are tested: hidden when the box's nearest depth is beyond that maximum over its
+   screen rectangle (plus the 24-bit depth buffer's resolution there), or the rectangle is off
+   screen with the box in front. Visible inner nodes touching covered pixels are expanded.
+4. Each triangle gathered from the surviving nodes gets the same test with its own vertices.
 Contract: never drops a triangle that the full world's item buffer shows (any resolution).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.raster import (box_rects, clip_near, fused_occluder_depth, pyramid, rect_query,
-                               to_camera)
+from ..geometry.raster import (box_rects, max_table, point_rects, rect_max, split_edges,
+                               to_camera, union_depth)
+from ..partition.base import gather_ranges
 from .state import CullState
 from .tree import Tree
+
+# Depth margin in units of z^2 / near: the GPU's 24-bit depth buffer resolves z^2 / near * 2^-24
+# (window depth 1 - near / z); 64x that keeps z-fighting pairs visible.
+ZBUFFER_MARGIN = 2.0 ** -18
+# Occluders seen more edge-on than this (|cos| of the view angle) are skipped: their projected
+# winding would be unreliable.
+GRAZING = 1e-6
 
 
 class DepthBufferOcclusion:
     """`occlusion`: software depth buffer occlusion culling; refines state.nodes.
 
     width, height : depth buffer size in pixels (default 60 x 80, a quarter of 240 x 320)
-    occluders     : budget of triangles rasterised per frame (whole coplanar groups)
+    occluders     : triangles rasterised per frame (the best by estimated solid angle)
     candidates    : size of the precomputed pool of largest triangles they are chosen from
-    triangles     : also test each surviving triangle's box (a filter after the node pass)
+    triangles     : also test each surviving triangle (a filter after the node pass)
     """
 
     name = "occlusion"
     cost = 50
 
-    def __init__(self, width: int = 60, height: int = 80, occluders: int = 256,
+    def __init__(self, width: int = 60, height: int = 80, occluders: int = 512,
                  candidates: int = 16384, triangles: bool = True):
         self.width, self.height = int(width), int(height)
         self.occluders, self.candidates = int(occluders), int(candidates)
@@ -53,21 +62,28 @@ class DepthBufferOcclusion:
         world = tree.world
         count = min(self.candidates, world.triangle_count)
         pool = np.argsort(-world.areas, kind="stable")[:count]
+        pool = pool[world.areas[pool] > 0]
         self.pool = pool
-        self.pool_corners = world.corners[pool]
         self.pool_normals = world.normals[pool]
         self.pool_areas = world.areas[pool]
         self.pool_centroids = world.centroids[pool]
-        # Coplanar groups (same rounded plane) are rasterised as one union, without cracks.
-        offset = np.einsum("ij,ij->i", self.pool_normals, self.pool_corners[:, 0])
-        key = np.column_stack([np.round(self.pool_normals, 6),
-                               np.round(offset / max(tree.scale, 1e-300), 9)])
-        _, self.pool_group = np.unique(key, axis=0, return_inverse=True)
-        self.pool_group = self.pool_group.ravel()
+        corners = world.corners[pool]
+        self.pool_corners = corners
+        # Each point once, so shared corners project to bit-identical values.
+        self.points, index = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
+        self.pool_tri = index.reshape(-1, 3)
+        tri, a, b = split_edges(self.points, self.pool_tri)
+        self.piece_a, self.piece_b, self.piece_tri = a, b, tri
+        self.piece_start = np.searchsorted(tri, np.arange(len(pool)), "left")
+        self.piece_end = np.searchsorted(tri, np.arange(len(pool)), "right")
+        # Planes by exact value: a group's members share one plane equation bit for bit.
+        self.pool_offset = np.einsum("ij,ij->i", self.pool_normals, corners[:, 0])
+        key = np.column_stack([self.pool_normals, self.pool_offset])
+        _, group = np.unique(key, axis=0, return_inverse=True)
+        self.pool_group = group.ravel()
 
     def select(self, camera) -> np.ndarray:
-        """(K,) int64 positions in the pool of this frame's occluders: whole coplanar groups,
-        best group (largest member solid angle) first, until `occluders` triangles."""
+        """(K,) int64 positions in the pool of this frame's occluders, best first."""
         eye = camera.eye
         d = self.pool_centroids - eye
         dist2 = np.einsum("ij,ij->i", d, d)
@@ -75,30 +91,38 @@ class DepthBufferOcclusion:
         planes = camera.frustum_planes()
         dist = self.pool_corners @ planes[:, :3].T + planes[:, 3]  # (K, 3, 6)
         in_frustum = ~(dist < 0).all(axis=1).any(axis=1)
-        usable = (facing > 0) & in_frustum
-        score = np.where(usable, self.pool_areas * facing / np.maximum(dist2, 1e-300) ** 1.5, 0.0)
-        groups = self.pool_group
-        best = np.zeros(groups.max() + 1 if len(groups) else 0)
-        np.maximum.at(best, groups, score)
-        sizes = np.bincount(groups[usable], minlength=len(best))
-        order = np.argsort(-best, kind="stable")
-        order = order[best[order] > 0]
-        take = order[(np.cumsum(sizes[order]) <= self.occluders)
-                     | (np.arange(len(order)) < 4)]  # the 4 best groups in any case
-        chosen = np.zeros(len(best), dtype=bool)
-        chosen[take] = True
-        return np.flatnonzero(chosen[groups] & usable)
+        usable = (facing > GRAZING * np.sqrt(dist2)) & in_frustum
+        score = np.where(usable, self.pool_areas * facing / np.maximum(dist2 ** 1.5, 1e-300),
+                         0.0)
+        good = np.flatnonzero(usable)
+        if len(good) > self.occluders:
+            good = good[np.argpartition(-score[good], self.occluders - 1)[:self.occluders]]
+        return good[np.argsort(-score[good], kind="stable")]
 
     def depth_buffer(self, camera) -> tuple:
         """(H, W) occluder depth buffer for the camera, and the number of occluders drawn."""
         right, up, forward = camera.basis()
         rotation = np.stack([right, up, forward])
         chosen = self.select(camera)
-        tris, source = clip_near(to_camera(self.pool_corners[chosen], camera.eye, rotation),
-                                 camera.near, with_source=True)
+        if not len(chosen):
+            return np.full((self.height, self.width), np.inf), 0
+        pieces = gather_ranges(np.arange(len(self.piece_tri)), self.piece_start[chosen],
+                               self.piece_end[chosen])
+        local = np.full(len(self.pool), -1, dtype=np.int64)
+        local[chosen] = np.arange(len(chosen))
+        used, remap = np.unique(self.pool_tri[chosen], return_inverse=True)
+        where = np.full(len(self.points), -1, dtype=np.int64)
+        where[used] = np.arange(len(used))
+        points = to_camera(self.points[used], camera.eye, rotation)
+        # Camera-space planes n.x = d, d > 0 (n away from the eye), from the exact world planes.
+        n = -self.pool_normals[chosen] @ rotation.T
+        d = self.pool_normals[chosen] @ camera.eye - self.pool_offset[chosen]
         ty = np.tan(np.radians(camera.fov) / 2.0)
-        buffer = fused_occluder_depth(tris, self.pool_group[chosen][source], self.width,
-                                      self.height, ty * camera.aspect, ty)
+        buffer = union_depth(points, remap.reshape(-1, 3),
+                             (local[self.piece_tri[pieces]], where[self.piece_a[pieces]],
+                              where[self.piece_b[pieces]]),
+                             self.pool_group[chosen], np.column_stack([n, d]), camera.near,
+                             ty * camera.aspect, ty, self.width, self.height)
         return buffer, len(chosen)
 
     def apply(self, state: CullState) -> None:
@@ -110,20 +134,24 @@ class DepthBufferOcclusion:
         state.count(f"{self.name}.pixels_covered", covered.sum())
         if not covered.any():
             return
-        far_pyr, near_pyr = pyramid(buffer, np.maximum), pyramid(buffer, np.minimum)
+        table = max_table(buffer)
+        area = np.zeros((self.height + 1, self.width + 1), dtype=np.int64)
+        area[1:, 1:] = covered.cumsum(axis=0).cumsum(axis=1)
         right, up, forward = camera.basis()
         rotation = np.stack([right, up, forward])
         ty = np.tan(np.radians(camera.fov) / 2.0)
         tx = ty * camera.aspect
+        margin = ZBUFFER_MARGIN / camera.near
         active = state.nodes
         kept, visited, hidden_count = [], 0, 0
         while len(active):
             x0, x1, y0, y1, zmin, testable = box_rects(
                 tree.node_bounds[active], camera.eye, rotation, camera.near, tx, ty,
                 self.width, self.height)
-            far = rect_query(far_pyr, x0, x1, y0, y1, np.max)
-            hidden = testable & (zmin > far)
-            touches = ~testable | (rect_query(near_pyr, x0, x1, y0, y1, np.min) < np.inf)
+            far = rect_max(table, x0, x1, y0, y1)
+            hidden = testable & (zmin > far + margin * far * far)
+            touches = ~testable | (area[y1 + 1, x1 + 1] - area[y0, x1 + 1] - area[y1 + 1, x0]
+                                   + area[y0, x0] > 0)
             visited += len(active)
             hidden_count += int(hidden.sum())
             grow = ~hidden & touches & (tree.child_count[active] > 0)
@@ -135,19 +163,22 @@ class DepthBufferOcclusion:
         state.count(f"{self.name}.nodes_tested", visited)
         state.count(f"{self.name}.nodes_culled", hidden_count)
         if self.triangles:
-            state.filters.append(self._triangle_filter(state, far_pyr, rotation, tx, ty))
+            state.filters.append(self._triangle_filter(state, table, rotation, tx, ty, margin))
 
-    def _triangle_filter(self, state, far_pyr, rotation, tx, ty):
-        """Per-reference test of each surviving triangle's box against the same buffer."""
+    def _triangle_filter(self, state, table, rotation, tx, ty, margin):
+        """Per-reference test of each surviving triangle against the same buffer: hidden when in
+        front of the near plane and either off screen or behind the buffer over its rectangle."""
         world, camera = self.tree.world, state.camera
 
         def keep_of(ids):
-            x0, x1, y0, y1, zmin, testable = box_rects(
-                world.bounds[ids], camera.eye, rotation, camera.near, tx, ty,
-                self.width, self.height)
-            hidden = testable & (zmin > rect_query(far_pyr, x0, x1, y0, y1, np.max))
+            ids, back = np.unique(ids, return_inverse=True)
+            cam = to_camera(world.corners[ids], camera.eye, rotation)
+            x0, x1, y0, y1, zmin, testable, onscreen = point_rects(
+                cam, camera.near, tx, ty, self.width, self.height)
+            far = rect_max(table, x0, x1, y0, y1)
+            hidden = testable & (~onscreen | (zmin > far + margin * far * far))
             state.count("triangles_tested", len(ids))
-            state.count(f"{self.name}.refs_culled", hidden.sum())
-            return ~hidden
+            state.count(f"{self.name}.triangles_culled", hidden.sum())
+            return ~hidden[back.ravel()]
 
         return keep_of

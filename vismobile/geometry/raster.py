@@ -1,10 +1,18 @@
-"""Screen projection and a conservative low-resolution depth buffer (occluders shrunk, never
-grown), with a max/min pyramid for rectangle queries, after Greene's hierarchical Z-buffer and
-Intel's Masked Occlusion Culling (Hasselgren et al. 2016).
+"""Screen projection and a conservative low-resolution occluder depth buffer: coverage of the
+UNION of the occluders (not of each triangle alone), so shared edges, creases and T-junctions
+leave no cracks, after Intel's Masked Occlusion Culling (Hasselgren et al. 2016), with a sparse
+table for exact "max depth over a pixel rectangle" queries (in place of Greene's pyramid).
 
 Camera space here: x right, y up, z = depth along the view direction (positive in front).
-NDC: u = x / (z tx), v = y / (z ty) with tx, ty the tangents of the half fields of view;
-pixel (i, j) of a W x H buffer covers u in [-1 + 2i/W, -1 + 2(i+1)/W], likewise v with j and H.
+NDC: u = x / (z tx), v = y / (z ty) with tx, ty the tangents of the half fields of view.
+Pixel coordinates: px = (u + 1) W / 2, py = (v + 1) H / 2; pixel (i, j) is [i, i+1] x [j, j+1].
+
+Why the union is covered: a pixel rectangle P lies inside a union U of triangles when its centre
+is in U and no piece of U's boundary meets P (else the segment from the centre to a point of P
+outside U would cross the boundary inside P). The boundary lies on the triangles' edges minus
+the edge pieces that have triangles on both sides; edges are split where another occluder's
+vertex lies on them (T-junctions), so pieces match exactly by vertex index. "Centre in U" is a
+nonzero winding number of the same chain of edges.
 """
 from __future__ import annotations
 
@@ -12,8 +20,8 @@ import numpy as np
 
 from .boxes import box_corners
 
-EDGE_SLACK = 1e-9   # relative slack on edge functions: pixels on a triangle edge stay uncovered
-DEPTH_SLACK = 1e-9  # relative slack on depths: occluders pushed back, boxes pulled forward
+SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
+DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
 
 
 def to_camera(points, eye, rotation) -> np.ndarray:
@@ -24,137 +32,339 @@ def to_camera(points, eye, rotation) -> np.ndarray:
     return (np.asarray(points, dtype=np.float64) - eye) @ np.asarray(rotation).T
 
 
-def clip_near(triangles, near: float, with_source: bool = False):
-    """(K', 3, 3) float64 pieces of camera-space triangles with depth >= near (Sutherland-Hodgman,
-    fan-split quads); exact: the pieces cover exactly the part of each triangle in front.
+def split_edges(vertices, triangles) -> tuple:
+    """Directed edge pieces of triangles, each edge split at every vertex lying exactly on it
+    (axis-parallel edges; others are left whole): (tri (S,) int64, a (S,) int64, b (S,) int64).
 
-    triangles   : (K, 3, 3) float64 camera-space corners
-    with_source : also return (K',) int64 the index of each piece's triangle
+    Exact: pieces a -> b follow each triangle's winding and cover exactly its edges; a vertex
+    is a split point only when it matches the edge's two fixed coordinates bit for bit.
+    vertices  : (V, 3) float64 unique points;  triangles : (T, 3) int64 indices into vertices
     """
-    tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
-    if not len(tri):
-        return (tri, np.zeros(0, dtype=np.int64)) if with_source else tri
-    z = tri[:, :, 2]
-    inside = z >= near
-    nxt = np.roll(tri, -1, axis=1)
-    crossing = inside != np.roll(inside, -1, axis=1)
-    # Cut every edge from its nearer endpoint, so an edge shared by two triangles is cut at
-    # bit-identical points from both sides (fused occluders cancel shared edges by value).
-    first = z <= nxt[..., 2]
-    a = np.where(first[..., None], tri, nxt)
-    b = np.where(first[..., None], nxt, tri)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(crossing, (near - a[..., 2]) / (b[..., 2] - a[..., 2]), 0.0)
-    cut = a + t[..., None] * (b - a)
-    cut[..., 2] = np.where(crossing, near, cut[..., 2])
-    # Slots 2i (vertex i) and 2i+1 (edge i's crossing), compacted to the front of each row.
-    slots = np.stack([tri, cut], axis=2).reshape(-1, 6, 3)
-    valid = np.stack([inside, crossing], axis=2).reshape(-1, 6)
-    order = np.argsort(~valid, axis=1, kind="stable")[:, :4]
-    poly = np.take_along_axis(slots, order[..., None], axis=1)  # (K, 4, 3)
-    count = valid.sum(axis=1)
-    pieces = np.concatenate([poly[count >= 3][:, [0, 1, 2]], poly[count == 4][:, [0, 2, 3]]])
-    if with_source:
-        source = np.concatenate([np.flatnonzero(count >= 3), np.flatnonzero(count == 4)])
-        return pieces, source
-    return pieces
+    v = np.asarray(vertices, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    ea, eb = tri.ravel(), np.roll(tri, -1, axis=1).ravel()  # edge k of triangle t at 3t + k
+    owner = np.repeat(np.arange(len(tri)), 3)
+    splits_e, splits_p = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for axis in range(3):
+        o1, o2 = [k for k in range(3) if k != axis]
+        edges = np.flatnonzero((v[ea, o1] == v[eb, o1]) & (v[ea, o2] == v[eb, o2])
+                               & (v[ea, axis] != v[eb, axis]))
+        if not len(edges):
+            continue
+        # Lines keyed by their two fixed coordinates; split points strictly inside each edge.
+        keys = np.concatenate([v[:, [o1, o2]], v[ea[edges]][:, [o1, o2]]])
+        _, line = np.unique(keys, axis=0, return_inverse=True)
+        line = line.ravel()
+        vline, eline = line[:len(v)], line[len(v):]
+        coords = np.unique(v[:, axis])
+        rank = np.searchsorted(coords, v[:, axis])
+        lo = np.minimum(v[ea[edges], axis], v[eb[edges], axis])
+        hi = np.maximum(v[ea[edges], axis], v[eb[edges], axis])
+        step = len(coords) + 1
+        vkey = vline * step + rank
+        order = np.argsort(vkey, kind="stable")
+        start = np.searchsorted(vkey[order], eline * step + np.searchsorted(coords, lo), "right")
+        stop = np.searchsorted(vkey[order], eline * step + np.searchsorted(coords, hi), "left")
+        count = np.maximum(stop - start, 0)
+        if not count.sum():
+            continue
+        first = np.repeat(start - np.concatenate([[0], np.cumsum(count)[:-1]]), count)
+        splits_p.append(order[first + np.arange(count.sum())])
+        splits_e.append(np.repeat(edges, count))
+    e, p = np.concatenate(splits_e), np.concatenate(splits_p)
+    # Order split points along each edge from a to b, then chain a -> p1 -> ... -> b.
+    along = np.einsum("ij,ij->i", v[p] - v[ea[e]], v[eb[e]] - v[ea[e]])
+    order = np.lexsort((along, e))
+    e, p = e[order], p[order]
+    counts = np.bincount(e, minlength=len(ea))
+    total = len(ea) + len(p)
+    slot = np.arange(len(ea)) + np.concatenate([[0], np.cumsum(counts)[:-1]])  # first piece
+    points = np.empty(total + len(ea), dtype=np.int64)  # per edge: a, splits..., then b
+    pos = slot + np.arange(len(ea))
+    points[pos] = ea
+    inner = np.repeat(pos, counts) + 1 + (np.arange(len(p)) - np.repeat(
+        np.concatenate([[0], np.cumsum(counts)[:-1]]), counts))
+    points[inner] = p
+    points[pos + counts + 1] = eb
+    is_start = np.ones(total + len(ea), dtype=bool)
+    is_start[pos + counts + 1] = False  # b ends its edge's chain
+    starts = np.flatnonzero(is_start)
+    piece_edge = np.repeat(np.arange(len(ea)), counts + 1)
+    return owner[piece_edge], points[starts], points[starts + 1]
 
 
-def occluder_depth(triangles, width: int, height: int, tx: float, ty: float,
-                   chunk: int = 32) -> np.ndarray:
-    """(H, W) float64 depth buffer: for each pixel, the smallest over triangles covering the whole
-    pixel of that triangle's largest depth over the pixel; inf where no triangle covers it.
+def union_depth(points, triangles, pieces, groups, planes, near: float, tx: float, ty: float,
+                width: int, height: int) -> np.ndarray:
+    """(H, W) float64 depth bound of a set of occluder triangles: a pixel is finite only when
+    wholly inside their union (clipped to depth >= near), and then holds a depth >= the nearest
+    occluder's depth at every point of the pixel; inf elsewhere.
 
-    Errs toward "not covered" and "farther": a pixel counts only when its four corners are inside
-    the triangle by a relative margin EDGE_SLACK (shrunk, never grown), and the depth written is
-    the maximum of the triangle's plane over the pixel (1/z is affine in NDC, so it is taken at a
-    corner) times (1 + DEPTH_SLACK).
-    triangles : (K, 3, 3) float64 camera-space corners, every depth > 0 (clip_near them first)
+    Errs toward "not covered" (boundaries grown by SLACK_PX) and "farther" (x (1 + DEPTH_SLACK)).
+    Depth: within a group of triangles sharing one plane, that plane's farthest point over the
+    pixel where the group's union covers it; where only the union of all groups covers it (a
+    crease or T-junction between groups), the largest over every occluder whose rectangle meets
+    the pixel of its farthest point there (plane over the pixel, capped by its farthest vertex).
+    points    : (P, 3) float64 camera-space vertices (each point once: shared values stay exact)
+    triangles : (K, 3) int64 indices into points; they must face the eye
+    pieces    : (tri (S,), a (S,), b (S,)) int64 directed edge pieces (split_edges), tri in [0, K)
+    groups    : (K,) int64 plane label; triangles with one label lie on one plane
+    planes    : (K, 4) float64 camera-space planes (n, d) with n.x = d on the triangle, d > 0
     """
-    tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    pts = np.asarray(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    seg_tri, ia, ib = (np.asarray(x, dtype=np.int64) for x in pieces)
     buffer = np.full((height, width), np.inf)
-    us = -1.0 + 2.0 * np.arange(width + 1) / width
-    vs = -1.0 + 2.0 * np.arange(height + 1) / height
-    for begin in range(0, len(tri), chunk):
-        part = tri[begin:begin + chunk]
-        z = part[:, :, 2]
-        u, v = part[:, :, 0] / (z * tx), part[:, :, 1] / (z * ty)  # (k, 3)
-        area = (u[:, 1] - u[:, 0]) * (v[:, 2] - v[:, 0]) - (u[:, 2] - u[:, 0]) * (v[:, 1] - v[:, 0])
-        keep = np.abs(area) > 1e-12
-        if not keep.any():
-            continue
-        part, u, v, area = part[keep], u[keep], v[keep], area[keep]
-        flip = area < 0  # make every triangle counter-clockwise in NDC
-        u[flip] = u[flip][:, [0, 2, 1]]
-        v[flip] = v[flip][:, [0, 2, 1]]
-        # Edge p -> q: E(u, v) = a u + b v + c >= 0 inside.
-        pu, pv, qu, qv = u, v, np.roll(u, -1, axis=1), np.roll(v, -1, axis=1)
-        a, b = -(qv - pv), qu - pu
-        c = -(a * pu + b * pv)
-        margin = EDGE_SLACK * (np.abs(a) + np.abs(b) + np.abs(c))
-        edge = (a[:, :, None, None] * us[None, None, None, :]
-                + b[:, :, None, None] * vs[None, None, :, None]
-                + (c - margin)[:, :, None, None])  # (k, 3, H+1, W+1)
-        corner_in = (edge >= 0.0).all(axis=1)
-        covered = (corner_in[:, :-1, :-1] & corner_in[:, 1:, :-1]
-                   & corner_in[:, :-1, 1:] & corner_in[:, 1:, 1:])
-        if not covered.any():
-            continue
-        # Camera-space plane n.X = d; on the ray through (u, v), 1/z = (n.(u tx, v ty, 1)) / d.
-        n = np.cross(part[:, 1] - part[:, 0], part[:, 2] - part[:, 0])
-        d = np.einsum("ij,ij->i", n, part[:, 0])
-        inv = ((n[:, 0] * tx / d)[:, None, None] * us[None, None, :]
-               + (n[:, 1] * ty / d)[:, None, None] * vs[None, :, None]
-               + (n[:, 2] / d)[:, None, None])  # (k, H+1, W+1)
-        low = np.minimum(np.minimum(inv[:, :-1, :-1], inv[:, 1:, :-1]),
-                         np.minimum(inv[:, :-1, 1:], inv[:, 1:, 1:]))
-        with np.errstate(divide="ignore"):
-            depth = np.where(covered & (low > 0), (1.0 + DEPTH_SLACK) / low, np.inf)
-        np.minimum(buffer, depth.min(axis=0), out=buffer)
+    if not len(tri) or not len(seg_tri):
+        return buffer
+    _, groups = np.unique(np.asarray(groups), return_inverse=True)
+    groups = groups.ravel()
+    n_groups = int(groups.max()) + 1
+    nv = len(pts)
+
+    # Clip pieces to z >= near; the cut point is computed from the lower vertex index so a piece
+    # and its reverse are cut to bit-identical points.
+    za, zb = pts[ia, 2], pts[ib, 2]
+    ina, inb = za >= near, zb >= near
+    lo_i, hi_i = np.minimum(ia, ib), np.maximum(ia, ib)
+    o, f = pts[lo_i], pts[hi_i]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (near - o[:, 2]) / (f[:, 2] - o[:, 2])
+    cut = o + t[:, None] * (f - o)
+    cut[:, 2] = near
+    pa = np.where(ina[:, None], pts[ia], cut)
+    pb = np.where(inb[:, None], pts[ib], cut)
+    keep = ina | inb
+    # The near-plane side of each cut triangle runs from where its boundary leaves the front
+    # half-space to where it re-enters (same points as the clipped pieces: the chain closes).
+    leave, enter = np.flatnonzero(ina & ~inb), np.flatnonzero(~ina & inb)
+    leave = leave[np.argsort(seg_tri[leave], kind="stable")]
+    enter = enter[np.argsort(seg_tri[enter], kind="stable")]
+    near_a, near_b, near_tri = pb[leave], pa[enter], seg_tri[leave]
+
+    # Chain coefficients per undirected piece (net direction) and boundary pieces (pieces
+    # without a reverse partner: a triangle on one side only), within groups and overall.
+    k = np.flatnonzero(keep)
+    s_tri, s_a, s_b = seg_tri[k], pa[k], pb[k]
+    forward = ia[k] < ib[k]
+    ukey = lo_i[k] * nv + hi_i[k]
+    boundary_group = _one_sided(groups[s_tri] * nv * nv + ukey, forward)
+    boundary_all = _one_sided(ukey, forward)
+    net_key = groups[s_tri] * nv * nv + ukey
+    uniq, inv = np.unique(net_key, return_inverse=True)
+    net = np.bincount(inv.ravel(), weights=np.where(forward, 1.0, -1.0), minlength=len(uniq))
+    rep = np.zeros(len(uniq), dtype=np.int64)
+    rep[inv.ravel()] = np.arange(len(k))
+    chain = rep[net != 0]
+    # Canonical direction lo -> hi for chain pieces, weight net.
+    c_a = np.where(forward[chain, None], s_a[chain], s_b[chain])
+    c_b = np.where(forward[chain, None], s_b[chain], s_a[chain])
+    c_w = net[net != 0]
+    c_g = groups[s_tri[chain]]
+    c_a = np.concatenate([c_a, near_a])
+    c_b = np.concatenate([c_b, near_b])
+    c_w = np.concatenate([c_w, np.ones(len(near_a))])
+    c_g = np.concatenate([c_g, groups[near_tri]])
+
+    def px(p):
+        return np.stack([(p[:, 0] / (p[:, 2] * tx) + 1.0) * 0.5 * width,
+                         (p[:, 1] / (p[:, 2] * ty) + 1.0) * 0.5 * height], axis=1)
+
+    # Pixels whose centre has a nonzero winding number, per group and overall.
+    inside_g = _winding_pixels(px(c_a), px(c_b), c_w, c_g, width, height)
+    inside_all = np.unique(inside_g % (width * height))
+    # Pixels a boundary piece (or a near-plane side) may touch.
+    b_a = np.concatenate([s_a[boundary_group], near_a])
+    b_b = np.concatenate([s_b[boundary_group], near_b])
+    b_g = np.concatenate([groups[s_tri[boundary_group]], groups[near_tri]])
+    b_all = np.concatenate([boundary_all[boundary_group], np.ones(len(near_a), dtype=bool)])
+    seg_id, pix = _touched_pixels(px(b_a), px(b_b), width, height)
+    touched_g = np.unique(b_g[seg_id] * (width * height) + pix)
+    touched_all = np.unique(pix[b_all[seg_id]])
+
+    # Group coverage: the group's own plane, farthest over the pixel's corners.
+    covered = inside_g[~np.isin(inside_g, touched_g, assume_unique=True)]
+    g, p = covered // (width * height), covered % (width * height)
+    rep_tri = np.zeros(n_groups, dtype=np.int64)
+    rep_tri[groups] = np.arange(len(tri))
+    depth = _plane_far(planes[rep_tri[g]], p, tx, ty, width, height)
+    np.minimum.at(buffer.ravel(), p, depth)
+
+    # Coverage only by the union of all groups: every occluder meeting the pixel, farthest.
+    rest = inside_all[~np.isin(inside_all, touched_all, assume_unique=True)]
+    rest = rest[~np.isfinite(buffer.ravel()[rest])]
+    if len(rest):
+        tri_px = px(np.concatenate([s_a, s_b, near_a, near_b]))
+        owner = np.concatenate([s_tri, s_tri, near_tri, near_tri])
+        x0 = np.full(len(tri), np.inf)
+        x1, y0, y1 = -x0, x0.copy(), -x0
+        np.minimum.at(x0, owner, tri_px[:, 0])
+        np.maximum.at(x1, owner, tri_px[:, 0])
+        np.minimum.at(y0, owner, tri_px[:, 1])
+        np.maximum.at(y1, owner, tri_px[:, 1])
+        cx, cy = rest % width, rest // width
+        meets = ((x0[None] <= cx[:, None] + 1 + SLACK_PX) & (x1[None] >= cx[:, None] - SLACK_PX)
+                 & (y0[None] <= cy[:, None] + 1 + SLACK_PX) & (y1[None] >= cy[:, None] - SLACK_PX))
+        r, q = np.nonzero(meets)
+        far = np.minimum(_plane_far(planes[q], rest[r], tx, ty, width, height),
+                         pts[tri[q], 2].max(axis=1) * (1.0 + DEPTH_SLACK))
+        worst = np.full(len(rest), -np.inf)
+        np.maximum.at(worst, r, far)
+        buffer.ravel()[rest] = np.where(np.isfinite(worst), worst, np.inf)
     return buffer
 
 
-def pyramid(buffer, reduce) -> tuple:
-    """Flattened reduction pyramid of an (H, W) buffer: (values (M,), offsets (L,), widths (L,)).
+def _one_sided(key, forward) -> np.ndarray:
+    """(S,) bool: no piece with the same undirected key runs the other way."""
+    uniq, inv = np.unique(key, return_inverse=True)
+    inv = inv.ravel()
+    fwd = np.bincount(inv, weights=forward, minlength=len(uniq))
+    bwd = np.bincount(inv, weights=~forward, minlength=len(uniq))
+    return ((fwd == 0) | (bwd == 0))[inv]
 
-    Level 0 is the buffer; level l+1 reduces 2x2 texels of level l with `reduce` (np.maximum or
-    np.minimum), padding odd sizes with +inf for max (never hides) and with the edge for min.
+
+def _plane_far(planes, pixels, tx, ty, width, height) -> np.ndarray:
+    """(n,) float64 farthest depth of each plane over each flat pixel's four corner rays
+    (1/z is affine over the pixel, so extreme at a corner), x (1 + DEPTH_SLACK); inf when the
+    plane is not in front at every corner."""
+    x, y = pixels % width, pixels // width
+    best = np.full(len(pixels), np.inf)
+    for dx in (0, 1):
+        for dy in (0, 1):
+            u = 2.0 * (x + dx) / width - 1.0
+            v = 2.0 * (y + dy) / height - 1.0
+            inv = (planes[:, 0] * u * tx + planes[:, 1] * v * ty + planes[:, 2]) / planes[:, 3]
+            best = np.minimum(best, inv)
+    with np.errstate(divide="ignore"):
+        return np.where(best > 0, (1.0 + DEPTH_SLACK) / best, np.inf)
+
+
+def _winding_pixels(a, b, weight, group, width, height) -> np.ndarray:
+    """(n,) int64 unique flat keys group * H * W + pixel of pixels whose centre has a nonzero
+    winding number for the group's chain of weighted directed segments a -> b (pixel coords).
+    Exact up to rounding of crossings that pass within rounding of a centre."""
+    ya, yb = a[:, 1], b[:, 1]
+    first = np.clip(np.floor(np.minimum(ya, yb) - 0.5), 0, height).astype(np.int64)
+    last = np.clip(np.ceil(np.maximum(ya, yb) - 0.5), -1, height - 1).astype(np.int64)
+    count = np.maximum(last - first + 1, 0)
+    seg = np.repeat(np.arange(len(a)), count)
+    row = first[seg] + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    yc = row + 0.5
+    cross = (ya[seg] > yc) != (yb[seg] > yc)  # half-open: consistent at shared endpoints
+    seg, row, yc = seg[cross], row[cross], yc[cross]
+    xc = a[seg, 0] + (yc - ya[seg]) * (b[seg, 0] - a[seg, 0]) / (yb[seg] - ya[seg])
+    col = np.clip(np.ceil(xc - 0.5), 0, width).astype(np.int64)  # centres left of it count
+    w = np.where(yb[seg] > ya[seg], weight[seg], -weight[seg])
+    line = group[seg] * height + row
+    order = np.lexsort((col, line))
+    line, col, w = line[order], col[order], w[order]
+    # Each (group, row) sums to zero (closed chains), so a running sum resets between rows;
+    # the winding at centres between events i and i+1 of a row is minus the sum up to i.
+    run = np.cumsum(w)  # integer-valued: exact
+    nxt = np.append(col[1:], width)
+    same = np.append(line[1:] == line[:-1], False)
+    stop = np.where(same, nxt, width)
+    span = np.where(run != 0, np.maximum(stop - col, 0), 0)
+    which = np.repeat(np.arange(len(col)), span)
+    cols = col[which] + np.arange(span.sum()) - np.repeat(np.cumsum(span) - span, span)
+    g, r = line[which] // height, line[which] % height
+    return np.unique(g * (height * width) + r * width + cols)
+
+
+def _touched_pixels(a, b, width, height) -> tuple:
+    """(segment (n,) int64, flat pixel (n,) int64) pairs covering every pixel that each segment
+    a -> b (pixel coords) passes within SLACK_PX of, clipped to the buffer (errs toward more)."""
+    d = b - a
+    steep = np.abs(d[:, 1]) > np.abs(d[:, 0])
+    # Walk along the major axis one pixel column (or row) at a time.
+    p = np.where(steep[:, None], a[:, ::-1], a)
+    q = np.where(steep[:, None], b[:, ::-1], b)
+    swap = p[:, 0] > q[:, 0]
+    p, q = np.where(swap[:, None], q, p), np.where(swap[:, None], p, q)
+    major = np.where(steep, height, width)
+    minor = np.where(steep, width, height)
+    c0 = np.clip(np.floor(p[:, 0] - SLACK_PX), 0, major).astype(np.int64)
+    c1 = np.clip(np.floor(q[:, 0] + SLACK_PX), -1, major - 1).astype(np.int64)
+    count = np.maximum(c1 - c0 + 1, 0)
+    seg = np.repeat(np.arange(len(a)), count)
+    col = c0[seg] + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    ps, qs = p[seg], q[seg]
+    lo_x = np.maximum(col - SLACK_PX, ps[:, 0])
+    hi_x = np.minimum(col + 1 + SLACK_PX, qs[:, 0])
+    dx = qs[:, 0] - ps[:, 0]
+    slope = np.where(dx > 0, (qs[:, 1] - ps[:, 1]) / np.where(dx > 0, dx, 1.0), 0.0)
+    ylo = ps[:, 1] + (lo_x - ps[:, 0]) * slope
+    yhi = ps[:, 1] + (hi_x - ps[:, 0]) * slope
+    y0 = np.floor(np.minimum(ylo, yhi) - SLACK_PX)
+    y1 = np.floor(np.maximum(ylo, yhi) + SLACK_PX)
+    y0 = np.clip(y0, 0, minor[seg]).astype(np.int64)
+    y1 = np.clip(y1, -1, minor[seg] - 1).astype(np.int64)
+    rows = np.maximum(y1 - y0 + 1, 0)
+    seg2 = np.repeat(np.arange(len(seg)), rows)
+    r = y0[seg2] + np.arange(rows.sum()) - np.repeat(np.cumsum(rows) - rows, rows)
+    c = col[seg2]
+    st = steep[seg[seg2]]
+    x, y = np.where(st, r, c), np.where(st, c, r)
+    return seg[seg2], y * width + x
+
+
+def max_table(buffer) -> tuple:
+    """2D sparse table of an (H, W) buffer for rect_max: (values (M,), offsets (LY, LX),
+    widths (LY, LX)); entry (ky, kx) holds maxima over 2^ky x 2^kx blocks."""
+    buf = np.asarray(buffer, dtype=np.float64)
+    h, w = buf.shape
+    ly, lx = int(np.log2(h)) + 1, int(np.log2(w)) + 1
+    tables, offsets, widths, at = [], np.zeros((ly, lx), np.int64), np.zeros((ly, lx), np.int64), 0
+    row = buf
+    for ky in range(ly):
+        if ky:
+            step = 1 << (ky - 1)
+            row = np.maximum(row[:-step], row[step:])
+        col = row
+        for kx in range(lx):
+            if kx:
+                step = 1 << (kx - 1)
+                col = np.maximum(col[:, :-step], col[:, step:])
+            tables.append(col.ravel())
+            offsets[ky, kx], widths[ky, kx] = at, col.shape[1]
+            at += col.size
+    return np.concatenate(tables), offsets, widths
+
+
+def rect_max(table, x0, x1, y0, y1) -> np.ndarray:
+    """(B,) float64 exact maximum of the buffer over each inclusive pixel rectangle (four
+    overlapping power-of-two blocks). table : from max_table; x0 <= x1, y0 <= y1 in range."""
+    values, offsets, widths = table
+    kx = np.floor(np.log2(x1 - x0 + 1)).astype(np.int64)
+    ky = np.floor(np.log2(y1 - y0 + 1)).astype(np.int64)
+    base, w = offsets[ky, kx], widths[ky, kx]
+    xr, yr = x1 - (1 << kx) + 1, y1 - (1 << ky) + 1
+    return np.maximum(np.maximum(values[base + y0 * w + x0], values[base + y0 * w + xr]),
+                      np.maximum(values[base + yr * w + x0], values[base + yr * w + xr]))
+
+
+def point_rects(points, near: float, tx: float, ty: float, width: int, height: int) -> tuple:
+    """Conservative screen rectangles of point sets: (x0, x1, y0, y1 (B,) int64 inclusive pixels,
+    zmin (B,) float64 nearest depth x (1 - DEPTH_SLACK), testable (B,) bool, onscreen (B,) bool).
+
+    Errs large: the rectangle bounds the projection of every point, grown by SLACK_PX pixels;
+    testable is False when a point is nearer than `near`; onscreen is False when the grown
+    rectangle misses the buffer (then nothing of the convex hull of points in front is seen).
+    points : (B, m, 3) float64 camera-space points
     """
-    levels = [np.asarray(buffer, dtype=np.float64)]
-    while levels[-1].shape != (1, 1):
-        top = levels[-1]
-        h, w = top.shape
-        pad = ((0, h % 2), (0, w % 2))
-        if reduce is np.maximum:
-            top = np.pad(top, pad, constant_values=np.inf)
-        else:
-            top = np.pad(top, pad, mode="edge")
-        levels.append(reduce(reduce(top[0::2, 0::2], top[1::2, 0::2]),
-                             reduce(top[0::2, 1::2], top[1::2, 1::2])))
-    sizes = np.array([lv.size for lv in levels])
-    offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    widths = np.array([lv.shape[1] for lv in levels])
-    return np.concatenate([lv.ravel() for lv in levels]), offsets, widths
-
-
-def rect_query(pyr, x0, x1, y0, y1, reduce=np.max) -> np.ndarray:
-    """(B,) float64 reduction of the pyramid over a superset of each inclusive pixel rectangle:
-    the coarsest level where the rectangle spans at most 2 x 2 texels, then those 4 texels.
-
-    Errs outward: for a max pyramid the answer is >= the rectangle's true max (conservative for
-    occlusion), for a min pyramid <= the true min.
-    pyr : from pyramid();  x0, x1, y0, y1 : (B,) int64 with x0 <= x1, y0 <= y1, inside the buffer
-    reduce : np.max for a max pyramid, np.min for a min pyramid
-    """
-    values, offsets, widths = pyr
-    span = np.maximum(x1 - x0, y1 - y0) + 1
-    level = np.ceil(np.log2(span)).astype(np.int64)
-    level = np.minimum(level, len(offsets) - 1)
-    ax0, ax1, ay0, ay1 = x0 >> level, x1 >> level, y0 >> level, y1 >> level
-    base, w = offsets[level], widths[level]
-    picks = values[np.stack([base + ay0 * w + ax0, base + ay0 * w + ax1,
-                             base + ay1 * w + ax0, base + ay1 * w + ax1])]
-    return reduce(picks, axis=0)
+    z = points[..., 2]
+    zmin = z.min(axis=1)
+    testable = zmin >= near
+    zsafe = np.where(testable[:, None], z, 1.0)
+    u, v = points[..., 0] / (zsafe * tx), points[..., 1] / (zsafe * ty)
+    x0 = np.floor((u.min(axis=1) + 1.0) * 0.5 * width - SLACK_PX)
+    x1 = np.floor((u.max(axis=1) + 1.0) * 0.5 * width + SLACK_PX)
+    y0 = np.floor((v.min(axis=1) + 1.0) * 0.5 * height - SLACK_PX)
+    y1 = np.floor((v.max(axis=1) + 1.0) * 0.5 * height + SLACK_PX)
+    onscreen = (x1 >= 0) & (x0 <= width - 1) & (y1 >= 0) & (y0 <= height - 1)
+    x0, x1 = np.clip(x0, 0, width - 1), np.clip(x1, 0, width - 1)
+    y0, y1 = np.clip(y0, 0, height - 1), np.clip(y1, 0, height - 1)
+    return (x0.astype(np.int64), x1.astype(np.int64), y0.astype(np.int64), y1.astype(np.int64),
+            zmin * (1.0 - DEPTH_SLACK), testable, onscreen)
 
 
 def box_rects(boxes, eye, rotation, near: float, tx: float, ty: float,
@@ -162,111 +372,10 @@ def box_rects(boxes, eye, rotation, near: float, tx: float, ty: float,
     """Conservative screen rectangles of boxes: (x0, x1, y0, y1 (B,) int64 inclusive pixels,
     zmin (B,) float64 nearest depth, testable (B,) bool).
 
-    Errs large: the rectangle bounds the projection of all 8 corners, grown by 1e-6 of a pixel;
+    Errs large: the rectangle bounds the projection of all 8 corners, grown by SLACK_PX pixels;
     a box is not testable when any corner is nearer than `near` or its rectangle is off screen.
     boxes : (B, 2, 3) float64;  rotation : (3, 3) rows right, up, forward
     """
     cam = to_camera(box_corners(boxes), eye, rotation)  # (B, 8, 3)
-    z = cam[..., 2]
-    zmin = z.min(axis=1)
-    testable = zmin >= near
-    zsafe = np.where(testable[:, None], z, 1.0)
-    u, v = cam[..., 0] / (zsafe * tx), cam[..., 1] / (zsafe * ty)
-    x0 = np.floor((u.min(axis=1) + 1.0) * 0.5 * width - 1e-6)
-    x1 = np.floor((u.max(axis=1) + 1.0) * 0.5 * width + 1e-6)
-    y0 = np.floor((v.min(axis=1) + 1.0) * 0.5 * height - 1e-6)
-    y1 = np.floor((v.max(axis=1) + 1.0) * 0.5 * height + 1e-6)
-    testable &= (x1 >= 0) & (x0 <= width - 1) & (y1 >= 0) & (y0 <= height - 1)
-    x0, x1 = np.clip(x0, 0, width - 1), np.clip(x1, 0, width - 1)
-    y0, y1 = np.clip(y0, 0, height - 1), np.clip(y1, 0, height - 1)
-    return (x0.astype(np.int64), x1.astype(np.int64), y0.astype(np.int64), y1.astype(np.int64),
-            zmin * (1.0 - DEPTH_SLACK), testable)
-
-
-def fused_occluder_depth(triangles, groups, width: int, height: int, tx: float,
-                         ty: float) -> np.ndarray:
-    """(H, W) float64 depth buffer of coplanar groups of triangles rasterised as unions, so the
-    edges they share leave no uncovered cracks; inf where no group covers a pixel.
-
-    Errs toward "not covered" and "farther". Within a group, edges that occur an even number of
-    times (by exact endpoint value) are dropped; the parity of the remaining edges' crossings is
-    then odd exactly on points covered an odd number of times, and constant across any pixel no
-    remaining edge touches. A pixel counts when its 4 corners are odd and no remaining edge's
-    line passes within EDGE_SLACK of the pixel inside the edge's bounding box: the whole pixel
-    is then inside the union. Depth: the largest over the pixel of any member's plane, times
-    (1 + DEPTH_SLACK).
-    triangles : (K, 3, 3) float64 camera-space corners, every depth > 0 (clip_near them first)
-    groups    : (K,) int64 group label; triangles of one group must be coplanar
-    """
-    tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
-    groups = np.asarray(groups)
-    buffer = np.full((height, width), np.inf)
-    us = -1.0 + 2.0 * np.arange(width + 1) / width
-    vs = -1.0 + 2.0 * np.arange(height + 1) / height
-    pix_u = np.arange(width)
-    pix_v = np.arange(height)
-    for label in np.unique(groups):  # a few occluder groups per frame
-        part = tri[groups == label]
-        # Edges by exact endpoint value, sorted so a shared edge has one key from both sides.
-        p, q = part, np.roll(part, -1, axis=1)
-        ends = np.stack([p.reshape(-1, 3), q.reshape(-1, 3)], axis=1)  # (E, 2, 3)
-        flip = _lex_greater(ends[:, 0], ends[:, 1])
-        canon = np.where(flip[:, None, None], ends[:, ::-1], ends)
-        _, inverse, counts = np.unique(canon.reshape(-1, 6), axis=0, return_inverse=True,
-                                       return_counts=True)
-        edges = canon[(counts[inverse.ravel()] % 2) == 1]
-        if not len(edges):
-            continue
-        z = edges[..., 2]
-        eu, ev = edges[..., 0] / (z * tx), edges[..., 1] / (z * ty)  # (E, 2)
-        # Parity of crossings of a ray toward +u from every pixel corner.
-        pv, qv, pu, qu = ev[:, 0, None, None], ev[:, 1, None, None], eu[:, 0, None, None], \
-            eu[:, 1, None, None]
-        V, U = vs[None, :, None], us[None, None, :]
-        straddle = (pv > V) != (qv > V)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            cross_u = pu + (V - pv) * (qu - pu) / (qv - pv)
-        odd = (np.count_nonzero(straddle & (U < cross_u), axis=0) % 2) == 1  # (H+1, W+1)
-        inside = odd[:-1, :-1] & odd[1:, :-1] & odd[:-1, 1:] & odd[1:, 1:]
-        if not inside.any():
-            continue
-        # Pixels an edge may touch: its line passes near the pixel, inside its bounding box.
-        a, b = -(ev[:, 1] - ev[:, 0]), eu[:, 1] - eu[:, 0]
-        c = -(a * eu[:, 0] + b * ev[:, 0])
-        margin = EDGE_SLACK * (np.abs(a) + np.abs(b) + np.abs(c))
-        line = a[:, None, None] * U + b[:, None, None] * V + c[:, None, None]
-        lo = np.minimum(np.minimum(line[:, :-1, :-1], line[:, 1:, :-1]),
-                        np.minimum(line[:, :-1, 1:], line[:, 1:, 1:]))
-        hi = np.maximum(np.maximum(line[:, :-1, :-1], line[:, 1:, :-1]),
-                        np.maximum(line[:, :-1, 1:], line[:, 1:, 1:]))
-        near_line = (lo <= margin[:, None, None]) & (hi >= -margin[:, None, None])
-        x0 = np.floor((eu.min(axis=1) + 1.0) * 0.5 * width - 1e-6)
-        x1 = np.floor((eu.max(axis=1) + 1.0) * 0.5 * width + 1e-6)
-        y0 = np.floor((ev.min(axis=1) + 1.0) * 0.5 * height - 1e-6)
-        y1 = np.floor((ev.max(axis=1) + 1.0) * 0.5 * height + 1e-6)
-        in_box = (((pix_u >= x0[:, None]) & (pix_u <= x1[:, None]))[:, None, :]
-                  & ((pix_v >= y0[:, None]) & (pix_v <= y1[:, None]))[:, :, None])
-        covered = inside & ~(near_line & in_box).any(axis=0)
-        if not covered.any():
-            continue
-        n = np.cross(part[:, 1] - part[:, 0], part[:, 2] - part[:, 0])
-        d = np.einsum("ij,ij->i", n, part[:, 0])
-        inv = ((n[:, 0] * tx / d)[:, None, None] * us[None, None, :]
-               + (n[:, 1] * ty / d)[:, None, None] * vs[None, :, None]
-               + (n[:, 2] / d)[:, None, None]).min(axis=0)  # (H+1, W+1) over members
-        low = np.minimum(np.minimum(inv[:-1, :-1], inv[1:, :-1]),
-                         np.minimum(inv[:-1, 1:], inv[1:, 1:]))
-        with np.errstate(divide="ignore"):
-            depth = np.where(covered & (low > 0), (1.0 + DEPTH_SLACK) / low, np.inf)
-        np.minimum(buffer, depth, out=buffer)
-    return buffer
-
-
-def _lex_greater(a, b) -> np.ndarray:
-    """(E,) bool: row a > row b lexicographically (a, b (E, 3))."""
-    greater = np.zeros(len(a), dtype=bool)
-    decided = np.zeros(len(a), dtype=bool)
-    for k in range(a.shape[1]):
-        greater |= ~decided & (a[:, k] > b[:, k])
-        decided |= a[:, k] != b[:, k]
-    return greater
+    x0, x1, y0, y1, zmin, testable, onscreen = point_rects(cam, near, tx, ty, width, height)
+    return x0, x1, y0, y1, zmin, testable & onscreen
