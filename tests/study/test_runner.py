@@ -1,0 +1,85 @@
+"""The resumable runner on the tiny world, and the HTML report it feeds."""
+import json
+
+import numpy as np
+import pytest
+
+from vismobile.study import runner
+from vismobile.study.matrix import RunSpec
+from vismobile.study.report import best_run, pareto_png, write_report
+from vismobile.study.runner import Context, run_matrix
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory, world_file, trajectory_file):
+    root = tmp_path_factory.mktemp("study")
+    context = Context("/", root / "out", root / "worlds", root / "cache")
+    specs = [RunSpec(str(world_file), str(trajectory_file), structure, cull, "ipaq-hx2490b",
+                     "sample:4")
+             for structure in ("octree:2", "bsp")
+             for cull in ("none", "vfc+bfc+cbfc", "vfc+occlusion")]
+    records = run_matrix(specs, context, processes=1, progress=False)
+    return context, specs, records
+
+
+def test_every_run_finishes_with_per_frame_rows(study):
+    _, specs, records = study
+    assert [r["spec"]["cull"] for r in records] == [s.cull for s in specs]
+    for record in records:
+        assert "error" not in record, record.get("error")
+        frames = record["frames"]
+        assert frames["frame"] == [0.0, 2.0, 5.0, 7.0]   # sample:4 plus waypoints A, B
+        assert np.allclose(np.add(frames["cull_ms"], frames["render_ms"]), frames["frame_ms"])
+
+
+def test_conservative_runs_have_no_false_negatives(study):
+    for record in study[2]:
+        summary = record["summary"]
+        assert summary["false_negatives_total"] == 0
+        assert summary["tightness"]["mean"] >= 1.0
+
+
+def test_no_culling_sends_everything(study):
+    record = study[2][0]
+    assert record["spec"]["cull"] == "none"
+    assert set(record["frames"]["triangles_sent"]) == {record["summary"]["world_triangles"]}
+
+
+def test_finished_runs_are_reused(study, monkeypatch):
+    context, specs, records = study
+
+    def refuse(*args):
+        raise AssertionError("a finished run was executed again")
+
+    monkeypatch.setattr(runner, "execute", refuse)
+    again = run_matrix(specs, context, processes=1, progress=False)
+    assert [r["key"] for r in again] == [r["key"] for r in records]
+    assert len(list((context.out / "runs").glob("*.json"))) == len(specs)
+
+
+def test_tables_hold_one_row_per_run(study):
+    context, specs, _ = study
+    lines = (context.out / "runs.csv").read_text().splitlines()
+    assert len(lines) == len(specs) + 1 and lines[0].startswith("world,structure,cull")
+    assert len(json.loads((context.out / "runs.json").read_text())) == len(specs)
+
+
+def test_a_failing_run_is_recorded_not_fatal(tmp_path, world_file, trajectory_file):
+    context = Context("/", tmp_path / "out", tmp_path / "worlds", tmp_path / "cache")
+    spec = RunSpec(str(world_file), str(trajectory_file), "octree:2", "vfc", "no-such-device",
+                   "sample:2")
+    [record] = run_matrix([spec], context, processes=1, progress=False)
+    assert "no-such-device" in record["error"]
+    assert not (context.out / "runs").exists() or not list((context.out / "runs").iterdir())
+
+
+def test_report_is_self_contained(study, tmp_path):
+    _, _, records = study
+    path = write_report(records, tmp_path / "report.html")
+    text = path.read_text()
+    assert text.count("data:image/png;base64,") >= 4
+    assert "http://" not in text and "https://" not in text and "<script" not in text
+    world = records[0]["spec"]["world"]
+    pareto_png(records, world, "ipaq-hx2490b", tmp_path / "pareto.png")
+    assert (tmp_path / "pareto.png").read_bytes()[:4] == b"\x89PNG"
+    assert best_run(records, world)["summary"]["conservative"]

@@ -1,0 +1,54 @@
+"""`vismobile compare`: the thesis's chapter-5 matrix (SPEC §6) in one command, with a report."""
+from pathlib import Path
+
+
+def add_parser(sub):
+    parser = sub.add_parser(
+        "compare", help="run the comparison matrix (parallel, resumable) and write a report",
+        description="Example: vismobile compare --worlds w1,w2 --structures "
+                    "grid,octree:3-6,portal:1-3,bsp --cull all --profiles "
+                    "ipaq-hx2490b,nokia-n82")
+    parser.add_argument("--worlds", default="all", help="w1..w6 or all (default all)")
+    parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
+                        help="grid, octree:A-B, portal:A-B, bsp (default the thesis's)")
+    parser.add_argument("--cull", default="all",
+                        help="all | thesis | ours | combinations like vfc+cbfc,none")
+    parser.add_argument("--profiles", default="ipaq-hx2490b,nokia-n82")
+    parser.add_argument("--frames", default="all",
+                        help="all, stride:N or sample:N (N even frames plus the waypoints)")
+    parser.add_argument("--out", type=Path, default=Path("out/compare"),
+                        help="results folder (runs/<key>.json, runs.csv, runs.json)")
+    parser.add_argument("--report", type=Path, default=None,
+                        help="HTML report path (default OUT/report.html)")
+    parser.add_argument("--worlds-dir", type=Path, default=Path("worlds"))
+    parser.add_argument("--cache", type=Path, default=Path("out/cache"),
+                        help="partition and ground-truth cache")
+    parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: cores)")
+    parser.add_argument("--agreement", type=int, default=2,
+                        help="frames per world for the raster/ray-cast check (0: skip)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    return parser
+
+
+def run(args) -> int:
+    import json
+
+    from ..study.matrix import expand, parse_worlds
+    from ..study.report import write_report
+    from ..study.runner import Context, agreement, run_matrix
+    from ..world import atomic_write_bytes
+
+    specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames)
+    context = Context(".", args.out, args.worlds_dir, args.cache)
+    print(f"{len(specs)} runs -> {args.out}/runs/ (finished runs are reused)")
+    records = run_matrix(specs, context, args.jobs, progress=not args.quiet)
+    checks = []
+    for world in parse_worlds(args.worlds) if args.agreement > 0 else []:
+        checks += agreement(world, context, specs[0].profile, args.agreement)
+    if checks:
+        atomic_write_bytes(args.out / "agreement.json", json.dumps(checks, indent=1).encode())
+    report = write_report(records, args.report or args.out / "report.html", agreement=checks)
+    failed = sum("error" in r for r in records)
+    print(f"wrote {args.out / 'runs.csv'}, {args.out / 'runs.json'} and {report}"
+          + (f"; {failed} runs failed (listed in the report)" if failed else ""))
+    return 1 if failed else 0

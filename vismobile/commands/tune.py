@@ -1,0 +1,42 @@
+"""`vismobile tune WORLD`: choose structure, parameters and culling stages from a cheap probe."""
+from pathlib import Path
+
+
+def add_parser(sub):
+    parser = sub.add_parser("tune", help="pick the fastest conservative configuration for a world")
+    parser.add_argument("world", help="thesis world w1..w6 or an OBJ file")
+    parser.add_argument("--trajectory", type=Path, default=None,
+                        help="trajectory CSV (default: the thesis's path for w1..w6)")
+    parser.add_argument("--profile", default="ipaq-hx2490b")
+    parser.add_argument("--probe", type=int, default=24,
+                        help="evenly spaced probe frames (the waypoints are added)")
+    parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp")
+    parser.add_argument("--worlds-dir", type=Path, default=Path("worlds"))
+    parser.add_argument("--cache", type=Path, default=None,
+                        help="folder to keep partition files in (default: none, build afresh)")
+    parser.add_argument("--json", type=Path, default=None, help="also write the result as JSON")
+    return parser
+
+
+def run(args) -> int:
+    import json
+
+    from ..errors import TrajectoryError
+    from ..profile import get_profile
+    from ..study import engine
+    from ..study.thesis import WORLDS, trajectory_for
+    from ..study.tune import tune
+    from ..trajectory import Trajectory
+    from ..world import atomic_write_bytes
+
+    if args.trajectory is None and args.world.lower() not in WORLDS:
+        raise TrajectoryError(f"{args.world}: not a thesis world; pass --trajectory")
+    world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS else args.world,
+                              args.worlds_dir)
+    trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
+    result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,
+                  structures=args.structures, cache_dir=args.cache)
+    print(result.report())
+    if args.json:
+        atomic_write_bytes(args.json, json.dumps(result.to_dict(), indent=1).encode())
+    return 0

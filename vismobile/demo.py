@@ -1,0 +1,82 @@
+"""`make demo`: tune W1 and W2, run a reduced comparison on both, write out/report/index.html.
+
+Builds the thesis worlds first if worlds/ lacks them. The comparison is the thesis's matrix cut
+down to fit a few minutes on a 2-core machine: 30 evenly spaced frames plus the waypoints of the
+indoor path, the thesis's 8 culling combinations plus ours, seven structures, the iPaq profile.
+`vismobile compare` runs the full matrix.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+WORLDS = ("w1", "w2")
+STRUCTURES = "grid,octree:3-5,portal:1-2,bsp"
+CULLS = ("thesis,vfc+bfc+occlusion,vfc+bfc+cbfc+occlusion,vfc+bfc+cone,vfc+bfc+cbfc+portals,"
+         "vfc+bfc+cbfc+occlusion_thesis,vfc_thesis+bfc+cbfc")
+FRAMES = "sample:30"
+PROFILE = "ipaq-hx2490b"
+
+
+def tune_gap(result, records) -> str:
+    """Where tune's choice landed in the measured comparison of the same world."""
+    from .study.report import best_run, find_run
+
+    choice = result.choice
+    run = find_run(records, result.world, choice.structure, choice.cull, PROFILE)
+    best = best_run(records, result.world, PROFILE)
+    if run is None or best is None:
+        return "tune's choice was not measured in the comparison"
+    ms, top = run["summary"]["mean_ms"], best["summary"]["mean_ms"]
+    return (f"measured in the comparison: {ms:.2f} ms/frame; best measured (zero false "
+            f"negatives): {best['spec']['structure']} {best['spec']['cull']} {top:.2f} ms; "
+            f"gap {ms / top - 1:+.1%}")
+
+
+def main(argv=None) -> int:
+    from .profile import get_profile
+    from .study import engine
+    from .study.matrix import RunSpec, expand
+    from .study.report import write_report
+    from .study.runner import Context, agreement, run_matrix
+    from .study.thesis import trajectory_for
+    from .study.tune import tune
+    from .trajectory import Trajectory
+
+    start = time.perf_counter()
+    out = Path("out")
+    context = Context(".", out / "demo", "worlds", out / "cache")
+    print("1/4 worlds: " + ", ".join(f"{engine.ensure_world_file(w, 'worlds')}" for w in WORLDS))
+    tunes = []
+    for world_name in WORLDS:
+        world = engine.load_world(world_name, "worlds")
+        trajectory = Trajectory.load(trajectory_for(world_name))
+        result = tune(world, trajectory, get_profile(PROFILE), probe=16,
+                      cache_dir=context.cache_dir)
+        tunes.append(result)
+        print(f"2/4 tune {world_name}: --structure {result.choice.structure} --cull "
+              f"{result.choice.cull.replace('+', ',')} ({result.seconds:.1f} s)")
+    specs = expand(",".join(WORLDS), STRUCTURES, CULLS, PROFILE, FRAMES)
+    specs += [RunSpec(r.world, trajectory_for(r.world), r.choice.structure, r.choice.cull,
+                      PROFILE, FRAMES) for r in tunes]
+    print(f"3/4 compare: {len(dict.fromkeys(specs))} runs on {FRAMES} frames")
+    records = run_matrix(specs, context)
+    checks = []
+    for world_name in WORLDS:
+        checks += agreement(world_name, context, PROFILE, samples=2)
+    sections = [{"world": r.world, "text": r.report() + "\n" + tune_gap(r, records)}
+                for r in tunes]
+    report = write_report(records, out / "report" / "index.html", agreement=checks,
+                          tunes=sections, title="vismobile demo: W1 and W2",
+                          notes=f"Reduced comparison: {FRAMES} frames of the indoor path, "
+                                f"structures {STRUCTURES}, profile {PROFILE}.")
+    for section in sections:
+        print(f"4/4 {section['world']}: " + section["text"].splitlines()[-1])
+    print(f"report: {report.resolve()}  (runs: {context.out.resolve()}/runs.csv; "
+          f"{time.perf_counter() - start:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,136 @@
+"""The study's access to the pipeline: worlds, partitions, cullers and timed frames, cached.
+
+One place that loads a thesis world (building and saving `worlds/<name>.obj` when missing),
+builds or reloads a partition (`<cache>/partitions/*.vmp`), and times one frame (cull with
+perf_counter, render with the renderer's glFinish timing). Per-process caches keep the last
+few worlds and partitions, so a worker running several configurations of a world loads it once.
+"""
+from __future__ import annotations
+
+import hashlib
+import time
+from collections import OrderedDict
+from pathlib import Path
+
+import numpy as np
+
+from .matrix import structure_params
+
+_WORLDS = OrderedDict()
+_PARTITIONS = OrderedDict()
+_KEEP = 3
+
+
+def _remember(cache: OrderedDict, key, value):
+    cache[key] = value
+    cache.move_to_end(key)
+    while len(cache) > _KEEP:
+        cache.popitem(last=False)
+    return value
+
+
+def world_path(name: str, worlds_dir) -> Path:
+    return Path(worlds_dir) / f"{name}.obj"
+
+
+def ensure_world_file(name: str, worlds_dir) -> Path:
+    """Path of worlds/<name>.obj, (re)generating the thesis world when missing or stale.
+
+    A name ending in .obj is taken as the path of an OBJ file and returned as it is.
+    """
+    if str(name).endswith(".obj"):
+        return Path(name)
+    from ..scenes.thesis import build_key, build_world
+
+    path = world_path(name, worlds_dir)
+    key_path = path.with_suffix(".key")
+    fresh = path.is_file() and key_path.is_file() and \
+        key_path.read_text().strip() == build_key(name)
+    if not fresh:
+        world = build_world(name, worlds_dir)
+        world.name = name
+        _remember(_WORLDS, str(path.resolve()), world)
+    return path
+
+
+def load_world(name: str, worlds_dir):
+    """World of a thesis world name (or an OBJ path), cached per process."""
+    from ..world import World
+
+    path = ensure_world_file(name, worlds_dir)
+    key = str(path.resolve())
+    if key in _WORLDS:
+        _WORLDS.move_to_end(key)
+        return _WORLDS[key]
+    world = World.from_obj(path)
+    world.name = Path(path).stem
+    return _remember(_WORLDS, key, world)
+
+
+def file_digest(path) -> str:
+    """sha256 hex of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def load_structure(world, label: str, cache_dir=None):
+    """Partition of `world` for a structure label ("octree:5", ...), cached in memory and on disk.
+
+    Returns (partition, build_seconds); build_seconds is 0.0 when it was loaded from the cache.
+    """
+    from ..partition import load_partition, partition
+
+    key = (world.digest().hex()[:16], label)
+    if key in _PARTITIONS:
+        _PARTITIONS.move_to_end(key)
+        return _PARTITIONS[key], 0.0
+    path = None
+    if cache_dir is not None:
+        path = Path(cache_dir) / "partitions" / f"{world.name}-{key[0]}-{label.replace(':', '')}.vmp"
+        if path.is_file():
+            try:
+                loaded = load_partition(path)
+                if loaded.world.digest() == world.digest():
+                    return _remember(_PARTITIONS, key, loaded), 0.0
+            except Exception:  # unreadable or stale cache file: rebuild it below
+                pass
+    kind = label.split(":")[0]
+    start = time.perf_counter()
+    built = partition(world, kind, **structure_params(label))
+    seconds = time.perf_counter() - start
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        built.save(path)
+    return _remember(_PARTITIONS, key, built), seconds
+
+
+def make_culler(partition, stages):
+    from ..culling import Culler
+
+    return Culler(partition, list(stages))
+
+
+def timed_cull(culler, camera) -> tuple:
+    """(result, cull_ms) of one cull."""
+    start = time.perf_counter()
+    result = culler.cull(camera)
+    return result, (time.perf_counter() - start) * 1e3
+
+
+def renderer(world, profile):
+    from ..render import Renderer
+
+    return Renderer(world, profile)
+
+
+def item_buffer_fn(world, profile, cull_back: bool):
+    """camera -> (H, W) uint32 item buffer of the whole world."""
+    from ..render import item_buffer_renderer
+
+    ids = np.arange(world.triangle_count)
+    item = item_buffer_renderer(world, profile)
+    return lambda camera: item.render(ids, camera, cull_back)
+
+
+def sent_triangles(result) -> np.ndarray:
+    """(S,) int64 sorted unique ids of a cull result."""
+    return np.asarray(result.triangles, dtype=np.int64)

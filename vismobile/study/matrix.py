@@ -1,0 +1,225 @@
+"""The comparison matrix: expand a selection (worlds, structures, culling, profiles) into run specs.
+
+A selection reads like the CLI: `--worlds w1,w2 --structures grid,octree:3-6,portal:1-3,bsp
+--cull all --profiles ipaq-hx2490b,nokia-n82 --frames sample:60`. Each RunSpec is one world on
+its trajectory, one structure with its parameters, one culling combination and one profile.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from dataclasses import asdict, dataclass
+
+from ..errors import VisMobileError
+from .thesis import WORLDS, trajectory_for
+
+# The thesis's 8 combinations (SPEC §6), in its order.
+THESIS_CULLS = ("none", "bfc", "cbfc", "bfc+cbfc", "vfc", "vfc+bfc", "vfc+cbfc", "vfc+bfc+cbfc")
+# Ours: stages the thesis left out or did not measure (occlusion that pays, normal cones,
+# cells and portals) and the thesis's own loose variants, measured for their error.
+OUR_CULLS = (
+    "vfc+occlusion",
+    "vfc+bfc+occlusion",
+    "vfc+bfc+cbfc+occlusion",
+    "vfc+cone",
+    "vfc+bfc+cone",
+    "vfc+bfc+cbfc+cone+occlusion",
+    "vfc+portals",                           # the portals stage: portal structure only
+    "vfc+bfc+cbfc+portals",
+    "vfc+bfc+cbfc+occlusion+portals",
+    "vfc+bfc+cbfc+occlusion_thesis",
+    "vfc_thesis+bfc+cbfc",
+)
+STAGES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "occlusion", "occlusion_thesis", "portals")
+# Stages that make the ground truth a back-face-culled item buffer (issue 4).
+BACKFACE_STAGES = ("bfc", "cbfc", "cone")
+# Stages the thesis says may drop visible geometry: measured, never assumed conservative.
+LOOSE_STAGES = ("vfc_thesis", "occlusion_thesis")
+STRUCTURE_KINDS = ("grid", "octree", "portal", "bsp")
+DEPTH_RANGE = {"octree": (1, 8), "portal": (1, 3)}
+PROFILES = ("ipaq-hx2490b", "nokia-n82", "desktop")
+
+
+class SelectionError(VisMobileError):
+    """A compare/tune selection that cannot be expanded."""
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run: a world on a trajectory, a structure, a culling combination and a profile.
+
+    structure : canonical label, "grid", "octree:5", "portal:2" or "bsp"
+    cull      : canonical stage list joined by '+', or "none"
+    frames    : "all", "stride:N" or "sample:N" (N evenly spaced frames plus the waypoints)
+    """
+
+    world: str
+    trajectory: str
+    structure: str
+    cull: str
+    profile: str
+    frames: str = "all"
+
+    @property
+    def kind(self) -> str:
+        return self.structure.split(":")[0]
+
+    @property
+    def params(self) -> dict:
+        return structure_params(self.structure)
+
+    @property
+    def stages(self) -> tuple:
+        return cull_stages(self.cull)
+
+    @property
+    def cull_back(self) -> bool:
+        """True when the driver's back-face culling is on (the render flag)."""
+        return "bfc" in self.stages
+
+    @property
+    def truth_cull_back(self) -> bool:
+        """True when the ground truth is the back-face-culled item buffer."""
+        return any(stage in BACKFACE_STAGES for stage in self.stages)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def key(self, salt: str = "") -> str:
+        """16 hex digits naming this run's result file; salt binds it to world/trajectory bytes."""
+        text = json.dumps(self.to_dict(), sort_keys=True) + salt
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def structure_params(label: str) -> dict:
+    """Partition parameters of a structure label: {} or {"depth": n} or {"auto": True}."""
+    kind, _, depth = label.partition(":")
+    if kind == "grid":
+        return {"auto": True}
+    if kind in ("octree", "portal"):
+        return {"depth": int(depth)}
+    return {}
+
+
+def cull_stages(cull: str) -> tuple:
+    """The stage names of a combination, "none" -> ()."""
+    return () if cull == "none" else tuple(cull.split("+"))
+
+
+def canonical_cull(text: str) -> str:
+    """Stage list in STAGES order, joined by '+'; raises SelectionError for unknown stages."""
+    text = text.strip().lower()
+    if text in ("", "none"):
+        return "none"
+    parts = [part.strip() for part in text.split("+") if part.strip()]
+    unknown = [part for part in parts if part not in STAGES]
+    if unknown:
+        raise SelectionError(f"unknown culling stage {unknown[0]!r}; known: {', '.join(STAGES)}")
+    if "vfc" in parts and "vfc_thesis" in parts:
+        raise SelectionError("choose one of vfc and vfc_thesis, not both")
+    return "+".join(stage for stage in STAGES if stage in parts)
+
+
+def parse_structures(text: str) -> list:
+    """'grid,octree:3-6,portal:1-3,bsp' -> ['grid', 'octree:3', ..., 'portal:3', 'bsp']."""
+    labels = []
+    for item in filter(None, (part.strip().lower() for part in text.split(","))):
+        if item == "all":
+            labels += parse_structures("grid,octree:3-6,portal:1-3,bsp")
+            continue
+        match = re.fullmatch(r"(grid|octree|portal|bsp)(?::(\d+)(?:-(\d+))?)?", item)
+        if not match:
+            raise SelectionError(f"bad structure {item!r}: use grid, octree:N, octree:A-B, "
+                                 "portal:N or bsp")
+        kind, low, high = match.groups()
+        if kind in ("grid", "bsp"):
+            if low is not None:
+                raise SelectionError(f"{kind} takes no depth (got {item!r})")
+            labels.append(kind)
+            continue
+        low = int(low) if low is not None else (5 if kind == "octree" else 2)
+        high = int(high) if high is not None else low
+        lowest, highest = DEPTH_RANGE[kind]
+        if not lowest <= low <= high <= highest:
+            raise SelectionError(f"{kind} depth must be {lowest}..{highest} (got {item!r})")
+        labels += [f"{kind}:{depth}" for depth in range(low, high + 1)]
+    return list(dict.fromkeys(labels))
+
+
+def parse_culls(text: str) -> list:
+    """'all' | 'thesis' | 'ours' | 'vfc+cbfc,none' -> canonical combination labels."""
+    culls = []
+    for item in filter(None, (part.strip().lower() for part in text.split(","))):
+        if item in ("all", "thesis"):
+            culls += THESIS_CULLS
+        if item in ("all", "ours"):
+            culls += OUR_CULLS
+        if item not in ("all", "thesis", "ours"):
+            culls.append(canonical_cull(item))
+    return list(dict.fromkeys(culls))
+
+
+def parse_worlds(text: str) -> list:
+    worlds = []
+    for item in filter(None, (part.strip().lower() for part in text.split(","))):
+        if item == "all":
+            worlds += WORLDS
+        elif item in WORLDS:
+            worlds.append(item)
+        else:
+            raise SelectionError(f"unknown world {item!r}; known: {', '.join(WORLDS)}, all")
+    return list(dict.fromkeys(worlds))
+
+
+def parse_profiles(text: str) -> list:
+    profiles = [part.strip().lower() for part in text.split(",") if part.strip()]
+    for name in profiles:
+        if name not in PROFILES:
+            raise SelectionError(f"unknown profile {name!r}; known: {', '.join(PROFILES)}")
+    return list(dict.fromkeys(profiles))
+
+
+def parse_frames(text: str) -> str:
+    text = text.strip().lower()
+    if text == "all" or re.fullmatch(r"(stride|sample):[1-9]\d*", text):
+        return text
+    raise SelectionError(f"bad frame selection {text!r}: use all, stride:N or sample:N")
+
+
+def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
+           frames="all", trajectories=None) -> list:
+    """Every RunSpec of a selection, in a stable order (world, structure, cull, profile).
+
+    Combinations that cannot run are left out: `portals` only on the portal structure.
+    trajectories : optional {world: path} overriding the thesis's indoor/outdoor paths.
+    """
+    trajectories = trajectories or {}
+    frames = parse_frames(frames)
+    specs = []
+    for world in parse_worlds(worlds):
+        path = trajectories.get(world, trajectory_for(world))
+        for structure in parse_structures(structures):
+            for cull in parse_culls(culls):
+                if "portals" in cull_stages(cull) and not structure.startswith("portal"):
+                    continue
+                for profile in parse_profiles(profiles):
+                    specs.append(RunSpec(world, str(path), structure, cull, profile, frames))
+    if not specs:
+        raise SelectionError("the selection is empty")
+    return specs
+
+
+def frame_indices(selection: str, count: int, waypoints: dict) -> list:
+    """Frame numbers of a selection over a trajectory of `count` frames (sorted, unique)."""
+    import numpy as np
+
+    kind, _, number = selection.partition(":")
+    if kind == "all":
+        frames = np.arange(count)
+    elif kind == "stride":
+        frames = np.arange(0, count, int(number))
+    else:
+        frames = np.linspace(0, count - 1, min(int(number), count)).round().astype(int)
+        frames = np.concatenate([frames, [f for f in waypoints.values() if 0 <= f < count]])
+    return sorted(set(int(f) for f in frames))

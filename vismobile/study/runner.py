@@ -1,0 +1,337 @@
+"""Run a comparison matrix in parallel, resumably: one JSON result file per run, keyed by hash.
+
+Phases: (1) the parent makes sure every world's OBJ exists and salts each run's key with the
+bytes of its world and trajectory files, so a changed input never reuses a stale result;
+(2) workers build the partitions and the ground-truth visible sets each run needs (cached on
+disk, shared by every run of the same world, frames, profile and back-face setting);
+(3) workers execute the runs. A run whose `runs/<key>.json` exists is read back, not re-run.
+Workers are spawned (not forked) so that none inherits another's OpenGL context.
+"""
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..world import atomic_write_bytes
+from . import engine
+from .groundtruth import trajectory_truth
+from .matrix import RunSpec, frame_indices
+from .metrics import frame_errors, pearson, summarize
+
+FRAME_COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
+                 "nodes_visited", "plane_tests", "triangles_tested", "visible",
+                 "false_negatives", "fn_pixels", "tightness")
+RESULT_VERSION = "2"
+RENDER_REPEATS = 2
+
+
+class Progress:
+    """One-line progress bar with an ETA on stderr (silent when disabled)."""
+
+    def __init__(self, total: int, label: str, enabled: bool = True):
+        self.total, self.label, self.enabled = max(int(total), 1), label, enabled
+        self.start = time.perf_counter()
+        self.shown = 0.0
+        self.done = 0
+
+    def step(self, count: int = 1) -> None:
+        self.done += count
+        now = time.perf_counter()
+        if not self.enabled or (now - self.shown < 0.5 and self.done < self.total):
+            return
+        self.shown = now
+        elapsed = now - self.start
+        eta = elapsed / self.done * (self.total - self.done) if self.done else 0.0
+        filled = int(30 * self.done / self.total)
+        sys.stderr.write(f"\r{self.label} [{'#' * filled}{'.' * (30 - filled)}] "
+                         f"{self.done}/{self.total}  {elapsed:.0f}s, eta {eta:.0f}s ")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+class Context:
+    """Where a study reads and writes: repo root (trajectory paths), worlds, cache, results."""
+
+    def __init__(self, root=".", out="out/compare", worlds_dir="worlds", cache_dir=None):
+        self.root = Path(root)
+        self.out = Path(out)
+        self.worlds_dir = Path(worlds_dir)
+        self.cache_dir = Path(cache_dir) if cache_dir else Path("out/cache")
+
+    def trajectory_path(self, spec: RunSpec) -> Path:
+        path = Path(spec.trajectory)
+        return path if path.is_absolute() else self.root / path
+
+    def as_tuple(self) -> tuple:
+        return str(self.root), str(self.out), str(self.worlds_dir), str(self.cache_dir)
+
+    @classmethod
+    def from_tuple(cls, values) -> "Context":
+        return cls(*values)
+
+
+def salts(specs, context: Context) -> dict:
+    """{spec: key salt} from the sha256 of each world OBJ and trajectory file (built if missing)."""
+    digests = {}
+    result = {}
+    for spec in specs:
+        world_file = engine.ensure_world_file(spec.world, context.worlds_dir)
+        for path in (world_file, context.trajectory_path(spec)):
+            if path not in digests:
+                if not path.is_file():
+                    from ..errors import TrajectoryError
+
+                    raise TrajectoryError(f"{path}: no such trajectory file")
+                digests[path] = engine.file_digest(path)
+        result[spec] = (f"{RESULT_VERSION}:{digests[world_file]}:"
+                        f"{digests[context.trajectory_path(spec)]}")
+    return result
+
+
+def result_path(context: Context, key: str) -> Path:
+    return context.out / "runs" / f"{key}.json"
+
+
+def _load_frames(spec: RunSpec, context: Context):
+    from ..profile import get_profile
+    from ..trajectory import Trajectory
+
+    world = engine.load_world(spec.world, context.worlds_dir)
+    trajectory = Trajectory.load(context.trajectory_path(spec))
+    profile = get_profile(spec.profile)
+    frames = frame_indices(spec.frames, len(trajectory), trajectory.waypoints)
+    cameras = [trajectory.camera(f, profile.aspect) for f in frames]
+    return world, trajectory, profile, frames, cameras
+
+
+def truth_for(spec: RunSpec, context: Context, cull_back=None):
+    """The ground-truth VisibleSets of a run's frames (cached in <cache>/truth)."""
+    world, trajectory, profile, frames, cameras = _load_frames(spec, context)
+    cull_back = spec.truth_cull_back if cull_back is None else cull_back
+    return trajectory_truth(world, cameras, frames,
+                            engine.item_buffer_fn(world, profile, cull_back),
+                            profile.resolution, trajectory.poses, cull_back,
+                            context.cache_dir / "truth")
+
+
+def prepare(task) -> str:
+    """Worker task: build one partition or one ground truth so runs find them cached."""
+    what, spec, context_tuple = task
+    context = Context.from_tuple(context_tuple)
+    try:
+        if what == "structure":
+            world = engine.load_world(spec.world, context.worlds_dir)
+            engine.load_structure(world, spec.structure, context.cache_dir)
+        else:
+            truth_for(spec, context)
+    except Exception as error:  # the run needing it fails again and records the error
+        return f"{what}: {type(error).__name__}: {error}"
+    return what
+
+
+def execute(spec: RunSpec, context: Context) -> dict:
+    """Play one run: per frame cull (timed), render (timed, glFinish), error against the truth.
+
+    Returns {"spec", "summary", "frames": {column: list}}.
+    """
+    world, trajectory, profile, frames, cameras = _load_frames(spec, context)
+    truth = truth_for(spec, context)
+    partition, build_seconds = engine.load_structure(world, spec.structure, context.cache_dir)
+    renderer = engine.renderer(world, profile)
+    # Warm-up frame (first-use uploads and shader compiles are not part of any frame).
+    warm = engine.make_culler(partition, spec.stages).cull(cameras[0])
+    renderer.draw(engine.sent_triangles(warm), cameras[0], spec.cull_back)
+    culler = engine.make_culler(partition, spec.stages)
+    table = {name: np.zeros(len(frames)) for name in FRAME_COLUMNS}
+    for row, (frame, camera, visible) in enumerate(zip(frames, cameras, truth)):
+        result, cull_ms = engine.timed_cull(culler, camera)
+        sent = engine.sent_triangles(result)
+        # Min of RENDER_REPEATS draws: drawing is stateless, and the minimum drops the frames
+        # where another process took the core (llvmpipe rasterises on the CPU).
+        drawn = min((renderer.draw(sent, camera, spec.cull_back) for _ in range(RENDER_REPEATS)),
+                    key=lambda d: d.render_ms)
+        errors = frame_errors(visible, sent)
+        stats = result.stats
+        values = {
+            "frame": frame, "cull_ms": cull_ms, "render_ms": drawn.render_ms,
+            "frame_ms": cull_ms + drawn.render_ms, "triangles_sent": len(sent),
+            "draw_batches": drawn.draw_batches,
+            "nodes_visited": stats.get("nodes_visited", 0),
+            "plane_tests": stats.get("plane_tests", 0),
+            "triangles_tested": stats.get("triangles_tested", 0), **errors,
+        }
+        for name in FRAME_COLUMNS:
+            table[name][row] = values[name]
+    return {"spec": spec.to_dict(), "summary": summarize_run(table, trajectory, frames,
+                                                            partition, profile, world,
+                                                            build_seconds),
+            "frames": {name: table[name].tolist() for name in FRAME_COLUMNS}}
+
+
+def summarize_run(table, trajectory, frames, partition, profile, world, build_seconds) -> dict:
+    """The per-run row: timings, fps, correlation, error totals, structure size."""
+    summary = {name: summarize(table[name])
+               for name in ("cull_ms", "render_ms", "frame_ms", "triangles_sent",
+                            "draw_batches", "nodes_visited", "tightness")}
+    frame_ms = table["frame_ms"]
+    summary.update({
+        "frames": len(frames),
+        "mean_ms": float(frame_ms.mean()),
+        "fps": 1000.0 / float(frame_ms.mean()),
+        "mean_fps": float(np.mean(1000.0 / np.maximum(frame_ms, 1e-9))),
+        "correlation": pearson(frame_ms, table["triangles_sent"]),
+        "false_negatives_total": int(table["false_negatives"].sum()),
+        "frames_with_fn": int((table["false_negatives"] > 0).sum()),
+        "fn_pixels_mean": float(table["fn_pixels"].mean()),
+        "fn_pixels_max": int(table["fn_pixels"].max(initial=0)),
+        "fn_pixel_fraction": float(table["fn_pixels"].mean() / np.prod(profile.resolution)),
+        "conservative": bool((table["false_negatives"] == 0).all()),
+        "visible_mean": float(table["visible"].mean()),
+        "world_triangles": int(world.triangle_count),
+        "partition": partition.stats(),
+        "build_seconds": build_seconds,
+        "waypoints": {label: f for label, f in trajectory.waypoints.items() if f in set(frames)},
+    })
+    return summary
+
+
+def _worker_init() -> None:
+    """One llvmpipe rasteriser thread per worker: parallel runs must not fight for cores."""
+    os.environ.setdefault("LP_NUM_THREADS", "1")
+
+
+def _execute_task(task) -> tuple:
+    spec, key, context_tuple = task
+    context = Context.from_tuple(context_tuple)
+    try:
+        record = execute(spec, context)
+    except Exception as error:  # one failed run must not end the sweep; it is reported
+        return key, {"spec": spec.to_dict(), "error": f"{type(error).__name__}: {error}"}
+    record["key"] = key
+    atomic_write_bytes(result_path(context, key), json.dumps(record).encode())
+    return key, record
+
+
+def run_matrix(specs, context: Context, processes: int | None = None,
+               progress: bool = True) -> list:
+    """Run every spec (reusing finished ones); returns their records in spec order.
+
+    A record is {"key", "spec", "summary", "frames"} or {"spec", "error"} for a failed run.
+    Also writes <out>/runs.csv and <out>/runs.json (one summary row per run).
+    """
+    specs = list(dict.fromkeys(specs))
+    keyed = {spec: spec.key(salt) for spec, salt in salts(specs, context).items()}
+    records = {}
+    for spec, key in keyed.items():
+        path = result_path(context, key)
+        if path.is_file():
+            try:
+                records[key] = json.loads(path.read_text())
+            except (OSError, ValueError):
+                pass  # a damaged result is simply run again
+    todo = [spec for spec, key in keyed.items() if key not in records]
+    processes = max(1, min(processes or os.cpu_count() or 1, len(todo) or 1))
+    if todo:
+        structures = list({(s.world, s.structure): s for s in todo}.values())
+        truths = list({(s.world, s.trajectory, s.profile, s.frames, s.truth_cull_back): s
+                       for s in todo}.values())
+        prep = [("structure", s, context.as_tuple()) for s in structures] + \
+               [("truth", s, context.as_tuple()) for s in truths]
+        tasks = [(s, keyed[s], context.as_tuple()) for s in todo]
+        bar = Progress(len(prep) + len(tasks), "compare", progress)
+        if processes == 1:
+            for task in prep:
+                prepare(task)
+                bar.step()
+            for task in tasks:
+                key, record = _execute_task(task)
+                records[key] = record
+                bar.step()
+        else:
+            with multiprocessing.get_context("spawn").Pool(processes, _worker_init) as pool:
+                for _ in pool.imap_unordered(prepare, prep):
+                    bar.step()
+                for key, record in pool.imap_unordered(_execute_task, tasks):
+                    records[key] = record
+                    bar.step()
+        bar.close()
+    ordered = [records[keyed[spec]] for spec in specs]
+    write_tables(ordered, context.out)
+    return ordered
+
+
+SUMMARY_COLUMNS = ("world", "structure", "cull", "profile", "frames", "mean_ms", "fps",
+                   "mean_fps", "cull_ms", "render_ms", "triangles_sent", "correlation",
+                   "false_negatives_total", "frames_with_fn", "fn_pixels_mean", "tightness",
+                   "conservative", "key", "error")
+
+
+def summary_row(record: dict) -> dict:
+    """A flat row of one record, for runs.csv."""
+    spec = record["spec"]
+    row = {name: spec.get(name, "") for name in ("world", "structure", "cull", "profile")}
+    if "error" in record:
+        row["error"] = record["error"]
+        return row
+    s = record["summary"]
+    row.update({"frames": s["frames"], "mean_ms": s["mean_ms"], "fps": s["fps"],
+                "mean_fps": s["mean_fps"], "cull_ms": s["cull_ms"]["mean"],
+                "render_ms": s["render_ms"]["mean"],
+                "triangles_sent": s["triangles_sent"]["mean"], "correlation": s["correlation"],
+                "false_negatives_total": s["false_negatives_total"],
+                "frames_with_fn": s["frames_with_fn"], "fn_pixels_mean": s["fn_pixels_mean"],
+                "tightness": s["tightness"]["mean"], "conservative": s["conservative"],
+                "key": record.get("key", ""), "error": ""})
+    return row
+
+
+def write_tables(records, out) -> None:
+    """<out>/runs.csv and <out>/runs.json: every run's summary row, atomically."""
+    out = Path(out)
+    rows = [summary_row(r) for r in records]
+    lines = [",".join(SUMMARY_COLUMNS)]
+    for row in rows:
+        cells = []
+        for name in SUMMARY_COLUMNS:
+            value = row.get(name, "")
+            cells.append(f"{value:.6g}" if isinstance(value, float) else
+                         str(value).replace(",", ";"))
+        lines.append(",".join(cells))
+    atomic_write_bytes(out / "runs.csv", ("\n".join(lines) + "\n").encode())
+    atomic_write_bytes(out / "runs.json", (json.dumps(rows, indent=1) + "\n").encode())
+
+
+def agreement(world_name: str, context: Context, profile: str = "ipaq-hx2490b",
+              samples: int = 3, trajectory=None) -> list:
+    """Raster-against-ray-cast agreement on `samples` evenly spaced frames, back faces culled
+    and not: a list of compare_truths dicts with world, frame and cull_back added."""
+    from ..profile import get_profile
+    from ..trajectory import Trajectory
+    from .groundtruth import compare_truths
+    from .thesis import trajectory_for
+
+    world = engine.load_world(world_name, context.worlds_dir)
+    path = Path(trajectory or trajectory_for(world_name))
+    path = path if path.is_absolute() else context.root / path
+    track = Trajectory.load(path)
+    prof = get_profile(profile)
+    frames = np.linspace(0, len(track) - 1, samples + 2).round().astype(int)[1:-1]
+    results = []
+    for frame in frames:
+        camera = track.camera(int(frame), prof.aspect)
+        for back in (False, True):
+            raster = engine.item_buffer_fn(world, prof, back)(camera)
+            item = compare_truths(world, camera, raster, cull_back=back)
+            item.update({"world": world_name, "frame": int(frame), "cull_back": back})
+            results.append(item)
+    return results
