@@ -51,3 +51,17 @@ def test_cbfc_keeps_a_floor_under_a_camera_looking_down(kit):
     # Seen from below (back face), looking up: the region test drops it.
     below = Camera((0.0, -1.6, 0.0), yaw=0.0, pitch=60.0, aspect=0.75)
     assert len(Culler(part, "vfc,cbfc,cone").cull(below).triangles) == 0
+
+
+def test_cbfc_thesis_stage_drops_a_tilted_floor_that_faces_the_eye(kit):
+    from vismobile.partition import partition
+
+    v, t = kit.quad(-5, 5, -5, 5, 0.0)
+    v = v[:, [0, 2, 1]]
+    v[:, 1] += 0.01 * v[:, 2]  # tilt the floor's normal a little toward -z (yaw sector 0)
+    floor = kit.literal_world([(v, t[:, ::-1])])
+    assert floor.normals[0, 1] > 0.99
+    part = partition(floor, "octree", depth=1)
+    cam = Camera((0.0, 1.6, 0.0), yaw=0.0, pitch=-30.0, aspect=0.75)
+    assert len(Culler(part, "vfc,cbfc_thesis").cull(cam).triangles) == 0
+    assert len(Culler(part, "vfc,cbfc").cull(cam).triangles) == 2

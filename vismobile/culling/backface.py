@@ -96,3 +96,40 @@ class ConservativeBackface:
             return keep
 
         state.filters.append(keep_of)
+
+
+class ThesisBackface:
+    """`cbfc_thesis`: the thesis's 2D rule, kept for the comparisons: drop a triangle whose
+    normal's yaw sector equals the view direction's (n = 360 / (90 - FOV) sectors).
+
+    Contract: aggressive, NOT conservative: it ignores the normal's elevation and the camera's
+    pitch, so it drops tilted triangles that face the eye (object surfaces); the study measures
+    how many. Normals are projected on the ground plane; exactly vertical ones are never dropped.
+    """
+
+    name = "cbfc_thesis"
+    cost = 79
+
+    def __init__(self, yaw_regions: int | None = None):
+        self.yaw_regions = yaw_regions
+
+    def prepare(self, tree: Tree) -> None:
+        self.tree = tree
+
+    def apply(self, state: CullState) -> None:
+        count = self.yaw_regions or thesis_region_count(state.camera.fov)
+        if not hasattr(self, "_count") or self._count != count:
+            self._count = count
+            self.sectors = direction_regions(self.tree.world.normals * [1.0, 0.0, 1.0], count, 1)
+        view = direction_regions(state.camera.forward[None] * [1.0, 0.0, 1.0], count, 1)[0]
+        if view == count:  # looking straight up or down: the 2D rule has no view sector
+            return
+        sectors = self.sectors
+
+        def keep_of(ids):
+            keep = sectors[ids] != view
+            state.count("triangles_tested", len(ids))
+            state.count(f"{self.name}.refs_culled", len(ids) - np.count_nonzero(keep))
+            return keep
+
+        state.filters.append(keep_of)

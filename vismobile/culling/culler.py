@@ -5,7 +5,7 @@ import numpy as np
 
 from ..geometry.arithmetic import MODES
 from ..partition.base import Partition
-from .backface import BackfaceFlag, ConservativeBackface
+from .backface import BackfaceFlag, ConservativeBackface, ThesisBackface
 from .cones import NormalConeStage
 from .frustum import FrustumStage, ThesisFrustumStage
 from .occlusion import DepthBufferOcclusion
@@ -18,9 +18,10 @@ from .tree import Tree
 # name -> stage class. Each has `name`, `cost` (order of application), prepare(tree), apply(state).
 STAGES = {cls.name: cls for cls in (PortalStage, FrustumStage, ThesisFrustumStage,
                                     NormalConeStage, ThesisOcclusion, DepthBufferOcclusion,
-                                    ConservativeBackface, BackfaceFlag)}
+                                    ConservativeBackface, ThesisBackface, BackfaceFlag)}
 
-# Stages that never drop a triangle the full world's item buffer shows (proved by the tests).
+# Stages that never drop a triangle the full world's item buffer shows (proved by the tests);
+# cbfc_thesis is the one stage outside it: the thesis's 2D rule drops front faces.
 CONSERVATIVE = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "occlusion", "occlusion_thesis",
                 "portals")
 

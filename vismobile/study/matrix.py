@@ -30,12 +30,14 @@ OUR_CULLS = (
     "vfc+bfc+cbfc+occlusion+portals",
     "vfc+bfc+cbfc+occlusion_thesis",
     "vfc_thesis+bfc+cbfc",
+    "vfc+bfc+cbfc_thesis",                   # the thesis's 2D backface rule, as it wrote it
 )
-STAGES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "occlusion", "occlusion_thesis", "portals")
+STAGES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "occlusion",
+          "occlusion_thesis", "portals")
 # Stages that make the ground truth a back-face-culled item buffer (issue 4).
-BACKFACE_STAGES = ("bfc", "cbfc", "cone")
+BACKFACE_STAGES = ("bfc", "cbfc", "cbfc_thesis", "cone")
 # Stages the thesis says may drop visible geometry: measured, never assumed conservative.
-LOOSE_STAGES = ("vfc_thesis", "occlusion_thesis")
+LOOSE_STAGES = ("vfc_thesis", "occlusion_thesis", "cbfc_thesis")
 STRUCTURE_KINDS = ("grid", "octree", "portal", "bsp")
 DEPTH_RANGE = {"octree": (1, 8), "portal": (1, 3)}
 PROFILES = ("ipaq-hx2490b", "nokia-n82", "desktop")
