@@ -193,3 +193,21 @@ def test_partition_files_and_bad_settings(tmp_path):
         load_scene(tmp_path / "hills.obj", "cone:2")
     with pytest.raises(VisMobileError, match="--cull vfx"):
         play(scene, walk(3), "vfx", "ipaq-hx2490b")
+
+
+def test_adaptive_playback_switches_off_a_stage_that_removes_nothing(tmp_path):
+    # vfc_thesis after vfc removes nothing (vfc is tighter) but costs time: it must go off,
+    # and frames.csv must show the switch at the recorded frame.
+    from vismobile.partition import partition
+
+    world = hills()
+    scene = Scene(world, partition(world, "octree", depth=3), "octree:3")
+    result = play(scene, walk(60), "vfc,vfc_thesis", "ipaq-hx2490b", tmp_path / "run",
+                  adaptive=True)
+    events = result.summary["adaptive_events"]
+    assert [(e["stage"], e["action"]) for e in events][:1] == [("vfc_thesis", "off")]
+    assert events[0]["saving_ms"] == 0.0 and events[0]["cost_ms"] > 0.0
+    rows = read_csv(tmp_path / "run" / "frames.csv")
+    stages = [row[COLUMNS.index("active_stages")] for row in rows[1:]]
+    frame = events[0]["frame"]
+    assert stages[frame - 1] == "vfc+vfc_thesis" and stages[frame + 1] == "vfc"

@@ -31,7 +31,7 @@ from .progress import Progress
 from .world import World, atomic_write_bytes
 
 COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
-           "nodes_visited", "memory_bytes", "waypoint")
+           "nodes_visited", "memory_bytes", "waypoint", "active_stages")
 SUMMARISED = COLUMNS[1:8]
 STAGES_NONE = ("none", "")
 
@@ -160,24 +160,31 @@ class _Culled:
     cull_back: bool
 
 
-def make_culler(scene: Scene, stages, arithmetic="float64"):
+def make_culler(scene: Scene, stages, arithmetic="float64", adaptive=False):
     """vismobile.culling.Culler over the scene's partition, or all triangles without one.
 
     arithmetic: the profile's vertex format, so culling stays conservative for rounded vertices.
+    adaptive  : wrap it in an AdaptiveCuller that switches off stages that stop paying.
     """
     if scene.partition is None:
         return _WholeWorld(scene.world, stages)
     from .culling import Culler
+    from .culling.adaptive import AdaptiveCuller
+
+    def factory(partition, names):
+        return Culler(partition, names, arithmetic=arithmetic)
 
     try:
-        return Culler(scene.partition, list(stages), arithmetic=arithmetic)
+        if adaptive:
+            return AdaptiveCuller(scene.partition, parse_stages(stages), culler_factory=factory)
+        return factory(scene.partition, list(stages))
     except ValueError as error:  # unknown stage, or a stage the structure cannot run
         raise VisMobileError(f"--cull {','.join(stages)}: {error}") from None
 
 
 def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
          frames_every=0, gif=False, hud=False, progress=False, frame_limit=None,
-         gif_every=None) -> PlaybackResult:
+         gif_every=None, adaptive=False) -> PlaybackResult:
     """Play trajectory through the scene; write outputs to out (if given) atomically.
 
     stages       : culling stage names (see vismobile.culling), () for none
@@ -187,6 +194,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     hud          : draw the thesis HUD onto saved frames
     frame_limit  : play only the first frame_limit frames
     progress     : draw a progress bar on stderr when it is a terminal
+    adaptive     : switch stages off (and back on) while they cost more than they save; the
+                   switches go to summary.json ("adaptive_events") and frames.csv (active_stages)
     Raises ProfileError (heap, fixed16.16 range) before playing.
     """
     from .render import Renderer
@@ -198,7 +207,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     world = scene.world
     profile.check_range(world.extent, f"world {world.name!r}")
     memory = profile.check_memory(world, scene.partition)
-    culler = make_culler(scene, stages, profile.vertex_format)
+    culler = make_culler(scene, stages, profile.vertex_format, adaptive)
     renderer = Renderer(world, profile)
 
     count = len(trajectory) if frame_limit is None else min(int(frame_limit), len(trajectory))
@@ -206,6 +215,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     gif_every = int(gif_every or frames_every or 10)
     table = {name: np.zeros(count) for name in SUMMARISED}
     waypoints = [""] * count
+    active = ["+".join(stages) or "none"] * count
     gif_images, saved = [], {}
     recent = []
     bar = Progress(f"play {world.name}", enabled=None if progress else False)
@@ -216,6 +226,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         culled = culler.cull(camera)
         cull_ms = (time.perf_counter() - start) * 1000.0
         drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
+        if adaptive and hasattr(culler, "observe_render"):
+            culler.observe_render(drawn.render_ms, culled.stats)
+            active[frame] = culled.stats.get("active_stages", active[frame])
         frame_ms = cull_ms + drawn.render_ms
         row = (cull_ms, drawn.render_ms, frame_ms, drawn.triangles, drawn.draw_batches,
                culled.stats.get("nodes_visited", 0), memory)
@@ -239,13 +252,15 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
             bar(frame + 1, count)
     bar.close()
 
-    frames = {"frame": np.arange(count), **table, "waypoint": np.array(waypoints, dtype=object)}
+    frames = {"frame": np.arange(count), **table, "waypoint": np.array(waypoints, dtype=object),
+              "active_stages": np.array(active, dtype=object)}
     summary = summarise(frames)
     summary.update({
         "world": world.name, "triangles": world.triangle_count, "structure": scene.structure,
         "stages": list(stages), "profile": profile.name, "vertex_format": profile.vertex_format,
         "resolution": list(profile.resolution), "memory": profile.estimate_memory(
             world, scene.partition),
+        "adaptive": bool(adaptive), "adaptive_events": list(getattr(culler, "events", [])),
     })
     result = PlaybackResult(frames, summary, Path(out) if out is not None else None)
     if out is not None:
@@ -291,5 +306,6 @@ def frames_csv(frames: dict) -> str:
         buffer.write(f"{i},{frames['cull_ms'][i]:.4f},{frames['render_ms'][i]:.4f},"
                      f"{frames['frame_ms'][i]:.4f},{int(frames['triangles_sent'][i])},"
                      f"{int(frames['draw_batches'][i])},{int(frames['nodes_visited'][i])},"
-                     f"{int(frames['memory_bytes'][i])},{frames['waypoint'][i]}\n")
+                     f"{int(frames['memory_bytes'][i])},{frames['waypoint'][i]},"
+                     f"{frames['active_stages'][i]}\n")
     return buffer.getvalue()

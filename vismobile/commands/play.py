@@ -25,6 +25,8 @@ def add_parser(sub):
                         help="draw algorithms, memory, triangles sent and fps onto images")
     parser.add_argument("--limit", type=int, default=None, metavar="F",
                         help="play only the first F frames")
+    parser.add_argument("--adaptive", action="store_true",
+                        help="switch stages off while they cost more than they save")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
@@ -41,7 +43,8 @@ def run(args) -> int:
     trajectory = Trajectory.load(args.trajectory)
     scene = load_scene(args.world, args.structure, progress=not args.quiet)
     result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.frames,
-                  gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit)
+                  gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,
+                  adaptive=args.adaptive)
     s = result.summary
     corr = s["pearson_frame_ms_triangles"]
     print(f"{s['frames']} frames of {s['world']} ({s['structure']}, cull "
@@ -49,5 +52,8 @@ def run(args) -> int:
           f"{s['frame_ms']['mean']:.2f} ms/frame mean, {s['fps']:.1f} fps, "
           f"{s['triangles_sent']['mean']:,.0f} triangles sent, "
           f"r(ms, triangles) = {'n/a' if corr is None else f'{corr:+.2f}'}")
+    for event in s["adaptive_events"]:
+        print(f"frame {event['frame']}: {event['stage']} {event['action']} (saves "
+              f"{event['saving_ms']:.3f} ms, costs {event['cost_ms']:.3f} ms per frame)")
     print(f"wrote {args.out}/frames.csv and {args.out}/summary.json")
     return 0
