@@ -1,88 +1,140 @@
-"""Conservative depth buffer: near clipping, fused coverage (shrunk, never grown), far depths,
-pyramid rectangle queries."""
+"""Conservative union depth buffer: edges split at T-junctions, union coverage (shrunk, never
+grown) without cracks at shared edges, T-junctions or creases, far depths, near clipping, exact
+sparse-table rectangle maxima."""
 import numpy as np
 
-from vismobile.geometry.raster import (clip_near, fused_occluder_depth, occluder_depth, pyramid,
-                                       rect_query)
+from vismobile.geometry.raster import max_table, rect_max, split_edges, union_depth
 
 W, H, TX, TY = 24, 32, 0.4, 0.5
 
 
 def quad_at(z, u0, u1, v0, v1):
-    """Two camera-space triangles (shared diagonal) covering NDC [u0,u1] x [v0,v1] at depth z."""
+    """Two camera-space triangles (shared diagonal) covering NDC [u0,u1] x [v0,v1] at depth z,
+    wound counter-clockwise as seen from the eye at the origin (facing it)."""
     c = np.array([[u0 * z * TX, v0 * z * TY, z], [u1 * z * TX, v0 * z * TY, z],
                   [u1 * z * TX, v1 * z * TY, z], [u0 * z * TX, v1 * z * TY, z]])
-    return np.stack([c[[0, 1, 2]], c[[0, 2, 3]]])
+    return np.stack([c[[0, 2, 1]], c[[0, 3, 2]]])
 
 
-def test_clip_near_keeps_only_the_part_in_front_and_empty_input():
-    tri = np.array([[[0.0, 0, -1], [1, 0, 3], [0, 1, 3]]])
-    pieces, source = clip_near(tri, 1.0, with_source=True)
-    assert len(pieces) == 2 and np.all(pieces[..., 2] >= 1.0 - 1e-12) and set(source) == {0}
-    assert len(clip_near(np.zeros((0, 3, 3)), 1.0)) == 0
-    assert len(clip_near(tri - [0.0, 0.0, 5.0], 1.0)) == 0  # wholly behind
+def depth_of(tris, near=0.1, groups=None):
+    """union_depth of camera-space triangles, grouped by exact plane unless groups given."""
+    tris = np.asarray(tris, dtype=float)
+    pts, idx = np.unique(tris.reshape(-1, 3), axis=0, return_inverse=True)
+    idx = idx.reshape(-1, 3)
+    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    d = np.einsum("ij,ij->i", n, tris[:, 0])
+    assert np.all(d < 0), "test triangles must face the eye (counter-clockwise seen from it)"
+    n, d = -n, -d  # union_depth wants n away from the eye
+    if groups is None:
+        _, groups = np.unique(np.column_stack([n, d]), axis=0, return_inverse=True)
+    return union_depth(pts, idx, split_edges(pts, idx), np.ravel(groups),
+                       np.column_stack([n, d]), near, TX, TY, W, H)
 
 
-def test_fused_quad_has_no_crack_along_its_diagonal_unlike_single_triangles():
-    tris = quad_at(5.0, -1.0, 1.0, -1.0, 1.0)
-    fused = fused_occluder_depth(tris, np.zeros(2, int), W, H, TX, TY)
-    single = occluder_depth(tris, W, H, TX, TY)
+def pixel_centres():
+    us = -1 + 2 * (np.arange(W) + 0.5) / W
+    vs = -1 + 2 * (np.arange(H) + 0.5) / H
+    return us, vs
+
+
+def test_split_edges_splits_at_t_junctions_and_keeps_winding():
+    pts = np.array([[0.0, 0, 0], [2, 0, 0], [2, 2, 0], [1, 0, 0], [1, -1, 0]])
+    tri = np.array([[0, 1, 2], [0, 4, 3]])  # corner 3 lies on the first triangle's edge 0 -> 1
+    owner, a, b = split_edges(pts, tri)
+    first = [(int(x), int(y)) for t, x, y in zip(owner, a, b) if t == 0]
+    assert first == [(0, 3), (3, 1), (1, 2), (2, 0)]
+    assert [(int(x), int(y)) for t, x, y in zip(owner, a, b) if t == 1] == [(0, 4), (4, 3), (3, 0)]
+
+
+def test_quad_has_no_crack_along_its_diagonal():
+    depth = depth_of(quad_at(5.0, -1.0, 1.0, -1.0, 1.0))
     inner = (slice(1, -1), slice(1, -1))  # the outer ring touches the quad's own edges
-    assert np.isfinite(fused[inner]).all()
-    assert not np.isfinite(single[inner]).all()  # the diagonal's pixels
-    assert np.allclose(fused[inner], 5.0, rtol=1e-6) and np.all(fused[inner] >= 5.0)
+    assert np.isfinite(depth[inner]).all()
+    assert np.allclose(depth[inner], 5.0, rtol=1e-6) and np.all(depth[inner] >= 5.0)
 
 
 def test_coverage_is_shrunk_to_whole_pixels():
-    tris = quad_at(2.0, -0.47, 0.53, -0.47, 0.53)  # edges off the pixel grid
-    depth = fused_occluder_depth(tris, np.zeros(2, int), W, H, TX, TY)
-    us = -1 + 2 * (np.arange(W) + 0.5) / W
-    vs = -1 + 2 * (np.arange(H) + 0.5) / H
+    depth = depth_of(quad_at(2.0, -0.47, 0.53, -0.47, 0.53))  # edges off the pixel grid
+    us, vs = pixel_centres()
     half_u, half_v = 1.0 / W, 1.0 / H
     inside = ((us[None, :] - half_u >= -0.47) & (us[None, :] + half_u <= 0.53)
               & (vs[:, None] - half_v >= -0.47) & (vs[:, None] + half_v <= 0.53))
     assert np.array_equal(np.isfinite(depth), inside)
 
 
-def test_sloped_occluder_writes_the_farthest_depth_over_each_pixel():
-    c = np.array([[-3.0, -3.0, 2.0], [3.0, -3.0, 8.0], [0.0, 4.0, 5.0]])
-    depth = fused_occluder_depth(c[None], np.zeros(1, int), W, H, TX, TY)
+def test_t_junctions_and_a_hole_fuse_without_cracks_and_leave_the_hole_open():
+    # A frame around a hole: 4 quads whose corners make T-junctions on their neighbours' edges.
+    parts = [quad_at(4.0, -1, 1, -1, -0.3), quad_at(4.0, -1, 1, 0.3, 1),
+             quad_at(4.0, -1, -0.3, -0.3, 0.3), quad_at(4.0, 0.3, 1, -0.3, 0.3)]
+    depth = depth_of(np.concatenate(parts))
+    us, vs = pixel_centres()
+    near_hole = (np.abs(us)[None, :] - 1.0 / W < 0.3) & (np.abs(vs)[:, None] - 1.0 / H < 0.3)
+    assert not np.isfinite(depth[near_hole]).any()
+    ring = np.zeros((H, W), bool)
+    ring[1:-1, 1:-1] = True
+    hole_ring = (np.abs(us)[None, :] - 3.0 / W < 0.3) & (np.abs(vs)[:, None] - 3.0 / H < 0.3)
+    assert np.isfinite(depth[ring & ~hole_ring]).all()  # no crack along the T-junctions
+
+
+def test_crease_between_two_planes_is_covered_with_a_safe_depth():
+    # A floor (y = -1) meeting a wall (z = 6) at a crease, seen from above the floor.
+    wall = np.array([[[-9.0, -1, 6], [9, 9, 6], [9, -1, 6]], [[-9.0, -1, 6], [-9, 9, 6], [9, 9, 6]]])
+    floor = np.array([[[-9.0, -1, 0.5], [-9, -1, 6], [9, -1, 6]],
+                      [[-9.0, -1, 0.5], [9, -1, 6], [9, -1, 0.5]]])
+    depth = depth_of(np.concatenate([wall, floor]))
+    assert np.isfinite(depth).all()  # the whole screen, crease included
+    crease = int(np.floor((-1 / (6 * TY) + 1) * H / 2))
+    assert np.all(depth[crease] >= 6.0)
+    alone = depth_of(np.concatenate([wall, floor]), groups=np.arange(4))  # no plane groups
+    assert np.array_equal(np.isfinite(alone), np.isfinite(depth)) and np.all(alone >= depth)
+    wall_only = depth_of(wall)
+    assert not np.isfinite(wall_only[crease]).all()
+
+
+def test_depth_bounds_the_occluders_everywhere_in_covered_pixels():
+    c = np.array([[-3.0, -3.0, 2.0], [0.0, 4.0, 5.0], [3.0, -3.0, 8.0]])
+    fold = np.array([[3.0, -3.0, 8.0], [0.0, 4.0, 5.0], [6.0, 3.0, 6.0]])
+    tris = np.stack([c, fold])
+    depth = depth_of(tris)
     rng = np.random.default_rng(1)
-    n = np.cross(c[1] - c[0], c[2] - c[0])
     j, i = np.nonzero(np.isfinite(depth))
-    for _ in range(200):  # random points inside covered pixels lie on the triangle, nearer
+    assert len(i)
+    for _ in range(400):  # random rays through covered pixels meet an occluder, nearer
         k = rng.integers(len(i))
         u = -1 + 2 * (i[k] + rng.random()) / W
         v = -1 + 2 * (j[k] + rng.random()) / H
         ray = np.array([u * TX, v * TY, 1.0])
-        z = (n @ c[0]) / (n @ ray)
-        assert z <= depth[j[k], i[k]]
+        hits = []
+        for t in tris:
+            n = np.cross(t[1] - t[0], t[2] - t[0])
+            z = (n @ t[0]) / (n @ ray)
+            p = z * ray
+            bary = [np.cross(t[(m + 1) % 3] - t[m], p - t[m]) @ n for m in range(3)]
+            if min(bary) >= -1e-9:
+                hits.append(z)
+        assert hits and min(hits) <= depth[j[k], i[k]]
 
 
-def test_group_with_a_hole_leaves_the_hole_uncovered():
-    outer = quad_at(4.0, -1.0, 1.0, -1.0, 1.0)
-    # A frame around a hole: 4 quads; the hole [-0.3, 0.3]^2 must stay uncovered.
-    parts = [quad_at(4.0, -1, 1, -1, -0.3), quad_at(4.0, -1, 1, 0.3, 1),
-             quad_at(4.0, -1, -0.3, -0.3, 0.3), quad_at(4.0, 0.3, 1, -0.3, 0.3)]
-    tris = np.concatenate(parts)
-    depth = fused_occluder_depth(tris, np.zeros(len(tris), int), W, H, TX, TY)
-    us = -1 + 2 * (np.arange(W) + 0.5) / W
-    vs = -1 + 2 * (np.arange(H) + 0.5) / H
-    hole = (np.abs(us)[None, :] - 1.0 / W < 0.3) & (np.abs(vs)[:, None] - 1.0 / H < 0.3)
-    assert not np.isfinite(depth[hole]).any()
-    whole = fused_occluder_depth(outer, np.zeros(2, int), W, H, TX, TY)
-    assert np.isfinite(whole[1:-1, 1:-1]).all()
+def test_near_clipping_keeps_only_the_part_in_front():
+    # A floor running from behind the eye to depth 10; only its part beyond near is covered.
+    floor = np.array([[[-9.0, -1, -5], [-9, -1, 10], [9, -1, 10]],
+                      [[-9.0, -1, -5], [9, -1, 10], [9, -1, -5]]])
+    depth = depth_of(floor, near=0.5)
+    _, vs = pixel_centres()
+    below = vs < -1 / (10 * TY) - 2.0 / H
+    assert np.isfinite(depth[below][:, 1:-1]).all()
+    assert not np.isfinite(depth[~below]).any()
+    assert np.all((depth[below] >= 0.5) & (depth[below] <= 10.0 * (1 + 1e-6)))
 
 
-def test_rect_query_bounds_the_true_rectangle_max_and_min():
+def test_rect_max_is_the_exact_rectangle_maximum():
     rng = np.random.default_rng(2)
     buf = rng.uniform(1, 10, (H, W))
     buf[rng.random((H, W)) < 0.1] = np.inf
-    far, near = pyramid(buf, np.maximum), pyramid(buf, np.minimum)
-    for _ in range(300):
-        x0, y0 = rng.integers(W), rng.integers(H)
-        x1, y1 = rng.integers(x0, W), rng.integers(y0, H)
-        block = buf[y0:y1 + 1, x0:x1 + 1]
-        args = [np.array([v]) for v in (x0, x1, y0, y1)]
-        assert rect_query(far, *args, np.max)[0] >= block.max()
-        assert rect_query(near, *args, np.min)[0] <= block.min()
+    table = max_table(buf)
+    x0, y0 = rng.integers(W, size=300), rng.integers(H, size=300)
+    x1, y1 = rng.integers(x0, W), rng.integers(y0, H)
+    got = rect_max(table, x0, x1, y0, y1)
+    want = [buf[b:d + 1, a:c + 1].max() for a, b, c, d in zip(x0, y0, x1, y1)]
+    assert np.array_equal(got, want)

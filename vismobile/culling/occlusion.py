@@ -48,7 +48,7 @@ class DepthBufferOcclusion:
     name = "occlusion"
     cost = 50
 
-    def __init__(self, width: int = 60, height: int = 80, occluders: int = 512,
+    def __init__(self, width: int = 60, height: int = 80, occluders: int = 256,
                  candidates: int = 16384, triangles: bool = True):
         self.width, self.height = int(width), int(height)
         self.occluders, self.candidates = int(occluders), int(candidates)
@@ -69,6 +69,7 @@ class DepthBufferOcclusion:
         self.pool_centroids = world.centroids[pool]
         corners = world.corners[pool]
         self.pool_corners = corners
+        self.pool_radius = np.linalg.norm(corners - self.pool_centroids[:, None], axis=2).max(1)
         # Each point once, so shared corners project to bit-identical values.
         self.points, index = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
         self.pool_tri = index.reshape(-1, 3)
@@ -89,8 +90,9 @@ class DepthBufferOcclusion:
         dist2 = np.einsum("ij,ij->i", d, d)
         facing = -np.einsum("ij,ij->i", self.pool_normals, self.pool_corners[:, 0] - eye)
         planes = camera.frustum_planes()
-        dist = self.pool_corners @ planes[:, :3].T + planes[:, 3]  # (K, 3, 6)
-        in_frustum = ~(dist < 0).all(axis=1).any(axis=1)
+        # Bounding spheres (centroid, farthest corner): loose is fine, only picks candidates.
+        in_frustum = ((self.pool_centroids @ planes[:, :3].T + planes[:, 3])
+                      >= -self.pool_radius[:, None]).all(axis=1)
         usable = (facing > GRAZING * np.sqrt(dist2)) & in_frustum
         score = np.where(usable, self.pool_areas * facing / np.maximum(dist2 ** 1.5, 1e-300),
                          0.0)
@@ -110,7 +112,9 @@ class DepthBufferOcclusion:
                                self.piece_end[chosen])
         local = np.full(len(self.pool), -1, dtype=np.int64)
         local[chosen] = np.arange(len(chosen))
-        used, remap = np.unique(self.pool_tri[chosen], return_inverse=True)
+        # Split points may be other triangles' corners: project them too.
+        used = np.unique(np.concatenate([self.pool_tri[chosen].ravel(), self.piece_a[pieces],
+                                         self.piece_b[pieces]]))
         where = np.full(len(self.points), -1, dtype=np.int64)
         where[used] = np.arange(len(used))
         points = to_camera(self.points[used], camera.eye, rotation)
@@ -118,7 +122,7 @@ class DepthBufferOcclusion:
         n = -self.pool_normals[chosen] @ rotation.T
         d = self.pool_normals[chosen] @ camera.eye - self.pool_offset[chosen]
         ty = np.tan(np.radians(camera.fov) / 2.0)
-        buffer = union_depth(points, remap.reshape(-1, 3),
+        buffer = union_depth(points, where[self.pool_tri[chosen]],
                              (local[self.piece_tri[pieces]], where[self.piece_a[pieces]],
                               where[self.piece_b[pieces]]),
                              self.pool_group[chosen], np.column_stack([n, d]), camera.near,
@@ -172,7 +176,7 @@ class DepthBufferOcclusion:
 
         def keep_of(ids):
             ids, back = np.unique(ids, return_inverse=True)
-            cam = to_camera(world.corners[ids], camera.eye, rotation)
+            cam = to_camera(world.vertices[world.triangles[ids]], camera.eye, rotation)
             x0, x1, y0, y1, zmin, testable, onscreen = point_rects(
                 cam, camera.near, tx, ty, self.width, self.height)
             far = rect_max(table, x0, x1, y0, y1)

@@ -19,6 +19,8 @@ from ..geometry.planes import box_plane_distances
 from .state import CullState, CullResult
 from .tree import Tree
 
+GRAZING = 1e-6  # |cos| of the view angle below which an occluder is skipped
+
 
 def shadow_planes(corners, eye) -> np.ndarray:
     """(K, 4, 4) float64 inward planes of each triangle's shadow volume: three through the eye
@@ -73,7 +75,11 @@ class ThesisOcclusion:
         d = world.centroids[ids] - eye
         score = -world.areas[ids] * (world.normals[ids] @ camera.forward) / np.maximum(
             np.einsum("ij,ij->i", d, d), 1e-300)
-        facing = np.einsum("ij,ij->i", world.normals[ids], eye - world.corners[ids, 0]) > 0
+        # An eye (almost) in the occluder's plane degenerates its shadow planes: skip the
+        # occluder unless the eye is off the plane by more than GRAZING of its distance.
+        corner = world.vertices[world.triangles[ids, 0]]
+        facing = (np.einsum("ij,ij->i", world.normals[ids], eye - corner)
+                  > GRAZING * np.sqrt(np.einsum("ij,ij->i", d, d)))
         good = np.flatnonzero((score > 0) & facing)
         k = min(self.occluders, len(good))
         if k == 0:

@@ -127,9 +127,9 @@ def union_depth(points, triangles, pieces, groups, planes, near: float, tx: floa
     ina, inb = za >= near, zb >= near
     lo_i, hi_i = np.minimum(ia, ib), np.maximum(ia, ib)
     o, f = pts[lo_i], pts[hi_i]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t = (near - o[:, 2]) / (f[:, 2] - o[:, 2])
-    cut = o + t[:, None] * (f - o)
+        cut = o + t[:, None] * (f - o)  # used only where the piece crosses near
     cut[:, 2] = near
     pa = np.where(ina[:, None], pts[ia], cut)
     pb = np.where(inb[:, None], pts[ib], cut)
