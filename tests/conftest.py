@@ -1,5 +1,10 @@
 """Session fixtures shared by all tests: the thesis worlds, built once and cached in worlds/."""
 import pytest
+from hypothesis import settings
+
+# Property tests draw the same examples on every run, so CI is reproducible.
+settings.register_profile("vismobile", derandomize=True, deadline=None)
+settings.load_profile("vismobile")
 
 from vismobile.scenes import build_world
 

@@ -133,10 +133,12 @@ def test_distance_error_bound_covers_plane_distance_bound(raw_plane, point, mode
 def test_inflated_plane_keeps_inside_points_inside_in_every_mode(raw_plane, point, mode):
     plane = unit_planes([raw_plane])
     point = np.asarray([point], dtype=np.float64)
-    exact = exact_distance(plane, point)[0][0]
-    plane[0, 3] -= float(exact)  # move the plane onto the point: the hardest inside case
-    if exact_distance(plane, point)[0][0] < 0:
+    # Move the plane onto the point, the hardest inside case: d = -n.p rounded up, exactly.
+    target = -sum(Fraction(float(n)) * Fraction(float(c)) for n, c in zip(plane[0, :3], point[0]))
+    plane[0, 3] = float(target)
+    if Fraction(plane[0, 3]) < target:
         plane[0, 3] = np.nextafter(plane[0, 3], np.inf)
+    assert exact_distance(plane, point)[0][0] >= 0
     inflated = ar.inflate_planes(plane, mode, float(np.abs(point).max()))
     try:
         value, _ = ar.plane_distance(inflated, point, mode)

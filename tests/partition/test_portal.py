@@ -1,43 +1,98 @@
-"""Portal octree: cells, per-cell octrees, portals found from the walls."""
+"""Portal octree: cells, per-cell octrees, portals found from the walls and the solid space."""
 import numpy as np
 import pytest
 
 import vismobile
 from vismobile.partition import portal
+from vismobile.world import World
+
+
+def inward(world):
+    """The same world with every triangle turned over (the fixture's rooms face outward)."""
+    return World(world.vertices, world.triangles[:, ::-1].copy(), name=world.name)
+
+
+def rect(axis, plane, a, b, facing):
+    """(4, 3) vertices, (2, 3) triangles of an axis-aligned rectangle in x[axis] = plane over
+    a = (lo, hi) along axis + 1 and b = (lo, hi) along axis + 2, facing +axis (facing=1) or -axis."""
+    u, v = (axis + 1) % 3, (axis + 2) % 3
+    quad = np.zeros((4, 3))
+    quad[:, axis] = plane
+    quad[:, u] = [a[0], a[1], a[1], a[0]]
+    quad[:, v] = [b[0], b[0], b[1], b[1]]
+    tris = np.array([[0, 1, 2], [0, 2, 3]]) if facing > 0 else np.array([[0, 2, 1], [0, 3, 2]])
+    return quad, tris
+
+
+def world_of(parts, name="literal"):
+    vertices, triangles, offset = [], [], 0
+    for v, t in parts:
+        vertices.append(v)
+        triangles.append(t + offset)
+        offset += len(v)
+    return World(np.concatenate(vertices), np.concatenate(triangles), name=name)
 
 
 def test_doorway_gives_a_portal_of_its_size(rooms):
-    p = vismobile.partition(rooms, "portal", depth=1, slabs=((0.5, 0.5), 1, 1))
+    p = vismobile.partition(inward(rooms), "portal", depth=1, slabs=((0.5, 0.5), 1, 1))
     assert list(p.extras["portal_cells"][0]) == [0, 1] and len(p.extras["portal_cells"]) == 1
     quad = p.extras["portal_vertices"][p.extras["portal_start"][0]:p.extras["portal_start"][1]]
     assert np.allclose(quad[:, 0], 0.0)  # on the shared face x = 0
-    y0, y1, z0, z1 = quad[:, 1].min(), quad[:, 1].max(), quad[:, 2].min(), quad[:, 2].max()
-    spacing = 4.0 / portal.FACE_SAMPLES
-    # never smaller than the doorway, at most two samples larger on each side
-    assert y0 <= 0.0 and y1 >= 2.0 and z0 <= 1.5 and z1 >= 2.5
-    assert y1 <= 2.0 + 2 * spacing and z0 >= 1.5 - 2 * spacing and z1 <= 2.5 + 2 * spacing
+    # sample boundaries fall on the doorway's edges: the portal is the doorway
+    assert np.allclose([quad[:, 1].min(), quad[:, 1].max(), quad[:, 2].min(), quad[:, 2].max()],
+                       [0.0, 2.0, 1.5, 2.5])
     # winding: right-hand normal points from the first cell (x < 0) to the second
     normal = np.cross(quad[1] - quad[0], quad[2] - quad[0])
     assert normal[0] > 0
 
 
-def test_closed_wall_has_no_portal(rooms):
-    from vismobile.world import World
-
-    tris = rooms.triangles.copy()
-    corners = rooms.corners
-    keep = ~((np.abs(corners[:, :, 0]).max(axis=1) == 0))  # drop the middle wall
-    open_world = World(rooms.vertices, tris[keep])
+def test_open_face_is_one_portal_and_a_solid_wall_none(rooms):
+    rooms = inward(rooms)
+    keep = ~((np.abs(rooms.corners[:, :, 0]).max(axis=1) == 0))  # drop the middle wall
+    open_world = World(rooms.vertices, rooms.triangles[keep])
     p = portal.build(open_world, 1, slabs=((0.5, 0.5), 1, 1))
     quad = p.extras["portal_vertices"]
-    # without the wall the whole face (minus nothing) is one portal
     assert len(p.extras["portal_cells"]) == 1
     assert quad[:, 2].min() == 0.0 and quad[:, 2].max() == 4.0
-    # a solid wall: no portal
-    solid = World.concatenate([rooms, World(np.array([[0, 0, 1.5], [0, 3, 1.5], [0, 3, 2.5],
-                                                      [0, 0, 2.5]], float),
-                                            np.array([[0, 1, 2], [0, 2, 3]]))])
+    door = World(np.array([[0, 0, 1.5], [0, 3, 1.5], [0, 3, 2.5], [0, 0, 2.5]], float),
+                 np.array([[0, 1, 2], [0, 2, 3]]))
+    solid = World.concatenate([rooms, door])
     assert len(portal.build(solid, 1, slabs=((0.5, 0.5), 1, 1)).extras["portal_cells"]) == 0
+
+
+def test_face_inside_a_closed_object_is_blocked(rooms):
+    # the fixture faces outward: a closed box, solid inside, so its middle face has no portal
+    keep = ~((np.abs(rooms.corners[:, :, 0]).max(axis=1) == 0))
+    box = World(rooms.vertices, rooms.triangles[keep])
+    assert len(portal.build(box, 1, slabs=((0.5, 0.5), 1, 1)).extras["portal_cells"]) == 0
+
+
+def slab_world(gap):
+    """Two storeys of one room (x, z in [0, 4]) with a hollow slab y in (3, 3 + gap) between
+    the lower ceiling (facing down) and the upper floor (facing up); walls face inward."""
+    parts = [rect(1, 0.0, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
+             rect(1, 3.0 + gap, (0, 4), (0, 4), 1), rect(1, 6.0 + gap, (0, 4), (0, 4), -1)]
+    for y0, y1 in ((0.0, 3.0), (3.0 + gap, 6.0 + gap)):
+        parts += [rect(0, 0.0, (y0, y1), (0, 4), 1), rect(0, 4.0, (y0, y1), (0, 4), -1),
+                  rect(2, 0.0, (0, 4), (y0, y1), 1), rect(2, 4.0, (0, 4), (y0, y1), -1)]
+    return world_of(parts, "slab")
+
+
+@pytest.mark.parametrize("gap", [0.2, 0.001])
+def test_hollow_slab_is_blocked_on_a_vertical_face(gap):
+    w = slab_world(gap)
+    rects = portal.face_openings(w, 0, 2.0, (0.0, 0.0), (6.0 + gap, 4.0), 1e-9)
+    ys = np.concatenate([rects[:, 0, 0], rects[:, 1, 0]])
+    # the two rooms are open, the slab between them is not, however thin it is
+    assert len(rects) == 2 and np.allclose(np.sort(ys), [0.0, 3.0, 3.0 + gap, 6.0 + gap])
+
+
+def test_thin_crack_stays_open():
+    # a wall in the face x = 2 stops 1 mm below the ceiling: the crack is an opening
+    w = world_of([rect(1, 0.0, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
+                  rect(0, 2.0, (0.0, 2.999), (0, 4), -1)])
+    rects = portal.face_openings(w, 0, 2.0, (0.0, 0.0), (3.0, 4.0), 1e-9)
+    assert len(rects) == 1 and np.allclose(rects[0], [[2.999, 0.0], [3.0, 4.0]])
 
 
 def test_layout_cells_and_adjacency(cow, checks):
@@ -79,48 +134,93 @@ def test_crossing_segment_through_a_vertex():
     assert np.allclose(box[0], [[1.0, 1.0], [3.0, 2.0]])
 
 
-def brute_covered(corners, plane_thickness, lo_uv, s, nu, nv):
-    """Per-sample reference: within s/2 of an in-plane triangle or of a crossing segment."""
-    cu, cv, flat, crossing, seg, _ = portal.plane_footprints(corners, 0, 0.0, plane_thickness)
-    out = np.zeros((nu, nv), dtype=bool)
-    for i in range(nu):
-        for j in range(nv):
-            p = lo_uv + (np.array([i, j]) + 0.5) * s
-            for t in range(len(corners)):
-                if flat[t]:
-                    a, b, c = np.stack([cu[t], cv[t]], axis=1)
-                    cross = [(y - x)[0] * (p - x)[1] - (y - x)[1] * (p - x)[0]
-                             for x, y in ((a, b), (b, c), (c, a))]
-                    inside = all(k >= 0 for k in cross) or all(k <= 0 for k in cross)
-                    edges = [(a, b), (b, c), (c, a)]
-                elif crossing[t]:
-                    inside, edges = False, [(seg[t, 0], seg[t, 1])]
-                else:
-                    continue
-                near = min(portal._point_segment_sq(p[0], p[1], x[0], x[1], y[0], y[1])
-                           for x, y in edges)
-                if inside or near <= (s / 2) ** 2:
-                    out[i, j] = True
-                    break
-    return out
+def test_touching_edge_is_a_segment_with_its_side():
+    # a floor triangle (facing +y) ending on the plane x = 0 along its edge z in [0, 2], y = 1
+    corners = np.array([[[0.0, 1.0, 0.0], [0.0, 1.0, 2.0], [1.0, 1.0, 0.0]]])
+    seg, side = portal.plane_segments(corners, np.array([[0.0, 1.0, 0.0]]), 0, 0.0, 1e-9)
+    assert np.allclose(sorted(map(tuple, seg[0])), [(1.0, 0.0), (1.0, 2.0)])
+    assert np.allclose(side, [[1.0, 0.0]])  # (u, v) = (y, z): faces +u
+    # a triangle touching the plane at one corner leaves nothing
+    corners[0, 1, 0] = 1.0
+    assert len(portal.plane_segments(corners, np.array([[0.0, 1.0, 0.0]]), 0, 0.0, 1e-9)[0]) == 0
 
 
-def test_vectorised_coverage_matches_per_sample_reference():
-    rng = np.random.default_rng(7)
-    centres = rng.uniform(0, 4, (30, 3)) * [0, 1, 1]
-    corners = centres[:, None, :] + rng.normal(scale=0.4, size=(30, 3, 3))
-    corners[:12, :, 0] = 0.0  # in the plane
-    corners[12:, 0, 0] = np.abs(corners[12:, 0, 0]) + 0.05  # the others cross it
-    corners[12:, 1, 0] = -np.abs(corners[12:, 1, 0]) - 0.05
-    lo_uv, hi_uv = np.array([0.0, 0.0]), np.array([4.0, 3.0])
-    s, nu, nv = portal._face_grid(lo_uv, hi_uv, 24)
-    cu, cv, flat, crossing, seg, box = portal.plane_footprints(corners, 0, 0.0, 1e-9)
-    mask = portal._covered(cu, cv, flat, seg, box, lo_uv, s, nu, nv)
-    assert np.array_equal(mask, brute_covered(corners, 1e-9, lo_uv, s, nu, nv))
-    assert 0 < mask.sum() < mask.size
-    # conservative: every open sample lies in some opening rectangle
-    rects = portal._open_rectangles(mask, lo_uv, hi_uv, s)
-    oi, oj = np.nonzero(~mask)
-    pts = lo_uv + (np.stack([oi, oj], axis=1) + 0.5) * s
-    inside = ((pts[:, None] >= rects[None, :, 0]) & (pts[:, None] <= rects[None, :, 1])).all(axis=2)
-    assert inside.any(axis=1).all()
+def test_wall_outline_drops_shared_edges_only():
+    cu = np.array([[0.0, 1.0, 1.0], [0.0, 1.0, 0.0]])
+    cv = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 1.0]])
+    assert len(portal.wall_outline(cu, cv, 1e-9)) == 4  # the square's diagonal is inside
+    # two copies of one triangle lie on the same side of every edge: all edges bound
+    assert len(portal.wall_outline(np.repeat(cu[:1], 2, 0), np.repeat(cv[:1], 2, 0), 1e-9)) == 6
+
+
+def brute_back(seg, side, p, direction):
+    """Nearest segment hit from point p along direction (2,), and whether it is seen from behind
+    (None when nothing is hit)."""
+    best, back = np.inf, None
+    for (a, b), n in zip(seg, side):
+        d = b - a
+        det = direction[0] * (-d[1]) - direction[1] * (-d[0])
+        if det == 0:
+            continue
+        rhs = a - p
+        t = (rhs[0] * (-d[1]) - rhs[1] * (-d[0])) / det
+        s = (direction[0] * rhs[1] - direction[1] * rhs[0]) / det
+        if t > 0 and 0 <= s <= 1 and t < best:
+            best, back = t, float(n @ direction) > 0
+    return back
+
+
+def test_solid_cells_are_solid_everywhere_inside():
+    rng = np.random.default_rng(3)
+    # random closed convex polygons (outward normals: solid inside) and some stray segments
+    segs, sides = [], []
+    for _ in range(6):
+        c, r = rng.uniform(2, 8, 2), rng.uniform(1.0, 2.5)
+        ang = np.sort(rng.uniform(0, 2 * np.pi, 5))
+        pts = c + r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        for k in range(5):
+            a, b = pts[k], pts[(k + 1) % 5]
+            d = b - a
+            segs.append([a, b])
+            sides.append(np.array([d[1], -d[0]]) / np.linalg.norm(d))  # outward for CCW
+    for _ in range(8):
+        a = rng.uniform(0, 10, 2)
+        segs.append([a, a + rng.normal(size=2)])
+        sides.append(rng.normal(size=2))
+    seg, side = np.array(segs), np.array(sides)
+    bu, bv = np.linspace(0, 10, 41), np.linspace(0, 10, 37)
+    solid = ~portal.cells_crossed(seg, bu, bv, 1e-12) & portal._solid(seg, side, bu, bv, 1e-12)
+    assert 40 < solid.sum() < solid.size
+    for i, j in zip(*np.nonzero(solid)):
+        for _ in range(3):
+            p = np.array([rng.uniform(bu[i], bu[i + 1]), rng.uniform(bv[j], bv[j + 1])])
+            along = [[brute_back(seg, side, p, np.array(d, float)) for d in pair]
+                     for pair in (((1, 0), (-1, 0)), ((0, 1), (0, -1)))]
+            assert any(all(x is True for x in pair) for pair in along), (i, j, p)
+
+
+def test_cells_crossed_matches_dense_sampling():
+    rng = np.random.default_rng(11)
+    seg = rng.uniform(0, 4, (12, 2, 2))
+    bu, bv = np.linspace(0, 4, 9), np.linspace(0, 4, 7)
+    crossed = portal.cells_crossed(seg, bu, bv, 1e-12)
+    t = np.linspace(0, 1, 4001)
+    pts = seg[:, None, 0] + t[None, :, None] * (seg[:, None, 1] - seg[:, None, 0])
+    pts = pts.reshape(-1, 2)
+    i = np.clip(np.searchsorted(bu, pts[:, 0]) - 1, 0, 7)
+    j = np.clip(np.searchsorted(bv, pts[:, 1]) - 1, 0, 5)
+    dense = np.zeros_like(crossed)
+    dense[i, j] = True
+    assert np.array_equal(crossed, dense)
+
+
+def test_open_rectangles_cover_every_open_cell():
+    rng = np.random.default_rng(5)
+    for max_rects in (2, 64):
+        mask = rng.random((12, 9)) < 0.3
+        bu, bv = np.cumsum(rng.uniform(0.1, 1, 13)), np.cumsum(rng.uniform(0.1, 1, 10))
+        rects = portal.open_rectangles(mask, bu, bv, max_rects)
+        oi, oj = np.nonzero(mask)
+        mid = np.stack([(bu[oi] + bu[oi + 1]) / 2, (bv[oj] + bv[oj + 1]) / 2], axis=1)
+        inside = ((mid[:, None] >= rects[None, :, 0]) & (mid[:, None] <= rects[None, :, 1])).all(2)
+        assert inside.any(axis=1).all()

@@ -7,11 +7,19 @@ cell it is entered from with the portal's screen rectangle (a conservative bound
 portal polygon). A cell reached along several paths keeps the bounding rectangle of their
 union. Each visited cell's octree is then frustum-culled with the frustum narrowed to its
 rectangle (4 planes through the eye, plus near and far), all cells at once, level by level.
-The eye outside every cell (or a partition without portals) falls back to plain `vfc`.
 
-Contract: conservative provided the partition's portals cover every opening between cells
-(geometry-free parts of shared faces); portal rectangles err outward, a portal that crosses the
-eye's plane widens to the whole current rectangle.
+The portals cover every part of a shared face a sight line from free space can cross; they
+block hollow walls, slabs and closed objects (partition/portal.py). So the traversal runs only
+for an eye in free space: no triangle's box within the near plane's reach (the near plane
+clips nearer geometry, so the item buffer sees through it), and six axis rays from the eye
+(Moller-Trumbore against the triangles along each axis line) each hit a triangle from its
+front or meet nothing (at most MAX_ESCAPES of them). An eye seeing a back face or mostly
+nothing (inside a wall or a slab, past a slab's edge), an eye near a surface, an eye outside
+every cell, or a partition without portals falls back to plain `vfc` (portals.fallbacks).
+
+Contract: conservative for free-space eyes provided the portals cover every opening between
+cells; portal rectangles err outward, a portal that crosses the eye's plane widens to the whole
+current rectangle; every other eye gets plain `vfc`.
 """
 from __future__ import annotations
 
@@ -20,6 +28,7 @@ import numpy as np
 from ..geometry.boxes import boxes_contain_point
 from ..geometry.planes import planes_through_eye
 from ..geometry.raster import to_camera
+from ..geometry.ray import ray_triangle
 from .frustum import frustum_traverse
 from .state import CullState
 from .tree import Tree
@@ -27,6 +36,7 @@ from .tree import Tree
 EXTRAS = ("cell_node", "cell_bounds", "portal_cells", "portal_start", "portal_vertices",
           "cell_portal_start", "cell_portals")
 RECT_SLACK = 1e-7  # NDC units added around every rectangle
+MAX_ESCAPES = 2  # axis rays from a free-space eye that may meet nothing (through windows)
 
 
 def portal_rects(vertices, starts, eye, rotation, tx: float, ty: float) -> tuple:
@@ -87,12 +97,57 @@ class PortalStage:
         self.available = all(key in extras for key in EXTRAS) and len(extras["cell_node"]) > 0
         if self.available:
             self.x = {key: np.asarray(extras[key]) for key in EXTRAS}
+            world = tree.world
+            self.corners = world.corners  # computed on every access: once here
+            self.normals = world.normals
+            self.bounds = world.bounds
+
+    def eye_in_free_space(self, eye, reach: float) -> bool:
+        """True when no triangle's box comes within `reach` of the eye and each of the six axis
+        rays from the eye either first hits a triangle's front or escapes; at most MAX_ESCAPES
+        escape.
+
+        Errs toward False: a back face among the triangles hit within the slack of the nearest
+        one counts. Single-sided surfaces face free space, so from inside a hollow wall, a slab
+        or a closed object a ray meets a back face; an eye past the edge of a slab (nothing
+        around it) sees nothing in most directions, a room's eye escapes only through windows.
+        The near plane clips what lies closer than `reach`, so an eye that close to a wall sees
+        through it.
+        eye : (3,) float64;  reach : float, distance of the near plane's corners from the eye
+        """
+        x, tol = self.x, self.tree.tol
+        bounds = x["cell_bounds"]
+        reach = reach + tol
+        around = np.flatnonzero(boxes_contain_point(bounds, eye, reach))
+        tb = self.bounds[self.tree.refs(x["cell_node"][around].astype(np.int64))]
+        if np.any(((tb[:, 0] - reach <= eye) & (eye <= tb[:, 1] + reach)).all(axis=1)):
+            return False
+        escapes = 0
+        for axis in range(3):
+            others = [a for a in range(3) if a != axis]
+            line = ((bounds[:, 0, others] - tol <= eye[others])
+                    & (eye[others] <= bounds[:, 1, others] + tol)).all(axis=1)
+            tris = self.tree.refs(x["cell_node"][np.flatnonzero(line)].astype(np.int64))
+            tb = self.bounds[tris]
+            tris = tris[((tb[:, 0, others] - tol <= eye[others])
+                         & (eye[others] <= tb[:, 1, others] + tol)).all(axis=1)]
+            directions = np.zeros((2, 3))
+            directions[:, axis] = (1.0, -1.0)
+            t = ray_triangle(np.tile(eye, (2, 1)), directions, self.corners[tris])
+            nearest = t.min(axis=1) if t.shape[1] else np.full(2, np.inf)
+            escapes += int(np.sum(~np.isfinite(nearest)))
+            if escapes > MAX_ESCAPES:
+                return False
+            facing = self.normals[tris] @ directions.T  # (K, 2): < 0 seen from the front
+            if np.any(np.isfinite(t) & (t <= (nearest + tol)[:, None]) & (facing.T >= 0)):
+                return False
+        return True
 
     def apply(self, state: CullState) -> None:
         tree, camera = self.tree, state.camera
         cells = self.visible_cells(camera, state) if self.available else None
         if cells is None:
-            state.count(f"{self.name}.fallback", 1)
+            state.count(f"{self.name}.fallbacks", 1)
             roots = state.nodes
             state.nodes = frustum_traverse(tree, roots, state.planes[None],
                                            np.zeros(len(roots), dtype=np.int64), state, self.name)
@@ -105,13 +160,15 @@ class PortalStage:
 
     def visible_cells(self, camera, state: CullState):
         """(cell ids (V,), rects (V, 4)) reached through portals, or None when the eye is in
-        no cell."""
+        no cell or not in free space."""
         x = self.x
         starts = np.flatnonzero(boxes_contain_point(x["cell_bounds"], camera.eye, self.tree.tol))
-        if not len(starts):
+        ty = np.tan(np.radians(camera.fov) / 2.0)
+        reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
+        if not len(starts) or not self.eye_in_free_space(np.asarray(camera.eye, np.float64),
+                                                         reach):
             return None
         right, up, forward = camera.basis()
-        ty = np.tan(np.radians(camera.fov) / 2.0)
         prect, pstate = portal_rects(x["portal_vertices"], x["portal_start"], camera.eye,
                                      np.stack([right, up, forward]), ty * camera.aspect, ty)
         count = len(x["cell_node"])

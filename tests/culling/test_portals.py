@@ -1,0 +1,87 @@
+"""`portals` keeps every triangle the item buffer shows: through thin cracks, from inside hollow
+walls and slabs, and from eyes so close to a wall that the near plane cuts it."""
+import numpy as np
+import pytest
+
+from vismobile.camera import Camera
+from vismobile.culling import Culler
+from vismobile.partition import portal
+
+
+def rect(axis, plane, a, b, facing):
+    """(4, 3) vertices, (2, 3) triangles of an axis-aligned rectangle in x[axis] = plane over
+    a = (lo, hi) along axis + 1 and b = (lo, hi) along axis + 2, facing +axis (facing=1) or -axis."""
+    u, v = (axis + 1) % 3, (axis + 2) % 3
+    quad = np.zeros((4, 3))
+    quad[:, axis] = plane
+    quad[:, u] = [a[0], a[1], a[1], a[0]]
+    quad[:, v] = [b[0], b[0], b[1], b[1]]
+    tris = np.array([[0, 1, 2], [0, 2, 3]]) if facing > 0 else np.array([[0, 2, 1], [0, 3, 2]])
+    return quad, tris
+
+
+def cracked_rooms(kit, crack=0.05):
+    """Rooms A (x in [0, 4]) and B (x in [4.2, 8.2]), 3 m high, 4 m deep, faces pointing in,
+    split by a hollow wall (faces x = 4 and x = 4.2) with a slit y in [1.5, 1.5 + crack]
+    through it, lined top and bottom."""
+    top = 1.5 + crack
+    parts = [rect(1, 0.0, (0, 4), (0, 4), 1), rect(1, 0.0, (0, 4), (4.2, 8.2), 1),
+             rect(1, 3.0, (0, 4), (0, 8.2), -1),
+             rect(0, 0.0, (0, 3), (0, 4), 1), rect(0, 8.2, (0, 3), (0, 4), -1),
+             rect(2, 0.0, (0, 8.2), (0, 3), 1), rect(2, 4.0, (0, 8.2), (0, 3), -1),
+             rect(1, 1.5, (0, 4), (4.0, 4.2), 1), rect(1, top, (0, 4), (4.0, 4.2), -1)]
+    for y0, y1 in ((0.0, 1.5), (top, 3.0)):
+        parts += [rect(0, 4.0, (y0, y1), (0, 4), -1), rect(0, 4.2, (y0, y1), (0, 4), 1)]
+    world = kit.literal_world(parts, name="cracked")
+    return world, portal.build(world, 1, slabs=((4.0 / 8.2, 0.2 / 8.2, 4.0 / 8.2), 1, 1))
+
+
+def check_keeps_visible(kit, part, cam):
+    """Cull with `portals` (buffer without backface culling) and `portals,cbfc` (with); return
+    the stats of the first, after asserting nothing visible was dropped."""
+    stats = None
+    for stages, back in (("portals", False), ("portals,cbfc", True)):
+        truth = kit.visible_ids(part.world, cam, back)
+        result = Culler(part, stages).cull(cam)
+        missing = np.setdiff1d(truth, result.triangles)
+        assert not len(missing), f"{stages} dropped {missing} of {truth}, camera {cam}"
+        stats = stats or result.stats
+    return stats
+
+
+def test_thin_crack_is_seen_through(kit):
+    world, part = cracked_rooms(kit)
+    cam = Camera((2.0, 1.52, 1.0), yaw=-80.0, pitch=0.0, aspect=kit.ASPECT)
+    far_wall = np.flatnonzero(np.isclose(world.centroids[:, 0], 8.2))
+    assert np.intersect1d(kit.visible_ids(world, cam, False), far_wall).size  # the slit shows B
+    stats = check_keeps_visible(kit, part, cam)
+    assert "portals.fallbacks" not in stats and stats["portals.cells_visited"] == 3
+
+
+@pytest.mark.parametrize("eye", [(4.1, 1.0, 2.0), (4.1, 2.5, 2.0)])
+def test_eye_inside_a_hollow_wall_falls_back(kit, eye):
+    _, part = cracked_rooms(kit)
+    for yaw in (-90.0, 90.0, 0.0):
+        cam = Camera(eye, yaw=yaw, pitch=10.0, aspect=kit.ASPECT)
+        assert check_keeps_visible(kit, part, cam)["portals.fallbacks"] == 1
+
+
+def test_eye_closer_to_a_wall_than_the_near_plane_falls_back(kit):
+    # the near plane cuts the wall x = 4, so the buffer sees through it (back faces culled)
+    _, part = cracked_rooms(kit)
+    cam = Camera((3.95, 1.5, 2.0), yaw=-60.0, pitch=0.0, aspect=kit.ASPECT)
+    assert check_keeps_visible(kit, part, cam)["portals.fallbacks"] == 1
+
+
+def test_w1_slab_eye_falls_back(kit, w1_portal):
+    # inside the hollow slab between the storeys (y in (3.0, 3.2))
+    cam = Camera((32.26222229003906, 3.0999999046325684, 30.05000114440918), yaw=90.0,
+                 pitch=0.0, aspect=kit.ASPECT)
+    assert check_keeps_visible(kit, w1_portal, cam)["portals.fallbacks"] == 1
+
+
+def test_w1_room_eye_uses_the_portals(kit, w1_portal):
+    cam = Camera((4.0, 1.7, 12.5), yaw=-90.0, pitch=0.0, aspect=kit.ASPECT)
+    stats = check_keeps_visible(kit, w1_portal, cam)
+    assert "portals.fallbacks" not in stats
+    assert 1 < stats["portals.cells_visited"] < len(w1_portal.extras["cell_node"])
