@@ -132,3 +132,16 @@ def test_fixed_point_draws_the_thesis_worlds_like_float(name, path):
         assert (a == b).mean() > 0.9999
     with pytest.raises(ProfileError, match=f"world '{name}'.*32767"):
         Renderer(world.transformed(1.0, (0.0, 0.0, -40_000.0)), fixed)
+
+
+def test_device_cost_figures_belong_to_the_thesis_devices():
+    ipaq, n82 = get_profile("ipaq-hx2490b").cost, get_profile("nokia-n82").cost
+    assert get_profile("desktop").cost is None  # measured on this machine
+    assert (ipaq.clock_mhz, n82.clock_mhz) == (520.0, 332.0)  # Table 5.1
+    # No FPU on the PXA270: a float operation costs far more than on the ARM11's VFP.
+    assert ipaq.float_op_cycles > 5 * n82.float_op_cycles
+    # The GPU-less iPaq pays more per triangle than the N82.
+    assert ipaq.render_triangle_us > n82.render_triangle_us > 0
+    assert ipaq.render_base_ms > n82.render_base_ms > 0
+    assert "leave-one-out" in ipaq.source and "leave-one-out" in n82.source
+    assert get_profile("ipaq-hx2490b", "fixed16.16").cost == ipaq  # kept by with_()

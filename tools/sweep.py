@@ -11,6 +11,18 @@ frame sample, (3) re-measures the sweep's K fastest zero-false-negative configur
 tune's choice side by side in one process, interleaved frame by frame over several rounds, so
 that load from other processes hits all of them alike, and reports tune's gap to the best.
 Writes out/sweep/{runs.csv, runs.json, report.html, tune_check.json, w2_pareto.png}.
+
+Under a device model (a few minutes; no rendering, the device model prices counters):
+
+    .venv/bin/python tools/sweep.py --device --profile ipaq-hx2490b   # or nokia-n82
+    .venv/bin/python tools/sweep.py --fit-device                      # refit the device figures
+
+--device runs tune (device model) per world, then every structure x combination on more and
+other frames (sample:32) under the same model, plus every subset of the stages tune
+toggles, and reports tune's pick, the sweep's best, the
+gap, and the thesis's best configuration (its ms beside our model's) per world; it writes
+out/sweep/device_<profile>.json. --fit-device prints the device fits (costmodel.fit_device)
+of thesis.DEVICE_POINTS on our counters, with their errors.
 """
 from __future__ import annotations
 
@@ -49,6 +61,109 @@ def paired_measure(world, trajectory, profile, configs, frames, rounds, cache_di
     return {config: float(np.mean(times)) for config, times in totals.items()}
 
 
+def fit_devices() -> int:
+    """Print every device fit (triangles alone, and with each draw-call counter) and the rows."""
+    from vismobile.profile import get_profile
+    from vismobile.study.costmodel import best_device_fit, calibration_rows, cull_cycles
+    from vismobile.study.thesis import DEVICE_HELD_OUT, DEVICE_POINTS
+
+    for name, points in DEVICE_POINTS.items():
+        cost = get_profile(name).cost
+        rows = calibration_rows(points, cache_dir="out/cache")
+        chosen, fits = best_device_fit(rows, [p[3] for p in points], cost.float_op_cycles,
+                                       cost.clock_mhz)
+        print(f"{name}: {len(points)} points")
+        for fit in fits:
+            print(f"  calls {str(fit['call_counter']):13s} base {fit['base_ms']:7.2f} ms, "
+                  f"{fit['triangle_us']:7.3f} us/triangle, {fit['call_us']:7.2f} us/call: fit "
+                  f"{fit['fit_error']:.1%}, leave-one-out {fit['loo_error']:.1%} (worst "
+                  f"{fit['loo_max']:.1%}){'  <- chosen' if fit is chosen else ''}")
+        for point, row, predicted in zip(points, rows, chosen["predicted_ms"]):
+            print(f"  {point[0]} {point[1]:9s} {point[2]:14s} thesis {point[3]:7.1f} ms, model "
+                  f"{predicted:7.1f} ms; {row['triangles_sent']:8.1f} triangles, "
+                  f"{row['nodes_drawn']:6.1f} draw nodes")
+        held = DEVICE_HELD_OUT.get(name, [])
+        for point, row in zip(held, calibration_rows(held, cache_dir="out/cache")):
+            counter = chosen["call_counter"]
+            model = (chosen["base_ms"] + chosen["triangle_us"] * 1e-3 * row["triangles_sent"]
+                     + chosen["call_us"] * 1e-3 * (row.get(counter, 0) if counter else 0)
+                     + cull_cycles(row, cost.float_op_cycles) / (cost.clock_mhz * 1e3))
+            print(f"  held out: {point[0]} {point[1]} {point[2]} thesis {point[3]:.1f} ms, "
+                  f"model {model:.1f} ms ({point[4]})")
+    return 0
+
+
+def device_check(args) -> int:
+    """tune against a full sweep, both under the profile's device model, on every world."""
+    from vismobile.profile import get_profile
+    from vismobile.study import engine
+    from vismobile.study.matrix import THESIS_CULLS, cull_stages, parse_worlds
+    from vismobile.study.metrics import pearson
+    from vismobile.study.thesis import IPAQ_BEST, N82_FPS, trajectory_for
+    from vismobile.study.tune import sweep, tune
+    from vismobile.trajectory import Trajectory
+    from vismobile.world import atomic_write_bytes
+
+    profile = get_profile(args.profile)
+    frames = args.frames if args.frames != "sample:24" else "sample:32"
+    checks = []
+    for name in parse_worlds(args.worlds):
+        world = engine.load_world(name, "worlds")
+        trajectory = Trajectory.load(trajectory_for(name))
+        picked = tune(world, trajectory, profile, probe=args.probe, structures=args.structures,
+                      cache_dir="out/cache")
+        full = sweep(world, trajectory, profile, frames, args.structures, cache_dir="out/cache")
+        table = {(c.structure, c.cull): c for c in full.candidates}
+        mine = table[(picked.choice.structure, picked.choice.cull)]  # every subset is swept
+        best = full.choice
+        ref = IPAQ_BEST[name]
+        at_ref = table.get((ref["structure"], ref["cull"]))
+        thesis_ms = ref["mean_ms"] if profile.name != "nokia-n82" else 1000.0 / N82_FPS[name]
+        safe = [c for c in full.ranked() if c.false_negatives == 0]
+        per_structure, thesis_only = {}, {}
+        for cand in safe:
+            per_structure.setdefault(cand.structure, cand)
+            if cand.cull in THESIS_CULLS:
+                thesis_only.setdefault(cand.structure, cand)
+        model = full.model
+        ref_ms = [model.frame_ms(row, "bfc" in cull_stages(ref["cull"]))
+                  for row in at_ref.frame_rows] if at_ref else []
+        ref_tris = [row["triangles_sent"] for row in at_ref.frame_rows] if at_ref else []
+        check = {
+            "world": name, "profile": profile.name, "frames": len(full.frames),
+            "tune_choice": [mine.structure, mine.cull], "tune_ms": mine.frame_ms,
+            "tune_predicted_on_probe_ms": picked.choice.frame_ms,
+            "tune_seconds": picked.seconds, "sweep_seconds": full.seconds,
+            "sweep_best": [best.structure, best.cull], "sweep_best_ms": best.frame_ms,
+            "gap": mine.frame_ms / best.frame_ms - 1.0,
+            "thesis_best": [ref["structure"], ref["cull"]], "thesis_ms": thesis_ms,
+            "model_at_thesis_best_ms": at_ref.frame_ms if at_ref else None,
+            "model_r_at_thesis_best": pearson(np.array(ref_ms), np.array(ref_tris))
+            if len(ref_ms) > 2 else None,
+            "thesis_r": ref["correlation"],
+            "best_per_structure": {k: [c.cull, c.frame_ms] for k, c in per_structure.items()},
+            "best_per_structure_thesis_culls": {k: [c.cull, c.frame_ms]
+                                                for k, c in thesis_only.items()},
+            "candidates": len(full.candidates),
+            "unsafe": sum(c.false_negatives > 0 for c in full.candidates),
+        }
+        checks.append(check)
+        order = " < ".join(f"{k} {v[1]:.0f}" for k, v in
+                           check["best_per_structure_thesis_culls"].items())
+        at_ms = check["model_at_thesis_best_ms"] or float("nan")
+        at_r = check["model_r_at_thesis_best"] or float("nan")
+        print(f"{name}: tune {mine.structure} {mine.cull} {mine.frame_ms:.1f} ms "
+              f"({picked.seconds:.1f} s); sweep best {best.structure} {best.cull} "
+              f"{best.frame_ms:.1f} ms; gap {check['gap']:+.1%}; thesis {ref['structure']} "
+              f"{ref['cull']} {thesis_ms:.1f} ms, model there "
+              f"{at_ms:.1f} ms (r {at_r:.2f} vs thesis {ref['correlation']})\n"
+              f"  thesis combinations only, best per structure: {order}", flush=True)
+    path = args.out / f"device_{profile.name}.json"
+    atomic_write_bytes(path, json.dumps(checks, indent=1).encode())
+    print(f"written {path}")
+    return 0
+
+
 def main(argv=None) -> int:
     from vismobile.profile import get_profile
     from vismobile.study import engine
@@ -72,7 +187,15 @@ def main(argv=None) -> int:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--jobs", type=int, default=None)
     parser.add_argument("--out", type=Path, default=Path("out/sweep"))
+    parser.add_argument("--device", action="store_true",
+                        help="check tune against a sweep under the profile's device model")
+    parser.add_argument("--fit-device", action="store_true",
+                        help="print the device model fits to the thesis's device figures")
     args = parser.parse_args(argv)
+    if args.fit_device:
+        return fit_devices()
+    if args.device:
+        return device_check(args)
 
     profile = get_profile(args.profile)
     context = Context(".", args.out, "worlds", "out/cache")
@@ -82,7 +205,7 @@ def main(argv=None) -> int:
         world = engine.load_world(name, "worlds")
         trajectory = Trajectory.load(trajectory_for(name))
         # Cold: tune builds its own partitions (no cache), as a first run would.
-        tunes[name] = tune(world, trajectory, profile, probe=args.probe)
+        tunes[name] = tune(world, trajectory, profile, probe=args.probe, cost="measured")
         print(f"tune {name}: {tunes[name].choice.structure} {tunes[name].choice.cull} "
               f"({tunes[name].seconds:.1f} s)", flush=True)
     specs = expand(args.worlds, args.structures, args.cull, args.profile, args.frames)

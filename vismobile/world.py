@@ -23,6 +23,8 @@ class World:
     vertices   : (V, 3) float64
     triangles  : (T, 3) int32, indices into vertices, counter-clockwise = front
     object_ids : (T,) int32, index into object_names
+    derived    : corners (T, 3, 3), normals (T, 3) unit (zero for degenerate triangles),
+                 areas (T,), bounds (T, 2, 3) per-triangle AABB, centroids (T, 3); all float64
     """
 
     vertices: np.ndarray
@@ -44,6 +46,7 @@ class World:
 
     def _derive(self):
         corners = self.vertices[self.triangles]  # (T, 3, 3)
+        self.corners = corners  # kept: stages read it every frame
         cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         length = np.linalg.norm(cross, axis=1)
         self.areas = 0.5 * length
@@ -56,11 +59,6 @@ class World:
     @property
     def triangle_count(self) -> int:
         return len(self.triangles)
-
-    @property
-    def corners(self) -> np.ndarray:
-        """(T, 3, 3) float64 triangle corner positions."""
-        return self.vertices[self.triangles]
 
     @property
     def extent(self) -> np.ndarray:

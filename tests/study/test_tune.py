@@ -1,5 +1,12 @@
 """Automatic configuration on the tiny world."""
-from vismobile.study.tune import candidate_culls, tune
+import numpy as np
+import pytest
+
+from vismobile.errors import VisMobileError
+from vismobile.profile import get_profile
+from vismobile.study.costmodel import CostModel, DeviceModel
+from vismobile.study.matrix import LOOSE_STAGES, cull_stages
+from vismobile.study.tune import candidate_culls, stage_subsets, sweep, tune
 
 
 def test_candidates_leave_out_loose_stages_and_misplaced_portals():
@@ -19,3 +26,44 @@ def test_tune_picks_the_cheapest_safe_candidate(world, trajectory, profile):
     assert "choice: --structure" in text and "cost model" in text
     assert len(result.explanations) >= 5
     assert result.to_dict()["choice"]["structure"] == result.choice.structure
+
+
+def test_tune_on_a_device_profile_minimises_the_device_model(world, trajectory, profile):
+    result = tune(world, trajectory, profile, probe=4, structures="octree:1-2,bsp")
+    assert result.cost == "device" and isinstance(result.model, DeviceModel)
+    safe = [c for c in result.candidates if c.false_negatives == 0]
+    assert result.choice.frame_ms == min(c.frame_ms for c in safe)
+    for cand in result.candidates:  # predictions are the device model of the mean counters
+        assert np.isclose(cand.frame_ms, result.model.frame_ms(cand.stats))
+        assert not any(stage in LOOSE_STAGES for stage in cull_stages(cand.cull))
+    # GL_CULL_FACE is neutral on the device, so the tie goes to doing less.
+    assert "bfc" not in cull_stages(result.choice.cull)
+    text = result.report()
+    assert "on the ipaq-hx2490b (device model)" in text and "fps" in text
+    assert "runner-up" in text and "bfc       dropped" in text
+    assert result.to_dict()["runner_up"]["structure"] != result.choice.structure
+
+
+def test_measured_cost_and_the_desktop_use_this_machine(world, trajectory, profile):
+    measured = tune(world, trajectory, profile, probe=3, structures="bsp", cost="measured")
+    assert measured.cost == "measured" and isinstance(measured.model, CostModel)
+    desktop = tune(world, trajectory, get_profile("desktop"), probe=3, structures="bsp")
+    assert desktop.cost == "measured" and "on this machine (measured)" in desktop.report()
+    with pytest.raises(VisMobileError, match="cost model"):
+        tune(world, trajectory, profile, probe=3, structures="bsp", cost="wall")
+
+
+def test_sweep_plays_everything_and_tune_picks_from_it(world, trajectory, profile):
+    full = sweep(world, trajectory, profile, "sample:4", "octree:2,bsp", every_subset=False)
+    assert len(full.candidates) == sum(len(candidate_culls(s, loose=True))
+                                       for s in ("octree:2", "bsp"))
+    assert any("thesis" in c.cull for c in full.candidates)
+    assert full.choice.false_negatives == 0 and full.choice.cull.count("thesis") == 0
+    assert full.choice.rank == min(c.rank for c in full.candidates)
+    assert all(len(c.frame_rows) == len(full.frames) for c in full.candidates)
+
+
+def test_stage_subsets_cover_what_the_local_search_can_reach():
+    assert len(stage_subsets("bsp")) == 32 and len(stage_subsets("portal:1")) == 64
+    assert "none" in stage_subsets("bsp") and "vfc+cbfc+cone+occlusion" in stage_subsets("bsp")
+    assert not any("portals" in c for c in stage_subsets("octree:3"))

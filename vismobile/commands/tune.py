@@ -1,4 +1,8 @@
-"""`vismobile tune WORLD`: choose structure, parameters and culling stages from a cheap probe."""
+"""`vismobile tune WORLD`: choose structure, parameters and culling stages from a cheap probe.
+
+With a device profile (ipaq-hx2490b, nokia-n82) the choice minimises the frame time the
+profile's device model predicts on that device; `--measured` minimises this machine's.
+"""
 from pathlib import Path
 
 
@@ -14,6 +18,11 @@ def add_parser(sub):
     parser.add_argument("--worlds-dir", type=Path, default=Path("worlds"))
     parser.add_argument("--cache", type=Path, default=None,
                         help="folder to keep partition files in (default: none, build afresh)")
+    parser.add_argument("--cost", choices=("device", "measured"), default="device",
+                        help="device: minimise the frame time the profile's device model predicts "
+                             "(iPaq, N82); measured: this machine's wall time (desktop always)")
+    parser.add_argument("--measured", dest="cost", action="store_const", const="measured",
+                        help="same as --cost measured")
     parser.add_argument("--json", type=Path, default=None, help="also write the result as JSON")
     return parser
 
@@ -35,7 +44,7 @@ def run(args) -> int:
                               args.worlds_dir)
     trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
     result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,
-                  structures=args.structures, cache_dir=args.cache)
+                  structures=args.structures, cache_dir=args.cache, cost=args.cost)
     print(result.report())
     if args.json:
         atomic_write_bytes(args.json, json.dumps(result.to_dict(), indent=1).encode())

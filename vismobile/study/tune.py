@@ -1,37 +1,46 @@
 """Automatic configuration: pick structure, parameters and culling stages from a cheap probe.
 
 The probe plays a sample of the trajectory's frames (evenly spaced, plus the waypoints) through
-every candidate (structure x culling combination), measuring each cull's time and counters and
-checking its sent set against the ground truth (full-world item buffers of the probe frames).
-A few renders of the probe's triangle sets fit the render-cost model (study.costmodel), so no
-candidate has to be rendered: its predicted frame time is its measured mean cull time plus the
-modelled render time of what it sends. The choice is the cheapest candidate with zero false
-negatives on the probe frames. For each stage the choice leaves out, `explain` prices it on
-the chosen structure: cull time it would add against render time it would save.
+every candidate (structure x culling combination), culling on this machine to get each cull's
+counters and sent set, and checks the sent set against the ground truth (full-world item
+buffers of the probe frames). No candidate is rendered. Its predicted frame time comes from one
+of two cost models:
+- device (the default when the profile has DeviceCost figures, i.e. the iPaq and the N82): the
+  frame time on that device, from counters alone (costmodel.DeviceModel: render figures fitted
+  to the thesis's own device measurements, cull cycles per operation at the device's clock);
+- measured (`--cost measured`, and always for `desktop`): this machine's wall time, i.e. the
+  measured mean cull time plus render time from a model fitted to a few timed renders of the
+  probe's triangle sets (costmodel.CostModel).
+The choice is the cheapest candidate with zero false negatives on the probe frames (loose
+stages are never candidates); ties go to fewer stages. For each stage the choice leaves out,
+`explain` prices it on the chosen structure: cull time it would add against render time it
+would save.
 """
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from . import engine
-from .costmodel import CULL_FEATURES, CostModel, fit_linear
+from .costmodel import CULL_FEATURES, CostModel, DeviceModel, device_counters, fit_linear
 from .groundtruth import trajectory_truth
 from .matrix import (LOOSE_STAGES, OUR_CULLS, THESIS_CULLS, canonical_cull, cull_stages,
                      frame_indices, parse_structures)
 from .metrics import frame_errors
 
 DEFAULT_STRUCTURES = "grid,octree:3-6,portal:1-3,bsp"
+COSTS = ("device", "measured")
 
 
-def candidate_culls(structure: str) -> list:
-    """Conservative combinations of the matrix usable on a structure (loose stages left out)."""
+def candidate_culls(structure: str, loose: bool = False) -> list:
+    """Combinations of the matrix usable on a structure; loose stages left out unless asked."""
     culls = []
     for cull in THESIS_CULLS + OUR_CULLS:
         stages = cull_stages(cull)
-        if any(stage in LOOSE_STAGES for stage in stages):
+        if not loose and any(stage in LOOSE_STAGES for stage in stages):
             continue
         if "portals" in stages and not structure.startswith("portal"):
             continue
@@ -41,7 +50,12 @@ def candidate_culls(structure: str) -> list:
 
 @dataclass
 class Candidate:
-    """One probed configuration; per-frame means over the probe frames."""
+    """One probed configuration; per-frame means over the probe frames.
+
+    cull_ms, render_ms : predicted ms under the tune's cost model (device or this machine)
+    host_cull_ms       : cull wall time measured on this machine (numpy)
+    stats              : mean Culler counters, plus refs_gathered and leaves_drawn
+    """
 
     structure: str
     cull: str
@@ -51,14 +65,25 @@ class Candidate:
     draw_batches: float
     false_negatives: int
     stats: dict
+    host_cull_ms: float = 0.0
+    frame_rows: list = field(default_factory=list, repr=False)
 
     @property
     def frame_ms(self) -> float:
         return self.cull_ms + self.render_ms
 
     @property
+    def fps(self) -> float:
+        return 1000.0 / max(self.frame_ms, 1e-12)
+
+    @property
     def cull_back(self) -> bool:
         return "bfc" in cull_stages(self.cull)
+
+    @property
+    def rank(self) -> tuple:
+        """Sort key: unsafe last, then predicted ms, then fewer stages (ties: do less)."""
+        return (self.false_negatives > 0, round(self.frame_ms, 9), len(cull_stages(self.cull)))
 
 
 @dataclass
@@ -68,44 +93,72 @@ class TuneResult:
     frames: list
     choice: Candidate
     candidates: list
-    model: CostModel
+    model: object
     build_seconds: dict
     seconds: float
     explanations: list = field(default_factory=list)
     pruned: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    cost: str = "measured"
 
     def ranked(self) -> list:
-        return sorted(self.candidates, key=lambda c: (c.false_negatives > 0, c.frame_ms))
+        return sorted(self.candidates, key=lambda c: c.rank)
+
+    def runner_up(self):
+        """The best zero-false-negative candidate on another structure (None when alone)."""
+        for cand in self.ranked():
+            if cand.false_negatives == 0 and cand.structure != self.choice.structure:
+                return cand
+        return None
+
+    def where(self) -> str:
+        return (f"on the {self.profile} (device model)" if self.cost == "device"
+                else "on this machine (measured)")
 
     def to_dict(self) -> dict:
         def row(c):
-            return {"structure": c.structure, "cull": c.cull, "predicted_ms": c.frame_ms,
-                    "cull_ms": c.cull_ms, "render_ms": c.render_ms,
-                    "triangles_sent": c.triangles_sent, "false_negatives": c.false_negatives}
-        return {"world": self.world, "profile": self.profile, "probe_frames": self.frames,
-                "choice": row(self.choice), "candidates": [row(c) for c in self.ranked()],
+            return None if c is None else {
+                "structure": c.structure, "cull": c.cull, "predicted_ms": c.frame_ms,
+                "fps": c.fps, "cull_ms": c.cull_ms, "render_ms": c.render_ms,
+                "host_cull_ms": c.host_cull_ms, "triangles_sent": c.triangles_sent,
+                "false_negatives": c.false_negatives}
+        return {"world": self.world, "profile": self.profile, "cost": self.cost,
+                "probe_frames": self.frames, "choice": row(self.choice),
+                "runner_up": row(self.runner_up()),
+                "candidates": [row(c) for c in self.ranked()],
                 "model": self.model.to_dict(), "build_seconds": self.build_seconds,
                 "seconds": self.seconds, "explanations": self.explanations,
                 "pruned": [list(p) for p in self.pruned]}
 
+    def _describe(self, label, c) -> list:
+        calls = ""
+        if self.cost == "device" and self.model.cost.render_call_us:
+            counter = self.model.cost.call_counter
+            calls = f", {c.stats.get(counter, 0):,.0f} draw calls ({counter})"
+        return [f"{label}: --structure {c.structure} --cull {c.cull.replace('+', ',')}",
+                f"  predicted {self.where()}: {c.frame_ms:.2f} ms/frame ({c.fps:.2f} fps) = "
+                f"cull {c.cull_ms:.2f} + render {c.render_ms:.2f}; sends "
+                f"{c.triangles_sent:,.0f} triangles{calls}; 0 false negatives on the probe"
+                + (f"; cull here {c.host_cull_ms:.2f} ms" if self.cost == "device" else "")]
+
     def report(self) -> str:
-        """Human-readable summary: the choice, runner-up per structure, why stages were dropped."""
-        c = self.choice
-        lines = [f"world {self.world}, profile {self.profile}, {len(self.frames)} probe frames, "
-                 f"{len(self.candidates)} candidates, {self.seconds:.1f} s",
-                 f"choice: --structure {c.structure} --cull {c.cull.replace('+', ',')}",
-                 f"  predicted {c.frame_ms:.2f} ms/frame = cull {c.cull_ms:.2f} + render "
-                 f"{c.render_ms:.2f} (sends {c.triangles_sent:,.0f} triangles, "
-                 f"0 false negatives on the probe)",
-                 "best per structure (predicted ms/frame, zero false negatives):"]
+        """Human-readable summary: choice and runner-up, best per structure, stage reasons."""
+        lines = [f"world {self.world}, profile {self.profile}, cost model {self.cost}, "
+                 f"{len(self.frames)} probe frames, {len(self.candidates)} candidates, "
+                 f"{self.seconds:.1f} s"]
+        lines += self._describe("choice", self.choice)
+        second = self.runner_up()
+        if second is not None:
+            gap = second.frame_ms / self.choice.frame_ms - 1.0
+            lines += self._describe(f"runner-up (best other structure, {gap:+.1%})", second)
+        lines.append("best per structure (predicted ms/frame, zero false negatives):")
         best = {}
         for cand in self.ranked():
             if cand.false_negatives == 0:
                 best.setdefault(cand.structure, cand)
-        for cand in sorted(best.values(), key=lambda x: x.frame_ms):
+        for cand in sorted(best.values(), key=lambda x: x.rank):
             build = self.build_seconds.get(cand.structure, 0.0)
-            lines.append(f"  {cand.structure:9s} {cand.frame_ms:8.2f}  {cand.cull:32s} "
+            lines.append(f"  {cand.structure:9s} {cand.frame_ms:9.2f}  {cand.cull:32s} "
                          f"{cand.triangles_sent:10,.0f} tris  (build {build:.2f} s)")
         lossy = [p for p in self.pruned if p[2].startswith("missed")]
         slow = [p for p in self.pruned if not p[2].startswith("missed")]
@@ -115,11 +168,13 @@ class TuneResult:
         if slow:
             lines.append(f"abandoned early (branch and bound): {len(slow)} candidates "
                          f"(e.g. {slow[0][0]} {slow[0][1]}: {slow[0][2]})")
-        lines.append("stages on the chosen structure:")
+        lines.append(f"stages on the chosen structure ({self.where()}):")
         lines += [f"  {text}" for text in self.explanations]
-        lines.append("cost model (fitted in this run; cull times of the choice are measured,"
-                     " not modelled):\n  " +
-                     self.model.describe().replace("\n", "\n  "))
+        how = ("device model (figures in the profile; cull priced from counters, "
+               "not from this machine's time):" if self.cost == "device" else
+               "cost model (fitted in this run; cull times of the choice are measured, "
+               "not modelled):")
+        lines.append(how + "\n  " + self.model.describe().replace("\n", "\n  "))
         return "\n".join(lines)
 
 
@@ -134,16 +189,21 @@ def _stage_cost_rank(cull: str) -> int:
 
 
 class _Probe:
-    """Probes candidates on the probe frames with branch and bound: a candidate is abandoned
-    once its mean cull time alone exceeds the best predicted frame time found so far (after
-    `MIN_FRAMES` frames), or at its first false negative."""
+    """Probes candidates on the probe frames. With `bound`, branch and bound: a candidate is
+    abandoned once its mean predicted cull time plus the model's fixed render cost exceeds the
+    best predicted frame time so far (after MIN_FRAMES frames), or at its first false negative.
+    Without it (the sweep), every frame of every candidate is played and false negatives counted.
+    """
 
     MIN_FRAMES = 3
 
-    def __init__(self, world, profile, cameras, truths, model, cache_dir, progress):
+    def __init__(self, world, profile, cameras, truths, model, cache_dir, progress,
+                 bound=True):
         self.world, self.profile, self.cameras, self.truths = world, profile, cameras, truths
         self.model, self.cache_dir, self.progress = model, cache_dir, progress
-        self.renderer = engine.renderer(world, profile)
+        self.device = isinstance(model, DeviceModel)
+        self.renderer = None if self.device else engine.renderer(world, profile)
+        self.bound = bound
         self.partitions, self.builds = {}, {}
         self.candidates, self.pruned = [], []
         self.model_rows, self.model_ms = [], []
@@ -158,47 +218,59 @@ class _Probe:
     def run(self, label, cull):
         """Probe one candidate; returns the Candidate, or None when abandoned (see pruned)."""
         stages = cull_stages(cull)
-        truth = self.truths[any(s in ("bfc", "cbfc", "cone") for s in stages)]
+        truth = self.truths[any(s in ("bfc", "cbfc", "cbfc_thesis", "cone") for s in stages)]
         partition = self.structure(label)
         engine.make_culler(partition, stages).cull(self.cameras[0])  # warm-up: lazy tables
         culler = engine.make_culler(partition, stages)
         back = "bfc" in stages
-        times, counters, sent_counts, render, missed = [], [], [], [], 0
+        floor = self.model.render_ms({}, back)
+        host, costs, render, rows, missed = [], [], [], [], 0
         for camera, visible in zip(self.cameras, truth):
             result, ms = engine.timed_cull(culler, camera)
             sent = engine.sent_triangles(result)
+            stats = device_counters(result, culler.tree)
             missed += frame_errors(visible, sent)["false_negatives"]
-            times.append(ms)
-            counters.append(dict(result.stats))
-            sent_counts.append(len(sent))
-            batches = _batches(self.renderer, sent)
-            render.append(self.model.render_ms({"triangles_sent": len(sent),
-                                                "draw_batches": batches}, back))
+            host.append(ms)
+            rows.append(stats)
+            if self.device:
+                costs.append(self.model.cull_ms(stats))
+                render.append(self.model.render_ms(stats, back))
+            else:
+                costs.append(ms)
+                render.append(self.model.render_ms(
+                    {"triangles_sent": len(sent),
+                     "draw_batches": _batches(self.renderer, sent)}, back))
+            if not self.bound:
+                continue
             if missed:
                 self.pruned.append((label, cull, f"missed {missed} visible triangles"))
                 return None
-            if (self.best is not None and len(times) >= self.MIN_FRAMES
-                    and np.mean(times) > self.best.frame_ms):
-                self.pruned.append((label, cull, f"cull alone {np.mean(times):.2f} ms > best "
+            if (self.best is not None and len(costs) >= self.MIN_FRAMES
+                    and np.mean(costs) + floor > self.best.frame_ms):
+                self.pruned.append((label, cull, f"cull {np.mean(costs):.2f} ms + fixed render "
+                                                 f"{floor:.2f} ms > best "
                                                  f"{self.best.frame_ms:.2f} ms"))
                 return None
-        cand = Candidate(label, cull, float(np.mean(times)), float(np.mean(render)),
-                         float(np.mean(sent_counts)), 0.0, missed, _mean_stats(counters))
-        self.model_rows.extend(counters)
-        self.model_ms.extend(times)
+        stats = _mean_stats(rows)
+        cand = Candidate(label, cull, float(np.mean(costs)), float(np.mean(render)),
+                         float(np.mean([r["triangles_sent"] for r in rows])),
+                         stats.get("draw_batches", 0.0), missed, stats, float(np.mean(host)),
+                         rows)
+        self.model_rows.extend(rows)
+        self.model_ms.extend(host)
         self.candidates.append(cand)
-        if self.best is None or cand.frame_ms < self.best.frame_ms:
+        if missed == 0 and (self.best is None or cand.rank < self.best.rank):
             self.best = cand
         return cand
 
-    def structure_best(self, label):
-        """Probe every candidate combination on a structure; its best Candidate or None."""
-        found = [self.run(label, cull) for cull in sorted(candidate_culls(label),
+    def structure_best(self, label, loose=False):
+        """Probe every candidate combination on a structure; its best safe Candidate or None."""
+        found = [self.run(label, cull) for cull in sorted(candidate_culls(label, loose),
                                                           key=_stage_cost_rank)]
-        found = [c for c in found if c is not None]
+        found = [c for c in found if c is not None and c.false_negatives == 0]
         if self.progress:
             self.progress(len(self.partitions), None)
-        return min(found, key=lambda c: c.frame_ms) if found else None
+        return min(found, key=lambda c: c.rank) if found else None
 
 
 def _search_order(labels) -> list:
@@ -212,27 +284,47 @@ def _search_order(labels) -> list:
     return flat, {kind: sorted(depths) for kind, depths in families.items()}
 
 
+def cost_model_for(profile, cost: str) -> str:
+    """"device" when asked for and the profile has device figures, else "measured"."""
+    if cost not in COSTS:
+        from ..errors import VisMobileError
+
+        raise VisMobileError(f"unknown cost model {cost!r}; known: {', '.join(COSTS)}")
+    return "device" if cost == "device" and profile.cost is not None else "measured"
+
+
+def _setup(world, trajectory, profile, frames, cost, cache_dir, progress, bound):
+    cameras = [trajectory.camera(f, profile.aspect) for f in frames]
+    truths = {back: trajectory_truth(world, cameras, frames,
+                                     engine.item_buffer_fn(world, profile, back),
+                                     profile.resolution, trajectory.poses, back,
+                                     None if cache_dir is None else Path(cache_dir) / "truth")
+              for back in (False, True)}
+    model = DeviceModel(profile) if cost == "device" else \
+        calibrate(world, profile, cameras, truths[False])
+    return _Probe(world, profile, cameras, truths, model, cache_dir, progress, bound)
+
+
 def tune(world, trajectory, profile, probe: int = 16, structures: str = DEFAULT_STRUCTURES,
-         cache_dir=None, exhaustive: bool = False, progress=None) -> TuneResult:
+         cache_dir=None, exhaustive: bool = False, progress=None,
+         cost: str = "device") -> TuneResult:
     """Choose the configuration minimising predicted mean frame time with zero false negatives.
 
     world      : World;  trajectory : Trajectory;  profile : Profile
     probe      : evenly spaced probe frames (the waypoints are added)
-    cache_dir  : optional folder for partition files (a second tune reuses them)
+    cache_dir  : optional folder for partition files and ground truths (a second tune reuses them)
     exhaustive : probe every depth listed; otherwise each depth family (octree, portal) is
                  searched from its start depth in the improving direction and stops at the
                  first depth that is slower than its neighbour (unimodal search)
     progress   : optional callable(structures_done, None)
+    cost       : "device" (the profile's device model; `desktop` has none, so measured) or
+                 "measured" (this machine's wall time)
     """
     start = time.perf_counter()
+    cost = cost_model_for(profile, cost)
     frames = probe_frames(trajectory, probe)
-    cameras = [trajectory.camera(f, profile.aspect) for f in frames]
-    truths = {back: trajectory_truth(world, cameras, frames,
-                                     engine.item_buffer_fn(world, profile, back),
-                                     profile.resolution, trajectory.poses, back)
-              for back in (False, True)}
-    model = calibrate(world, profile, cameras, truths[False])
-    search = _Probe(world, profile, cameras, truths, model, cache_dir, progress)
+    search = _setup(world, trajectory, profile, frames, cost, cache_dir, progress, True)
+    model = search.model
     notes = []
     flat, families = _search_order(parse_structures(structures))
     for label in flat:
@@ -286,16 +378,53 @@ def tune(world, trajectory, profile, probe: int = 16, structures: str = DEFAULT_
             if search.run(choice.structure, cull) is search.best:
                 improved = True
                 break
-    model.cull, model.residual["cull"] = fit_linear(search.model_rows, search.model_ms,
-                                                    CULL_FEATURES)
+    if cost == "measured":
+        model.cull, model.residual["cull"] = fit_linear(search.model_rows, search.model_ms,
+                                                        CULL_FEATURES)
     result = TuneResult(world.name, profile.name, frames, search.best, search.candidates,
-                        model, search.builds, 0.0, pruned=search.pruned, notes=notes)
+                        model, search.builds, 0.0, pruned=search.pruned, notes=notes, cost=cost)
+    result.explanations = explain(result)
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def sweep(world, trajectory, profile, frames: str = "sample:48",
+          structures: str = DEFAULT_STRUCTURES, cost: str = "device", cache_dir=None,
+          loose: bool = True, every_subset: bool = True, progress=None) -> TuneResult:
+    """Every structure x combination (loose ones too, for their error) on a frame selection,
+    no search and no branch and bound: the reference tune is checked against. With
+    every_subset, also every subset of the stages tune may toggle (its local search reaches
+    combinations outside the matrix). Returns a TuneResult whose choice is the sweep's best
+    zero-false-negative candidate."""
+    start = time.perf_counter()
+    cost = cost_model_for(profile, cost)
+    picked = frame_indices(frames, len(trajectory), trajectory.waypoints)
+    search = _setup(world, trajectory, profile, picked, cost, cache_dir, progress, False)
+    for label in parse_structures(structures):
+        search.structure_best(label, loose)
+        if every_subset:
+            for cull in stage_subsets(label):
+                if (label, cull) not in {(c.structure, c.cull) for c in search.candidates}:
+                    search.run(label, cull)
+    if search.best is None:
+        from ..errors import VisMobileError
+
+        raise VisMobileError("sweep: no candidate had zero false negatives")
+    result = TuneResult(world.name, profile.name, picked, search.best, search.candidates,
+                        search.model, search.builds, 0.0, cost=cost)
     result.explanations = explain(result)
     result.seconds = time.perf_counter() - start
     return result
 
 
 START_DEPTH = {"octree": 4, "portal": 1}
+
+
+def stage_subsets(structure: str) -> list:
+    """Every combination of the stages tune may toggle on a structure, canonical, "none" too."""
+    stages = _toggle_stages(structure)
+    return [canonical_cull("+".join(s for i, s in enumerate(stages) if mask >> i & 1))
+            for mask in range(1 << len(stages))]
 
 
 def _toggle_stages(structure: str) -> list:
@@ -341,6 +470,8 @@ def explain(result: TuneResult) -> list:
     """One line per stage on the chosen structure: kept or dropped, with its cost and saving."""
     choice = result.choice
     model = result.model
+    device = result.cost == "device"
+    counter = model.cost.call_counter if device and model.cost.render_call_us else None
     chosen = set(cull_stages(choice.cull))
     table = {(c.structure, frozenset(cull_stages(c.cull))): c for c in result.candidates}
     pruned = {(label, frozenset(cull_stages(cull))): why
@@ -356,11 +487,17 @@ def explain(result: TuneResult) -> list:
                          f"probe was abandoned ({why})")
             continue
         with_, without = (choice, other) if kept else (other, choice)
+        if other.false_negatives:
+            lines.append(f"{stage:9s} kept: without it {other.false_negatives} visible "
+                         "triangles were missed")
+            continue
         if stage == "bfc":
             delta = without.render_ms - with_.render_ms
             lines.append(f"{stage:9s} {'kept' if kept else 'dropped'}: GL_CULL_FACE changes "
                          f"modelled render time by {-delta:+.3f} ms/frame (a render flag: the "
-                         "same triangles are sent)")
+                         "same triangles are sent"
+                         + ("; the device model prices it as neutral, so it is left off"
+                            if device and not kept and delta == 0 else "") + ")")
             continue
         added = with_.cull_ms - without.cull_ms
         removed = without.triangles_sent - with_.triangles_sent
@@ -368,7 +505,12 @@ def explain(result: TuneResult) -> list:
         net = saved - added
         reason = f"it pays {net:+.3f} ms/frame" if kept else \
             f"it costs {-net:.3f} ms/frame more than it saves"
+        calls = ""
+        if counter:
+            fewer = without.stats.get(counter, 0) - with_.stats.get(counter, 0)
+            calls = f" and {fewer:,.0f} draw calls"
         lines.append(f"{stage:9s} {'kept' if kept else 'dropped'}: {reason} (cull {added:+.3f} "
-                     f"ms, removes {removed:,.0f} triangles = {saved:.3f} ms of rendering at "
-                     f"{model.render_saving_ms(1, 0, with_.cull_back) * 1e3:.3g} us/triangle)")
+                     f"ms, removes {removed:,.0f} triangles{calls} = {saved:.3f} ms of "
+                     f"rendering at {model.render_saving_ms(1, 0, with_.cull_back) * 1e3:.3g} "
+                     "us/triangle)")
     return lines + list(result.notes)
