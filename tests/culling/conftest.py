@@ -12,7 +12,7 @@ from vismobile.world import World
 
 PROFILE = get_profile("ipaq-hx2490b")
 ASPECT = PROFILE.aspect
-BACKFACE_STAGES = {"bfc", "cbfc", "cone"}
+BACKFACE_STAGES = {"bfc", "cbfc", "cone", "tbfc"}
 
 # Structure parameters per world: small enough to build quickly, deep enough to cull.
 STRUCTURES = {"octree": {"depth": 4}, "portal": {"depth": 2}, "bsp": {}, "grid": {}}

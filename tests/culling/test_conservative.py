@@ -7,13 +7,20 @@ import pytest
 from vismobile.culling import Culler, parse_stages
 
 COMBOS = ("vfc", "vfc_thesis", "cbfc", "cone", "vfc,cbfc", "vfc,bfc,cbfc,cone", "occlusion",
-          "vfc,occlusion", "vfc,occlusion_thesis", "portals", "portals,occlusion,cbfc,cone")
+          "vfc,occlusion", "vfc,occlusion_thesis", "portals", "portals,occlusion,cbfc,cone",
+          "tbfc", "vfc,occlusion,tbfc", "portals,occlusion,cbfc,cone,tbfc")
+# Stage options checked too: occlusion with objects' near sides as occluders and the sample test
+# at the ground truth's own resolution (the profile's screen).
+SCREEN = (240, 320)
+EXTRAS = {"occlusion": {"self_occluders": 64, "screen": SCREEN}}
+OPTIONS = {"occlusion": EXTRAS, "vfc,occlusion,tbfc": EXTRAS}
 WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6")
 KINDS = ("octree", "portal", "bsp", "grid")
 
 
 def check_never_drops_visible(kit, part, cameras):
-    cullers = {combo: Culler(part, combo) for combo in COMBOS}
+    assert tuple(kit.PROFILE.resolution) == SCREEN
+    cullers = {combo: Culler(part, combo, **OPTIONS.get(combo, {})) for combo in COMBOS}
     truth = {}
     for i, cam in enumerate(cameras):
         for combo, culler in cullers.items():

@@ -60,3 +60,72 @@ def test_thesis_occlusion_skips_an_occluder_seen_edge_on(kit):
     culler.cull(cam)  # the first frame records the occluder candidates
     assert not np.isin([0, 1], culler.stages[0].select(cam)).any()  # the wall is skipped
     assert np.isin(kit.visible_ids(world, cam, False), culler.cull(cam).triangles).all()
+
+
+def cube(x0, x1, y0, y1, z0, z1):
+    """(8, 3) vertices and (12, 3) outward-facing triangles of a closed box."""
+    v = np.array([[x, y, z] for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)], dtype=float)
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    t = np.array([[a, b, c] for a, b, c, d in faces] + [[a, c, d] for a, b, c, d in faces])
+    centre = v.mean(axis=0)
+    n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    flip = np.einsum("ij,ij->i", n, v[t[:, 0]] - centre) < 0
+    t[flip] = t[flip][:, ::-1]
+    return v, t
+
+
+def test_objects_near_sides_hide_what_is_behind_them(kit):
+    # A floor (the one large occluder allowed), a box on it, a small patch hidden behind the box.
+    floor_v = np.array([[-9.0, -1, -20], [9, -1, -20], [9, -1, 5], [-9, -1, 5]])
+    parts = [(floor_v, np.array([[0, 2, 1], [0, 3, 2]])), cube(-1, 1, -1, 1, -6, -4),
+             kit.quad(-0.3, 0.3, -0.6, 0.2, -8)]
+    world = kit.literal_world(parts, "box")
+    part = partition(world, "octree", depth=2)
+    cam = Camera((0.0, 0.0, 0.0), yaw=0.0, pitch=0.0, aspect=kit.ASPECT)
+    options = {"occluders": 1, "candidates": 1}
+    alone = Culler(part, "vfc,occlusion", occlusion=options).cull(cam)
+    both = Culler(part, "vfc,occlusion", occlusion={**options, "self_occluders": 8}).cull(cam)
+    patch = np.flatnonzero(world.object_ids == 2)
+    assert np.isin(patch, alone.triangles).all()
+    assert not np.isin(patch, both.triangles).any()
+    assert 0 < both.stats["occlusion.self_occluders"] <= 8
+    assert np.isin(kit.visible_ids(world, cam, False), both.triangles).all()
+
+
+def test_triangles_between_pixel_centres_are_dropped_only_when_no_centre_is_hit(kit):
+    # A grid of tiny, non-overlapping triangles facing the eye: the item buffer shows exactly
+    # those that hold a pixel centre; the sample test drops only (some of) the others.
+    rng = np.random.default_rng(3)
+    parts = []
+    for gx in range(-12, 12):
+        for gy in range(-12, 12):
+            c = np.array([gx * 0.05, gy * 0.05, -4.0]) + rng.uniform(-0.01, 0.01, 3) * [1, 1, 0]
+            size = rng.uniform(0.002, 0.02)
+            v = c + np.array([[0.0, 0, 0], [size, 0, 0], [0.3 * size, size, 0]])
+            parts.append((v, np.array([[0, 1, 2]])))
+    world = kit.literal_world(parts, "specks")
+    part = partition(world, "octree", depth=2)
+    cam = Camera((0.01, 0.02, 0.0), yaw=0.0, pitch=0.0, aspect=kit.ASPECT)
+    screen = tuple(kit.PROFILE.resolution)
+    result = Culler(part, "vfc,occlusion", occlusion={"screen": screen}).cull(cam)
+    visible = kit.visible_ids(world, cam, False)
+    assert np.isin(visible, result.triangles).all()
+    dropped = world.triangle_count - len(result.triangles)
+    assert dropped == result.stats["occlusion.subpixel_culled"] > 50
+    assert len(visible) > 50
+
+
+def test_walls_nearer_than_the_near_plane_hide_nothing(kit):
+    # The item buffer sees through a wall closer than near; a wall just beyond near is drawn
+    # but too close to the clipping plane to trust: neither may hide the patch behind it.
+    q = kit.quad
+    for gap in (0.05, 0.1 * (1 + 1e-9), 0.1 * (1 + 1e-5)):
+        world = kit.literal_world([q(-3, 3, -3, 3, -gap), q(-0.2, 0.2, -0.2, 0.2, -3.0)])
+        part = partition(world, "octree", depth=2)
+        cam = Camera((0.0, 0.0, 0.0), yaw=0.0, pitch=0.0, aspect=kit.ASPECT, near=0.1)
+        sent = Culler(part, "vfc,occlusion").cull(cam).triangles
+        assert np.isin([2, 3], sent).all(), gap
+        assert np.isin(kit.visible_ids(world, cam, False), sent).all()
+    world = kit.literal_world([q(-3, 3, -3, 3, -0.2), q(-0.2, 0.2, -0.2, 0.2, -3.0)])
+    sent = Culler(partition(world, "octree", depth=2), "vfc,occlusion").cull(cam).triangles
+    assert not np.isin([2, 3], sent).any()  # a wall safely beyond near does hide it

@@ -1,9 +1,10 @@
 """Conservative union depth buffer: edges split at T-junctions, union coverage (shrunk, never
 grown) without cracks at shared edges, T-junctions or creases, far depths, near clipping, exact
-sparse-table rectangle maxima."""
+sparse-table rectangle maxima, the rectangle-to-pixel scatter, and the pixel-centre sample test."""
 import numpy as np
 
-from vismobile.geometry.raster import max_table, rect_max, split_edges, union_depth
+from vismobile.geometry.raster import (SLACK_PX, _rect_pixel_pairs, covers_no_sample, max_table,
+                                      rect_max, split_edges, union_depth)
 
 W, H, TX, TY = 24, 32, 0.4, 0.5
 
@@ -138,3 +139,76 @@ def test_rect_max_is_the_exact_rectangle_maximum():
     got = rect_max(table, x0, x1, y0, y1)
     want = [buf[b:d + 1, a:c + 1].max() for a, b, c, d in zip(x0, y0, x1, y1)]
     assert np.array_equal(got, want)
+
+
+def camera_triangle(px_points, z, width, height, tx=TX, ty=TY):
+    """(3, 3) camera-space triangle at depth z whose window coordinates are px_points (3, 2)."""
+    p = np.asarray(px_points, dtype=float)
+    u = p[:, 0] / (0.5 * width) - 1.0
+    v = p[:, 1] / (0.5 * height) - 1.0
+    return np.column_stack([u * tx * z, v * ty * z, np.full(3, z)])
+
+
+def test_a_triangle_between_pixel_centres_covers_no_sample():
+    tri = camera_triangle([[3.6, 4.6], [4.4, 4.6], [4.0, 5.4]], 3.0, W, H)  # inside pixel (4, 4)'s
+    assert covers_no_sample(tri[None], 0.1, TX, TY, W, H)[0]                # corner-free middle
+    around = camera_triangle([[3.9, 4.4], [5.2, 4.4], [4.5, 5.6]], 3.0, W, H)  # holds (4.5, 4.5)
+    assert not covers_no_sample(around[None], 0.1, TX, TY, W, H)[0]
+
+
+def test_a_thin_sliver_passing_a_centre_closely_is_kept():
+    tri = camera_triangle([[2.0, 4.5 + 1e-4], [9.0, 4.5 + 1e-4], [9.0, 4.6]], 3.0, W, H)
+    assert not covers_no_sample(tri[None], 0.1, TX, TY, W, H)[0]  # 1e-4 px above the centres
+    far_off = camera_triangle([[2.0, 4.6], [9.0, 4.6], [9.0, 4.9]], 3.0, W, H)
+    assert covers_no_sample(far_off[None], 0.1, TX, TY, W, H)[0]
+
+
+def test_sample_test_keeps_triangles_near_or_behind_the_near_plane_and_large_ones():
+    tri = camera_triangle([[3.6, 4.6], [4.4, 4.6], [4.0, 5.4]], 3.0, W, H)
+    behind = tri.copy()
+    behind[0, 2] = 0.05
+    big = camera_triangle([[0.2, 0.2], [20.0, 0.3], [10.0, 30.0]], 3.0, W, H)
+    assert not covers_no_sample(np.stack([behind, big]), 0.1, TX, TY, W, H, max_samples=8).any()
+    assert covers_no_sample(np.zeros((0, 3, 3)), 0.1, TX, TY, W, H).shape == (0,)
+
+
+def test_sample_test_never_flags_a_triangle_holding_a_centre():
+    # Random small triangles; exact rational check of every on-screen centre near each flagged
+    # one (centres off the screen are never sampled).
+    from fractions import Fraction
+
+    rng = np.random.default_rng(7)
+    base = rng.uniform(0, [W, H], (600, 1, 2))
+    px = base + rng.normal(scale=rng.uniform(0.05, 1.5, (600, 1, 1)), size=(600, 3, 2))
+    tris = np.stack([camera_triangle(p, z, W, H) for p, z in zip(px, rng.uniform(0.5, 20, 600))])
+    flagged = covers_no_sample(tris, 0.1, TX, TY, W, H, move=0.0)
+    assert 50 < flagged.sum() < 550  # both verdicts occur
+    for t in tris[flagged]:
+        x = (t[:, 0] / (t[:, 2] * TX) + 1) * 0.5 * W
+        y = (t[:, 1] / (t[:, 2] * TY) + 1) * 0.5 * H
+        q = [(Fraction(float(a)), Fraction(float(b))) for a, b in zip(x, y)]
+        for i in range(max(int(np.floor(x.min())) - 1, 0), min(int(np.ceil(x.max())) + 1, W)):
+            for j in range(max(int(np.floor(y.min())) - 1, 0), min(int(np.ceil(y.max())) + 1, H)):
+                s = (Fraction(2 * i + 1, 2), Fraction(2 * j + 1, 2))
+                e = [(q[(k + 1) % 3][0] - q[k][0]) * (s[1] - q[k][1])
+                     - (q[(k + 1) % 3][1] - q[k][1]) * (s[0] - q[k][0]) for k in range(3)]
+                assert not (all(v >= 0 for v in e) or all(v <= 0 for v in e)), (t, i, j)
+
+
+def test_rect_pixel_pairs_match_the_dense_rectangle_test():
+    rng = np.random.default_rng(8)
+    corner_px = np.concatenate([rng.uniform(-5, [W + 5, H + 5], (90, 2)),
+                                rng.uniform(-50, 80, (30, 2))])  # some large rectangles
+    owner = np.repeat(np.arange(40), 3)
+    pixels = np.unique(rng.integers(0, W * H, 300))
+    r, q = _rect_pixel_pairs(corner_px, owner, 41, pixels, W, H)  # triangle 40 has no points
+    got = set(zip(r.tolist(), q.tolist()))
+    x0 = np.array([corner_px[owner == k, 0].min() for k in range(40)])
+    x1 = np.array([corner_px[owner == k, 0].max() for k in range(40)])
+    y0 = np.array([corner_px[owner == k, 1].min() for k in range(40)])
+    y1 = np.array([corner_px[owner == k, 1].max() for k in range(40)])
+    cx, cy = pixels % W, pixels // W
+    meets = ((x0[None] <= cx[:, None] + 1 + SLACK_PX) & (x1[None] >= cx[:, None] - SLACK_PX)
+             & (y0[None] <= cy[:, None] + 1 + SLACK_PX) & (y1[None] >= cy[:, None] - SLACK_PX))
+    assert got == set(zip(*[a.tolist() for a in np.nonzero(meets)]))
+    assert len(got) > 100

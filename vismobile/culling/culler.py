@@ -14,16 +14,18 @@ from .portals import PortalStage
 from .precision import conservative_planes, world_scale
 from .state import CullResult, CullState
 from .tree import Tree
+from .triangle_backface import TriangleBackface
 
 # name -> stage class. Each has `name`, `cost` (order of application), prepare(tree), apply(state).
 STAGES = {cls.name: cls for cls in (PortalStage, FrustumStage, ThesisFrustumStage,
                                     NormalConeStage, ThesisOcclusion, DepthBufferOcclusion,
-                                    ConservativeBackface, ThesisBackface, BackfaceFlag)}
+                                    ConservativeBackface, ThesisBackface, TriangleBackface,
+                                    BackfaceFlag)}
 
 # Stages that never drop a triangle the full world's item buffer shows (proved by the tests);
 # cbfc_thesis is the one stage outside it: the thesis's 2D rule drops front faces.
-CONSERVATIVE = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "occlusion", "occlusion_thesis",
-                "portals")
+CONSERVATIVE = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "tbfc", "occlusion",
+                "occlusion_thesis", "portals")
 
 
 def parse_stages(stages) -> tuple:
@@ -46,7 +48,7 @@ class Culler:
     stages    : list/tuple of names or a comma string, e.g. "vfc,bfc,cbfc"; "" or "none" = no
                 culling. Valid names: STAGES. Applied in order of cost: node stages (portals,
                 vfc, vfc_thesis, cone, occlusion_thesis, occlusion) refine the set of draw nodes,
-                triangle stages (cbfc) then filter the gathered references, bfc sets a flag.
+                triangle stages (cbfc, tbfc) then filter the gathered references, bfc sets a flag.
     arithmetic: the device's arithmetic mode (float64, float32, fixed16.16); frustum planes are
                 pushed out by its error bound so every decision stays conservative in that mode
     options   : per-stage keyword dicts, e.g. occlusion={"occluders": 32}, cbfc={"pitch_bands": 8}

@@ -22,6 +22,7 @@ from .boxes import box_corners
 
 SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
 DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
+SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
 
 
 def to_camera(points, eye, rotation) -> np.ndarray:
@@ -195,22 +196,60 @@ def union_depth(points, triangles, pieces, groups, planes, near: float, tx: floa
     if len(rest):
         tri_px = px(np.concatenate([s_a, s_b, near_a, near_b]))
         owner = np.concatenate([s_tri, s_tri, near_tri, near_tri])
-        x0 = np.full(len(tri), np.inf)
-        x1, y0, y1 = -x0, x0.copy(), -x0
-        np.minimum.at(x0, owner, tri_px[:, 0])
-        np.maximum.at(x1, owner, tri_px[:, 0])
-        np.minimum.at(y0, owner, tri_px[:, 1])
-        np.maximum.at(y1, owner, tri_px[:, 1])
-        cx, cy = rest % width, rest // width
-        meets = ((x0[None] <= cx[:, None] + 1 + SLACK_PX) & (x1[None] >= cx[:, None] - SLACK_PX)
-                 & (y0[None] <= cy[:, None] + 1 + SLACK_PX) & (y1[None] >= cy[:, None] - SLACK_PX))
-        r, q = np.nonzero(meets)
+        r, q = _rect_pixel_pairs(tri_px, owner, len(tri), rest, width, height)
         far = np.minimum(_plane_far(planes[q], rest[r], tx, ty, width, height),
                          pts[tri[q], 2].max(axis=1) * (1.0 + DEPTH_SLACK))
         worst = np.full(len(rest), -np.inf)
         np.maximum.at(worst, r, far)
         buffer.ravel()[rest] = np.where(np.isfinite(worst), worst, np.inf)
     return buffer
+
+
+def _rect_pixel_pairs(corner_px, owner, count: int, pixels, width: int, height: int) -> tuple:
+    """(r (n,) int64 index into pixels, q (n,) int64 triangle) for every listed flat pixel that
+    meets triangle q's screen rectangle grown by SLACK_PX (errs toward more pairs).
+
+    Small rectangles scatter their own pixels; a rectangle larger than the pixel list is tested
+    against the list instead, so the cost is about min(rect area, len(pixels)) per triangle.
+    corner_px : (m, 2) float64 pixel coords of the triangles' (clipped) boundary points
+    owner     : (m,) int64 triangle of each point, in [0, count)
+    pixels    : (R,) int64 unique flat pixels
+    """
+    x0 = np.full(count, np.inf)
+    x1, y0, y1 = -x0, x0.copy(), -x0
+    np.minimum.at(x0, owner, corner_px[:, 0])
+    np.maximum.at(x1, owner, corner_px[:, 0])
+    np.minimum.at(y0, owner, corner_px[:, 1])
+    np.maximum.at(y1, owner, corner_px[:, 1])
+    seen = np.isfinite(x0) & np.isfinite(x1) & np.isfinite(y0) & np.isfinite(y1)
+    # Pixel i meets [x0 - s, x1 + s] when i <= x1 + s and i + 1 >= x0 - s.
+    with np.errstate(invalid="ignore"):
+        i0 = np.clip(np.ceil(np.where(seen, x0, 0.0) - SLACK_PX - 1.0), 0, width)
+        i1 = np.clip(np.floor(np.where(seen, x1, -1.0) + SLACK_PX), -1, width - 1)
+        j0 = np.clip(np.ceil(np.where(seen, y0, 0.0) - SLACK_PX - 1.0), 0, height)
+        j1 = np.clip(np.floor(np.where(seen, y1, -1.0) + SLACK_PX), -1, height - 1)
+    i0, i1, j0, j1 = (a.astype(np.int64) for a in (i0, i1, j0, j1))
+    nx, ny = np.maximum(i1 - i0 + 1, 0), np.maximum(j1 - j0 + 1, 0)
+    area = nx * ny
+    pixels = np.asarray(pixels, dtype=np.int64)
+    big = np.flatnonzero(area > len(pixels))
+    small = np.flatnonzero((area > 0) & (area <= len(pixels)))
+    # Large rectangles: every listed pixel against each.
+    cx, cy = pixels % width, pixels // width
+    meets = ((i0[big][None] <= cx[:, None]) & (i1[big][None] >= cx[:, None])
+             & (j0[big][None] <= cy[:, None]) & (j1[big][None] >= cy[:, None]))
+    rb, qb = np.nonzero(meets)
+    # Small rectangles: scatter their pixels, keep the listed ones.
+    a = area[small]
+    tri = np.repeat(small, a)
+    k = np.arange(a.sum()) - np.repeat(np.cumsum(a) - a, a)
+    px_ = i0[tri] + k % nx[tri]
+    py_ = j0[tri] + k // nx[tri]
+    slot = np.full(width * height, -1, dtype=np.int64)
+    slot[pixels] = np.arange(len(pixels))
+    rs = slot[py_ * width + px_]
+    hit = rs >= 0
+    return np.concatenate([rb, rs[hit]]), np.concatenate([big[qb], tri[hit]])
 
 
 def _one_sided(key, forward) -> np.ndarray:
@@ -379,3 +418,57 @@ def box_rects(boxes, eye, rotation, near: float, tx: float, ty: float,
     cam = to_camera(box_corners(boxes), eye, rotation)  # (B, 8, 3)
     x0, x1, y0, y1, zmin, testable, onscreen = point_rects(cam, near, tx, ty, width, height)
     return x0, x1, y0, y1, zmin, testable & onscreen
+
+
+def covers_no_sample(points, near: float, tx: float, ty: float, width: int, height: int,
+                     move: float = 0.0, max_samples: int = 16) -> np.ndarray:
+    """(B,) bool: each camera-space triangle, rasterised on a width x height screen sampled at
+    pixel centres (no multisampling), certainly covers no sample, so it yields no fragment.
+
+    Errs toward False: True only when every vertex is in front of `near` and no pixel centre
+    lies within the triangle grown by its vertices' worst screen error (SAMPLE_SLACK_PX for
+    subpixel snapping plus the projection of a move of up to `move` per world coordinate);
+    triangles whose grown box holds more than max_samples centres are not tested (False).
+    points : (B, 3, 3) float64 camera-space triangles;  move : float >= 0 (device rounding)
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3, 3)
+    z = pts[..., 2]
+    front = z.min(axis=1) >= near
+    zs = np.where(front[:, None], z, 1.0)
+    sx, sy = 0.5 * width / tx, 0.5 * height / ty
+    x = (pts[..., 0] / zs) * sx + 0.5 * width   # window coordinates, pixel centres at k + 0.5
+    y = (pts[..., 1] / zs) * sy + 0.5 * height
+    # d(x)/d(point) = sx / z (dx - x/z dz): a move of |d| <= sqrt(3) move shifts it this much.
+    lateral = np.maximum(np.abs(pts[..., 0]), np.abs(pts[..., 1]))
+    reach = np.sqrt(3.0) * move / zs * (1.0 + lateral / zs)
+    err = (SAMPLE_SLACK_PX + max(sx, sy) * reach).max(axis=1)
+    x0, x1 = x.min(axis=1) - err, x.max(axis=1) + err
+    y0, y1 = y.min(axis=1) - err, y.max(axis=1) + err
+    big = 4.0 * (width + height)  # far-off boxes: clipping below keeps the counts small
+    i0 = np.clip(np.ceil(np.clip(x0, -big, big) - 0.5), 0, width).astype(np.int64)
+    i1 = np.clip(np.floor(np.clip(x1, -big, big) - 0.5), -1, width - 1).astype(np.int64)
+    j0 = np.clip(np.ceil(np.clip(y0, -big, big) - 0.5), 0, height).astype(np.int64)
+    j1 = np.clip(np.floor(np.clip(y1, -big, big) - 0.5), -1, height - 1).astype(np.int64)
+    nx, ny = np.maximum(i1 - i0 + 1, 0), np.maximum(j1 - j0 + 1, 0)
+    count = np.where(front, nx * ny, max_samples + 1)
+    none = count == 0
+    few = np.flatnonzero((count > 0) & (count <= max_samples))
+    if len(few):
+        c = count[few]
+        t = np.repeat(few, c)
+        k = np.arange(c.sum()) - np.repeat(np.cumsum(c) - c, c)
+        s = np.stack([i0[t] + k % nx[t] + 0.5, j0[t] + k // nx[t] + 0.5], axis=1)
+        p = np.stack([x[t], y[t]], axis=2)  # (n, 3 vertices, 2)
+        q = np.roll(p, -1, axis=1)
+        edge = q - p
+        rel = s[:, None, :] - p
+        e = edge[..., 0] * rel[..., 1] - edge[..., 1] * rel[..., 0]  # (n, 3) edge functions
+        # Moving both ends by <= m changes e by <= m (2 |s - p| + |q - p|) + 2 m^2.
+        m = err[t][:, None]
+        tol = (m * (2.0 * np.hypot(rel[..., 0], rel[..., 1]) + np.hypot(edge[..., 0], edge[..., 1]))
+               + 2.0 * m * m) * (1.0 + 1e-9) + 1e-9
+        maybe = ((e >= -tol).all(axis=1) | (e <= tol).all(axis=1))
+        hit = np.zeros(len(pts), dtype=bool)
+        hit[t[maybe]] = True
+        none[few] = ~hit[few]
+    return front & none
