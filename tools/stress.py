@@ -28,7 +28,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from vismobile.camera import Camera  # noqa: E402
-from vismobile.culling import Culler  # noqa: E402
+from vismobile.culling import BACKFACE_STAGES, Culler  # noqa: E402
 from vismobile.culling import precision  # noqa: E402
 from vismobile.errors import ProfileError  # noqa: E402
 from vismobile.geometry import arithmetic  # noqa: E402
@@ -40,9 +40,10 @@ from vismobile.scenes.stress import partition_cameras, stress_cases  # noqa: E40
 STRUCTURES = {"grid": dict(auto=True, cells=64), "octree": dict(depth=3),
               "portal": dict(depth=1), "bsp": dict()}
 # Conservative stage sets; each needs cull_back in the truth when a backface stage is in it.
-STAGE_SETS = ("vfc", "vfc_thesis", "vfc,cbfc", "vfc,cone", "vfc,occlusion", "occlusion_thesis",
+STAGE_SETS = ("vfc", "vfc_thesis", "vfc,cbfc", "vfc,cone", "vfc,tbfc", "vfc,occlusion",
+              "occlusion_thesis",
               "portals")
-BACKFACE = {"cbfc", "cone", "bfc"}
+BACKFACE = set(BACKFACE_STAGES)
 PROFILE = get_profile("nokia-n82", "float32")  # 240 x 320, the thesis devices' screen
 
 

@@ -160,19 +160,21 @@ class _Culled:
     cull_back: bool
 
 
-def make_culler(scene: Scene, stages, arithmetic="float64", adaptive=False):
+def make_culler(scene: Scene, stages, profile=None, adaptive=False):
     """vismobile.culling.Culler over the scene's partition, or all triangles without one.
 
-    arithmetic: the profile's vertex format, so culling stays conservative for rounded vertices.
-    adaptive  : wrap it in an AdaptiveCuller that switches off stages that stop paying.
+    profile  : its arithmetic mode and screen go to the Culler (culling.device_options)
+    adaptive : wrap it in an AdaptiveCuller that switches off stages that stop paying.
     """
     if scene.partition is None:
         return _WholeWorld(scene.world, stages)
-    from .culling import Culler
+    from .culling import Culler, device_options
     from .culling.adaptive import AdaptiveCuller
 
+    options = device_options(profile) if profile is not None else {}
+
     def factory(partition, names):
-        return Culler(partition, names, arithmetic=arithmetic)
+        return Culler(partition, names, **options)
 
     try:
         if adaptive:
@@ -207,7 +209,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     world = scene.world
     profile.check_range(world.extent, f"world {world.name!r}")
     memory = profile.check_memory(world, scene.partition)
-    culler = make_culler(scene, stages, profile.vertex_format, adaptive)
+    culler = make_culler(scene, stages, profile, adaptive)
     renderer = Renderer(world, profile)
 
     count = len(trajectory) if frame_limit is None else min(int(frame_limit), len(trajectory))

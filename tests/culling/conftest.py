@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from vismobile.camera import Camera
+from vismobile.culling import BACKFACE_STAGES
 from vismobile.partition import partition
 from vismobile.profile import get_profile
 from vismobile.render import SENTINEL, item_buffer
@@ -12,7 +13,7 @@ from vismobile.world import World
 
 PROFILE = get_profile("ipaq-hx2490b")
 ASPECT = PROFILE.aspect
-BACKFACE_STAGES = {"bfc", "cbfc", "cone", "tbfc"}
+BACKFACE_STAGES = set(BACKFACE_STAGES)
 
 # Structure parameters per world: small enough to build quickly, deep enough to cull.
 STRUCTURES = {"octree": {"depth": 4}, "portal": {"depth": 2}, "bsp": {}, "grid": {}}

@@ -22,6 +22,9 @@ STAGES = {cls.name: cls for cls in (PortalStage, FrustumStage, ThesisFrustumStag
                                     ConservativeBackface, ThesisBackface, TriangleBackface,
                                     BackfaceFlag)}
 
+# Stages whose ground truth is the back-face-culled item buffer: they assume GL_CULL_FACE.
+BACKFACE_STAGES = ("bfc", "cbfc", "cbfc_thesis", "cone", "tbfc")
+
 # Stages that never drop a triangle the full world's item buffer shows (proved by the tests);
 # cbfc_thesis is the one stage outside it: the thesis's 2D rule drops front faces.
 CONSERVATIVE = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "tbfc", "occlusion",
@@ -39,6 +42,13 @@ def parse_stages(stages) -> tuple:
         raise ValueError(f"unknown culling stage(s) {', '.join(map(repr, unknown))}; "
                          f"valid: {', '.join(sorted(STAGES))} (or none)")
     return tuple(sorted(dict.fromkeys(names), key=lambda n: STAGES[n].cost))
+
+
+def device_options(profile) -> dict:
+    """Culler keyword arguments that tie culling to a device profile: its arithmetic mode
+    (vertex format) and its screen, so occlusion may drop triangles that cover no pixel centre."""
+    return {"arithmetic": profile.vertex_format,
+            "occlusion": {"screen": tuple(profile.resolution)}}
 
 
 class Culler:

@@ -103,10 +103,11 @@ def load_structure(world, label: str, cache_dir=None):
     return _remember(_PARTITIONS, key, built), seconds
 
 
-def make_culler(partition, stages):
-    from ..culling import Culler
+def make_culler(partition, stages, profile=None):
+    """Culler over partition; with a profile, its arithmetic mode and screen (device_options)."""
+    from ..culling import Culler, device_options
 
-    return Culler(partition, list(stages))
+    return Culler(partition, list(stages), **(device_options(profile) if profile else {}))
 
 
 def timed_cull(culler, camera) -> tuple:

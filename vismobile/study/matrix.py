@@ -12,6 +12,7 @@ import re
 from dataclasses import asdict, dataclass
 
 from ..errors import VisMobileError
+from ..culling import BACKFACE_STAGES
 from .thesis import WORLDS, trajectory_for
 
 # The thesis's 8 combinations (SPEC §6), in its order.
@@ -22,6 +23,9 @@ OUR_CULLS = (
     "vfc+occlusion",
     "vfc+bfc+occlusion",
     "vfc+bfc+cbfc+occlusion",
+    "vfc+bfc+tbfc",
+    "vfc+bfc+tbfc+occlusion",
+    "vfc+bfc+tbfc+occlusion+portals",
     "vfc+cone",
     "vfc+bfc+cone",
     "vfc+bfc+cbfc+cone+occlusion",
@@ -32,10 +36,8 @@ OUR_CULLS = (
     "vfc_thesis+bfc+cbfc",
     "vfc+bfc+cbfc_thesis",                   # the thesis's 2D backface rule, as it wrote it
 )
-STAGES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "occlusion",
+STAGES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
           "occlusion_thesis", "portals")
-# Stages that make the ground truth a back-face-culled item buffer (issue 4).
-BACKFACE_STAGES = ("bfc", "cbfc", "cbfc_thesis", "cone")
 # Stages the thesis says may drop visible geometry: measured, never assumed conservative.
 LOOSE_STAGES = ("vfc_thesis", "occlusion_thesis", "cbfc_thesis")
 STRUCTURE_KINDS = ("grid", "octree", "portal", "bsp")

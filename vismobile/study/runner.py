@@ -149,9 +149,9 @@ def execute(spec: RunSpec, context: Context) -> dict:
     partition, build_seconds = engine.load_structure(world, spec.structure, context.cache_dir)
     renderer = engine.renderer(world, profile)
     # Warm-up frame (first-use uploads and shader compiles are not part of any frame).
-    warm = engine.make_culler(partition, spec.stages).cull(cameras[0])
+    warm = engine.make_culler(partition, spec.stages, profile).cull(cameras[0])
     renderer.draw(engine.sent_triangles(warm), cameras[0], spec.cull_back)
-    culler = engine.make_culler(partition, spec.stages)
+    culler = engine.make_culler(partition, spec.stages, profile)
     table = {name: np.zeros(len(frames)) for name in FRAME_COLUMNS}
     for row, (frame, camera, visible) in enumerate(zip(frames, cameras, truth)):
         result, cull_ms = engine.timed_cull(culler, camera)
