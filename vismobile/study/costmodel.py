@@ -1,9 +1,15 @@
-"""A linear frame-cost model fitted from stage counters (hardware-independent) to measured ms.
+"""Frame-cost models: counters -> ms, on this machine (fitted) or on a thesis device (priced).
 
-cull_ms   ~ c0 + a * nodes_visited + b * plane_tests + c * triangles_tested
-render_ms ~ r0 + d * triangles_sent + e * draw_batches   (fitted apart with GL_CULL_FACE on)
-Coefficients are non-negative (Lawson-Hanson NNLS) and fitted in the same process that uses
-them, so they describe this machine; the model prices configurations from counters alone.
+CostModel, this machine, fitted from stage counters (hardware-independent) to measured ms:
+  cull_ms   ~ c0 + a * nodes_visited + b * plane_tests + c * triangles_tested
+  render_ms ~ r0 + d * triangles_sent + e * draw_batches   (fitted apart with GL_CULL_FACE on)
+  Coefficients are non-negative (Lawson-Hanson NNLS) and fitted in the same process that uses
+  them, so they describe this machine; the model prices configurations from counters alone.
+DeviceModel, the iPaq or the N82 (figures in profile.DeviceCost):
+  render_ms = base + per triangle * triangles_sent + per call * draw calls, fitted by
+  fit_device to the thesis's own device frame times (thesis.DEVICE_POINTS) on our counters for
+  the same configurations (CALIBRATION_ROWS);
+  cull_ms = cull_cycles(counters) / clock, cycles per operation estimated (CULL_OPERATIONS).
 """
 from __future__ import annotations
 
