@@ -1,4 +1,8 @@
-"""Session fixtures shared by all tests: the thesis worlds, built once and cached in worlds/."""
+"""Session fixtures shared by all tests: the thesis worlds (built once and cached in worlds/),
+tiny literal geometry and the box-clipping oracle."""
+import types
+
+import numpy as np
 import pytest
 from hypothesis import settings
 
@@ -7,6 +11,57 @@ settings.register_profile("vismobile", derandomize=True, deadline=None)
 settings.load_profile("vismobile")
 
 from vismobile.scenes import build_world
+from vismobile.world import World
+
+
+def clip_overlaps(tri, lo, hi, slack=0.0):
+    """Oracle: Sutherland-Hodgman clip of a (3, 3) triangle to the box [lo - slack, hi + slack];
+    True when anything survives."""
+    poly = [np.asarray(p, dtype=float) for p in tri]
+    for axis in range(3):
+        for sign, bound in ((1, lo[axis] - slack), (-1, hi[axis] + slack)):
+            out = []
+            for i, a in enumerate(poly):
+                b = poly[(i + 1) % len(poly)]
+                da, db = sign * (a[axis] - bound), sign * (b[axis] - bound)
+                if da >= 0:
+                    out.append(a)
+                if (da >= 0) != (db >= 0):
+                    out.append(a + (b - a) * (da / (da - db)))
+            poly = out
+            if not poly:
+                return False
+    return True
+
+
+def rect(axis, plane, a, b, facing):
+    """(4, 3) vertices, (2, 3) triangles of an axis-aligned rectangle in x[axis] = plane over
+    a = (lo, hi) along axis + 1 and b = (lo, hi) along axis + 2, facing +axis (facing=1) or -axis."""
+    u, v = (axis + 1) % 3, (axis + 2) % 3
+    quad = np.zeros((4, 3))
+    quad[:, axis] = plane
+    quad[:, u] = [a[0], a[1], a[1], a[0]]
+    quad[:, v] = [b[0], b[0], b[1], b[1]]
+    tris = np.array([[0, 1, 2], [0, 2, 3]]) if facing > 0 else np.array([[0, 2, 1], [0, 3, 2]])
+    return quad, tris
+
+
+def literal_world(parts, name="literal"):
+    """World from a list of (vertices, triangles) parts, one object each."""
+    vertices, triangles, ids, offset = [], [], [], 0
+    for k, (v, t) in enumerate(parts):
+        vertices.append(v)
+        triangles.append(t + offset)
+        ids.append(np.full(len(t), k))
+        offset += len(v)
+    return World(np.concatenate(vertices), np.concatenate(triangles), np.concatenate(ids),
+                 name=name)
+
+
+@pytest.fixture(scope="session")
+def literal():
+    """The helpers above, for test modules (importlib mode cannot import conftest)."""
+    return types.SimpleNamespace(clip_overlaps=clip_overlaps, rect=rect, world=literal_world)
 
 
 @pytest.fixture(scope="session")

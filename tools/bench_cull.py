@@ -20,7 +20,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from vismobile.culling import Culler  # noqa: E402
+from vismobile.culling import BACKFACE_STAGES, Culler  # noqa: E402
 from vismobile.culling.backface import thesis_region_count  # noqa: E402
 from vismobile.geometry.sphere_regions import direction_regions  # noqa: E402
 from vismobile.partition import partition  # noqa: E402
@@ -38,7 +38,6 @@ COMBOS = ("vfc", "vfc_thesis", "vfc,cbfc", "vfc,cone", "vfc,tbfc", "vfc,bfc,cbfc
           "vfc,occlusion,cbfc,cone,tbfc@screen")
 PORTAL_COMBOS = ("portals", "portals,occlusion", "portals,occlusion,tbfc",
                  "portals,occlusion,tbfc@screen")
-BACKFACE = ("bfc", "cbfc", "cone", "tbfc")  # stages whose ground truth is back-face culled
 # Option presets: "screen" = occlusion also drops triangles that cover no pixel centre of the
 # profile's screen (safe at that resolution only); "self" = objects' near sides occlude too.
 PRESETS = {"screen": lambda profile: {"screen": profile.resolution},
@@ -94,7 +93,7 @@ def run_combos(part, combos, cameras, world, profile, truth):
     for combo in combos:
         stages, options = combo_options(combo, profile)
         culler = Culler(part, stages, **options)
-        back = any(s in BACKFACE for s in culler.names)
+        back = any(s in BACKFACE_STAGES for s in culler.names)
         stats, sent, ratios, missed = {}, [], [], 0
         for i, cam in enumerate(cameras):
             result = culler.cull(cam)

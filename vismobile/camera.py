@@ -70,6 +70,7 @@ class Camera:
         ])
 
     def view_projection(self) -> np.ndarray:
+        """(4, 4) float64 projection_matrix() @ view_matrix()."""
         return self.projection_matrix() @ self.view_matrix()
 
     def frustum_planes(self) -> np.ndarray:

@@ -36,6 +36,7 @@ class Trajectory:
         return len(self.poses)
 
     def camera(self, frame: int, aspect: float | None = None) -> Camera:
+        """The Camera at one frame (the trajectory's aspect unless given)."""
         x, y, z, yaw, pitch = self.poses[frame]
         return Camera((x, y, z), yaw, pitch, self.fov, self.aspect if aspect is None else aspect,
                       self.near, self.far)
@@ -48,12 +49,9 @@ class Trajectory:
     def __iter__(self):
         return self.cameras()
 
-    def waypoint_at(self, frame: int) -> str:
-        """Label of the waypoint at this frame, or ''."""
-        return next((label for label, f in self.waypoints.items() if f == frame), "")
-
     @classmethod
     def load(cls, path, **camera) -> "Trajectory":
+        """Read a trajectory CSV; TrajectoryError naming the file and line on bad input."""
         path = Path(path)
         if not path.is_file():
             raise TrajectoryError(f"{path}: no such trajectory file")
@@ -89,6 +87,7 @@ class Trajectory:
         return cls(np.array(rows), waypoints, **camera)
 
     def save(self, path) -> None:
+        """Write the CSV (waypoint comments, header, one pose a line), atomically."""
         buffer = io.StringIO()
         for label, frame in sorted(self.waypoints.items(), key=lambda item: item[1]):
             buffer.write(f"# waypoint {label} {frame}\n")

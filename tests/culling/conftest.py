@@ -1,5 +1,7 @@
 """Fixtures for the culling tests: thesis worlds and their partitions (built once per session),
 tiny literal rooms, random and boundary cameras, and the ground-truth oracle."""
+import types
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,6 @@ from vismobile.partition import partition
 from vismobile.profile import get_profile
 from vismobile.render import SENTINEL, item_buffer
 from vismobile.scenes import build_world
-from vismobile.world import World
 
 PROFILE = get_profile("ipaq-hx2490b")
 ASPECT = PROFILE.aspect
@@ -75,18 +76,6 @@ def quad(x0, x1, y0, y1, z, facing=1.0):
     return v, t
 
 
-def literal_world(quads, name="literal"):
-    """World from a list of (vertices, triangles) parts, one object each."""
-    vertices, triangles, ids, offset = [], [], [], 0
-    for k, (v, t) in enumerate(quads):
-        vertices.append(v)
-        triangles.append(t + offset)
-        ids.append(np.full(len(t), k))
-        offset += len(v)
-    return World(np.concatenate(vertices), np.concatenate(triangles), np.concatenate(ids),
-                 name=name)
-
-
 @pytest.fixture(scope="session")
 def w1_octree():
     return structure("w1", "octree")
@@ -98,11 +87,10 @@ def w1_portal():
 
 
 @pytest.fixture(scope="session")
-def kit():
-    """The helpers above, for test modules (importlib mode cannot import conftest)."""
-    import types
-
+def kit(literal):
+    """The helpers above and the root conftest's rect and literal_world, for test modules
+    (importlib mode cannot import conftest)."""
     return types.SimpleNamespace(
         structure=structure, world=world, visible_ids=visible_ids,
-        random_cameras=random_cameras, quad=quad, literal_world=literal_world,
+        random_cameras=random_cameras, quad=quad, rect=literal.rect, literal_world=literal.world,
         BACKFACE_STAGES=BACKFACE_STAGES, BIG=BIG, ASPECT=ASPECT, PROFILE=PROFILE)

@@ -8,23 +8,11 @@ from vismobile.culling import Culler
 from vismobile.partition import portal
 
 
-def rect(axis, plane, a, b, facing):
-    """(4, 3) vertices, (2, 3) triangles of an axis-aligned rectangle in x[axis] = plane over
-    a = (lo, hi) along axis + 1 and b = (lo, hi) along axis + 2, facing +axis (facing=1) or -axis."""
-    u, v = (axis + 1) % 3, (axis + 2) % 3
-    quad = np.zeros((4, 3))
-    quad[:, axis] = plane
-    quad[:, u] = [a[0], a[1], a[1], a[0]]
-    quad[:, v] = [b[0], b[0], b[1], b[1]]
-    tris = np.array([[0, 1, 2], [0, 2, 3]]) if facing > 0 else np.array([[0, 2, 1], [0, 3, 2]])
-    return quad, tris
-
-
 def cracked_rooms(kit, crack=0.05):
     """Rooms A (x in [0, 4]) and B (x in [4.2, 8.2]), 3 m high, 4 m deep, faces pointing in,
     split by a hollow wall (faces x = 4 and x = 4.2) with a slit y in [1.5, 1.5 + crack]
     through it, lined top and bottom."""
-    top = 1.5 + crack
+    top, rect = 1.5 + crack, kit.rect
     parts = [rect(1, 0.0, (0, 4), (0, 4), 1), rect(1, 0.0, (0, 4), (4.2, 8.2), 1),
              rect(1, 3.0, (0, 4), (0, 8.2), -1),
              rect(0, 0.0, (0, 3), (0, 4), 1), rect(0, 8.2, (0, 3), (0, 4), -1),

@@ -1,4 +1,6 @@
 """Small worlds for the partition tests: a real mesh and two rooms joined by a doorway."""
+import types
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -44,31 +46,13 @@ def suzanne():
 @pytest.fixture(scope="session")
 def rooms():
     return rooms_with_doorway()
-def clip_overlaps(tri, lo, hi, slack):
-    poly = [np.asarray(p, dtype=float) for p in tri]
-    for axis in range(3):
-        for sign, bound in ((1, lo[axis] - slack), (-1, hi[axis] + slack)):
-            out = []
-            for i, a in enumerate(poly):
-                b = poly[(i + 1) % len(poly)]
-                da, db = sign * (a[axis] - bound), sign * (b[axis] - bound)
-                if da >= 0:
-                    out.append(a)
-                if (da >= 0) != (db >= 0):
-                    out.append(a + (b - a) * (da / (da - db)))
-            poly = out
-            if not poly:
-                return False
-    return True
-
-
 def leaf_pairs(p):
     leaves = p.leaf_ids
     counts = p.ref_end[leaves] - p.ref_start[leaves]
     return np.repeat(leaves, counts), gather_ranges(p.tri_refs, p.ref_start[leaves], p.ref_end[leaves])
 
 
-def assert_covered(p, sample=400, seed=0):
+def assert_covered(p, overlaps, sample=400, seed=0):
     """Every triangle is referenced by a leaf whose box it overlaps (sampled for the oracle)."""
     leaf, tri = leaf_pairs(p)
     assert np.array_equal(np.unique(tri), np.arange(p.world.triangle_count))
@@ -77,10 +61,10 @@ def assert_covered(p, sample=400, seed=0):
     corners = p.world.corners
     for t in rng.choice(p.world.triangle_count, min(sample, p.world.triangle_count), replace=False):
         boxes = p.node_bounds[leaf[tri == t]]
-        assert any(clip_overlaps(corners[t], b[0], b[1], slack) for b in boxes), t
+        assert any(overlaps(corners[t], b[0], b[1], slack) for b in boxes), t
 
 
-def assert_exact(p, sample=1500, seed=0):
+def assert_exact(p, overlaps, sample=1500, seed=0):
     """No sampled leaf reference is to a triangle that misses the leaf's box."""
     leaf, tri = leaf_pairs(p)
     rng = np.random.default_rng(seed)
@@ -88,13 +72,12 @@ def assert_exact(p, sample=1500, seed=0):
     corners = p.world.corners
     for k in rng.choice(len(tri), min(sample, len(tri)), replace=False):
         b = p.node_bounds[leaf[k]]
-        assert clip_overlaps(corners[tri[k]], b[0], b[1], slack), (leaf[k], tri[k])
+        assert overlaps(corners[tri[k]], b[0], b[1], slack), (leaf[k], tri[k])
 
 
 @pytest.fixture(scope="session")
-def checks():
+def checks(literal):
     """The oracle checks above, for test modules (importlib mode cannot import conftest)."""
-    import types
-
-    return types.SimpleNamespace(covered=assert_covered, exact=assert_exact,
-                                 leaf_pairs=leaf_pairs, overlaps=clip_overlaps)
+    return types.SimpleNamespace(covered=partial(assert_covered, overlaps=literal.clip_overlaps),
+                                 exact=partial(assert_exact, overlaps=literal.clip_overlaps),
+                                 leaf_pairs=leaf_pairs)

@@ -12,27 +12,6 @@ def inward(world):
     return World(world.vertices, world.triangles[:, ::-1].copy(), name=world.name)
 
 
-def rect(axis, plane, a, b, facing):
-    """(4, 3) vertices, (2, 3) triangles of an axis-aligned rectangle in x[axis] = plane over
-    a = (lo, hi) along axis + 1 and b = (lo, hi) along axis + 2, facing +axis (facing=1) or -axis."""
-    u, v = (axis + 1) % 3, (axis + 2) % 3
-    quad = np.zeros((4, 3))
-    quad[:, axis] = plane
-    quad[:, u] = [a[0], a[1], a[1], a[0]]
-    quad[:, v] = [b[0], b[0], b[1], b[1]]
-    tris = np.array([[0, 1, 2], [0, 2, 3]]) if facing > 0 else np.array([[0, 2, 1], [0, 3, 2]])
-    return quad, tris
-
-
-def world_of(parts, name="literal"):
-    vertices, triangles, offset = [], [], 0
-    for v, t in parts:
-        vertices.append(v)
-        triangles.append(t + offset)
-        offset += len(v)
-    return World(np.concatenate(vertices), np.concatenate(triangles), name=name)
-
-
 def test_doorway_gives_a_portal_of_its_size(rooms):
     p = vismobile.partition(inward(rooms), "portal", depth=1, slabs=((0.5, 0.5), 1, 1))
     assert list(p.extras["portal_cells"][0]) == [0, 1] and len(p.extras["portal_cells"]) == 1
@@ -67,30 +46,32 @@ def test_face_inside_a_closed_object_is_blocked(rooms):
     assert len(portal.build(box, 1, slabs=((0.5, 0.5), 1, 1)).extras["portal_cells"]) == 0
 
 
-def slab_world(gap):
+def slab_world(literal, gap):
     """Two storeys of one room (x, z in [0, 4]) with a hollow slab y in (3, 3 + gap) between
     the lower ceiling (facing down) and the upper floor (facing up); walls face inward."""
+    rect = literal.rect
     parts = [rect(1, 0.0, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
              rect(1, 3.0 + gap, (0, 4), (0, 4), 1), rect(1, 6.0 + gap, (0, 4), (0, 4), -1)]
     for y0, y1 in ((0.0, 3.0), (3.0 + gap, 6.0 + gap)):
         parts += [rect(0, 0.0, (y0, y1), (0, 4), 1), rect(0, 4.0, (y0, y1), (0, 4), -1),
                   rect(2, 0.0, (0, 4), (y0, y1), 1), rect(2, 4.0, (0, 4), (y0, y1), -1)]
-    return world_of(parts, "slab")
+    return literal.world(parts, "slab")
 
 
 @pytest.mark.parametrize("gap", [0.2, 0.001])
-def test_hollow_slab_is_blocked_on_a_vertical_face(gap):
-    w = slab_world(gap)
+def test_hollow_slab_is_blocked_on_a_vertical_face(literal, gap):
+    w = slab_world(literal, gap)
     rects = portal.face_openings(w, 0, 2.0, (0.0, 0.0), (6.0 + gap, 4.0), 1e-9)
     ys = np.concatenate([rects[:, 0, 0], rects[:, 1, 0]])
     # the two rooms are open, the slab between them is not, however thin it is
     assert len(rects) == 2 and np.allclose(np.sort(ys), [0.0, 3.0, 3.0 + gap, 6.0 + gap])
 
 
-def test_thin_crack_stays_open():
+def test_thin_crack_stays_open(literal):
     # a wall in the face x = 2 stops 1 mm below the ceiling: the crack is an opening
-    w = world_of([rect(1, 0.0, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
-                  rect(0, 2.0, (0.0, 2.999), (0, 4), -1)])
+    rect = literal.rect
+    w = literal.world([rect(1, 0.0, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
+                       rect(0, 2.0, (0.0, 2.999), (0, 4), -1)])
     rects = portal.face_openings(w, 0, 2.0, (0.0, 0.0), (3.0, 4.0), 1e-9)
     assert len(rects) == 1 and np.allclose(rects[0], [[2.999, 0.0], [3.0, 4.0]])
 

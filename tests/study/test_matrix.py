@@ -1,9 +1,10 @@
 """The selection grammar and the run matrix."""
 import pytest
 
-from vismobile.study.matrix import (OUR_CULLS, THESIS_CULLS, RunSpec, SelectionError,
-                                    canonical_cull, expand, frame_indices, parse_culls,
-                                    parse_structures)
+from vismobile.culling import STAGES
+from vismobile.study.matrix import (LOOSE_STAGES, OUR_CULLS, STAGE_ORDER, THESIS_CULLS, RunSpec,
+                                    SelectionError, canonical_cull, expand, frame_indices,
+                                    parse_culls, parse_structures)
 
 
 def test_structures_expand_depth_ranges():
@@ -31,6 +32,10 @@ def test_thesis_has_eight_combinations_and_ours_are_canonical():
 def test_cull_order_does_not_matter():
     assert canonical_cull("cbfc+VFC+bfc") == "vfc+bfc+cbfc"
     assert canonical_cull("none") == "none"
+
+
+def test_label_order_names_every_culling_stage_once():
+    assert sorted(STAGE_ORDER) == sorted(STAGES) and set(LOOSE_STAGES) <= set(STAGES)
 
 
 @pytest.mark.parametrize("bad", ["vfc+hzb", "vfc+vfc_thesis"])

@@ -77,7 +77,10 @@ class ConservativeBackface:
         self.centers, self.radii = region_caps(self.yaw_regions, self.pitch_bands)
 
     def droppable(self, camera) -> np.ndarray:
-        """(R + 1,) bool per region (last: degenerate normals, never dropped)."""
+        """(R + 1,) bool per region (last: degenerate normals, never dropped).
+
+        Errs toward False (keeping) by 1e-12 in cos: a region drops only when every normal of
+        its cap faces away from every frustum corner ray (caps_within)."""
         table = np.zeros(len(self.radii) + 1, dtype=bool)
         table[:-1] = caps_within(self.centers, self.radii, corner_rays(camera))
         return table

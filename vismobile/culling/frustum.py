@@ -64,6 +64,14 @@ def frustum_traverse(tree: Tree, roots, plane_sets, root_sets, state: CullState,
     return result
 
 
+def frustum_refine(tree: Tree, state: CullState, prefix: str) -> np.ndarray:
+    """(A,) int64 nodes: state.nodes culled against the camera frustum state.planes (see
+    frustum_traverse)."""
+    roots = state.nodes
+    return frustum_traverse(tree, roots, state.planes[None], np.zeros(len(roots), dtype=np.int64),
+                            state, prefix)
+
+
 class FrustumStage:
     """`vfc`: hierarchical AABB frustum culling with plane masks; refines state.nodes."""
 
@@ -74,9 +82,7 @@ class FrustumStage:
         self.tree = tree
 
     def apply(self, state: CullState) -> None:
-        roots = state.nodes
-        state.nodes = frustum_traverse(self.tree, roots, state.planes[None],
-                                       np.zeros(len(roots), dtype=np.int64), state, self.name)
+        state.nodes = frustum_refine(self.tree, state, self.name)
 
 
 class ThesisFrustumStage:

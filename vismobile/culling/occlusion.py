@@ -113,7 +113,10 @@ class DepthBufferOcclusion:
 
     def facing(self, ids, eye) -> np.ndarray:
         """(n,) bool: triangle certainly faces the eye, also as the device rounds it, and is not
-        seen more edge-on than GRAZING (its projected winding is reliable)."""
+        seen more edge-on than GRAZING (its projected winding is reliable).
+
+        Errs toward False (not an occluder) by the device rounding bound delta per coordinate.
+        ids : (n,) int64 world triangle ids;  eye : (3,) float64"""
         world = self.tree.world
         delta = DEVICE_RELATIVE * max(self.magnitude, float(np.abs(eye).max())) + DEVICE_ABSOLUTE
         # The flipped triangle (negated cross product) certainly faces away = this one faces.

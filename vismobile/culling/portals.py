@@ -29,7 +29,7 @@ from ..geometry.boxes import boxes_contain_point
 from ..geometry.planes import planes_through_eye
 from ..geometry.raster import to_camera
 from ..geometry.ray import ray_triangle
-from .frustum import frustum_traverse
+from .frustum import frustum_refine, frustum_traverse
 from .state import CullState
 from .tree import Tree
 
@@ -98,9 +98,7 @@ class PortalStage:
         if self.available:
             self.x = {key: np.asarray(extras[key]) for key in EXTRAS}
             world = tree.world
-            self.corners = world.corners  # computed on every access: once here
-            self.normals = world.normals
-            self.bounds = world.bounds
+            self.corners, self.normals, self.bounds = world.corners, world.normals, world.bounds
 
     def eye_in_free_space(self, eye, reach: float) -> bool:
         """True when no triangle's box comes within `reach` of the eye and each of the six axis
@@ -148,9 +146,7 @@ class PortalStage:
         cells = self.visible_cells(camera, state) if self.available else None
         if cells is None:
             state.count(f"{self.name}.fallbacks", 1)
-            roots = state.nodes
-            state.nodes = frustum_traverse(tree, roots, state.planes[None],
-                                           np.zeros(len(roots), dtype=np.int64), state, self.name)
+            state.nodes = frustum_refine(tree, state, self.name)
             return
         ids, rects = cells
         state.count(f"{self.name}.cells_visited", len(ids))

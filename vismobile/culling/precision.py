@@ -2,8 +2,8 @@
 
 The Culler itself computes in float64. A device in another arithmetic mode (geometry/arithmetic.py)
 differs in two ways: it renders rounded vertices from a rounded camera, and it evaluates plane
-tests with rounding. Both are bounded; the functions here turn the bounds into inflated planes,
-boxes or a widened camera, so a float64 decision that keeps a triangle still keeps every
+tests with rounding. Both are bounded; the functions here turn the bounds into inflated planes
+or a widened camera, so a float64 decision that keeps a triangle still keeps every
 triangle the device could show.
 
 Hooks: `Culler.cull(conservative_camera(quantize_camera(camera, mode), mode, scale))` needs no
@@ -55,11 +55,6 @@ def conservative_planes(planes, mode: str, scale: float) -> np.ndarray:
     limit = arithmetic.max_magnitude(mode)
     planes[np.abs(planes[:, 3]) > limit] = _ALWAYS_INSIDE
     return planes
-
-
-def conservative_boxes(boxes, mode: str) -> np.ndarray:
-    """(N, 2, 3) boxes grown by the mode's rounding of their coordinates (errs outward)."""
-    return arithmetic.inflate_boxes(boxes, mode)
 
 
 def quantize_camera(camera: Camera, mode: str) -> Camera:

@@ -19,12 +19,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ProfileError
+# The 16.16 format and its range are the device's (profile.py): one definition, used here.
+from ..profile import FIXED_LIMIT, FIXED_ONE, to_fixed
 
 MODES = ("float64", "float32", "fixed16.16")
 
-FIXED_ONE = 65536  # 1.0 in fixed16.16
 FIXED_QUANTUM = 1.0 / FIXED_ONE
-FIXED_MAX = 32767.0  # the range profile.py accepts (int32 16.16 holds up to 32767.99998)
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
 
 # A world is refused when its coordinates carry more error than this fraction of its size.
@@ -50,7 +50,7 @@ def unit_roundoff(mode: str) -> float:
 def max_magnitude(mode: str) -> float:
     """Largest finite magnitude the mode can store."""
     return {"float64": float(np.finfo(np.float64).max), "float32": float(np.finfo(np.float32).max),
-            "fixed16.16": FIXED_MAX}[check_mode(mode)]
+            "fixed16.16": FIXED_LIMIT}[check_mode(mode)]
 
 
 def representation_error(magnitude, mode: str) -> np.ndarray:
@@ -83,14 +83,6 @@ def quantize(values, mode: str, what: str = "value") -> np.ndarray:
     if mode == "float32":
         return values.astype(np.float32).astype(np.float64)
     return np.rint(values * FIXED_ONE) / FIXED_ONE
-
-
-def to_fixed(values, what: str = "value") -> np.ndarray:
-    """fixed16.16 raw integers (int64 holding int32 values) nearest to values.
-
-    Raises ProfileError when a value is out of range or not finite.
-    """
-    return np.rint(quantize(values, "fixed16.16", what) * FIXED_ONE).astype(np.int64)
 
 
 def check_resolution(vertices, mode: str, what: str = "world") -> float:
@@ -171,8 +163,8 @@ def _float_bound(mode: str, scale):
 
 def _fixed_distance(planes: np.ndarray, points: np.ndarray) -> np.ndarray:
     """fixed16.16 n.p + d: int64 products shifted right by 16 (floor), int32 sums checked."""
-    n = to_fixed(planes, "plane")
-    p = to_fixed(points, "point")
+    n = to_fixed(planes, "plane").astype(np.int64)  # int64: products must not wrap
+    p = to_fixed(points, "point").astype(np.int64)
     total = n[:, 3].copy()
     for axis in range(3):  # the three terms of the dot product
         total = total + ((p[:, axis] * n[:, axis]) >> 16)

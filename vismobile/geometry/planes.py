@@ -27,6 +27,7 @@ def box_plane_distances(boxes, planes) -> tuple:
     boxes  : (B, 2, 3) float64 min/max corners
     planes : (P, 4) float64 (n, d), or (B, P, 4) one plane set per box
     returns (p_dist, n_dist), each (B, P) float64; p_dist >= n_dist.
+    Exact up to float64 rounding (a few ulps of |n||x| + |d|): callers add their own slack.
     """
     boxes = np.asarray(boxes, dtype=np.float64)
     planes = np.asarray(planes, dtype=np.float64)

@@ -78,11 +78,6 @@ class Partition:
         return (np.searchsorted(self.level_start, np.arange(self.node_count), side="right")
                 - 1).astype(np.int32)
 
-    def refs_of(self, nodes) -> np.ndarray:
-        """Concatenated tri_refs of the subtrees of the given nodes (may repeat ids)."""
-        nodes = np.asarray(nodes, dtype=np.int64)
-        return gather_ranges(self.tri_refs, self.ref_start[nodes], self.ref_end[nodes])
-
     def stats(self) -> dict:
         leaves = self.leaf_ids
         leaf_refs = self.ref_end[leaves] - self.ref_start[leaves]

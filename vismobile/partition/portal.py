@@ -469,7 +469,7 @@ def find_portals(world, edges, thickness, samples=FACE_SAMPLES, eps=None):
               so their right-hand normal points from portal_cells[:, 0] to portal_cells[:, 1]
     """
     eps = COINCIDE * float(np.ptp(world.extent, axis=0).max()) if eps is None else eps
-    corners = world.corners  # computed on every access: once here
+    corners = world.corners
     shape = [len(e) - 1 for e in edges]
     cells, polys = [], []
     for axis in range(3):

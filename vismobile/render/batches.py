@@ -9,6 +9,7 @@ import numpy as np
 
 
 def batch_count(triangle_count: int, batch_triangles: int) -> int:
+    """Number of draw batches of at most batch_triangles triangles (ceiling division)."""
     return -(-int(triangle_count) // int(batch_triangles))
 
 

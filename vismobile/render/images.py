@@ -17,10 +17,6 @@ def png_bytes(image, optimize=True) -> bytes:
     return buffer.getvalue()
 
 
-def save_png(path, image) -> None:
-    atomic_write_bytes(path, png_bytes(image))
-
-
 def save_gif(path, images, frame_ms=100) -> None:
     """Animated GIF of (H, W, 3) uint8 images, one adaptive palette per frame, looping."""
     from PIL import Image

@@ -86,6 +86,7 @@ class Renderer:
         return (raw.reshape(self.profile.height, self.profile.width)[::-1] - np.uint32(1))
 
     def render_rgb(self, triangles, camera, cull_back=False) -> np.ndarray:
+        """(H, W, 3) uint8 shaded frame of the triangles (sorted unique int ids), as draw()."""
         self.draw(triangles, camera, cull_back, "shaded")
         return self.read_rgb()
 

@@ -30,6 +30,7 @@ def _remember(cache: OrderedDict, key, value):
 
 
 def world_path(name: str, worlds_dir) -> Path:
+    """<worlds_dir>/<name>.obj (the file may not exist yet)."""
     return Path(worlds_dir) / f"{name}.obj"
 
 
@@ -118,6 +119,7 @@ def timed_cull(culler, camera) -> tuple:
 
 
 def renderer(world, profile):
+    """A render.Renderer for the world (imported here: only render/ imports moderngl)."""
     from ..render import Renderer
 
     return Renderer(world, profile)

@@ -36,9 +36,11 @@ OUR_CULLS = (
     "vfc_thesis+bfc+cbfc",
     "vfc+bfc+cbfc_thesis",                   # the thesis's 2D backface rule, as it wrote it
 )
-STAGES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
-          "occlusion_thesis", "portals")
-# Stages the thesis says may drop visible geometry: measured, never assumed conservative.
+# The order stages are written in a combination's label (labels key caches and reports: keep it).
+STAGE_ORDER = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
+               "occlusion_thesis", "portals")
+# The thesis's own variants, which it says may drop visible geometry: measured for their error
+# and never tune candidates, even those our tests prove conservative (vfc_thesis, occlusion_thesis).
 LOOSE_STAGES = ("vfc_thesis", "occlusion_thesis", "cbfc_thesis")
 STRUCTURE_KINDS = ("grid", "octree", "portal", "bsp")
 DEPTH_RANGE = {"octree": (1, 8), "portal": (1, 3)}
@@ -112,17 +114,17 @@ def cull_stages(cull: str) -> tuple:
 
 
 def canonical_cull(text: str) -> str:
-    """Stage list in STAGES order, joined by '+'; raises SelectionError for unknown stages."""
+    """Stage list in STAGE_ORDER order, joined by '+'; raises SelectionError for unknown stages."""
     text = text.strip().lower()
     if text in ("", "none"):
         return "none"
     parts = [part.strip() for part in text.split("+") if part.strip()]
-    unknown = [part for part in parts if part not in STAGES]
+    unknown = [part for part in parts if part not in STAGE_ORDER]
     if unknown:
-        raise SelectionError(f"unknown culling stage {unknown[0]!r}; known: {', '.join(STAGES)}")
+        raise SelectionError(f"unknown culling stage {unknown[0]!r}; known: {', '.join(STAGE_ORDER)}")
     if "vfc" in parts and "vfc_thesis" in parts:
         raise SelectionError("choose one of vfc and vfc_thesis, not both")
-    return "+".join(stage for stage in STAGES if stage in parts)
+    return "+".join(stage for stage in STAGE_ORDER if stage in parts)
 
 
 def parse_structures(text: str) -> list:
@@ -165,6 +167,7 @@ def parse_culls(text: str) -> list:
 
 
 def parse_worlds(text: str) -> list:
+    """'w1,w3' or 'all' -> world names; SelectionError on an unknown one."""
     worlds = []
     for item in filter(None, (part.strip().lower() for part in text.split(","))):
         if item == "all":
@@ -177,6 +180,7 @@ def parse_worlds(text: str) -> list:
 
 
 def parse_profiles(text: str) -> list:
+    """'ipaq-hx2490b,nokia-n82' -> profile names; SelectionError on an unknown one."""
     profiles = [part.strip().lower() for part in text.split(",") if part.strip()]
     for name in profiles:
         if name not in PROFILES:
@@ -185,6 +189,7 @@ def parse_profiles(text: str) -> list:
 
 
 def parse_frames(text: str) -> str:
+    """Canonical frame selection: "all", "stride:N" or "sample:N"; SelectionError otherwise."""
     text = text.strip().lower()
     if text == "all" or re.fullmatch(r"(stride|sample):[1-9]\d*", text):
         return text

@@ -54,6 +54,7 @@ def _table(header, rows, left=1) -> str:
 
 
 def ok_records(records) -> list:
+    """The records that have a summary (failed runs left out)."""
     return [r for r in records if "summary" in r]
 
 
@@ -66,6 +67,7 @@ def best_run(records, world, profile=None, conservative=True):
 
 
 def find_run(records, world, structure, cull, profile):
+    """The successful record of this exact configuration, or None."""
     for r in ok_records(records):
         s = r["spec"]
         if (s["world"], s["structure"], s["cull"], s["profile"]) == (world, structure, cull,

@@ -12,12 +12,11 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
+from ..progress import Progress
 from ..world import atomic_write_bytes
 from . import engine
 from .groundtruth import trajectory_truth
@@ -29,34 +28,6 @@ FRAME_COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", 
                  "false_negatives", "fn_pixels", "tightness")
 RESULT_VERSION = "2"
 RENDER_REPEATS = 2
-
-
-class Progress:
-    """One-line progress bar with an ETA on stderr (silent when disabled)."""
-
-    def __init__(self, total: int, label: str, enabled: bool = True):
-        self.total, self.label, self.enabled = max(int(total), 1), label, enabled
-        self.start = time.perf_counter()
-        self.shown = 0.0
-        self.done = 0
-
-    def step(self, count: int = 1) -> None:
-        self.done += count
-        now = time.perf_counter()
-        if not self.enabled or (now - self.shown < 0.5 and self.done < self.total):
-            return
-        self.shown = now
-        elapsed = now - self.start
-        eta = elapsed / self.done * (self.total - self.done) if self.done else 0.0
-        filled = int(30 * self.done / self.total)
-        sys.stderr.write(f"\r{self.label} [{'#' * filled}{'.' * (30 - filled)}] "
-                         f"{self.done}/{self.total}  {elapsed:.0f}s, eta {eta:.0f}s ")
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.enabled:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
 
 
 class Context:
@@ -99,6 +70,7 @@ def salts(specs, context: Context) -> dict:
 
 
 def result_path(context: Context, key: str) -> Path:
+    """<out>/runs/<key>.json: one run's result file."""
     return context.out / "runs" / f"{key}.json"
 
 
@@ -228,6 +200,7 @@ def run_matrix(specs, context: Context, processes: int | None = None,
 
     A record is {"key", "spec", "summary", "frames"} or {"spec", "error"} for a failed run.
     Also writes <out>/runs.csv and <out>/runs.json (one summary row per run).
+    progress : draw a progress bar on stderr when it is a terminal (False: never)
     """
     specs = list(dict.fromkeys(specs))
     keyed = {spec: spec.key(salt) for spec, salt in salts(specs, context).items()}
@@ -248,7 +221,7 @@ def run_matrix(specs, context: Context, processes: int | None = None,
         prep = [("structure", s, context.as_tuple()) for s in structures] + \
                [("truth", s, context.as_tuple()) for s in truths]
         tasks = [(s, keyed[s], context.as_tuple()) for s in todo]
-        bar = Progress(len(prep) + len(tasks), "compare", progress)
+        bar = Progress("compare", enabled=None if progress else False, total=len(prep) + len(tasks))
         if processes == 1:
             for task in prep:
                 prepare(task)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..culling import BACKFACE_STAGES
 from . import engine
 from .costmodel import CULL_FEATURES, CostModel, DeviceModel, device_counters, fit_linear
 from .groundtruth import trajectory_truth
@@ -179,6 +180,7 @@ class TuneResult:
 
 
 def probe_frames(trajectory, count: int) -> list:
+    """Frame indices the probe plays: `count` evenly spaced plus the waypoints."""
     return frame_indices(f"sample:{count}", len(trajectory), trajectory.waypoints)
 
 
@@ -218,7 +220,7 @@ class _Probe:
     def run(self, label, cull):
         """Probe one candidate; returns the Candidate, or None when abandoned (see pruned)."""
         stages = cull_stages(cull)
-        truth = self.truths[any(s in ("bfc", "cbfc", "cbfc_thesis", "cone") for s in stages)]
+        truth = self.truths[any(s in BACKFACE_STAGES for s in stages)]
         partition = self.structure(label)
         engine.make_culler(partition, stages).cull(self.cameras[0])  # warm-up: lazy tables
         culler = engine.make_culler(partition, stages)
@@ -429,7 +431,7 @@ def stage_subsets(structure: str) -> list:
 
 def _toggle_stages(structure: str) -> list:
     """Conservative stages tune may switch on a structure."""
-    return ["vfc", "bfc", "cbfc", "cone", "occlusion"] + \
+    return ["vfc", "bfc", "cbfc", "cone", "tbfc", "occlusion"] + \
         (["portals"] if structure.startswith("portal") else [])
 
 
