@@ -45,15 +45,16 @@ class CullState:
         self.stats[key] = self.stats.get(key, 0) + int(amount)
 
     def finish(self) -> CullResult:
-        """Gather the draw nodes' refs, apply the filters, and count what is sent."""
+        """Gather the draw nodes' refs, apply the filters, and count what is sent.
+
+        Filters see each referenced triangle once, and only the survivors of earlier filters.
+        """
         tree = self.tree
-        refs = tree.refs(self.nodes)
-        keep = np.ones(len(refs), dtype=bool)
-        for keep_of in self.filters:
-            keep &= keep_of(refs)
         mask = np.zeros(tree.world.triangle_count, dtype=bool)
-        mask[refs] = keep  # a triangle's verdict is the same in every leaf that holds it
+        mask[tree.refs(self.nodes)] = True  # dedupes without sorting: leaves share triangles
         ids = np.flatnonzero(mask)
+        for keep_of in self.filters:
+            ids = ids[keep_of(ids)]
         self.count("triangles_sent", len(ids))
         self.count("draw_batches", 0 if not len(ids) else 1 + np.count_nonzero(np.diff(ids) != 1))
         self.count("nodes_drawn", len(self.nodes))
