@@ -7,8 +7,8 @@ import pytest
 
 from vismobile.cli import main
 from vismobile.errors import ProfileError, VisMobileError
-from vismobile.playback import (COLUMNS, Scene, load_scene, parse_stages, parse_structure,
-                                pearson, play)
+from vismobile.playback import COLUMNS, Scene, load_scene, parse_stages, parse_structure, play
+from vismobile.stats import pearson
 from vismobile.profile import get_profile
 from vismobile.trajectory import Trajectory
 from vismobile.world import World

@@ -28,6 +28,7 @@ import numpy as np
 from .errors import VisMobileError
 from .profile import get_profile
 from .progress import Progress
+from .stats import pearson, summarize
 from .world import World, atomic_write_bytes
 
 COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
@@ -282,22 +283,11 @@ def summarise(frames: dict) -> dict:
     """mean, median, p95 of each timing/counter column, fps and Pearson(frame_ms, triangles)."""
     summary = {"frames": int(len(frames["frame"]))}
     for name in SUMMARISED:
-        values = np.asarray(frames[name], dtype=np.float64)
-        summary[name] = {"mean": float(values.mean()), "median": float(np.median(values)),
-                         "p95": float(np.percentile(values, 95))} if len(values) else None
+        summary[name] = summarize(frames[name]) if len(frames[name]) else None
     mean_ms = summary["frame_ms"]["mean"] if summary["frame_ms"] else 0.0
     summary["fps"] = 1000.0 / mean_ms if mean_ms > 0 else None
     summary["pearson_frame_ms_triangles"] = pearson(frames["frame_ms"], frames["triangles_sent"])
     return summary
-
-
-def pearson(x, y):
-    """Pearson correlation of two (F,) arrays, None when either is constant or F < 2."""
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    if len(x) < 2 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return None
-    return float(np.corrcoef(x, y)[0, 1])
 
 
 def frames_csv(frames: dict) -> str:

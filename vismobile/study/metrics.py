@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import stats
+
 SENTINEL = np.uint32(0xFFFFFFFF)
 
 
@@ -61,11 +63,9 @@ def buffer_difference(full: np.ndarray, culled: np.ndarray) -> int:
 
 
 def pearson(x: np.ndarray, y: np.ndarray) -> float:
-    """Pearson correlation of two (N,) arrays; nan when either is constant or N < 2."""
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    if len(x) < 2 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return float("nan")
-    return float(np.corrcoef(x, y)[0, 1])
+    """Pearson correlation of two (N,) arrays; nan (not None) when undefined, for tables."""
+    r = stats.pearson(x, y)
+    return float("nan") if r is None else r
 
 
 def pareto_front(cost: np.ndarray, error: np.ndarray) -> np.ndarray:
@@ -85,10 +85,3 @@ def pareto_front(cost: np.ndarray, error: np.ndarray) -> np.ndarray:
     return front
 
 
-def summarize(values: np.ndarray) -> dict:
-    """mean, median, p95 of an (N,) array (nan when empty)."""
-    values = np.asarray(values, float)
-    if len(values) == 0:
-        return {"mean": float("nan"), "median": float("nan"), "p95": float("nan")}
-    return {"mean": float(values.mean()), "median": float(np.median(values)),
-            "p95": float(np.percentile(values, 95))}

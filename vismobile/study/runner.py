@@ -17,11 +17,12 @@ from pathlib import Path
 import numpy as np
 
 from ..progress import Progress
+from ..stats import summarize
 from ..world import atomic_write_bytes
 from . import engine
 from .groundtruth import trajectory_truth
 from .matrix import RunSpec, frame_indices
-from .metrics import frame_errors, pearson, summarize
+from .metrics import frame_errors, pearson
 
 FRAME_COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
                  "nodes_visited", "plane_tests", "triangles_tested", "visible",
