@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import stats
+from ..render import SENTINEL
 
-SENTINEL = np.uint32(0xFFFFFFFF)
 
 
 @dataclass(eq=False)
