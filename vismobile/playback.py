@@ -165,7 +165,8 @@ def make_culler(scene: Scene, stages, profile=None, adaptive=False):
     """vismobile.culling.Culler over the scene's partition, or all triangles without one.
 
     profile  : its arithmetic mode and screen go to the Culler (culling.device_options)
-    adaptive : wrap it in an AdaptiveCuller that switches off stages that stop paying.
+    adaptive : wrap it in an AdaptiveCuller that switches off stages that stop paying; a dict
+               is passed to AdaptiveCuller as keyword options (e.g. a clock for tests).
     """
     if scene.partition is None:
         return _WholeWorld(scene.world, stages)
@@ -179,7 +180,9 @@ def make_culler(scene: Scene, stages, profile=None, adaptive=False):
 
     try:
         if adaptive:
-            return AdaptiveCuller(scene.partition, parse_stages(stages), culler_factory=factory)
+            tuning = adaptive if isinstance(adaptive, dict) else {}
+            return AdaptiveCuller(scene.partition, parse_stages(stages), culler_factory=factory,
+                                  **tuning)
         return factory(scene.partition, list(stages))
     except ValueError as error:  # unknown stage, or a stage the structure cannot run
         raise VisMobileError(f"--cull {','.join(stages)}: {error}") from None
@@ -197,8 +200,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     hud          : draw the thesis HUD onto saved frames
     frame_limit  : play only the first frame_limit frames
     progress     : draw a progress bar on stderr when it is a terminal
-    adaptive     : switch stages off (and back on) while they cost more than they save; the
-                   switches go to summary.json ("adaptive_events") and frames.csv (active_stages)
+    adaptive     : switch stages off (and back on) while they cost more than they save; a dict
+                   is passed to AdaptiveCuller as options; the switches go to summary.json
+                   ("adaptive_events") and frames.csv (active_stages)
     Raises ProfileError (heap, fixed16.16 range) before playing.
     """
     from .render import Renderer
