@@ -11,6 +11,7 @@ from vismobile.errors import ProfileError, VisMobileError
 from vismobile.playback import COLUMNS, Scene, load_scene, parse_stages, parse_structure, play
 from vismobile.stats import pearson
 from vismobile.profile import get_profile
+from vismobile.render.hud import hud_lines
 from vismobile.trajectory import Trajectory
 from vismobile.world import World
 
@@ -144,6 +145,10 @@ def test_cli_plays_an_obj_and_reports_errors_in_one_line(tmp_path, capsys):
         "frame_00000.png", "frame_00002.png", "frame_00004.png"]
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["profile"] == "nokia-n82" and summary["vertex_format"] == "fixed16.16"
+    printed = capsys.readouterr().out.splitlines()
+    # The profile's device model first, then the other device, then this machine, labelled.
+    assert "Nokia N82 model" in printed[1] and "iPaq hx2490b model" in printed[2]
+    assert "measured here" in printed[3] and "of 128 MB" in printed[4]
     assert load_scene(tmp_path / "hills.obj").world.triangle_count == hills().triangle_count
     code = main(["play", str(tmp_path / "hills.obj"), "--trajectory", str(tmp_path / "walk.csv"),
                  "--profile", "palm", "--out", str(tmp_path / "bad")])
@@ -167,6 +172,22 @@ def test_culled_playback_draws_the_same_pictures_with_fewer_triangles(tmp_path):
     assert summary["structure"] == "octree:depth=3" and summary["stages"] == ["vfc", "bfc", "cbfc"]
     assert summary["memory"]["partition"] > 0
     assert summary["pearson_frame_ms_triangles"] is not None
+    # Each device's model of the same frames, labelled; culling lowers the modelled iPaq time.
+    assert summary["timing"] == "measured here"
+    for device, label in (("ipaq-hx2490b", "iPaq hx2490b model"),
+                          ("nokia-n82", "Nokia N82 model")):
+        model, whole = summary["model"][device], full.summary["model"][device]
+        assert model["label"] == label
+        assert np.isclose(model["fps"], 1000.0 / model["frame_ms"]["mean"])
+        assert model["frame_ms"]["mean"] < whole["frame_ms"]["mean"]
+
+
+def test_hud_lines_show_the_heap_budget_and_how_fps_was_obtained():
+    lines = hud_lines(("vfc", "bfc"), 3 << 20, 1234, 4.46, "octree:depth=4",
+                      heap_bytes=64 << 20, fps_label="iPaq hx2490b model")
+    assert lines == ["VFC+BFC / octree:depth=4", "mem 3.0 of 64 MB", "tris 1,234",
+                     "4.5 fps (iPaq hx2490b model)"]
+    assert hud_lines((), 1 << 20, 0, 60.0)[1:] == ["mem 1.0 MB", "tris 0", "60.0 fps"]
 
 
 def load_scene_from(world, structure):

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .costmodel import DEVICES, device_counters, device_model, label, model_block
 from .errors import VisMobileError
 from .profile import get_profile
 from .progress import Progress
@@ -216,6 +217,14 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     memory = profile.check_memory(world, scene.partition)
     culler = make_culler(scene, stages, profile, adaptive)
     renderer = Renderer(world, profile)
+    tree = getattr(culler, "tree", None)
+    if tree is None and scene.partition is not None:  # the adaptive culler holds several
+        from .culling.tree import Tree
+
+        tree = Tree(scene.partition)
+    # The HUD's fps: the profile's device model when it has one, else this machine.
+    hud_model = device_model(profile.name) if profile.name in DEVICES else None
+    counters = []
 
     count = len(trajectory) if frame_limit is None else min(int(frame_limit), len(trajectory))
     labels = {int(f): label for label, f in trajectory.waypoints.items()}
@@ -224,7 +233,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     waypoints = [""] * count
     active = ["+".join(stages) or "none"] * count
     gif_images, saved = [], {}
-    recent = []
+    hud_ms = 0.0
     bar = Progress(f"play {world.name}", enabled=None if progress else False)
     step = max(count // 200, 1)  # redraw the bar about 200 times
     for frame in range(count):
@@ -237,20 +246,23 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
             culler.observe_render(drawn.render_ms, culled.stats)
             active[frame] = culled.stats.get("active_stages", active[frame])
         frame_ms = cull_ms + drawn.render_ms
+        counters.append(device_counters(culled, tree))
+        hud_ms += hud_model.frame_ms(counters[-1]) if hud_model else frame_ms
         row = (cull_ms, drawn.render_ms, frame_ms, drawn.triangles, drawn.draw_batches,
                culled.stats.get("nodes_visited", 0), memory)
         for name, value in zip(SUMMARISED, row):
             table[name][frame] = value
         waypoints[frame] = labels.get(frame, "")
-        recent = (recent + [frame_ms])[-10:]
         want_png = out is not None and frames_every and frame % frames_every == 0
         want_gif = gif and frame % gif_every == 0
         if want_png or want_gif:
             image = renderer.read_rgb()
             if hud:
-                image = draw_hud(image, hud_lines(stages, memory, drawn.triangles,
-                                                  1000.0 / max(np.mean(recent), 1e-9),
-                                                  scene.structure))
+                # fps averaged over the frames so far (one frame's fps jumps with warm-up).
+                image = draw_hud(image, hud_lines(
+                    stages, memory, drawn.triangles, 1000.0 * (frame + 1) / max(hud_ms, 1e-9),
+                    scene.structure, heap_bytes=profile.heap_bytes,
+                    fps_label=label(profile.name if hud_model else None)))
             if want_png:
                 saved[frame] = png_bytes(image, optimize=False)
             if want_gif:
@@ -266,7 +278,10 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         "world": world.name, "triangles": world.triangle_count, "structure": scene.structure,
         "stages": list(stages), "profile": profile.name, "vertex_format": profile.vertex_format,
         "resolution": list(profile.resolution), "memory": profile.estimate_memory(
-            world, scene.partition),
+            world, scene.partition), "heap_bytes": profile.heap_bytes,
+        # frame_ms, fps above are measured here; "model" is each device's model of the same
+        # frames' counters (vismobile/costmodel.py).
+        "timing": label(None), "model": model_block(counters),
         "adaptive": bool(adaptive), "adaptive_events": list(getattr(culler, "events", [])),
     })
     result = PlaybackResult(frames, summary, Path(out) if out is not None else None)

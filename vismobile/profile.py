@@ -34,7 +34,7 @@ MB = 1 << 20
 
 @dataclass(frozen=True)
 class DeviceCost:
-    """Frame-time figures of one device, priced by study/costmodel.py's DeviceModel.
+    """Frame-time figures of one device, priced by vismobile/costmodel.py's DeviceModel.
 
     render ms = render_base_ms + render_triangle_us * triangles_sent / 1000
                 + render_call_us * <call_counter> / 1000
@@ -208,7 +208,7 @@ def from_fixed(raw) -> np.ndarray:
     return np.asarray(raw, dtype=np.float64) / FIXED_ONE
 
 
-# Device cost figures (study/costmodel.py explains the model). The render figures are least
+# Device cost figures (vismobile/costmodel.py explains the model). The render figures are least
 # squares (non-negative) of the thesis's own device frame times (study/thesis.DEVICE_POINTS) on
 # our counters for the same configurations on our worlds (costmodel.CALIBRATION_ROWS); the
 # per-call term is kept only where it lowers the leave-one-out error. The cull figures are

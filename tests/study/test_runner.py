@@ -57,10 +57,26 @@ def test_finished_runs_are_reused(study, monkeypatch):
     assert len(list((context.out / "runs").glob("*.json"))) == len(specs)
 
 
+def test_runs_carry_each_device_models_frame_time(study):
+    from vismobile.costmodel import DEVICES, device_model, label
+
+    for record in study[2]:
+        model = record["summary"]["model"]
+        assert set(model) == set(DEVICES)
+        for device in DEVICES:
+            per_frame = np.array(record["frames"][f"model_ms:{device}"])
+            # Every modelled frame costs at least the device's fixed render time.
+            assert np.all(per_frame >= device_model(device).cost.render_base_ms)
+            assert np.isclose(model[device]["frame_ms"]["mean"], per_frame.mean())
+            assert model[device]["label"] == label(device) != label(None)
+
+
 def test_tables_hold_one_row_per_run(study):
     context, specs, _ = study
     lines = (context.out / "runs.csv").read_text().splitlines()
     assert len(lines) == len(specs) + 1 and lines[0].startswith("world,structure,cull")
+    assert "model_ms:ipaq-hx2490b" in lines[0].split(",")
+    assert "model_ms:nokia-n82" in lines[0].split(",")
     assert len(json.loads((context.out / "runs.json").read_text())) == len(specs)
 
 

@@ -49,9 +49,19 @@ def run(args) -> int:
     corr = s["pearson_frame_ms_triangles"]
     print(f"{s['frames']} frames of {s['world']} ({s['structure']}, cull "
           f"{'+'.join(s['stages']) or 'none'}, {s['profile']}): "
-          f"{s['frame_ms']['mean']:.2f} ms/frame mean, {s['fps']:.1f} fps, "
           f"{s['triangles_sent']['mean']:,.0f} triangles sent, "
           f"r(ms, triangles) = {'n/a' if corr is None else f'{corr:+.2f}'}")
+    # The profile's own device first; every figure says whether it is measured or modelled.
+    devices = sorted(s["model"], key=lambda d: d != s["profile"])
+    for device in devices:
+        model = s["model"][device]
+        print(f"  {model['label']:>20}: {model['frame_ms']['mean']:8.2f} ms/frame, "
+              f"{model['fps']:.2f} fps")
+    print(f"  {s['timing']:>20}: {s['frame_ms']['mean']:8.2f} ms/frame, {s['fps']:.1f} fps "
+          "(this machine, not the device)")
+    memory = s["memory"]["total"] / (1 << 20)
+    print(f"  memory {memory:.1f} MB of the {s['profile']} heap of "
+          f"{s['heap_bytes'] / (1 << 20):.0f} MB")
     for event in s["adaptive_events"]:
         print(f"frame {event['frame']}: {event['stage']} {event['action']} (saves "
               f"{event['saving_ms']:.3f} ms, costs {event['cost_ms']:.3f} ms per frame)")

@@ -4,13 +4,17 @@ from __future__ import annotations
 import numpy as np
 
 
-def hud_lines(stages, memory_bytes, triangles_sent, fps, structure="") -> list:
-    """Text lines of the HUD, as the thesis's runtime shows them."""
+def hud_lines(stages, memory_bytes, triangles_sent, fps, structure="", heap_bytes=None,
+              fps_label="") -> list:
+    """Text lines of the HUD, as the thesis's runtime shows them: algorithms, memory used (of
+    the heap budget when given), triangles sent, fps (with how it was obtained, e.g.
+    "iPaq hx2490b model" or "measured here")."""
     algorithms = "+".join(s.upper() for s in stages) if stages else "none"
-    return [f"{algorithms}" + (f" / {structure}" if structure else ""),
-            f"mem {memory_bytes / (1 << 20):.1f} MB",
+    memory = f"mem {memory_bytes / (1 << 20):.1f}"
+    memory += f" of {heap_bytes / (1 << 20):.0f} MB" if heap_bytes else " MB"
+    return [f"{algorithms}" + (f" / {structure}" if structure else ""), memory,
             f"tris {int(triangles_sent):,}",
-            f"{fps:.1f} fps"]
+            f"{fps:.1f} fps" + (f" ({fps_label})" if fps_label else "")]
 
 
 def draw_hud(image, lines) -> np.ndarray:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..costmodel import DEVICES, label
 from ..world import atomic_write_bytes
 from . import thesis
 from .matrix import THESIS_CULLS
@@ -58,53 +59,39 @@ def ok_records(records) -> list:
     return [r for r in records if "summary" in r]
 
 
-def best_run(records, world, profile=None, conservative=True):
-    """The record with the lowest mean frame time for a world (zero false negatives if asked)."""
+def run_ms(record, device=None) -> float:
+    """Mean ms per frame of a run: measured here (device None) or that device's model."""
+    summary = record["summary"]
+    if device is None:
+        return summary["mean_ms"]
+    return summary["model"][device]["frame_ms"]["mean"]
+
+
+def device_pool(records, world, device=None) -> list:
+    """The successful runs of a world to judge on a device: those run with that device's
+    profile when there are any (same screen and arithmetic), else every run of the world."""
+    runs = [r for r in ok_records(records) if r["spec"]["world"] == world]
+    own = [r for r in runs if r["spec"]["profile"] == device]
+    return own or runs
+
+
+def best_run(records, world, profile=None, conservative=True, device=None):
+    """The record with the lowest mean frame time for a world (zero false negatives if asked):
+    measured here, or by a device's model when device is given."""
     pool = [r for r in ok_records(records) if r["spec"]["world"] == world
             and (profile is None or r["spec"]["profile"] == profile)
             and (r["summary"]["conservative"] or not conservative)]
-    return min(pool, key=lambda r: r["summary"]["mean_ms"]) if pool else None
+    return min(pool, key=lambda r: run_ms(r, device)) if pool else None
 
 
-def find_run(records, world, structure, cull, profile):
-    """The successful record of this exact configuration, or None."""
+def find_run(records, world, structure, cull, profile=None):
+    """The successful record of this exact configuration (any profile when None), or None."""
     for r in ok_records(records):
         s = r["spec"]
-        if (s["world"], s["structure"], s["cull"], s["profile"]) == (world, structure, cull,
-                                                                      profile):
+        if (s["world"], s["structure"], s["cull"]) == (world, structure, cull) and \
+                (profile is None or s["profile"] == profile):
             return r
     return None
-
-
-def device_scale(records, profile: str) -> dict | None:
-    """Least-squares device model ms = a + b * triangles_sent, fitted on the thesis's best
-    configuration per world: thesis ms (iPaq; N82 as 1000/fps) against our triangles sent for
-    that same configuration. Justified by the thesis's time-triangle correlation (+0.87..+0.98).
-    Returns {"device", "a", "b", "worlds", "loo_error"} or None with fewer than 2 worlds."""
-    points = []
-    for world, best in thesis.IPAQ_BEST.items():
-        run = find_run(records, world, best["structure"], best["cull"], profile)
-        if run is None:
-            continue
-        target = best["mean_ms"] if profile != "nokia-n82" else 1000.0 / thesis.N82_FPS[world]
-        points.append((world, run["summary"]["triangles_sent"]["mean"], target))
-    if len(points) < 2:
-        return None
-    x = np.array([p[1] for p in points])
-    y = np.array([p[2] for p in points])
-    matrix = np.column_stack([np.ones_like(x), x])
-    a, b = np.linalg.lstsq(matrix, y, rcond=None)[0]
-    loo = None
-    if len(points) >= 3:
-        errors = []
-        for i in range(len(points)):
-            keep = np.arange(len(points)) != i
-            ai, bi = np.linalg.lstsq(matrix[keep], y[keep], rcond=None)[0]
-            errors.append(abs(ai + bi * x[i] - y[i]) / y[i])
-        loo = float(np.mean(errors))
-    device = "Nokia N82" if profile == "nokia-n82" else "iPaq hx2490b"
-    return {"device": device, "a": float(a), "b": float(b), "worlds": [p[0] for p in points],
-            "loo_error": loo}
 
 
 def _along(ax, runs, labels, column, waypoints, ylabel):
@@ -245,50 +232,47 @@ def world_section(records, world, profile) -> str:
     return "\n".join(parts)
 
 
-def summary_table(records, profile) -> str:
-    """Our best configuration per world beside the thesis's (SPEC §6), with a device estimate."""
-    scale = device_scale(records, profile)
+def _config(record) -> str:
+    return f"{html.escape(record['spec']['structure'])} {html.escape(record['spec']['cull'])}"
+
+
+def summary_table(records) -> str:
+    """Per world and device: our best configuration by that device's model beside the
+    thesis's best as measured on that device, and the model at the thesis's configuration;
+    then our best measured here. Every time says how it was obtained."""
     worlds = sorted({r["spec"]["world"] for r in ok_records(records)})
     rows = []
     for world in worlds:
-        best = best_run(records, world, profile)
-        ref = thesis.IPAQ_BEST.get(world)
-        if best is None:
-            continue
-        s = best["summary"]
-        ours_at_thesis = find_run(records, world, ref["structure"], ref["cull"], profile) \
-            if ref else None
-        estimate = (scale["a"] + scale["b"] * s["triangles_sent"]["mean"]) if scale else None
-        rows.append([
-            world.upper(),
-            f"{html.escape(best['spec']['structure'])} {html.escape(best['spec']['cull'])}",
-            _fmt(s["mean_ms"], 2), _fmt(s["triangles_sent"]["mean"], 0),
-            _fmt(s["correlation"], 2),
-            f"{ref['structure']} {ref['cull']}" if ref else "–",
-            _fmt(ref["mean_ms"], 1) if ref else "–",
-            _fmt(ref["correlation"], 2) if ref else "–",
-            _fmt(thesis.N82_FPS.get(world), 1),
-            _fmt(ours_at_thesis["summary"]["mean_ms"], 2) if ours_at_thesis else "–",
-            _fmt(ours_at_thesis["summary"]["triangles_sent"]["mean"], 0) if ours_at_thesis
-            else "–",
-            _fmt(estimate, 1)])
-    text = _table(["world", "our best (zero false negatives)", "ms/frame (here)", "triangles",
-                   "r", "thesis best (iPaq)", "thesis ms", "thesis r", "thesis N82 fps",
-                   "ours at thesis's config: ms", "triangles",
-                   f"our best, est. {scale['device'] + ' ms' if scale else 'device ms'}"],
-                  rows, left=2)
-    if scale:
-        loo = (f"; leave-one-world-out error {scale['loo_error']:.0%}"
-               if scale["loo_error"] is not None else
-               " (only two worlds: the line passes through both, no held-out check)")
-        text += (f"<p class='note'>Device estimate: ms = {scale['a']:.1f} + "
-                 f"{scale['b'] * 1000:.2f} ms per 1000 triangles sent, least squares of the "
-                 f"thesis's {scale['device']} means on our triangle counts for the thesis's best "
-                 f"configuration of {', '.join(w.upper() for w in scale['worlds'])}{loo}. The "
-                 "thesis measured time and triangles sent to correlate at +0.87 to +0.98, so "
-                 "triangles sent is the dominant device cost; the estimate ignores cull time, "
-                 "which on the devices the thesis did not report separately.</p>")
-    return text
+        for device in DEVICES + (None,):
+            pool = device_pool(records, world, device)
+            best = best_run(pool, world, device=device)
+            if best is None:
+                continue
+            ref = thesis.device_best(world, device) if device else None
+            at_ref = find_run(pool, world, ref["structure"], ref["cull"]) if ref else None
+            ms = run_ms(best, device)
+            ref_cells = ["–", "–", "–", "–"]
+            if ref:
+                model_there = run_ms(at_ref, device) if at_ref else None
+                ref_cells = [
+                    f"{html.escape(ref['structure'])} {html.escape(ref['cull'])}"
+                    + (" *" if ref["note"] else ""),
+                    _fmt(ref["mean_ms"], 1), _fmt(model_there, 1),
+                    _fmt(model_there / ref["mean_ms"] - 1.0, 2) if model_there else "–"]
+            rows.append([world.upper(), html.escape(label(device)), _config(best),
+                         _fmt(ms, 1 if device else 2), _fmt(1000.0 / ms, 1),
+                         _fmt(best["summary"]["triangles_sent"]["mean"], 0)] + ref_cells)
+    text = _table(["world", "time from", "our best (zero false negatives)", "ms/frame", "fps",
+                   "triangles sent", "thesis best on this device", "thesis ms (measured)",
+                   "model ms at the thesis's config", "model error there"], rows, left=3)
+    return text + ("<p class='note'>Device rows use that device's cost model "
+                   "(vismobile/costmodel.py: render figures fitted to the thesis's own device "
+                   "timings, cull priced from counters); \"measured here\" rows are wall time on "
+                   "this machine (Mesa llvmpipe), not comparable with the devices. Thesis "
+                   "figures are the thesis's measurements on the device named. * The thesis "
+                   "gives only the N82's fps: its configuration is assumed to be the iPaq's "
+                   "best and its ms is 1000 / fps. Model error there = model ms / thesis ms - 1."
+                   "</p>")
 
 
 def agreement_section(agreement) -> str:
@@ -330,12 +314,12 @@ def write_report(records, path, agreement=None, tunes=None, title="vismobile com
     failed = [r for r in records if "error" in r]
     body = [f"<h1>{html.escape(title)}</h1>",
             "<p class='note'>Measured here on a desktop CPU with Mesa llvmpipe (software "
-            "OpenGL), not on the thesis's iPaq or N82: absolute milliseconds are not comparable; "
-            "the device estimate column rescales triangle counts as explained below it. "
+            "OpenGL), not on the thesis's iPaq or N82: times measured here are labelled "
+            "\"measured here\"; device times come from each device's cost model and are "
+            "labelled with the device. "
             f"{html.escape(notes)}</p>"]
-    for profile in profiles:
-        body.append(f"<h2>Best configuration per world ({html.escape(profile)})</h2>")
-        body.append(summary_table(records, profile))
+    body.append("<h2>Best configuration per world and device</h2>")
+    body.append(summary_table(records))
     body.append(tune_section(tunes))
     body.append(agreement_section(agreement))
     for world in worlds:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..costmodel import DEVICES, device_counters, frame_model_ms, model_block
 from ..progress import Progress
 from ..stats import summarize
 from ..world import atomic_write_bytes
@@ -27,7 +28,9 @@ from .metrics import frame_errors, pearson
 FRAME_COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
                  "nodes_visited", "plane_tests", "triangles_tested", "visible",
                  "false_negatives", "fn_pixels", "tightness")
-RESULT_VERSION = "2"
+# Per frame, the modelled frame ms on each device (costmodel.frame_model_ms of the counters).
+MODEL_COLUMNS = tuple(f"model_ms:{device}" for device in DEVICES)
+RESULT_VERSION = "3"
 RENDER_REPEATS = 2
 
 
@@ -115,7 +118,8 @@ def prepare(task) -> str:
 def execute(spec: RunSpec, context: Context) -> dict:
     """Play one run: per frame cull (timed), render (timed, glFinish), error against the truth.
 
-    Returns {"spec", "summary", "frames": {column: list}}.
+    Returns {"spec", "summary", "frames": {column: list}}: FRAME_COLUMNS measured here, plus
+    MODEL_COLUMNS (each device's modelled frame ms); summary["model"] is costmodel.model_block.
     """
     world, trajectory, profile, frames, cameras = _load_frames(spec, context)
     truth = truth_for(spec, context)
@@ -126,6 +130,7 @@ def execute(spec: RunSpec, context: Context) -> dict:
     renderer.draw(engine.sent_triangles(warm), cameras[0], spec.cull_back)
     culler = engine.make_culler(partition, spec.stages, profile)
     table = {name: np.zeros(len(frames)) for name in FRAME_COLUMNS}
+    counters = []
     for row, (frame, camera, visible) in enumerate(zip(frames, cameras, truth)):
         result, cull_ms = engine.timed_cull(culler, camera)
         sent = engine.sent_triangles(result)
@@ -135,6 +140,7 @@ def execute(spec: RunSpec, context: Context) -> dict:
                     key=lambda d: d.render_ms)
         errors = frame_errors(visible, sent)
         stats = result.stats
+        counters.append(device_counters(result, culler.tree))
         values = {
             "frame": frame, "cull_ms": cull_ms, "render_ms": drawn.render_ms,
             "frame_ms": cull_ms + drawn.render_ms, "triangles_sent": len(sent),
@@ -145,10 +151,12 @@ def execute(spec: RunSpec, context: Context) -> dict:
         }
         for name in FRAME_COLUMNS:
             table[name][row] = values[name]
-    return {"spec": spec.to_dict(), "summary": summarize_run(table, trajectory, frames,
-                                                            partition, profile, world,
-                                                            build_seconds),
-            "frames": {name: table[name].tolist() for name in FRAME_COLUMNS}}
+    for device, column in zip(DEVICES, MODEL_COLUMNS):
+        table[column] = frame_model_ms(counters, device)
+    summary = summarize_run(table, trajectory, frames, partition, profile, world, build_seconds)
+    summary["model"] = model_block(counters)
+    return {"spec": spec.to_dict(), "summary": summary,
+            "frames": {name: table[name].tolist() for name in FRAME_COLUMNS + MODEL_COLUMNS}}
 
 
 def summarize_run(table, trajectory, frames, partition, profile, world, build_seconds) -> dict:
@@ -244,10 +252,12 @@ def run_matrix(specs, context: Context, processes: int | None = None,
     return ordered
 
 
+# mean_ms .. render_ms are measured here; model_ms:<device> is that device's model
+# (vismobile/costmodel.py) of the same frames' counters.
 SUMMARY_COLUMNS = ("world", "structure", "cull", "profile", "frames", "mean_ms", "fps",
-                   "mean_fps", "cull_ms", "render_ms", "triangles_sent", "correlation",
-                   "false_negatives_total", "frames_with_fn", "fn_pixels_mean", "tightness",
-                   "conservative", "key", "error")
+                   "mean_fps", "cull_ms", "render_ms") + MODEL_COLUMNS + (
+                   "triangles_sent", "correlation", "false_negatives_total", "frames_with_fn",
+                   "fn_pixels_mean", "tightness", "conservative", "key", "error")
 
 
 def summary_row(record: dict) -> dict:
@@ -266,6 +276,8 @@ def summary_row(record: dict) -> dict:
                 "frames_with_fn": s["frames_with_fn"], "fn_pixels_mean": s["fn_pixels_mean"],
                 "tightness": s["tightness"]["mean"], "conservative": s["conservative"],
                 "key": record.get("key", ""), "error": ""})
+    for device, column in zip(DEVICES, MODEL_COLUMNS):
+        row[column] = s["model"][device]["frame_ms"]["mean"]
     return row
 
 

@@ -75,3 +75,22 @@ DEVICE_HELD_OUT = {
                       "W2 with the grid: 0.49 fps")],
     "nokia-n82": [],
 }
+
+
+def device_best(world: str, device: str) -> dict | None:
+    """The thesis's best configuration of a world as measured on a device (SPEC §6), labelled:
+    {"structure", "cull", "mean_ms", "fps", "label", "note"}; None when it gave no figure.
+    The N82's configuration is not given (only its fps): the iPaq's best is assumed."""
+    best = IPAQ_BEST.get(world)
+    if best is None:
+        return None
+    if device == "ipaq-hx2490b":
+        return {"structure": best["structure"], "cull": best["cull"], "mean_ms": best["mean_ms"],
+                "fps": best["fps"], "label": "iPaq hx2490b, measured by the thesis",
+                "note": ""}
+    if device == "nokia-n82" and world in N82_FPS:
+        return {"structure": best["structure"], "cull": best["cull"],
+                "mean_ms": 1000.0 / N82_FPS[world], "fps": N82_FPS[world],
+                "label": "Nokia N82, measured by the thesis",
+                "note": "configuration not given: the iPaq's best assumed; ms = 1000 / fps"}
+    return None
