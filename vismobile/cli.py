@@ -6,7 +6,7 @@ import sys
 import warnings
 from importlib import import_module
 
-from .errors import VisMobileError
+from .errors import VisMobileError, one_line
 
 # Each module in commands/ offers add_parser(subparsers) and run(args) -> int.
 COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune")
@@ -34,7 +34,12 @@ def main(argv=None) -> int:
         try:
             return int(args.handler(args) or 0)
         except VisMobileError as error:
-            print(f"vismobile: error: {error}", file=sys.stderr)
+            print(f"vismobile: error: {one_line(error)}", file=sys.stderr)
+            return 2
+        except OSError as error:  # an input or output the commands did not foresee
+            where = f"{error.filename}: " if error.filename else ""
+            print(f"vismobile: error: {one_line(where)}{one_line(error.strerror or error)}",
+                  file=sys.stderr)
             return 2
         except KeyboardInterrupt:
             print("vismobile: interrupted", file=sys.stderr)

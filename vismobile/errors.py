@@ -24,3 +24,17 @@ class ProfileError(VisMobileError):
 
 class TrajectoryError(VisMobileError):
     """A trajectory file that cannot be read."""
+
+
+class OutputError(VisMobileError):
+    """An output path that cannot be written: a directory, device, a path under a file, a
+    read-only or full file system."""
+
+    def __init__(self, path, message):
+        self.path = str(path)
+        super().__init__(f"{path}: {message}")
+
+
+def one_line(text) -> str:
+    """text with control characters escaped (a newline in a file name stays one line)."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))

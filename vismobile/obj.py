@@ -1,7 +1,9 @@
 """OBJ input: a line-level validator for clear errors, then trimesh for the parsing itself."""
 from __future__ import annotations
 
+import io
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -14,45 +16,185 @@ KNOWN_STATEMENTS = frozenset(
     "c_interp d_interp ctech stech cstype deg bmat step curv curv2 surf parm trim hole "
     "scrv sp end con mg call csh".split())
 MAX_BYTES = 1 << 30
+# Limits that keep a small file from costing minutes or gigabytes downstream: coordinates whose
+# squares and cross products stay finite in float64, polygons trimesh fans out cheaply, and
+# groups (each a trimesh mesh of its own).
+MAX_COORDINATE = 1e30
+MAX_CORNERS = 256
+MAX_GROUPS = 4096
+# Characters trimesh and str.split treat differently (non-ASCII white space, line separators,
+# control characters), a lone carriage return, and a backslash line continuation trimesh joins.
+_AMBIGUOUS = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\xa0\u1680\u2000-\u200b\u2028\u2029"
+                        r"\u202f\u205f\u3000\ufeff]|\r(?!\n)|\\\r?\n")
+_NUMBER = r"[+-]?(?:\d{1,400}(?:\.\d{0,400})?|\.\d{1,400})(?:[eE][+-]?\d{1,4})?"
+_INDEX = r"-?\d{1,12}"  # longer indices cannot be in range of a 1 GiB file
+# Statements trimesh finds only at the start of a line and followed by one space.
+_STRICT = ("v", "vt", "vn", "f", "o", "g")
+_BAD_START = re.compile(rf"^[ \t]+(?:{'|'.join(_STRICT)})(?:[ \t]|$)"
+                        rf"|^(?:{'|'.join(_STRICT)})(?:\t|$)", re.MULTILINE)
+_DATA_LINE = {key: re.compile(rf"^{key} (?![ \t]*{_NUMBER}(?:[ \t]+{_NUMBER})*[ \t]*$).*$",
+                              re.MULTILINE) for key in ("v", "vt", "vn")}
+_NOT_NUMERIC = re.compile(r"[^0-9eE+\-. \t]")
+# Corner forms: v, v/t, v//n, v/t/n; every face of a file uses one.
+_FORMS = {"v": _INDEX, "v/t": rf"{_INDEX}/{_INDEX}", "v//n": rf"{_INDEX}//{_INDEX}",
+          "v/t/n": rf"{_INDEX}/{_INDEX}/{_INDEX}"}
 
 
-def validate_obj(path: Path, text: str) -> None:
-    """Raise WorldError at the first line that trimesh would misread or silently drop.
+def _form_of(corner):
+    for name, pattern in _FORMS.items():
+        if re.fullmatch(pattern, corner):
+            return name
+    return None
 
-    Checks statement keywords, vertex coordinates (three finite numbers) and face indices
-    (integers within the vertices defined so far, negative ones relative).
+
+def _line(text, position):
+    return text.count("\n", 0, position) + 1
+
+
+def validate_obj(path: Path, text: str) -> str:
+    """The text as trimesh will read it (CRLF -> LF), or WorldError at the first line that
+    trimesh would misread or silently drop, or that would cost far more than its size.
+
+    Checks: only ASCII white space, no control characters or line continuations; v, vt, vn, f,
+    o, g at the start of their line and followed by a space; vertex lines of 3 to 7 plain
+    decimal numbers (the same count on every line), finite and within MAX_COORDINATE; faces of
+    3 to MAX_CORNERS corners of one form throughout the file (v, v/t, v//n or v/t/n), indices
+    within the elements defined so far (negative ones relative, and only once all are defined,
+    where trimesh resolves them the same way); at most MAX_GROUPS o/g names holding faces.
+    Vectorised: regular expressions and numpy over the whole text, no per-line Python.
     """
-    vertex_count = 0
-    for number, line in enumerate(text.splitlines(), start=1):
-        fields = line.split()
-        if not fields or fields[0].startswith("#"):
-            continue
-        keyword = fields[0]
-        if keyword not in KNOWN_STATEMENTS:
-            raise WorldError(path, f"unparsable statement {keyword[:20]!r}", number)
-        if keyword == "v":
-            try:
-                coords = [float(value) for value in fields[1:4]]
-            except ValueError:
-                raise WorldError(path, "vertex coordinate is not a number", number) from None
-            if len(coords) < 3:
-                raise WorldError(path, "vertex has fewer than 3 coordinates", number)
-            if not all(math.isfinite(c) for c in coords):
-                raise WorldError(path, "vertex coordinate is NaN or infinite", number)
-            vertex_count += 1
-        elif keyword == "f":
-            if len(fields) < 4:
-                raise WorldError(path, "face has fewer than 3 corners", number)
-            for corner in fields[1:]:
-                try:
-                    index = int(corner.split("/")[0])
-                except ValueError:
-                    raise WorldError(path, f"face index {corner[:20]!r} is not an integer",
-                                     number) from None
-                resolved = index + vertex_count + 1 if index < 0 else index
-                if not 1 <= resolved <= vertex_count:
-                    raise WorldError(path, f"face index {index} out of range "
-                                     f"(1..{vertex_count} vertices defined)", number)
+    found = _AMBIGUOUS.search(text)
+    if found is not None:
+        char = found.group()[0]
+        what = ("backslash line continuation" if char == "\\" else
+                f"character {char!r} (control, non-ASCII white space or line separator)")
+        raise WorldError(path, f"unsupported {what}", _line(text, found.start()))
+    text = text.replace("\r\n", "\n")
+    unknown = set(re.findall(r"^[ \t]*([^\s#]\S*)", text, re.M)) - KNOWN_STATEMENTS
+    if unknown:
+        first = min(re.search(rf"^[ \t]*{re.escape(k)}(?:\s|$)", text, re.M).start()
+                    for k in unknown)
+        keyword = text[first:].split()[0]
+        raise WorldError(path, f"unparsable statement {keyword[:20]!r}", _line(text, first))
+    bad = _BAD_START.search(text)
+    if bad is not None:
+        keyword = text[bad.start():].split()[0]
+        raise WorldError(path, f"{keyword!r} must start its line and be followed by a space",
+                         _line(text, bad.start()))
+    positions, values = {}, {}
+    for key in ("v", "vt", "vn"):
+        starts = [m.start() for m in re.finditer(rf"^{key} ", text, re.M)]
+        positions[key] = np.array(starts, dtype=np.int64)
+        values[key] = _data_lines(path, text, key, starts)
+    _check_vertices(path, text, positions["v"], values["v"])
+    _check_faces(path, text, positions)
+    return text
+
+
+def _data_lines(path, text, key, starts):
+    """The value text of each `key` line; WorldError at the first that is not plain numbers."""
+    ends = [text.find("\n", s) for s in starts]
+    lines = [text[s + len(key) + 1:e if e >= 0 else len(text)] for s, e in zip(starts, ends)]
+    joined = " ".join(lines)
+    try:
+        if _NOT_NUMERIC.search(joined) is None:
+            np.array(joined.split(), dtype=np.float64)
+            return lines
+    except ValueError:
+        pass
+    bad = _DATA_LINE[key].search(text)  # the slow, exact check finds the line
+    what = "vertex" if key == "v" else key
+    raise WorldError(path, f"{what} coordinate is not a plain decimal number",
+                     _line(text, bad.start()) if bad else None)
+
+
+def _check_vertices(path, text, starts, lines):
+    if not len(starts):
+        return
+    widths = np.array([len(line.split()) for line in lines])
+    wrong = np.flatnonzero((widths < 3) | (widths > 7) | (widths != widths[0]))
+    if len(wrong):
+        i = wrong[0]
+        expected = "3 to 7" if widths[i] < 3 or widths[i] > 7 else f"{widths[0]} like line {_line(text, starts[0])}"
+        raise WorldError(path, f"vertex has {widths[i]} values, expected {expected}",
+                         _line(text, starts[i]))
+    with np.errstate(over="ignore"):
+        values = np.array(" ".join(lines).split(), dtype=np.float64).reshape(len(lines), -1)
+    bad = ~np.isfinite(values).all(axis=1)
+    if bad.any():
+        raise WorldError(path, "vertex coordinate is NaN or infinite",
+                         _line(text, starts[np.argmax(bad)]))
+    bad = (np.abs(values[:, :3]) > MAX_COORDINATE).any(axis=1)
+    if bad.any():
+        raise WorldError(path, f"vertex coordinate beyond +-{MAX_COORDINATE:g}",
+                         _line(text, starts[np.argmax(bad)]))
+
+
+def _check_faces(path, text, positions):
+    matches = list(re.finditer(r"^f (.*)$", text, re.M))
+    if not matches:
+        return
+    starts = np.array([m.start() for m in matches], dtype=np.int64)
+    corners = [m.group(1).split() for m in matches]
+    counts = np.array([len(c) for c in corners])
+    few, many = counts < 3, counts > MAX_CORNERS
+    if few.any() or many.any():
+        i = int(np.argmax(few | many))
+        message = ("face has fewer than 3 corners" if few[i] else
+                   f"face has {counts[i]} corners, over the limit of {MAX_CORNERS}")
+        raise WorldError(path, message, _line(text, starts[i]))
+    form = _form_of(corners[0][0])
+    if form is None:
+        raise WorldError(path, f"face index {corners[0][0][:20]!r} is not an integer",
+                         _line(text, starts[0]))
+    pattern = _FORMS[form]
+    wrong = re.search(rf"^f (?![ \t]*{pattern}(?:[ \t]+{pattern})*[ \t]*$)", text, re.M)
+    if wrong is not None:
+        i = int(np.searchsorted(starts, wrong.start()))
+        bad = next(c for c in corners[i] if not re.fullmatch(pattern, c))
+        message = (f"face corner {bad[:20]!r} mixes forms (v, v/t, v//n, v/t/n) with "
+                   "earlier faces" if _form_of(bad) else
+                   f"face index {bad[:20]!r} is not an integer")
+        raise WorldError(path, message, _line(text, starts[i]))
+    flat = " ".join(" ".join(c) for c in corners).replace("/", " ")
+    values = np.array(flat.split(), dtype=np.int64).reshape(int(counts.sum()), -1)
+    line_of = np.repeat(np.arange(len(matches)), counts)
+    keys = {"v": ("v", 0, "face index"), "v/t": ("vt", 1, "texture index"),
+            "v//n": ("vn", 1, "normal index"), "v/t/n": ("vt", 1, "texture index")}
+    checks = [("v", 0, "face index")] + ([keys[form]] if form != "v" else [])
+    if form == "v/t/n":
+        checks.append(("vn", 2, "normal index"))
+    for key, column, what in checks:
+        index = values[:, column]
+        defined = np.searchsorted(positions[key], starts)[line_of]
+        total = len(positions[key])
+        resolved = np.where(index < 0, index + defined + 1, index)
+        bad = (resolved < 1) | (resolved > defined) | ((index < 0) & (defined != total))
+        if bad.any():
+            i = int(np.argmax(bad))
+            reason = ("before all elements are defined (unsupported)"
+                      if index[i] < 0 and defined[i] != total and 1 <= resolved[i] <= defined[i]
+                      else f"out of range (1..{defined[i]} defined)")
+            raise WorldError(path, f"{what} {index[i]} {reason}",
+                             _line(text, starts[line_of[i]]))
+    _check_groups(path, text, starts)
+
+
+def _check_groups(path, text, face_starts):
+    """At most MAX_GROUPS distinct (o, g) names hold faces (trimesh makes a mesh of each)."""
+    names, held = [None, None], set()
+    statements = list(re.finditer(r"^([og]) (.*)$", text, re.M))
+    bounds = [m.start() for m in statements] + [len(text)]
+    if face_starts[0] < bounds[0]:
+        held.add((None, None))
+    for k, match in enumerate(statements):
+        names[match.group(1) == "g"] = match.group(2).strip()
+        first = np.searchsorted(face_starts, bounds[k])
+        if first < len(face_starts) and face_starts[first] < bounds[k + 1]:
+            held.add(tuple(names))
+            if len(held) > MAX_GROUPS:
+                raise WorldError(path, f"more than {MAX_GROUPS} objects/groups hold faces",
+                                 _line(text, match.start()))
 
 
 def read_text(path: Path) -> str:
@@ -91,10 +233,13 @@ def load_obj(path) -> tuple:
     text = read_text(path)
     if not text.strip():
         raise WorldError(path, "file holds only white space")
-    validate_obj(path, text)
+    text = validate_obj(path, text)
     try:
-        scene = trimesh.load(path, file_type="obj", force="scene", split_objects=True,
-                             split_groups=True, group_material=False, process=True,
+        # trimesh reads the very text validated above, not the file again.
+        stream = io.BytesIO(text.encode("utf-8"))
+        stream.name = path.name  # trimesh names ungrouped faces after the file
+        scene = trimesh.load(stream, file_type="obj", force="scene",
+                             split_objects=True, split_groups=True, group_material=False, process=True,
                              skip_materials=True)
     except Exception as error:  # trimesh raises assorted types on malformed input
         raise WorldError(path, f"unparsable OBJ ({type(error).__name__}: {error})") from None

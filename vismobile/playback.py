@@ -30,7 +30,8 @@ from .errors import VisMobileError
 from .profile import get_profile
 from .progress import Progress
 from .stats import pearson, summarize
-from .world import World, atomic_write_bytes
+from .atomic import atomic_write_bytes, check_destination, staged_directory
+from .world import World
 
 COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
            "nodes_visited", "memory_bytes", "waypoint", "active_stages")
@@ -199,7 +200,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     frames_every : save every Nth frame as PNG (0: none)
     gif          : write run.gif of every gif_every-th frame (default frames_every or 10)
     hud          : draw the thesis HUD onto saved frames
-    frame_limit  : play only the first frame_limit frames
+    frame_limit  : play only the first frame_limit frames (>= 1)
+    out          : run folder; filled through a staging folder, summary.json last (atomic.py)
     progress     : draw a progress bar on stderr when it is a terminal
     adaptive     : switch stages off (and back on) while they cost more than they save; a dict
                    is passed to AdaptiveCuller as options; the switches go to summary.json
@@ -226,6 +228,10 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     hud_model = device_model(profile.name) if profile.name in DEVICES else None
     counters = []
 
+    if frame_limit is not None and int(frame_limit) < 1:
+        raise VisMobileError(f"frame limit must be at least 1, got {frame_limit}")
+    if out is not None:
+        check_destination(Path(out) / "summary.json")  # refuse a bad folder before playing
     count = len(trajectory) if frame_limit is None else min(int(frame_limit), len(trajectory))
     labels = {int(f): label for label, f in trajectory.waypoints.items()}
     gif_every = int(gif_every or frames_every or 10)
@@ -286,14 +292,15 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     })
     result = PlaybackResult(frames, summary, Path(out) if out is not None else None)
     if out is not None:
-        out = Path(out)
-        for frame, data in saved.items():
-            atomic_write_bytes(out / "frames" / f"frame_{frame:05d}.png", data)
-        if gif and gif_images:
-            save_gif(out / "run.gif", gif_images)
-        atomic_write_bytes(out / "frames.csv", frames_csv(frames).encode("ascii"))
-        atomic_write_bytes(out / "summary.json",
-                           (json.dumps(summary, indent=2, sort_keys=True) + "\n").encode())
+        # Staged: a folder holding summary.json (written last) holds one whole run.
+        with staged_directory(out, marker="summary.json") as stage:
+            for frame, data in saved.items():
+                atomic_write_bytes(stage / "frames" / f"frame_{frame:05d}.png", data)
+            if gif and gif_images:
+                save_gif(stage / "run.gif", gif_images)
+            atomic_write_bytes(stage / "frames.csv", frames_csv(frames).encode("ascii"))
+            atomic_write_bytes(stage / "summary.json",
+                               (json.dumps(summary, indent=2, sort_keys=True) + "\n").encode())
     result.images = saved
     return result
 

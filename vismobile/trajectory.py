@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import io
+import itertools
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -12,6 +14,12 @@ from .errors import TrajectoryError
 from .world import atomic_write_bytes
 
 HEADER = "frame,x,y,z,yaw,pitch"
+# Bounds that keep a hostile file from costing gigabytes or overflowing the camera's float math.
+MAX_FRAMES = 200_000
+MAX_POSITION = 1e12
+MAX_ANGLE = 1e9
+MAX_LINE = 4096
+_WAYPOINT = re.compile(r"#\s*waypoint\s+(\S+)\s+(\S+)\s*", re.ASCII)
 
 
 @dataclass(eq=False)
@@ -50,38 +58,23 @@ class Trajectory:
         return self.cameras()
 
     @classmethod
-    def load(cls, path, **camera) -> "Trajectory":
-        """Read a trajectory CSV; TrajectoryError naming the file and line on bad input."""
+    def load(cls, path, limit=None, **camera) -> "Trajectory":
+        """Read a trajectory CSV, lazily: with `limit` only the first `limit` frames are read.
+
+        Without a limit a file of more than MAX_FRAMES frames is refused (pass a limit);
+        positions must lie within +-MAX_POSITION and angles within +-MAX_ANGLE degrees; lines
+        are at most MAX_LINE characters. TrajectoryError naming the file and line on bad input.
+        """
         path = Path(path)
+        if limit is not None and (isinstance(limit, bool) or int(limit) < 1):
+            raise TrajectoryError(f"{path}: frame limit must be at least 1, got {limit}")
         if not path.is_file():
             raise TrajectoryError(f"{path}: no such trajectory file")
-        lines = path.read_text(errors="replace").splitlines()
-        waypoints = {}
-        rows = []
-        header_seen = False
-        for number, line in enumerate(lines, start=1):
-            text = line.strip()
-            if not text:
-                continue
-            if text.startswith("#"):
-                parts = text[1:].split()
-                if len(parts) == 3 and parts[0] == "waypoint" and parts[2].isdigit():
-                    waypoints[parts[1]] = int(parts[2])
-                continue
-            if not header_seen:
-                if text.replace(" ", "") != HEADER:
-                    raise TrajectoryError(f"{path}:{number}: expected header {HEADER!r}")
-                header_seen = True
-                continue
-            try:
-                values = [float(v) for v in text.split(",")]
-            except ValueError:
-                raise TrajectoryError(f"{path}:{number}: not a number") from None
-            if len(values) != 6 or not np.isfinite(values).all():
-                raise TrajectoryError(f"{path}:{number}: need 6 finite values")
-            if int(values[0]) != len(rows):
-                raise TrajectoryError(f"{path}:{number}: frame {int(values[0])} out of sequence")
-            rows.append(values[1:])
+        try:
+            with open(path, "rb") as handle:
+                waypoints, rows = _read(path, handle, limit)
+        except OSError as error:
+            raise TrajectoryError(f"{path}: cannot read: {error.strerror or error}") from None
         if not rows:
             raise TrajectoryError(f"{path}: no frames")
         return cls(np.array(rows), waypoints, **camera)
@@ -96,3 +89,56 @@ class Trajectory:
         np.savetxt(buffer, table, fmt=["%d", "%.4f", "%.4f", "%.4f", "%.3f", "%.3f"],
                    delimiter=",")
         atomic_write_bytes(path, buffer.getvalue().encode("ascii"))
+
+
+def _read(path, handle, limit):
+    """(waypoints, rows) of an open trajectory file, reading no further than `limit` frames."""
+    waypoints, rows = {}, []
+    header_seen = False
+    for number in itertools.count(1):
+        raw = handle.readline(MAX_LINE + 1)
+        if not raw:
+            break
+        if len(raw) > MAX_LINE and not raw.endswith(b"\n"):
+            raise TrajectoryError(f"{path}:{number}: line longer than {MAX_LINE} characters")
+        text = raw.decode("utf-8", errors="replace").strip()
+        if not text:
+            continue
+        if text.startswith("#"):
+            match = _WAYPOINT.fullmatch(text)
+            if match:
+                if not re.fullmatch(r"\d{1,9}", match[2], re.ASCII):
+                    raise TrajectoryError(f"{path}:{number}: waypoint frame must be a whole "
+                                          f"number below 10**9, got {match[2][:20]!r}")
+                waypoints[match[1]] = int(match[2])
+            continue
+        if not header_seen:
+            if text.replace(" ", "") != HEADER:
+                raise TrajectoryError(f"{path}:{number}: expected header {HEADER!r}")
+            header_seen = True
+            continue
+        if limit is not None and len(rows) >= limit:
+            break
+        if len(rows) >= MAX_FRAMES:
+            raise TrajectoryError(f"{path}:{number}: more than {MAX_FRAMES:,} frames; pass a "
+                                  "frame limit to read the first ones")
+        rows.append(_pose(path, number, text, len(rows)))
+    return waypoints, rows
+
+
+def _pose(path, number, text, expected):
+    """[x, y, z, yaw, pitch] of one CSV row, or TrajectoryError naming the line."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise TrajectoryError(f"{path}:{number}: not a number") from None
+    if len(values) != 6 or not np.isfinite(values).all():
+        raise TrajectoryError(f"{path}:{number}: need 6 finite values")
+    if values[0] != expected:
+        raise TrajectoryError(f"{path}:{number}: frame {values[0]:.15g} out of sequence "
+                              f"(expected {expected})")
+    if max(map(abs, values[1:4])) > MAX_POSITION:
+        raise TrajectoryError(f"{path}:{number}: position beyond +-{MAX_POSITION:g}")
+    if max(map(abs, values[4:6])) > MAX_ANGLE:
+        raise TrajectoryError(f"{path}:{number}: angle beyond +-{MAX_ANGLE:g} degrees")
+    return values[1:]

@@ -3,13 +3,13 @@ from __future__ import annotations
 
 import hashlib
 import io
-import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_write_bytes  # noqa: F401  (re-exported: older imports)
 from .errors import WorldError
 
 # Triangles whose doubled area is below this fraction of the world's squared extent are dropped.
@@ -47,11 +47,12 @@ class World:
     def _derive(self):
         corners = self.vertices[self.triangles]  # (T, 3, 3)
         self.corners = corners  # kept: stages read it every frame
-        cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        length = np.linalg.norm(cross, axis=1)
-        self.areas = 0.5 * length
-        with np.errstate(invalid="ignore", divide="ignore"):
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            # coordinates past ~1e154 overflow to infinite areas instead of raising
+            cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+            length = np.linalg.norm(cross, axis=1)
             normals = cross / length[:, None]
+        self.areas = 0.5 * length
         self.normals = np.where(length[:, None] > 0, normals, 0.0)
         self.bounds = np.stack([corners.min(axis=1), corners.max(axis=1)], axis=1)  # (T, 2, 3)
         self.centroids = corners.mean(axis=1)
@@ -117,14 +118,26 @@ class World:
 
     @classmethod
     def from_arrays(cls, vertices, triangles, object_ids, names, path="<arrays>") -> "World":
-        """World from raw arrays, dropping zero-area triangles with a warning."""
+        """World from raw arrays, dropping zero-area and repeated triangles with a warning.
+
+        A repeated triangle (the same corners in the same cyclic order) draws nothing new
+        but multiplies every structure's references, so only its first copy is kept.
+        """
         world = cls(vertices, triangles, object_ids, list(names), Path(str(path)).stem)
         scale = float(np.ptp(world.extent, axis=0).max()) if world.triangle_count else 0.0
-        keep = world.areas * 2.0 > ZERO_AREA_RELATIVE * max(scale, 1e-300) ** 2
+        size = max(scale, 1e-300)
+        with np.errstate(over="ignore", invalid="ignore"):
+            # divided, not squared: a squared scale overflows past 1e154
+            keep = world.areas * 2.0 / size / size > ZERO_AREA_RELATIVE
         dropped = int((~keep).sum())
+        repeated = _repeated(world.triangles) & keep
         if dropped:
             warnings.warn(f"{path}: dropped {dropped} zero-area triangle(s)", stacklevel=2)
-            world = world.subset(np.flatnonzero(keep))
+        if repeated.any():
+            warnings.warn(f"{path}: dropped {int(repeated.sum())} repeated triangle(s)",
+                          stacklevel=2)
+        if dropped or repeated.any():
+            world = world.subset(np.flatnonzero(keep & ~repeated))
         if world.triangle_count == 0:
             raise WorldError(path, "no triangles left after dropping zero-area ones"
                              if dropped else "no triangles")
@@ -145,17 +158,15 @@ class World:
         atomic_write_bytes(path, buffer.getvalue().encode("ascii"))
 
 
-def atomic_write_bytes(path, data: bytes) -> None:
-    """Write data to path through a temporary file and a rename: readers never see a part."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+def _repeated(triangles) -> np.ndarray:
+    """(T,) bool: True for every later copy of a triangle (same corners, same cyclic order)."""
+    t = np.asarray(triangles, dtype=np.int64)
+    if not len(t):
+        return np.zeros(0, dtype=bool)
+    roll = np.argmin(t, axis=1)
+    rows = np.arange(len(t))
+    canon = np.stack([t[rows, (roll + k) % 3] for k in range(3)], axis=1)
+    _, first = np.unique(canon, axis=0, return_index=True)
+    out = np.ones(len(t), dtype=bool)
+    out[first] = False
+    return out

@@ -39,8 +39,10 @@ def run(args) -> int:
 
     if args.frames < 0:
         raise VisMobileError(f"--frames must be >= 0, got {args.frames}")
+    if args.limit is not None and args.limit < 1:
+        raise VisMobileError(f"--limit must be at least 1, got {args.limit}")
     profile = get_profile(args.profile, args.vertex_format)
-    trajectory = Trajectory.load(args.trajectory)
+    trajectory = Trajectory.load(args.trajectory, limit=args.limit)
     scene = load_scene(args.world, args.structure, progress=not args.quiet)
     result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.frames,
                   gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,

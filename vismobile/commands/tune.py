@@ -38,6 +38,8 @@ def run(args) -> int:
     from ..trajectory import Trajectory
     from ..world import atomic_write_bytes
 
+    if args.probe < 1:
+        raise TrajectoryError(f"--probe must be at least 1 frame, got {args.probe}")
     if args.trajectory is None and args.world.lower() not in WORLDS:
         raise TrajectoryError(f"{args.world}: not a thesis world; pass --trajectory")
     world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS else args.world,

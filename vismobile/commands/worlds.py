@@ -17,8 +17,10 @@ def run(args) -> int:
     names = tuple(n.strip().lower() for n in args.only.split(",")) if args.only else tuple(TARGETS)
     unknown = [n for n in names if n not in TARGETS]
     if unknown:
-        print(f"vismobile: error: unknown world(s) {', '.join(unknown)}")
-        return 2
+        from ..errors import VisMobileError
+
+        raise VisMobileError(f"unknown world(s) {', '.join(unknown)}; expected "
+                             f"{', '.join(TARGETS)}")
     print(f"{'world':6}{'triangles':>11}{'target':>9}{'dev %':>8}{'objects':>9}"
           f"{'OBJ KB':>9}{'thesis KB':>11}{'seconds':>9}")
     total = 0.0

@@ -116,6 +116,10 @@ def resolve_edges(world, slabs=None, auto=False, cells=None):
             auto = True
         counts = auto_counts(world, default_cell_count(world) if cells is None else int(cells))
         return auto_edges(world, counts)
+    if isinstance(slabs, (int, np.integer)) and not isinstance(slabs, bool):
+        slabs = (slabs,) * 3  # grid:8 -> 8 slabs on every axis
+    if isinstance(slabs, (str, bytes)) or not hasattr(slabs, "__len__"):
+        raise ValueError(f"slabs must be a count or one entry per axis, got {slabs!r}")
     if len(slabs) != 3:
         raise ValueError(f"slabs needs one entry per axis (x, y, z), got {len(slabs)}")
     low, high = world.extent
@@ -125,7 +129,8 @@ def resolve_edges(world, slabs=None, auto=False, cells=None):
 def build(world, slabs=None, auto=False, cells=None, progress=None):
     """Irregular grid: root -> one level of non-empty cells (leaves).
 
-    slabs : per axis a count or a sequence of shares, e.g. ((0.2, 0.2, 0.3, 0.3), 1, (0.5, 0.5))
+    slabs : per axis a count or a sequence of shares, e.g. ((0.2, 0.2, 0.3, 0.3), 1, (0.5, 0.5)),
+            or one count for every axis
     auto  : place boundaries at centroid quantiles; `cells` sets the target cell count
     returns : Partition; extras grid_x, grid_y, grid_z (n_a + 1,) float64 boundaries and
               cell_index (leaves, 3) int32 slab indices of each leaf in node order (root -1)

@@ -1,0 +1,192 @@
+"""Hostile input through the CLI (issue 11): each case is one line on stderr naming the file
+(and line), exit code 2, no traceback and nothing partial left behind."""
+import numpy as np
+import pytest
+
+from vismobile.cli import main
+from vismobile.errors import TrajectoryError, VisMobileError, WorldError
+from vismobile.playback import load_scene
+from vismobile.trajectory import Trajectory
+from vismobile.world import World
+
+TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+TRAJECTORY = "# waypoint A 1\nframe,x,y,z,yaw,pitch\n0,0.5,0.5,3,0,-10\n1,0.5,0.5,2,0,-10\n"
+
+
+def refuse(capsys, argv, *needles):
+    """Run the CLI, expect exit 2 and one stderr line containing every needle; return it."""
+    assert main([str(a) for a in argv]) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for needle in needles:
+        assert str(needle) in lines[0], (needle, lines[0])
+    return lines[0]
+
+
+@pytest.fixture
+def obj(tmp_path):
+    def write(text, name="w.obj", mode="w"):
+        path = tmp_path / name
+        if isinstance(text, bytes):
+            path.write_bytes(text)
+        else:
+            path.write_text(text)
+        return path
+
+    return write
+
+
+@pytest.fixture
+def triangle(obj):
+    return obj(TRIANGLE, "tri.obj")
+
+
+@pytest.fixture
+def trajectory(tmp_path):
+    path = tmp_path / "t.csv"
+    path.write_text(TRAJECTORY)
+    return path
+
+
+# 1. huge coordinates
+def test_case01_huge_coordinate_is_refused_with_its_line(capsys, obj):
+    path = obj("v 0 0 0\nv 1e154 0 0\nv 0 1 0\nf 1 2 3\n")
+    refuse(capsys, ["info", path], f"{path}:2:", "beyond")
+
+
+def test_case01_world_arrays_near_the_float_limit_do_not_overflow():
+    world = World.from_arrays(np.array([[0, 0, 0], [1e160, 0, 0], [0, 1e160, 0.0]]),
+                              [[0, 1, 2]], [0], ["a"])
+    assert world.triangle_count == 1
+
+
+# 2. non-ASCII white space and control characters
+@pytest.mark.parametrize("byte", [b"\xa0", b"\x0b", b"\x1c", b"\r"])
+def test_case02_ambiguous_white_space_is_refused_with_its_line(capsys, obj, byte):
+    path = obj(b"v 0 0 0\nv 1" + byte + b"0 0\nv 0 1 0\nf 1 2 3\n")
+    refuse(capsys, ["info", path], f"{path}:2:", "unsupported")
+
+
+@pytest.mark.parametrize("text, line", [
+    ("v 0 0 0\n  v 1 0 0\nv 0 1 0\nf 1 2 3\n", 2),      # trimesh skips indented vertices
+    ("v 0 0 0\nv\t1 0 0\nv 0 1 0\nf 1 2 3\n", 2),        # and tab-separated keywords
+    ("v 0 0 0\nv 1 0 0 \\\nv 0 1 0\nf 1 2 3\n", 2),      # and joins continued lines
+    ("v 0 0 0\nv 1_0 0 0\nv 0 1 0\nf 1 2 3\n", 2),       # Python reads 1_0, numpy does not
+    ("v 0 0 0\nv 1 0 0 1\nv 0 1 0\nf 1 2 3\n", 2),       # vertex widths differ
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1 2 3\nf 1/1 2/1 3/1\n", 6),  # corner forms mix
+    ("v 0 0 0\nv 1 0 0\nf 1 2 -1\nv 0 1 0\n", 3),        # relative index before a later vertex
+])
+def test_case02_lines_trimesh_would_misread_are_refused(capsys, obj, text, line):
+    path = obj(text)
+    refuse(capsys, ["info", path], f"{path}:{line}:")
+
+
+# 3. tiny files that cost minutes
+def test_case03_polygon_over_the_corner_limit_is_refused(capsys, obj):
+    ring = "".join(f"v {np.cos(a):.4f} {np.sin(a):.4f} 0\n" for a in np.linspace(0, 6, 300))
+    path = obj(ring + "f " + " ".join(map(str, range(1, 301))) + "\n")
+    refuse(capsys, ["info", path], f"{path}:301:", "corners")
+
+
+def test_case03_too_many_groups_are_refused(capsys, obj):
+    path = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\n" + "".join(f"g g{i}\nf 1 2 3\n" for i in range(4100)))
+    refuse(capsys, ["info", path], f"{path}:", "groups")
+
+
+def test_case03_repeated_triangles_are_dropped_with_a_warning(obj):
+    path = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\n" + "f 1 2 3\nf 2 3 1\n" * 500 + "f 1 3 2\n")
+    with pytest.warns(UserWarning, match="999 repeated"):
+        world = World.from_obj(path)
+    assert world.triangle_count == 2  # both orientations stay
+
+
+# 4. trajectory positions that overflow
+def test_case04_huge_trajectory_position_is_refused(capsys, tmp_path, triangle):
+    path = tmp_path / "far.csv"
+    path.write_text("frame,x,y,z,yaw,pitch\n0,1e300,0,0,0,0\n")
+    refuse(capsys, ["play", triangle, "--trajectory", path, "--out", tmp_path / "run"],
+           f"{path}:2:", "position")
+    assert not (tmp_path / "run").exists()
+
+
+# 5. waypoint frame numbers
+def test_case05_waypoint_with_thousands_of_digits_is_refused(tmp_path):
+    path = tmp_path / "t.csv"
+    path.write_text("# waypoint A " + "9" * 1000 + "\n" + TRAJECTORY)
+    with pytest.raises(TrajectoryError, match=f"{path}:1: waypoint frame"):
+        Trajectory.load(path)
+    path.write_text("# waypoint A " + "9" * 5000 + "\n" + TRAJECTORY)
+    with pytest.raises(TrajectoryError, match=f"{path}:1: line longer"):
+        Trajectory.load(path)
+
+
+# 6. long trajectories
+def test_case06_limit_reads_only_the_first_frames(tmp_path):
+    path = tmp_path / "t.csv"
+    path.write_text(TRAJECTORY + "2,oops\n")  # never reached with limit=2
+    assert len(Trajectory.load(path, limit=2)) == 2
+    with pytest.raises(TrajectoryError, match=":5: not a number"):
+        Trajectory.load(path)
+
+
+def test_case06_too_many_frames_without_a_limit_are_refused(tmp_path, monkeypatch):
+    from vismobile import trajectory
+
+    monkeypatch.setattr(trajectory, "MAX_FRAMES", 3)
+    path = tmp_path / "t.csv"
+    Trajectory(np.zeros((5, 5))).save(path)
+    with pytest.raises(TrajectoryError, match="more than 3 frames"):
+        Trajectory.load(path)
+    assert len(Trajectory.load(path, limit=3)) == 3
+
+
+# 7. the documented structure shorthand
+def test_case07_grid_with_a_bare_count_builds(triangle):
+    scene = load_scene(triangle, "grid:2")
+    assert scene.partition.kind == "grid"
+    assert [len(scene.partition.extras[f"grid_{a}"]) - 1 for a in "xyz"] == [2, 2, 2]
+
+
+# 8. non-positive counts
+@pytest.mark.parametrize("limit", ["0", "-5"])
+def test_case08_non_positive_limit_is_refused(capsys, tmp_path, triangle, trajectory, limit):
+    refuse(capsys, ["play", triangle, "--trajectory", trajectory, "--out", tmp_path / "run",
+                    "--limit", limit], "--limit")
+    assert not (tmp_path / "run").exists()
+
+
+def test_case08_negative_probe_is_refused(capsys, trajectory):
+    refuse(capsys, ["tune", "w1", "--trajectory", trajectory, "--probe", "-3"], "--probe")
+
+
+# 9, 10. output paths
+@pytest.mark.parametrize("where", ["directory", "under_a_file", "device"])
+def test_case09_bad_output_paths_are_one_line(capsys, tmp_path, triangle, where):
+    (tmp_path / "file").write_text("keep")
+    out = {"directory": tmp_path, "under_a_file": tmp_path / "file" / "x.vmp",
+           "device": "/dev/full"}[where]
+    refuse(capsys, ["partition", triangle, "-s", "grid", "-o", out], out)
+    assert (tmp_path / "file").read_text() == "keep"
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_case09_play_into_a_file_is_refused(capsys, tmp_path, triangle, trajectory):
+    (tmp_path / "file").write_text("keep")
+    refuse(capsys, ["play", triangle, "--trajectory", trajectory, "--out", tmp_path / "file",
+                    "--quiet"], tmp_path / "file")
+    assert (tmp_path / "file").read_text() == "keep"
+
+
+# extras: messages stay one line; worlds build reports on stderr
+def test_newline_in_a_file_name_stays_one_line(capsys, tmp_path):
+    refuse(capsys, ["info", tmp_path / "two\nlines.obj"], "two\\nlines.obj")
+
+
+def test_worlds_build_unknown_name_goes_to_stderr(capsys, tmp_path):
+    refuse(capsys, ["worlds", "build", "--only", "w9", "--out", tmp_path], "w9")
+    assert capsys.readouterr().out == ""
+
+
+def test_errors_are_vismobile_errors():
+    assert issubclass(WorldError, VisMobileError) and issubclass(TrajectoryError, VisMobileError)
