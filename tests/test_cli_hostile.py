@@ -1,5 +1,9 @@
 """Hostile input through the CLI (issue 11): each case is one line on stderr naming the file
 (and line), exit code 2, no traceback and nothing partial left behind."""
+import json
+import struct
+import zlib
+
 import numpy as np
 import pytest
 
@@ -190,3 +194,158 @@ def test_worlds_build_unknown_name_goes_to_stderr(capsys, tmp_path):
 
 def test_errors_are_vismobile_errors():
     assert issubclass(WorldError, VisMobileError) and issubclass(TrajectoryError, VisMobileError)
+
+
+# 11, 12. parameters that explode memory or time are refused before building
+@pytest.mark.parametrize("args, needle", [
+    (["-s", "grid", "--slabs", "x:3000", "--slabs", "y:3000", "--slabs", "z:3000"], "cell count"),
+    (["-s", "grid", "--cells", "1000000000"], "cell count"),
+    (["-s", "bsp", "--candidates", "1000000000"], "candidates"),
+    (["-s", "portal", "--cells", "100000", "--depth", "3"], "portal cell count"),
+    (["-s", "portal", "--slabs", "x:500", "--slabs", "z:500"], "portal cell count"),
+])
+def test_case11_12_exploding_parameters_are_refused(capsys, tmp_path, triangle, args, needle):
+    refuse(capsys, ["partition", triangle, *args, "-o", tmp_path / "x.vmp"], triangle, needle)
+    assert not (tmp_path / "x.vmp").exists()
+
+
+def test_case11_overlapping_triangles_hit_the_reference_limit(monkeypatch):
+    from vismobile.partition import layout, partition
+
+    monkeypatch.setattr(layout, "MAX_REFERENCES", 250)
+    rng = np.random.default_rng(0)
+    corners = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]]) + rng.normal(0, 1e-3, (300, 3, 3))
+    world = World(corners.reshape(-1, 3), np.arange(900).reshape(300, 3))
+    for kind in ("octree", "grid"):  # (BSP finds no plane to split these by)
+        with pytest.raises(ValueError, match="over the limit of 500"):
+            partition(world, kind, **({"slabs": 40} if kind == "grid" else {}))
+
+
+# 13. frame selections
+def test_case13_huge_frame_sample_is_refused():
+    from vismobile.study.matrix import SelectionError, parse_frames
+
+    assert parse_frames("sample:60") == "sample:60"
+    for text in ("sample:100000000", "stride:" + "9" * 5000):
+        with pytest.raises(SelectionError, match="from 1 to"):
+            parse_frames(text)
+
+
+# 14-18. crafted .vmp files with valid checksums
+@pytest.fixture(scope="module")
+def vmp_bytes(tmp_path_factory):
+    from vismobile.partition import partition
+
+    rng = np.random.default_rng(1)
+    corners = rng.uniform(0, 10, (60, 1, 3)) + rng.uniform(-1, 1, (60, 3, 3))
+    world = World(corners.reshape(-1, 3), np.arange(180).reshape(60, 3), name="soup")
+    out = {}
+    for kind, params in (("octree", {"depth": 2}), ("portal", {"depth": 1, "cells": 8}),
+                         ("bsp", {})):
+        path = tmp_path_factory.mktemp("vmp") / f"{kind}.vmp"
+        partition(world, kind, **params).save(path)
+        out[kind] = path.read_bytes()
+    return out
+
+
+PREFIX = struct.Struct("<8sIII")
+
+
+def header_of(data):
+    return json.loads(data[PREFIX.size:PREFIX.size + PREFIX.unpack_from(data, 0)[2]])
+
+
+def craft(data, edit_header=None, field=None, values=None):
+    """A .vmp with its header edited and/or one field's raw section replaced, CRCs recomputed."""
+    magic, version, length, _ = PREFIX.unpack_from(data, 0)
+    header = header_of(data)
+    start = PREFIX.size + length + (-(PREFIX.size + length) % 64)
+    body = bytearray(data[start:])
+    if field is not None:
+        entry = header["fields"][field]
+        raw = np.ascontiguousarray(values, dtype=entry["dtype"]).tobytes()
+        entry.update(encoding="raw", parts=[field], shape=list(np.shape(values)))
+        header["sections"] = [s for s in header["sections"] if not s["name"].startswith(field)]
+        header["sections"].append({"name": field, "dtype": entry["dtype"],
+                                   "count": int(np.size(values)), "offset": len(body),
+                                   "nbytes": len(raw), "crc32": zlib.crc32(raw)})
+        body += raw
+    if edit_header is not None:
+        edit_header(header)
+    text = json.dumps(header).encode()
+    head = PREFIX.pack(magic, version, len(text), zlib.crc32(text)) + text
+    return head + b"\0" * (-len(head) % 64) + bytes(body)
+
+
+def play_vmp(capsys, tmp_path, trajectory, data, *needles, stages="vfc,occlusion"):
+    path = tmp_path / "crafted.vmp"
+    path.write_bytes(data)
+    return refuse(capsys, ["play", path, "--trajectory", trajectory, "--cull", stages,
+                           "--out", tmp_path / "run", "--quiet"], path, *needles)
+
+
+def test_case14_deeply_nested_header_is_refused(capsys, tmp_path, trajectory):
+    nested = b'{"x":' + b"[" * 100000 + b"]" * 100000 + b"}"
+    head = PREFIX.pack(b"\x89VMP\r\n\x1a\n", 1, len(nested), zlib.crc32(nested)) + nested
+    play_vmp(capsys, tmp_path, trajectory, head + b"\0" * (-len(head) % 64), "nested")
+
+
+@pytest.mark.parametrize("count", [2 ** 31, 2 ** 40])
+def test_case15_declared_sizes_beyond_the_file_are_refused(capsys, tmp_path, trajectory,
+                                                           vmp_bytes, count):
+    def grow(header):
+        entry = header["fields"]["world.object_ids"]
+        entry["shape"] = [count]
+
+    play_vmp(capsys, tmp_path, trajectory, craft(vmp_bytes["octree"], grow), "declares")
+
+
+def test_case16_params_must_be_a_dict(capsys, tmp_path, trajectory, vmp_bytes):
+    def scalar(header):
+        header["params"] = 5
+
+    play_vmp(capsys, tmp_path, trajectory, craft(vmp_bytes["octree"], scalar), "params")
+
+
+def test_case17_negative_child_count_is_refused(capsys, tmp_path, trajectory, vmp_bytes):
+    data = vmp_bytes["bsp"]
+    counts = np.zeros(header_of(data)["fields"]["child_count"]["shape"], dtype="<i4")
+    counts[0], counts[1] = 3, -2  # sums to N - 1 and first_child follows, yet negative
+    play_vmp(capsys, tmp_path, trajectory, craft(data, field="child_count", values=counts),
+             "inconsistent")
+
+
+@pytest.mark.parametrize("case", ["nan_bounds", "cell_node", "vertex", "ref_start"])
+def test_case18_files_that_would_crash_a_stage_are_refused(capsys, tmp_path, trajectory,
+                                                          vmp_bytes, case):
+    from vismobile.partition import load_partition
+
+    kind = "portal" if case == "cell_node" else "bsp"
+    path = tmp_path / "good.vmp"
+    path.write_bytes(vmp_bytes[kind])
+    good = load_partition(path)
+    if case == "nan_bounds":
+        bounds = good.node_bounds.copy()
+        bounds[1, 0, 0] = np.nan
+        data = craft(vmp_bytes[kind], field="node_bounds", values=bounds.astype("<f8"))
+    elif case == "cell_node":
+        cells = good.extras["cell_node"].copy()
+        cells[0] = good.node_count + 5
+        data = craft(vmp_bytes[kind], field="extras.cell_node", values=cells.astype("<i4"))
+    elif case == "vertex":
+        vertices = good.world.vertices.copy()
+        vertices[0, 0] = 1e300
+
+        def digest(header):
+            from vismobile.world import World
+
+            w = World(vertices, good.world.triangles, good.world.object_ids)
+            header["world"]["digest"] = w.digest().hex()
+
+        data = craft(vmp_bytes[kind], digest, field="world.vertices",
+                     values=vertices.astype("<f8"))
+    else:
+        data = craft(vmp_bytes[kind], field="ref_start",
+                     values=np.zeros(good.node_count, dtype="<i8"))
+    play_vmp(capsys, tmp_path, trajectory, data, "partition file",
+             stages="portals,occlusion" if kind == "portal" else "vfc,occlusion")

@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .layout import make_partition
+from .layout import check_references, make_partition
 
 DEFAULTS = {"min_leaf": 8, "max_depth": 32, "candidates": 64, "balance": (0.8, 1.25),
             "straddle_weight": 2.0, "seed": 0, "rule": "balanced"}
 RULES = ("balanced", "thesis")
+MAX_CANDIDATES = 4096  # planes scored per node: (nodes x candidates) arrays per level
 # Corners within this fraction of the world's size of a plane count as on it.
 PLANE_TOLERANCE = 1e-7
 # Rows of the final per-reference classification handled at once.
@@ -133,6 +134,8 @@ def build(world, min_leaf=8, max_depth=32, candidates=64, balance=(0.8, 1.25),
     returns         : Partition; extras split_planes (N, 4) float64 (NaN rows for leaves),
                       node_bounds = AABB of the subtree's referenced triangles
     """
+    if not 1 <= int(candidates) <= MAX_CANDIDATES:
+        raise ValueError(f"BSP candidates must be from 1 to {MAX_CANDIDATES:,}, got {candidates}")
     if int(min_leaf) < 1 or int(max_depth) < 0 or int(candidates) < 1:
         raise ValueError("min_leaf and candidates must be >= 1 and max_depth >= 0")
     if rule not in RULES:
@@ -203,6 +206,7 @@ def build(world, min_leaf=8, max_depth=32, candidates=64, balance=(0.8, 1.25),
         pair_tri = np.concatenate([pt[to_front], pt[to_back]])
         order = np.lexsort((pair_tri, pair_node))
         pair_node, pair_tri = pair_node[order], pair_tri[order]
+        check_references(len(pair_node), f"BSP level {depth + 1}")
         if progress is not None:
             progress(depth + 1, int(max_depth) + 1)
     parent = np.concatenate(parent)

@@ -6,9 +6,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.triangle_box import triangles_overlap_boxes
-from .layout import make_partition
+from .layout import check_references, make_partition
 
 AXES = "xyz"
+# Cells of a grid (boxes are built for every cell, empty or not).
+MAX_CELLS = 1 << 20
 
 
 def slab_edges(low, high, slabs) -> np.ndarray:
@@ -17,10 +19,12 @@ def slab_edges(low, high, slabs) -> np.ndarray:
     slabs : int n (n equal slabs) or sequence of positive shares (normalised to sum 1)
     """
     if isinstance(slabs, (int, np.integer)) and not isinstance(slabs, bool):
-        if slabs < 1:
-            raise ValueError(f"slab count must be at least 1, got {slabs}")
+        if not 1 <= slabs <= MAX_CELLS:
+            raise ValueError(f"slab count must be from 1 to {MAX_CELLS:,}, got {slabs}")
         shares = np.full(int(slabs), 1.0 / int(slabs))
     else:
+        if hasattr(slabs, "__len__") and len(slabs) > MAX_CELLS:
+            raise ValueError(f"more than {MAX_CELLS:,} slab shares")
         shares = np.asarray(slabs, dtype=np.float64).ravel()
         if len(shares) == 0 or not np.all(np.isfinite(shares)) or np.any(shares <= 0):
             raise ValueError(f"slab shares must be positive numbers, got {list(slabs)!r}")
@@ -78,6 +82,7 @@ def cell_pairs(world, edges, triangles=None):
         span.append(i1 - i0 + 1)
     span = np.stack(span, axis=1)
     total = span.prod(axis=1)
+    check_references(int(total.sum()), "the grid", candidates=True)
     owner = np.repeat(np.arange(len(tris)), total)
     local = np.arange(total.sum()) - np.repeat(np.cumsum(total) - total, total)
     ny, nz = len(edges[1]) - 1, len(edges[2]) - 1
@@ -114,6 +119,7 @@ def resolve_edges(world, slabs=None, auto=False, cells=None):
     if slabs is None:
         if not auto and cells is None:
             auto = True
+        check_cells(default_cell_count(world) if cells is None else cells)
         counts = auto_counts(world, default_cell_count(world) if cells is None else int(cells))
         return auto_edges(world, counts)
     if isinstance(slabs, (int, np.integer)) and not isinstance(slabs, bool):
@@ -122,8 +128,18 @@ def resolve_edges(world, slabs=None, auto=False, cells=None):
         raise ValueError(f"slabs must be a count or one entry per axis, got {slabs!r}")
     if len(slabs) != 3:
         raise ValueError(f"slabs needs one entry per axis (x, y, z), got {len(slabs)}")
+    counts = [s if isinstance(s, (int, np.integer)) else len(s) if hasattr(s, "__len__") else 1
+              for s in slabs]
+    check_cells(int(np.prod([max(int(c), 1) for c in counts], dtype=object)))
     low, high = world.extent
     return [slab_edges(low[a], high[a], slabs[a]) for a in range(3)]
+
+
+def check_cells(cells, limit=MAX_CELLS, what="grid") -> int:
+    """cells as an int in [1, limit], else ValueError (checked before any cell is built)."""
+    if isinstance(cells, bool) or not isinstance(cells, (int, np.integer)) or not 1 <= cells <= limit:
+        raise ValueError(f"{what} cell count must be an integer from 1 to {limit:,}, got {cells!r}")
+    return int(cells)
 
 
 def build(world, slabs=None, auto=False, cells=None, progress=None):

@@ -5,6 +5,20 @@ import numpy as np
 
 from .base import gather_ranges
 
+# Triangle references one tree level (or a grid) may hold: about 0.5 GiB of build arrays.
+# Checked before allocating, so a duplicate-heavy world or an extreme parameter is refused.
+MAX_REFERENCES = 1 << 22
+
+
+def check_references(count, what, candidates=False) -> None:
+    """ValueError when a build step would hold more than MAX_REFERENCES references (or test
+    more than twice as many candidate pairs, a bound on the exact tests' arrays)."""
+    limit = MAX_REFERENCES * (2 if candidates else 1)
+    if count > limit:
+        held = "test" if candidates else "hold"
+        raise ValueError(f"{what} would {held} {int(count):,} triangle references, over the "
+                         f"limit of {limit:,}; use fewer cells or a smaller depth")
+
 
 def flatten(parent, ref_node, ref_tri) -> dict:
     """Breadth-first node order, contiguous children, subtree ranges of depth-first leaf refs.

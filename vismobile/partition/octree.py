@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.triangle_box import triangles_overlap_boxes
-from .layout import make_partition
+from .layout import check_references, make_partition
 
 DEFAULT_DEPTH = 5
 MAX_DEPTH = 8
@@ -38,6 +38,8 @@ def subdivide(world, boxes, pair_node, pair_tri, levels, progress=None):
         low_ok = tb[:, 0] <= c  # (P, 3) may reach the low half on each axis
         high_ok = tb[:, 1] >= c
         cand = np.where(OCTANT_BITS[None], high_ok[:, None, :], low_ok[:, None, :]).all(axis=2)
+        # Candidates bound the SAT work and the kept references of this level.
+        check_references(int(cand.sum()), f"octree level {level + 1}", candidates=True)
         single = cand.sum(axis=1) == 1
         # A triangle whose box meets one child only overlaps that child: no SAT needed.
         keep = cand & single[:, None]
@@ -50,6 +52,7 @@ def subdivide(world, boxes, pair_node, pair_tri, levels, progress=None):
             corners = world.vertices[world.triangles[pair_tri[multi_pair]]]
             keep[multi_pair, multi_oct] = triangles_overlap_boxes(corners, lo, hi)
         kept_pair, kept_oct = np.nonzero(keep)
+        check_references(len(kept_pair), f"octree level {level + 1}")
         key = pair_node[kept_pair] * 8 + kept_oct
         tri = pair_tri[kept_pair]
         order = np.lexsort((tri, key))

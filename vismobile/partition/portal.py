@@ -21,6 +21,8 @@ from .octree import check_depth, chain_levels, subdivide
 
 # Samples along the longer side of a shared face when classifying its coverage.
 FACE_SAMPLES = 64
+# Cells of a portal grid: portals are found face by face between cell pairs.
+MAX_PORTAL_CELLS = 4096
 # Triangles within this fraction of the world's size of a face plane lie in it (walls).
 THICKNESS = 1e-7
 # Coordinates within this fraction of the world's size coincide (rounding noise).
@@ -516,6 +518,11 @@ def build(world, depth=2, slabs=None, auto=False, cells=None, thickness=None,
                 (C + 1,) int64 and cell_portals (2P,) int32 (CSR cell -> portal ids), grid_x/y/z
     """
     depth = check_depth(depth, 1, 3, "portal octree depth")
+    if cells is not None:
+        grid.check_cells(cells, MAX_PORTAL_CELLS, "portal")
+    if slabs is not None:
+        counts = [len(e) - 1 for e in grid.resolve_edges(world, slabs, auto, cells)]
+        grid.check_cells(int(np.prod(counts)), MAX_PORTAL_CELLS, "portal")
     if slabs is None:
         target = int(np.clip(round(np.sqrt(world.triangle_count) / 2), 8, 256)) if cells is None else int(cells)
         edges = auto_edges(world, target)

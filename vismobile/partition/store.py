@@ -215,8 +215,86 @@ def load_partition(path, world: World | None = None) -> Partition:
     except PartitionError:
         raise
     except (ValueError, KeyError, TypeError, IndexError, OverflowError, AttributeError,
-            struct.error, UnicodeDecodeError) as error:
+            struct.error, UnicodeDecodeError, RecursionError) as error:
         raise PartitionError(f"{path}: malformed partition file: {error}") from None
+
+
+# Header limits: JSON nesting (the format needs 4 levels), decoded size per file byte (runs
+# and deltas compress at most this much in files vismobile writes), decoded bytes in all.
+MAX_JSON_DEPTH = 16
+MAX_EXPANSION = 64
+MAX_DECODED_BYTES = 1 << 32
+NUMERIC_DTYPES = frozenset(INT_DTYPES + ("|u1", "|i1", "|b1", "<f4", "<f8", "<u8"))
+
+
+def _json_depth(text: bytes) -> int:
+    """Deepest [ / { nesting of JSON text (brackets inside strings ignored), without recursion."""
+    import re
+
+    bare = re.sub(rb'"(?:[^"\\]|\\.)*"', b'""', text)
+    codes = np.frombuffer(bare, dtype=np.uint8)
+    step = np.isin(codes, (ord("["), ord("{"))).astype(np.int64) - np.isin(
+        codes, (ord("]"), ord("}")))
+    return int(np.cumsum(step).max(initial=0))
+
+
+def _header(text: bytes) -> dict:
+    """The header as a dict, every value the reader uses of the right type (else ValueError)."""
+    if _json_depth(text) > MAX_JSON_DEPTH:
+        raise ValueError(f"header nested deeper than {MAX_JSON_DEPTH} levels")
+    header = json.loads(text.decode("utf-8"))
+
+    def need(value, kind, what):
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            raise ValueError(f"header {what} must be {getattr(kind, '__name__', kind)}")
+        return value
+
+    need(header, dict, "")
+    need(header.get("kind"), str, "kind")
+    need(header.get("params"), dict, "params")
+    info = need(header.get("world"), dict, "world")
+    need(info.get("digest"), str, "world.digest")
+    need(info.get("name"), str, "world.name")
+    for name in need(info.get("object_names"), list, "world.object_names"):
+        need(name, str, "object name")
+    for sec in need(header.get("sections"), list, "sections"):
+        need(sec, dict, "section")
+        need(sec.get("name"), str, "section name")
+        if need(sec.get("dtype"), str, "section dtype") not in NUMERIC_DTYPES:
+            raise ValueError(f"section dtype {sec['dtype'][:20]!r} is not a numeric type")
+        for key in ("offset", "nbytes", "count", "crc32"):
+            if need(sec.get(key), int, f"section {key}") < 0:
+                raise ValueError(f"section {key} is negative")
+    for name, entry in need(header.get("fields"), dict, "fields").items():
+        need(entry, dict, f"field {name}")
+        need(entry.get("encoding"), str, f"field {name} encoding")
+        if need(entry.get("dtype"), str, f"field {name} dtype") not in NUMERIC_DTYPES:
+            raise ValueError(f"field {name} dtype {entry['dtype'][:20]!r} is not numeric")
+        for n in need(entry.get("shape"), list, f"field {name} shape"):
+            if need(n, int, f"field {name} shape") < 0:
+                raise ValueError(f"field {name} has a negative size")
+        for part in need(entry.get("parts"), list, f"field {name} parts"):
+            if not need(part, str, f"field {name} part").startswith(name):
+                raise ValueError(f"field {name} names a part of another field")
+    return header
+
+
+def _check_sizes(path, header, file_size) -> None:
+    """PartitionError when a declared size cannot come from a file this large: sections past
+    the end, or decoded arrays over MAX_EXPANSION elements per file byte or MAX_DECODED_BYTES."""
+    total = 0
+    for name, entry in header["fields"].items():
+        count = int(np.prod([int(n) for n in entry["shape"]], dtype=object))
+        if count > MAX_EXPANSION * file_size:
+            raise PartitionError(f"{path}: corrupt partition file ({name} declares {count:,} "
+                                 f"values, more than a {file_size:,} byte file holds)")
+        total += count * np.dtype(entry["dtype"]).itemsize
+    if total > MAX_DECODED_BYTES:
+        raise PartitionError(f"{path}: partition file decodes to {total:,} bytes, over the "
+                             f"limit of {MAX_DECODED_BYTES:,}")
+    for sec in header["sections"]:
+        if sec["count"] * np.dtype(sec["dtype"]).itemsize > file_size:
+            raise PartitionError(f"{path}: truncated partition file (section {sec['name']})")
 
 
 def _parse(path, buffer, world):
@@ -233,10 +311,11 @@ def _parse(path, buffer, world):
     text = bytes(buffer[PREFIX.size:PREFIX.size + header_len])
     if zlib.crc32(text) != header_crc:
         raise PartitionError(f"{path}: corrupt partition file (header checksum mismatch)")
-    header = json.loads(text.decode("utf-8"))
+    header = _header(text)
     base = PREFIX.size + header_len
     base += -base % ALIGN
     view = memoryview(buffer)
+    _check_sizes(path, header, len(buffer))
     arrays = {}
     for sec in header["sections"]:
         start, nbytes = base + int(sec["offset"]), int(sec["nbytes"])

@@ -190,10 +190,14 @@ def parse_profiles(text: str) -> list:
 
 def parse_frames(text: str) -> str:
     """Canonical frame selection: "all", "stride:N" or "sample:N"; SelectionError otherwise."""
+    from ..trajectory import MAX_FRAMES
+
     text = text.strip().lower()
-    if text == "all" or re.fullmatch(r"(stride|sample):[1-9]\d*", text):
+    match = re.fullmatch(r"(stride|sample):([1-9]\d{0,8})", text)
+    if text == "all" or (match and int(match[2]) <= MAX_FRAMES):
         return text
-    raise SelectionError(f"bad frame selection {text!r}: use all, stride:N or sample:N")
+    raise SelectionError(f"bad frame selection {text[:40]!r}: use all, stride:N or sample:N "
+                         f"with N from 1 to {MAX_FRAMES:,}")
 
 
 def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",

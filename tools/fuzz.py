@@ -1,0 +1,283 @@
+"""Fuzz the three readers of outside input (issue 11): OBJ worlds, .vmp partition files and
+trajectory CSVs. Every input must load or end in a VisMobileError (one clean line from the
+CLI); any other exception, a run over the time limit or memory over the cap is a failure.
+
+Two modes:
+- mutate: seeded mutation of real files (a shared model, .vmp files of every structure built
+  from it, a thesis trajectory): byte flips, insertions, deletions, repeats, truncation, extreme
+  numbers swapped into tokens, and for .vmp crafted edits of the JSON header and of sections
+  with their CRC32s recomputed, so the checks behind the checksums are reached. A .vmp that
+  loads is also culled (vfc, occlusion, portals) from a camera inside its world.
+- atheris: coverage-guided fuzzing (pip install '.[fuzz]') of one entry point; arguments after
+  the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
+
+Usage:
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory] [--cases 300] [--seed 0]
+  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory [-max_total_time=600 ...]
+Prints one line per target: cases, loaded, clean errors, failures (with the first failures'
+tracebacks and the seed that reproduces each).
+"""
+from __future__ import annotations
+
+import json
+import os
+import random
+import resource
+import signal
+import struct
+import sys
+import tempfile
+import traceback
+import warnings
+import zlib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+MODEL = ROOT.parent / "shared" / "models" / "suzanne.obj"
+TRAJECTORY = ROOT / "trajectories" / "indoor.csv"
+STRUCTURES = (("grid", {}), ("octree", {"depth": 3}), ("portal", {"depth": 1}),
+              ("bsp", {"min_leaf": 16}))
+EXTREMES = (b"1e308", b"-1e308", b"nan", b"inf", b"-0", b"0", b"1e30", b"1e31", b"9" * 400,
+            b"-1", b"2147483648", b"1" + b"0" * 40, b"0x10", b"1_0", b"\xa0", b"\xc2\xa0")
+TIME_LIMIT = 30  # seconds per case
+MEMORY_LIMIT = 6 << 30  # address space cap (bytes): a runaway allocation fails fast
+
+
+# ---- seeds -----------------------------------------------------------------------------------
+def seeds(folder: Path) -> dict:
+    """{target: [bytes, ...]} of real inputs: the model, its partitions, a trajectory."""
+    from vismobile.partition import partition
+    from vismobile.world import World
+
+    world = World.from_obj(MODEL)
+    vmps = []
+    for kind, params in STRUCTURES:
+        path = folder / f"seed-{kind}.vmp"
+        partition(world, kind, **params).save(path)
+        vmps.append(path.read_bytes())
+    lines = TRAJECTORY.read_bytes().splitlines(keepends=True)
+    return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])]}
+
+
+# ---- mutations (driven by pick(n) -> int in [0, n), so random and atheris share them) -------
+def mutate_bytes(data: bytes, pick) -> bytes:
+    data = bytearray(data)
+    op = pick(7)
+    where = pick(len(data) + 1)
+    if op == 0 and data:  # flip bits in a few bytes
+        for _ in range(1 + pick(8)):
+            data[pick(len(data))] ^= 1 << pick(8)
+    elif op == 1:  # insert random bytes
+        data[where:where] = bytes(pick(256) for _ in range(1 + pick(16)))
+    elif op == 2:  # delete a range
+        del data[where:where + 1 + pick(64)]
+    elif op == 3:  # repeat a range many times (duplicate-heavy input)
+        chunk = bytes(data[where:where + 1 + pick(80)])
+        data[where:where] = chunk * (1 + pick(2000))
+    elif op == 4:  # truncate
+        del data[where:]
+    else:  # swap a token for an extreme value
+        tokens = [i for i in range(1, len(data)) if data[i - 1] in b" ,\n\t" and data[i] not in b" ,\n\t"]
+        if tokens:
+            start = tokens[pick(len(tokens))]
+            end = start
+            while end < len(data) and data[end] not in b" ,\n\t/":
+                end += 1
+            data[start:end] = EXTREMES[pick(len(EXTREMES))]
+    return bytes(data)
+
+
+HEADER = struct.Struct("<8sIII")
+
+
+def mutate_vmp(data: bytes, pick) -> bytes:
+    """Crafted .vmp: edit the JSON header or a section, then recompute the checksums."""
+    magic, version, length, _ = HEADER.unpack_from(data, 0)
+    header = json.loads(data[HEADER.size:HEADER.size + length])
+    body_start = HEADER.size + length + (-(HEADER.size + length) % 64)
+    body = bytearray(data[body_start:])
+    if pick(2) == 0:
+        _edit_json(header, pick)
+    elif header["sections"]:
+        sec = header["sections"][pick(len(header["sections"]))]
+        start, size = sec["offset"], sec["nbytes"]
+        if size:
+            for _ in range(1 + pick(8)):
+                body[start + pick(size)] = pick(256)
+            sec["crc32"] = zlib.crc32(bytes(body[start:start + size]))
+    text = json.dumps(header, sort_keys=True, separators=(",", ":")).encode()
+    head = HEADER.pack(magic, version, len(text), zlib.crc32(text)) + text
+    return head + b"\0" * (-len(head) % 64) + bytes(body)
+
+
+def _edit_json(node, pick):
+    """Replace one value somewhere in the header with a hostile one."""
+    path = []
+    while isinstance(node, (dict, list)) and node and pick(3):
+        keys = sorted(node) if isinstance(node, dict) else list(range(len(node)))
+        key = keys[pick(len(keys))]
+        if not isinstance(node[key], (dict, list)) or not node[key]:
+            path.append((node, key))
+            break
+        path.append((node, key))
+        node = node[key]
+    if not path:
+        return
+    parent, key = path[-1]
+    choices = [-1, 0, 2 ** 31, 2 ** 40, -(2 ** 63), 1e300, float("nan"), "x", "|O8", "<f2",
+               "runs", "octants", [], {}, [[[[[0]]]]], None, True, "a" * 100]
+    value = choices[pick(len(choices))]
+    if isinstance(parent[key], int) and not isinstance(parent[key], bool) and pick(2):
+        value = parent[key] + pick(5) - 2  # an off-by-a-little size or offset
+    parent[key] = value
+
+
+# ---- entry points ----------------------------------------------------------------------------
+def load_obj(path):
+    from vismobile.world import World
+
+    World.from_obj(path)
+
+
+def load_trajectory(path):
+    from vismobile.trajectory import Trajectory
+
+    Trajectory.load(path)
+
+
+def load_and_cull(path):
+    import numpy as np
+
+    from vismobile.camera import Camera
+    from vismobile.culling import Culler
+    from vismobile.partition import load_partition
+
+    partition = load_partition(path)
+    low, high = partition.world.extent
+    eye = (low + high) / 2.0
+    stages = ["vfc", "occlusion"] + (["portals"] if partition.kind == "portal" else [])
+    for names in (stages[:1], stages):
+        culler = Culler(partition, [s for s in names if not (s == "vfc" and "portals" in names)])
+        for yaw in (0.0, 135.0):
+            culler.cull(Camera(tuple(eye), yaw, -10.0, 45.0, 0.75, 0.01,
+                               float(np.ptp([low, high], axis=0).max()) * 4 + 1))
+
+
+ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
+         "trajectory": (load_trajectory, ".csv")}
+
+
+def run_case(target, data, folder):
+    """'ok' or 'error' (VisMobileError); any other exception propagates."""
+    from vismobile.errors import VisMobileError
+
+    function, suffix = ENTRY[target]
+    path = Path(folder) / f"case{suffix}"
+    path.write_bytes(data)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            function(path)
+    except VisMobileError:
+        return "error"
+    return "ok"
+
+
+# ---- seeded mutation -------------------------------------------------------------------------
+class Timeout(Exception):
+    pass
+
+
+def _alarm(signum, frame):
+    raise Timeout(f"over {TIME_LIMIT} s")
+
+
+def mutate_main(targets, cases, seed):
+    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
+    signal.signal(signal.SIGALRM, _alarm)
+    failures = 0
+    with tempfile.TemporaryDirectory() as folder:
+        folder = Path(folder)
+        originals = seeds(folder)
+        for target in targets:
+            counts = {"ok": 0, "error": 0, "fail": 0}
+            shown = []
+            for case in range(cases):
+                rng = random.Random(f"{seed}:{target}:{case}")
+                pick = rng.randrange
+                data = originals[target][pick(len(originals[target]))]
+                for _ in range(1 + pick(3)):
+                    data = (mutate_vmp(data, pick) if target == "vmp" and pick(3) and
+                            data[:8] == b"\x89VMP\r\n\x1a\n" else mutate_bytes(data, pick))
+                signal.alarm(TIME_LIMIT)
+                try:
+                    counts[run_case(target, data, folder)] += 1
+                except Exception as error:  # noqa: BLE001 - every other exception is a finding
+                    counts["fail"] += 1
+                    if len(shown) < 3:
+                        shown.append(f"  seed {seed} case {case}: {type(error).__name__}: "
+                                     f"{error}\n" + "".join(traceback.format_exc(limit=-4)))
+                finally:
+                    signal.alarm(0)
+            failures += counts["fail"]
+            print(f"{target:11} cases {cases:5}  loaded {counts['ok']:5}  clean errors "
+                  f"{counts['error']:5}  failures {counts['fail']:3}")
+            for text in shown:
+                print(text)
+    return 1 if failures else 0
+
+
+# ---- atheris ---------------------------------------------------------------------------------
+def atheris_main(target, argv):
+    import atheris
+
+    with atheris.instrument_imports():
+        import vismobile.obj  # noqa: F401
+        import vismobile.partition.store  # noqa: F401
+        import vismobile.trajectory  # noqa: F401
+        import vismobile.culling  # noqa: F401
+    folder = Path(tempfile.mkdtemp(prefix="vismobile-fuzz-"))
+    vmps = seeds(folder)["vmp"] if target == "vmp" else []
+
+    def one(data: bytes):
+        if target == "vmp" and data and vmps:
+            provider = atheris.FuzzedDataProvider(data)
+            pick = lambda n: provider.ConsumeIntInRange(0, max(n - 1, 0))  # noqa: E731
+            mode = pick(3)
+            if mode < 2:
+                data = vmps[pick(len(vmps))]
+                for _ in range(1 + pick(3)):
+                    data = mutate_vmp(data, pick) if mode == 0 else mutate_bytes(data, pick)
+            else:
+                data = provider.ConsumeBytes(provider.remaining_bytes())
+        run_case(target, data, folder)
+
+    atheris.Setup([sys.argv[0]] + argv, one)
+    atheris.Fuzz()
+
+
+def main(argv=None):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in ("mutate", "atheris"):
+        print(__doc__)
+        return 2
+    if argv[0] == "atheris":
+        if len(argv) < 2 or argv[1] not in ENTRY:
+            print("target: obj, vmp or trajectory")
+            return 2
+        return atheris_main(argv[1], argv[2:])
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="fuzz.py mutate")
+    parser.add_argument("--target", default="obj,vmp,trajectory")
+    parser.add_argument("--cases", type=int, default=300)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv[1:])
+    return mutate_main([t for t in args.target.split(",") if t], args.cases, args.seed)
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    sys.exit(main())
