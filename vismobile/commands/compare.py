@@ -24,6 +24,11 @@ def add_parser(sub):
     parser.add_argument("--cache", type=Path, default=Path("out/cache"),
                         help="partition and ground-truth cache")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: cores)")
+    parser.add_argument("--scheduler", default="local",
+                        help="local (a pool of --jobs processes, the default), dask (a Dask "
+                             "LocalCluster of --jobs worker processes) or the address of a "
+                             "running dask.distributed scheduler, e.g. tcp://host:8786 (its "
+                             "workers must see the same worlds, cache and out paths)")
     parser.add_argument("--agreement", type=int, default=2,
                         help="frames per world for the raster/ray-cast check (0: skip)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -41,7 +46,8 @@ def run(args) -> int:
     specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames)
     context = Context(".", args.out, args.worlds_dir, args.cache)
     print(f"{len(specs)} runs -> {args.out}/runs/ (finished runs are reused)")
-    records = run_matrix(specs, context, args.jobs, progress=not args.quiet)
+    records = run_matrix(specs, context, args.jobs, progress=not args.quiet,
+                         scheduler=args.scheduler)
     checks = []
     for world in parse_worlds(args.worlds) if args.agreement > 0 else []:
         checks += agreement(world, context, specs[0].profile, args.agreement)

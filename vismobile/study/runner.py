@@ -100,6 +100,15 @@ def truth_for(spec: RunSpec, context: Context, cull_back=None):
                             context.cache_dir / "truth")
 
 
+def prep_key(task) -> tuple:
+    """What a prepare task makes: ("structure", world, structure) or ("truth", world,
+    trajectory, profile, frames, cull_back); run tasks wait for the two of their spec."""
+    what, spec, _ = task
+    if what == "structure":
+        return what, spec.world, spec.structure
+    return what, spec.world, spec.trajectory, spec.profile, spec.frames, spec.truth_cull_back
+
+
 def prepare(task) -> str:
     """Worker task: build one partition or one ground truth so runs find them cached."""
     what, spec, context_tuple = task
@@ -204,12 +213,16 @@ def _execute_task(task) -> tuple:
 
 
 def run_matrix(specs, context: Context, processes: int | None = None,
-               progress: bool = True) -> list:
+               progress: bool = True, scheduler="local", on_record=None) -> list:
     """Run every spec (reusing finished ones); returns their records in spec order.
 
     A record is {"key", "spec", "summary", "frames"} or {"spec", "error"} for a failed run.
     Also writes <out>/runs.csv and <out>/runs.json (one summary row per run).
-    progress : draw a progress bar on stderr when it is a terminal (False: never)
+    progress  : draw a progress bar on stderr when it is a terminal (False: never)
+    scheduler : "local" (a pool of `processes` worker processes), "dask" (a LocalCluster of
+                `processes` workers), a Dask scheduler address, or a dask.distributed Client
+                (study/distributed.py); results are the same files either way
+    on_record : with Dask, called with (client, key, record) as each run finishes
     """
     specs = list(dict.fromkeys(specs))
     keyed = {spec: spec.key(salt) for spec, salt in salts(specs, context).items()}
@@ -227,11 +240,19 @@ def run_matrix(specs, context: Context, processes: int | None = None,
         structures = list({(s.world, s.structure): s for s in todo}.values())
         truths = list({(s.world, s.trajectory, s.profile, s.frames, s.truth_cull_back): s
                        for s in todo}.values())
+        local = isinstance(scheduler, str) and scheduler == "local"
+        if not local:
+            from . import distributed
+
+            context = distributed.absolute(context)
         prep = [("structure", s, context.as_tuple()) for s in structures] + \
                [("truth", s, context.as_tuple()) for s in truths]
         tasks = [(s, keyed[s], context.as_tuple()) for s in todo]
         bar = Progress("compare", enabled=None if progress else False, total=len(prep) + len(tasks))
-        if processes == 1:
+        if not local:
+            records.update(distributed.run_tasks(prep, tasks, scheduler, processes, on_record,
+                                                 bar.step))
+        elif processes == 1:
             for task in prep:
                 prepare(task)
                 bar.step()

@@ -1,0 +1,131 @@
+"""The comparison's runs as Dask tasks: on a LocalCluster of worker processes ("dask") or on an
+existing dask.distributed cluster (its scheduler's address).
+
+Resumable exactly like the local pool: every run task writes `runs/<key>.json` atomically and
+first reads that file back when it exists, so a task re-executed after its worker died (Dask
+reschedules it) neither runs twice to completion nor leaves a duplicate; the caller merges
+records by key into the same runs.csv. Run tasks depend on the prepare tasks (partition and
+ground truth cached on disk) they need, and carry their position in the matrix as priority,
+so workers go through the runs in matrix order and their per-process caches of worlds and
+partitions keep hitting. Workers on other machines must see the same paths (a shared disk).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+from ..errors import VisMobileError
+
+# A run whose worker dies this many times is reported as failed instead of retried forever.
+ALLOWED_FAILURES = 3
+
+
+class SchedulerError(VisMobileError):
+    """A Dask scheduler that cannot be reached or started."""
+
+
+def _worker_env() -> dict:
+    """Environment of each LocalCluster worker: one llvmpipe thread, one BLAS thread."""
+    return {"LP_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
+def open_client(scheduler: str, workers: int | None, timeout: str = "15s"):
+    """(client, cluster or None) for "dask" (a LocalCluster of `workers` processes, one thread
+    each) or a scheduler address ("tcp://host:8786" or "host:8786"), waited for `timeout`."""
+    import dask
+    from dask.distributed import Client, LocalCluster
+
+    dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES})
+    try:
+        if scheduler == "dask":
+            cluster = LocalCluster(n_workers=max(1, workers or os.cpu_count() or 1),
+                                   threads_per_worker=1, processes=True,
+                                   dashboard_address=None, env=_worker_env())
+            return Client(cluster), cluster
+        return Client(scheduler, timeout=timeout), None
+    except (OSError, TimeoutError, ValueError) as error:
+        raise SchedulerError(f"cannot reach Dask scheduler {scheduler!r}: {error}") from None
+
+
+def _resume_or_execute(task, *ready) -> tuple:
+    """Run task: the finished result file when one exists (an earlier attempt wrote it before
+    its worker died), else execute the run. `ready` are the prepare results it waited for."""
+    from .runner import Context, _execute_task, _worker_init, result_path
+
+    _worker_init()
+    spec, key, context_tuple = task
+    path = result_path(Context.from_tuple(context_tuple), key)
+    if path.is_file():
+        try:
+            return key, json.loads(path.read_text())
+        except (OSError, ValueError):
+            pass  # a damaged file is run again
+    return _execute_task(task)
+
+
+def _prepare(task) -> str:
+    from .runner import _worker_init, prepare
+
+    _worker_init()
+    return prepare(task)
+
+
+def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None) -> dict:
+    """Execute prepare tasks and run tasks (runner's tuples) on Dask; {key: record}.
+
+    scheduler : "dask", an address, or a dask.distributed Client to use as it is
+    on_record : called with (client, key, record) as each run finishes (tests kill workers here)
+    step      : called once per finished task (the progress bar)
+    """
+    from dask.distributed import as_completed
+
+    from .runner import prep_key
+
+    if hasattr(scheduler, "submit"):
+        client, cluster, own = scheduler, None, False
+    else:
+        (client, cluster), own = open_client(scheduler, workers), True
+    records = {}
+    try:
+        ready = {}
+        for task in prep:
+            name = hashlib.sha1(repr(prep_key(task)).encode()).hexdigest()[:16]
+            ready[prep_key(task)] = client.submit(_prepare, task, key=f"prepare-{name}",
+                                                  priority=len(tasks) + 1)
+        futures = {}
+        for index, task in enumerate(tasks):
+            spec = task[0]
+            needs = [ready[k] for k in (prep_key(("structure", spec, None)),
+                                        prep_key(("truth", spec, None))) if k in ready]
+            futures[client.submit(_resume_or_execute, task, *needs, key=f"run-{task[1]}",
+                                  priority=-index)] = task
+        for future in as_completed(list(ready.values())):
+            if step:
+                step()
+        for future in as_completed(futures):
+            try:
+                key, record = future.result()
+            except Exception as error:  # the worker died ALLOWED_FAILURES times on this run
+                task = futures[future]
+                key, record = task[1], {"spec": task[0].to_dict(),
+                                        "error": f"{type(error).__name__}: {error}"}
+            records[key] = record
+            if on_record:
+                on_record(client, key, record)
+            if step:
+                step()
+    finally:
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    return records
+
+
+def absolute(context):
+    """The context with absolute paths, so workers in other directories find the same files."""
+    from .runner import Context
+
+    return Context(*(Path(p).resolve() for p in context.as_tuple()))
