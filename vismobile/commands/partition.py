@@ -7,7 +7,9 @@ from pathlib import Path
 
 def add_parser(sub):
     parser = sub.add_parser("partition", help="partition a world into a .vmp file")
-    parser.add_argument("world", type=Path, help="OBJ file")
+    parser.add_argument("world", type=Path,
+                        help="OBJ file, or a world directory (tools/make_big_world.py) for the "
+                             "out-of-core octree build (streamed, memory-mapped)")
     parser.add_argument("--structure", "-s", choices=("grid", "octree", "portal", "bsp"),
                         default="octree")
     parser.add_argument("-o", "--output", type=Path, required=True, help=".vmp file to write")
@@ -23,6 +25,8 @@ def add_parser(sub):
     parser.add_argument("--rule", choices=("balanced", "thesis"), default="balanced",
                         help="bsp: 'thesis' stops when no split has h+/h- in [0.8, 1.25]")
     parser.add_argument("--seed", type=int, default=0, help="bsp: candidate sampling seed")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="world directory: worker processes for the chunked octree build")
     return parser
 
 
@@ -48,6 +52,8 @@ def run(args) -> int:
     from ..progress import Progress
     from ..world import World
 
+    if args.world.is_dir():
+        return run_out_of_core(args)
     world = World.from_obj(args.world)
     kind = args.structure
     params = {}
@@ -83,4 +89,27 @@ def run(args) -> int:
     print(f"refs/tri    {stats['refs_per_triangle']:.3f}")
     print(f"file        {args.output} {size / 1024:,.1f} KB "
           f"({size / args.world.stat().st_size:.2f} x the OBJ)")
+    return 0
+
+
+def run_out_of_core(args) -> int:
+    """Octree of a memory-mapped world directory, built in chunks and streamed to the file."""
+    from ..errors import PartitionError
+    from ..mapped import MappedWorld
+    from ..partition.external import build_octree_file
+
+    if args.structure != "octree":
+        raise PartitionError(f"{args.world}: a world directory is partitioned out of core as an "
+                             f"octree only (got --structure {args.structure})")
+    world = MappedWorld.open(args.world)
+    try:
+        stats = build_octree_file(world, args.output, depth=5 if args.depth is None else args.depth,
+                                  jobs=max(1, args.jobs))
+    except ValueError as error:
+        raise PartitionError(f"{args.world}: {error}") from None
+    print(f"structure   octree (out of core, {stats['chunks']} chunks, {args.jobs} jobs)")
+    print(f"build time  {sum(stats['seconds'].values()):.2f} s")
+    print(f"nodes       {stats['nodes']:,}")
+    print(f"refs/tri    {stats['references'] / world.triangle_count:.3f}")
+    print(f"file        {args.output} {stats['bytes'] / 1024:,.1f} KB")
     return 0

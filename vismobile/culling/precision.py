@@ -28,8 +28,8 @@ _ALWAYS_INSIDE = np.array([0.0, 0.0, 0.0, 1.0])
 
 def world_scale(vertices, camera: Camera | None = None) -> float:
     """Largest |coordinate| of the vertices (V, 3) and the camera eye: the magnitude bounds use."""
-    vertices = np.asarray(vertices, dtype=np.float64)
-    scale = float(np.abs(vertices).max()) if vertices.size else 0.0
+    vertices = np.asarray(vertices)  # no float64 or abs copy: the array may be a mapped file
+    scale = float(max(-vertices.min(), vertices.max())) if vertices.size else 0.0
     if camera is not None:
         scale = max(scale, float(np.abs(camera.eye).max()))
     return scale

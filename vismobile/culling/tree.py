@@ -24,7 +24,8 @@ class Tree:
         self.child_count = np.asarray(p.child_count, dtype=np.int64)
         self.ref_start = np.asarray(p.ref_start, dtype=np.int64)
         self.ref_end = np.asarray(p.ref_end, dtype=np.int64)
-        self.tri_refs = np.asarray(p.tri_refs, dtype=np.int64)
+        # Kept as stored (int32, perhaps a memory-mapped file); refs() widens what it gathers.
+        self.tri_refs = np.asarray(p.tri_refs)
         self.node_count = len(self.first_child)
         self.nonempty = self.ref_end > self.ref_start
         leaves = np.flatnonzero(self.child_count == 0)
@@ -56,4 +57,5 @@ class Tree:
     def refs(self, nodes) -> np.ndarray:
         """Concatenated tri_refs (int64, may repeat ids) of the nodes' subtrees."""
         nodes = np.asarray(nodes, dtype=np.int64)
-        return gather_ranges(self.tri_refs, self.ref_start[nodes], self.ref_end[nodes])
+        return gather_ranges(self.tri_refs, self.ref_start[nodes],
+                             self.ref_end[nodes]).astype(np.int64, copy=False)

@@ -201,15 +201,7 @@ def load_partition(path, world: World | None = None) -> Partition:
     Raises PartitionError naming the file when it is missing, truncated, corrupt, of another
     format, of a newer version, or built from another world.
     """
-    path = Path(path)
-    try:
-        with open(path, "rb") as handle:
-            size = path.stat().st_size
-            if size < PREFIX.size:
-                raise PartitionError(f"{path}: not a vismobile partition file (too short: {size} bytes)")
-            buffer = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
-    except OSError as error:
-        raise PartitionError(f"{path}: cannot read partition file: {error.strerror or error}") from None
+    path, buffer = _open_mapped(path)
     try:
         return _parse(path, buffer, world)
     except PartitionError:
@@ -217,6 +209,68 @@ def load_partition(path, world: World | None = None) -> Partition:
     except (ValueError, KeyError, TypeError, IndexError, OverflowError, AttributeError,
             struct.error, UnicodeDecodeError, RecursionError) as error:
         raise PartitionError(f"{path}: malformed partition file: {error}") from None
+
+
+def _open_mapped(path):
+    """(path, read-only mmap of the file), or PartitionError naming the file."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as handle:
+            size = path.stat().st_size
+            if size < PREFIX.size:
+                raise PartitionError(f"{path}: not a vismobile partition file (too short: {size} bytes)")
+            return path, mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
+    except OSError as error:
+        raise PartitionError(f"{path}: cannot read partition file: {error.strerror or error}") from None
+
+
+def map_partition(path, verify: bool = True) -> Partition:
+    """A streamed .vmp (external.build_octree_file: every section raw) with its world and
+    references left in the memory-mapped file: nothing world-sized is decoded or copied.
+
+    The world is a mapped.MappedWorld (float32 vertices); node arrays (small) are decoded.
+    verify : check every section's CRC32 (one streamed pass over the file); the world digest
+             is taken from the header. Raises PartitionError naming the file when it is not a
+             mappable partition, or is truncated, corrupt or inconsistent.
+    """
+    from ..mapped import MappedWorld
+
+    path, buffer = _open_mapped(path)
+    try:
+        header, arrays = _sections(path, buffer, verify)
+        fields = {}
+        for name, entry in header["fields"].items():
+            if entry["encoding"] != "raw" or entry["parts"] != [name]:
+                raise PartitionError(f"{path}: section {name} is encoded ({entry['encoding']}); "
+                                     f"only streamed partition files can be mapped")
+            fields[name] = arrays[name].reshape(tuple(int(n) for n in entry["shape"]))
+        info = header["world"]
+        world = MappedWorld(fields["world.vertices"], fields["world.triangles"],
+                            fields["world.object_ids"], list(info["object_names"]),
+                            str(info["name"]), digest=bytes.fromhex(info["digest"]))
+        if header["kind"] not in KINDS:
+            raise PartitionError(f"{path}: unknown structure kind {header['kind']!r}")
+        child_count = fields["child_count"].astype(np.int32)
+        first_child = np.where(child_count > 0, 1 + np.cumsum(child_count) - child_count, -1)
+        result = Partition(kind=header["kind"], params=header["params"], world=world,
+                           node_bounds=fields["node_bounds"].astype(np.float64),
+                           first_child=first_child.astype(np.int32), child_count=child_count,
+                           ref_start=fields["ref_start"].astype(np.int64),
+                           ref_end=fields["ref_end"].astype(np.int64),
+                           level_start=fields["level_start"].astype(np.int64),
+                           tri_refs=fields["tri_refs"],
+                           extras={n[len("extras."):]: v for n, v in fields.items()
+                                   if n.startswith("extras.")})
+    except PartitionError:
+        raise
+    except (ValueError, KeyError, TypeError, IndexError, OverflowError, AttributeError,
+            struct.error, UnicodeDecodeError, RecursionError) as error:
+        raise PartitionError(f"{path}: malformed partition file: {error}") from None
+    try:
+        result.check()
+    except ValueError as error:
+        raise PartitionError(f"{path}: inconsistent partition file: {error}") from None
+    return result
 
 
 # Header limits: JSON nesting (the format needs 4 levels), decoded size per file byte (runs
@@ -297,7 +351,9 @@ def _check_sizes(path, header, file_size) -> None:
             raise PartitionError(f"{path}: truncated partition file (section {sec['name']})")
 
 
-def _parse(path, buffer, world):
+def _sections(path, buffer, verify=True):
+    """(header dict, {section name: array viewing the mapped file}) after the magic, version,
+    header, size and (verify) section CRC checks."""
     magic, version, header_len, header_crc = PREFIX.unpack_from(buffer, 0)
     if magic != MAGIC:
         raise PartitionError(f"{path}: not a vismobile partition file (bad magic)")
@@ -324,11 +380,24 @@ def _parse(path, buffer, world):
             raise PartitionError(f"{path}: truncated partition file (section {sec['name']})")
         if nbytes != int(sec["count"]) * dtype.itemsize:
             raise PartitionError(f"{path}: corrupt partition file (section {sec['name']} size)")
-        if zlib.crc32(view[start:start + nbytes]) != int(sec["crc32"]):
+        if verify and _crc(view, start, nbytes) != int(sec["crc32"]):
             raise PartitionError(f"{path}: corrupt partition file (checksum of section "
                                  f"{sec['name']})")
         arrays[sec["name"]] = np.frombuffer(buffer, dtype=dtype, count=int(sec["count"]),
                                             offset=start)
+    return header, arrays
+
+
+def _crc(view, start, nbytes, step=1 << 24) -> int:
+    """CRC32 of view[start:start + nbytes], in pieces (a mapped file is paged in as it goes)."""
+    crc = 0
+    for at in range(start, start + nbytes, step):
+        crc = zlib.crc32(view[at:min(at + step, start + nbytes)], crc)
+    return crc
+
+
+def _parse(path, buffer, world):
+    header, arrays = _sections(path, buffer)
     fields = {}
     for name, entry in header["fields"].items():
         if entry["encoding"] == "octants":

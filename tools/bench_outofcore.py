@@ -1,0 +1,119 @@
+"""Out-of-core octree at scale: build a world directory's octree streamed (chunks on --jobs
+processes, external sort), then cull along a path with the .vmp memory-mapped; wall times and
+peak resident memory (RSS) of each phase.
+
+Usage: nice -n 19 .venv/bin/python tools/bench_outofcore.py --world out/big20m
+       [--depth 5] [--jobs 2] [--chunk 524288] [--frames 60] [--out out/big20m.vmp]
+       [--skip-build]
+Make the world first with tools/make_big_world.py. The build's peak RSS is reported for this
+process and for the largest worker; culling runs in a fresh process (`--cull-only`) so its peak
+is its own. Cameras: the W2 indoor path moved to the centre tile, --frames evenly spaced frames,
+profile iPaq (FOV 45, far plane 1000, 240 x 320).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tools"))
+
+from vismobile.mapped import MappedWorld  # noqa: E402
+from vismobile.partition.external import CHUNK, build_octree_file  # noqa: E402
+
+
+def peak_mb(who=resource.RUSAGE_SELF) -> float:
+    return resource.getrusage(who).ru_maxrss / 1024.0
+
+
+def build(args) -> dict:
+    world = MappedWorld.open(args.world)
+    start = time.perf_counter()
+    stats = build_octree_file(world, args.out, depth=args.depth, chunk=args.chunk, jobs=args.jobs)
+    stats.update({"triangles": world.triangle_count, "wall_s": time.perf_counter() - start,
+                  "peak_rss_mb": peak_mb(), "worker_peak_rss_mb": peak_mb(resource.RUSAGE_CHILDREN)})
+    return stats
+
+
+def cull(args) -> dict:
+    from make_big_world import layout, tile_offset
+
+    from vismobile.culling import Culler
+    from vismobile.partition.store import map_partition
+    from vismobile.profile import get_profile
+    from vismobile.trajectory import Trajectory
+
+    start = time.perf_counter()
+    partition = map_partition(args.out)
+    map_s = time.perf_counter() - start
+    tiles = json.loads((Path(args.world) / "world.json").read_text())["name"]
+    tiles = int(tiles[3:]) if tiles.startswith("big") else 1
+    columns = int(np.ceil(np.sqrt(tiles)))
+    centre = tile_offset((columns // 2) * columns + columns // 2 if tiles > 1 else 0, columns)
+    track = Trajectory.load(ROOT / "trajectories" / "indoor.csv")
+    poses = track.poses.copy()
+    poses[:, :3] += centre
+    track = Trajectory(poses, track.waypoints)
+    aspect = get_profile("ipaq-hx2490b").aspect
+    frames = np.linspace(0, len(track) - 1, args.frames).round().astype(int)
+    start = time.perf_counter()
+    culler = Culler(partition, "vfc")
+    setup_s = time.perf_counter() - start
+    times, sent = [], []
+    for f in frames:
+        camera = track.camera(int(f), aspect)
+        t0 = time.perf_counter()
+        result = culler.cull(camera)
+        times.append((time.perf_counter() - t0) * 1e3)
+        sent.append(len(result.triangles))
+    return {"map_s": map_s, "culler_setup_s": setup_s, "first_frame_ms": times[0],
+            "median_ms": statistics.median(times[1:] or times), "max_ms": max(times),
+            "mean_sent": float(np.mean(sent)), "max_sent": int(max(sent)),
+            "frames": len(frames), "peak_rss_mb": peak_mb()}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--world", type=Path, default=ROOT / "out" / "big20m")
+    parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--depth", type=int, default=5)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--chunk", type=int, default=CHUNK)
+    parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--skip-build", action="store_true")
+    parser.add_argument("--cull-only", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    args.out = args.out or args.world.with_suffix(".vmp")
+    if args.cull_only:
+        print(json.dumps(cull(args)))
+        return 0
+    if not args.skip_build:
+        stats = build(args)
+        print(f"build: {stats['triangles']:,} triangles, octree {args.depth}, {args.jobs} jobs: "
+              f"{stats['wall_s']:.1f} s, {stats['nodes']:,} nodes, {stats['references']:,} refs, "
+              f"{stats['bytes'] / 2**20:.0f} MB file; peak RSS {stats['peak_rss_mb']:.0f} MB "
+              f"(largest worker {stats['worker_peak_rss_mb']:.0f} MB)")
+        print("  phases: " + ", ".join(f"{k} {v:.1f} s" for k, v in stats["seconds"].items()))
+    command = [sys.executable, __file__, "--cull-only", "--world", str(args.world), "--out",
+               str(args.out), "--frames", str(args.frames)]
+    result = json.loads(subprocess.run(command, check=True, capture_output=True,
+                                       text=True).stdout.splitlines()[-1])
+    print(f"cull (vfc, mapped): map + verify {result['map_s']:.1f} s, culler set-up "
+          f"{result['culler_setup_s']:.2f} s, first frame {result['first_frame_ms']:.1f} ms, "
+          f"median {result['median_ms']:.2f} ms, max {result['max_ms']:.1f} ms over "
+          f"{result['frames']} frames; mean sent {result['mean_sent']:,.0f} (max "
+          f"{result['max_sent']:,}); peak RSS {result['peak_rss_mb']:.0f} MB")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
