@@ -15,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_write_bytes, make_dirs, temp_path
 from .errors import WorldError
-from .world import World, atomic_write_bytes
+from .world import World
 
 FILES = ("vertices.npy", "triangles.npy", "object_ids.npy", "world.json")
 
@@ -29,12 +30,11 @@ def write_world_dir(path, parts, name="world", object_names=()) -> tuple:
     counts, the second writes into preallocated memory maps. Files appear atomically (written
     under temporary names, then renamed). Returns (vertex count, triangle count).
     """
-    path = Path(path)
-    path.mkdir(parents=True, exist_ok=True)
+    path = make_dirs(path)
     nv = nt = 0
     for v, t, _ in parts():
         nv, nt = nv + len(v), nt + len(t)
-    tmp = {name: path / f".{name}.{os.getpid()}.tmp" for name in FILES[:3]}
+    tmp = {name: temp_path(path / name) for name in FILES[:3]}
     open_map = np.lib.format.open_memmap
     vertices = open_map(tmp["vertices.npy"], "w+", np.float32, (nv, 3))
     triangles = open_map(tmp["triangles.npy"], "w+", np.int32, (nt, 3))

@@ -110,6 +110,9 @@ def test_the_cli_partitions_a_world_dir(tmp_path, world_dir, streamed, capsys):
     assert out.read_bytes() == streamed.read_bytes()
     assert main(["partition", str(world_dir), "-s", "bsp", "-o", str(out)]) == 2
     assert "octree only" in capsys.readouterr().err
+    assert main(["partition", str(world_dir), "-o", str(tmp_path)]) == 2  # a folder, not a file
+    assert "is a directory" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cli.vmp"]  # no temporaries left
 
 
 def test_a_chunk_over_the_reference_limit_is_split(tmp_path, world_dir, streamed, monkeypatch):

@@ -22,7 +22,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import tempfile
 import time
 import types
 import zlib
@@ -30,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import check_destination, make_dirs, sweep_stale, temp_path
 from .layout import outward_f32
 from .octree import DEFAULT_DEPTH, check_depth, child_boxes, subdivide
 from .store import ALIGN, MAGIC, PREFIX, VERSION
@@ -235,12 +235,15 @@ def build_octree_file(world, out, depth=DEFAULT_DEPTH, chunk=CHUNK, jobs=1,
     depth = check_depth(depth)
     if world.triangle_count == 0:
         raise ValueError("cannot partition a world without triangles")
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    out = check_destination(out)
+    make_dirs(out.parent)
+    sweep_stale(out.parent)
     clock = _Clock()
     starts = list(range(0, world.triangle_count, chunk))
-    spill_root = Path(tempfile.mkdtemp(prefix=".vmp-spill-", dir=spill_dir or out.parent))
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
+    # Named like atomic.py's temporaries, so a crashed build's spill is swept by a later one.
+    spill_root = temp_path(Path(spill_dir or out.parent) / f"{out.name}.spill")
+    spill_root.mkdir()
+    tmp = temp_path(out)
     workers = _Workers(jobs).__enter__()
     try:
         bounds = np.array(workers.run([(_extent_task, (world, s, chunk)) for s in starts]))
