@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import statistics
 import subprocess
@@ -35,11 +36,19 @@ def peak_mb(who=resource.RUSAGE_SELF) -> float:
     return resource.getrusage(who).ru_maxrss / 1024.0
 
 
+def cpu_s() -> float:
+    """User + system CPU seconds of this process and its finished children: on a shared
+    machine this, not the wall time, is what the work cost."""
+    return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
+                                                 resource.getrusage(resource.RUSAGE_CHILDREN)))
+
+
 def build(args) -> dict:
     world = MappedWorld.open(args.world)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), cpu_s()
     stats = build_octree_file(world, args.out, depth=args.depth, chunk=args.chunk, jobs=args.jobs)
     stats.update({"triangles": world.triangle_count, "wall_s": time.perf_counter() - start,
+                  "cpu_s": cpu_s() - cpu, "load": os.getloadavg()[0],
                   "peak_rss_mb": peak_mb(), "worker_peak_rss_mb": peak_mb(resource.RUSAGE_CHILDREN)})
     return stats
 
@@ -68,15 +77,17 @@ def cull(args) -> dict:
     start = time.perf_counter()
     culler = Culler(partition, "vfc")
     setup_s = time.perf_counter() - start
-    times, sent = [], []
+    times, cpu, sent = [], [], []
     for f in frames:
         camera = track.camera(int(f), aspect)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         result = culler.cull(camera)
         times.append((time.perf_counter() - t0) * 1e3)
+        cpu.append((time.process_time() - c0) * 1e3)
         sent.append(len(result.triangles))
     return {"map_s": map_s, "culler_setup_s": setup_s, "first_frame_ms": times[0],
             "median_ms": statistics.median(times[1:] or times), "max_ms": max(times),
+            "median_cpu_ms": statistics.median(cpu[1:] or cpu), "load": os.getloadavg()[0],
             "mean_sent": float(np.mean(sent)), "max_sent": int(max(sent)),
             "frames": len(frames), "peak_rss_mb": peak_mb()}
 
@@ -99,7 +110,8 @@ def main(argv=None) -> int:
     if not args.skip_build:
         stats = build(args)
         print(f"build: {stats['triangles']:,} triangles, octree {args.depth}, {args.jobs} jobs: "
-              f"{stats['wall_s']:.1f} s, {stats['nodes']:,} nodes, {stats['references']:,} refs, "
+              f"{stats['wall_s']:.1f} s wall, {stats['cpu_s']:.1f} s CPU (load "
+          f"{stats['load']:.1f}), {stats['nodes']:,} nodes, {stats['references']:,} refs, "
               f"{stats['bytes'] / 2**20:.0f} MB file; peak RSS {stats['peak_rss_mb']:.0f} MB "
               f"(largest worker {stats['worker_peak_rss_mb']:.0f} MB)")
         print("  phases: " + ", ".join(f"{k} {v:.1f} s" for k, v in stats["seconds"].items()))

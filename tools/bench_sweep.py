@@ -9,6 +9,8 @@ separately. Prints the wall seconds and each mode's ratio to the single process.
 from __future__ import annotations
 
 import argparse
+import os
+import resource
 import sys
 import tempfile
 import time
@@ -20,6 +22,13 @@ sys.path.insert(0, str(ROOT))
 from vismobile.study import distributed  # noqa: E402
 from vismobile.study.matrix import expand  # noqa: E402
 from vismobile.study.runner import Context, prepare, run_matrix  # noqa: E402
+
+
+def cpu_s() -> float:
+    """CPU seconds of this process and its reaped children (pool workers, Dask nannies and
+    their workers once the cluster is closed)."""
+    return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
+                                                 resource.getrusage(resource.RUSAGE_CHILDREN)))
 
 
 def main(argv=None) -> int:
@@ -45,28 +54,31 @@ def main(argv=None) -> int:
         for spec in {(s.world, s.profile, s.frames, s.truth_cull_back): s for s in specs}.values():
             prepare(("truth", spec, warm.as_tuple()))
         rows = []
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), cpu_s()
         run_matrix(specs, context("single"), processes=1, progress=False)
-        rows.append(("single process", time.perf_counter() - start, 0.0))
-        start = time.perf_counter()
+        rows.append(("single process", time.perf_counter() - start, 0.0, cpu_s() - cpu))
+        start, cpu = time.perf_counter(), cpu_s()
         run_matrix(specs, context("pool"), processes=args.workers, progress=False)
-        rows.append((f"local pool, {args.workers} processes", time.perf_counter() - start, 0.0))
-        start = time.perf_counter()
+        rows.append((f"local pool, {args.workers} processes", time.perf_counter() - start, 0.0,
+                     cpu_s() - cpu))
+        start, cpu = time.perf_counter(), cpu_s()
         client, cluster = distributed.open_client("dask", args.workers)
         up = time.perf_counter() - start
         try:
             start = time.perf_counter()
             run_matrix(specs, context("dask"), progress=False, scheduler=client)
-            rows.append((f"Dask LocalCluster, {args.workers} workers", time.perf_counter() - start, up))
+            wall = time.perf_counter() - start
         finally:
             client.close()
             cluster.close()
+        rows.append((f"Dask LocalCluster, {args.workers} workers", wall, up, cpu_s() - cpu))
     single = rows[0][1]
-    print(f"{len(specs)} runs ({args.worlds}; {args.structures}; {args.cull}; {args.frames})")
-    print("| mode | wall s | start-up s | single / mode |")
-    print("| --- | ---: | ---: | ---: |")
-    for name, seconds, up in rows:
-        print(f"| {name} | {seconds:.1f} | {up:.1f} | {single / seconds:.2f} |")
+    print(f"{len(specs)} runs ({args.worlds}; {args.structures}; {args.cull}; {args.frames}); "
+          f"load average {os.getloadavg()[0]:.1f}")
+    print("| mode | wall s | start-up s | single / mode | CPU s (all processes, with start-up) |")
+    print("| --- | ---: | ---: | ---: | ---: |")
+    for name, seconds, up, cpu in rows:
+        print(f"| {name} | {seconds:.1f} | {up:.1f} | {single / seconds:.2f} | {cpu:.1f} |")
     return 0
 
 
