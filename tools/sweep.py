@@ -249,7 +249,8 @@ def main(argv=None) -> int:
     for name in worlds:
         agree += agreement(name, context, args.profile, samples=3)
     atomic_write_bytes(args.out / "agreement.json", json.dumps(agree, indent=1).encode())
-    sections = [{"world": n, "text": t.report()} for n, t in tunes.items()]
+    sections = [{"world": n, "text": t.report(), "result": t.to_dict()}
+                for n, t in tunes.items()]
     report = write_report(records, args.out / "report.html", agreement=agree, tunes=sections,
                           title="vismobile sweep: the chapter-5 matrix",
                           notes=f"Frames {args.frames} of each path, profile {args.profile}.")

@@ -68,8 +68,8 @@ def main(argv=None) -> int:
     checks = []
     for world_name in WORLDS:
         checks += agreement(world_name, context, PROFILE, samples=2)
-    sections = [{"world": r.world, "text": r.report() + "\n" + tune_gap(r, records)}
-                for r in tunes]
+    sections = [{"world": r.world, "text": r.report() + "\n" + tune_gap(r, records),
+                 "result": r.to_dict()} for r in tunes]
     report = write_report(records, out / "report" / "index.html", agreement=checks,
                           tunes=sections, title="vismobile demo: W1 and W2",
                           notes=f"Reduced comparison: {FRAMES} frames of the indoor path, "

@@ -58,3 +58,19 @@ def trajectory_file(tmp_path_factory, trajectory):
 @pytest.fixture(scope="session")
 def profile():
     return get_profile("ipaq-hx2490b")
+
+
+@pytest.fixture(scope="session")
+def study(tmp_path_factory, world_file, trajectory_file):
+    """(context, specs, records) of a small comparison on the tiny world, run once."""
+    from vismobile.study.matrix import RunSpec
+    from vismobile.study.runner import Context, run_matrix
+
+    root = tmp_path_factory.mktemp("study")
+    context = Context("/", root / "out", root / "worlds", root / "cache")
+    specs = [RunSpec(str(world_file), str(trajectory_file), structure, cull, "ipaq-hx2490b",
+                     "sample:4")
+             for structure in ("octree:2", "bsp")
+             for cull in ("none", "vfc+bfc+cbfc", "vfc+occlusion")]
+    records = run_matrix(specs, context, processes=1, progress=False)
+    return context, specs, records

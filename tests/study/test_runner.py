@@ -10,18 +10,6 @@ from vismobile.study.report import best_run, pareto_png, write_report
 from vismobile.study.runner import Context, run_matrix
 
 
-@pytest.fixture(scope="module")
-def study(tmp_path_factory, world_file, trajectory_file):
-    root = tmp_path_factory.mktemp("study")
-    context = Context("/", root / "out", root / "worlds", root / "cache")
-    specs = [RunSpec(str(world_file), str(trajectory_file), structure, cull, "ipaq-hx2490b",
-                     "sample:4")
-             for structure in ("octree:2", "bsp")
-             for cull in ("none", "vfc+bfc+cbfc", "vfc+occlusion")]
-    records = run_matrix(specs, context, processes=1, progress=False)
-    return context, specs, records
-
-
 def test_every_run_finishes_with_per_frame_rows(study):
     _, specs, records = study
     assert [r["spec"]["cull"] for r in records] == [s.cull for s in specs]
@@ -99,3 +87,29 @@ def test_report_is_self_contained(study, tmp_path):
     pareto_png(records, world, "ipaq-hx2490b", tmp_path / "pareto.png")
     assert (tmp_path / "pareto.png").read_bytes()[:4] == b"\x89PNG"
     assert best_run(records, world)["summary"]["conservative"]
+
+
+def test_the_report_answers_what_to_use_per_device_first(study, tmp_path):
+    from vismobile.study.report import answer_rows
+
+    _, _, records = study
+    world = records[0]["spec"]["world"]
+    rows, _ = answer_rows(records, world)
+    # One row per device model, then this machine; each names where its time comes from.
+    assert [row[1] for row in rows] == ["iPaq hx2490b model", "Nokia N82 model",
+                                        "measured here"]
+    best = best_run(records, world, device="nokia-n82")
+    assert best["spec"]["cull"] in rows[1][2] and rows[1][-1] == "0 (conservative)"
+    # A tune result for the iPaq becomes its recommendation, with its interval and ties.
+    tuned = {"world": world, "text": "tune text", "result": {
+        "world": world, "profile": "ipaq-hx2490b", "cost": "device", "probe_frames": [0, 2, 5],
+        "choice": {"structure": "bsp", "cull": "vfc+occlusion", "predicted_ms": 100.0,
+                   "low_ms": 95.0, "high_ms": 104.0},
+        "tied": [{"structure": "octree:2", "cull": "vfc+occlusion"}]}}
+    rows, _ = answer_rows(records, world, [tuned])
+    assert "bsp vfc+occlusion" in rows[0][2] and "tied: octree:2 vfc+occlusion" in rows[0][2]
+    assert rows[0][3] == "tune, 3 probe frames" and "[95.0–104.0]" in rows[0][4]
+    text = write_report(records, tmp_path / "r.html", tunes=[tuned]).read_text()
+    # The answer table comes before any figure; no missed pixels: a sentence, not a plot.
+    assert text.index("ms per frame [95% interval]") < text.index("<img")
+    assert "no missed-pixel plot" in text
