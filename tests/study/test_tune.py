@@ -19,8 +19,11 @@ def test_candidates_leave_out_loose_stages_and_misplaced_portals():
 def test_tune_picks_the_cheapest_safe_candidate(world, trajectory, profile):
     result = tune(world, trajectory, profile, probe=4, structures="octree:1-3,bsp")
     assert result.choice.false_negatives == 0
-    assert result.choice.frame_ms == min(c.frame_ms for c in result.candidates
-                                         if c.false_negatives == 0)
+    fastest = min(c.frame_ms for c in result.candidates if c.false_negatives == 0)
+    assert result.fastest.frame_ms == fastest
+    # The choice is the fastest or statistically tied with it (inside its interval).
+    assert result.choice is result.fastest or result.choice in result.tied
+    assert result.choice.frame_ms <= result.fastest.high_ms
     assert {c.structure for c in result.candidates} >= {"bsp", "octree:2"}
     text = result.report()
     assert "choice: --structure" in text and "cost model" in text
@@ -32,7 +35,7 @@ def test_tune_on_a_device_profile_minimises_the_device_model(world, trajectory, 
     result = tune(world, trajectory, profile, probe=4, structures="octree:1-2,bsp")
     assert result.cost == "device" and isinstance(result.model, DeviceModel)
     safe = [c for c in result.candidates if c.false_negatives == 0]
-    assert result.choice.frame_ms == min(c.frame_ms for c in safe)
+    assert result.fastest.frame_ms == min(c.frame_ms for c in safe)
     for cand in result.candidates:  # predictions are the device model of the mean counters
         assert np.isclose(cand.frame_ms, result.model.frame_ms(cand.stats))
         assert not any(stage in LOOSE_STAGES for stage in cull_stages(cand.cull))
@@ -41,6 +44,9 @@ def test_tune_on_a_device_profile_minimises_the_device_model(world, trajectory, 
     text = result.report()
     assert "on the ipaq-hx2490b (device model)" in text and "fps" in text
     assert "runner-up" in text and "bfc       dropped" in text
+    assert "95% interval of its mean over the" in text
+    choice = result.to_dict()["choice"]
+    assert choice["low_ms"] <= choice["predicted_ms"] <= choice["high_ms"]
     assert result.to_dict()["runner_up"]["structure"] != result.choice.structure
 
 
@@ -59,7 +65,7 @@ def test_sweep_plays_everything_and_tune_picks_from_it(world, trajectory, profil
                                        for s in ("octree:2", "bsp"))
     assert any("thesis" in c.cull for c in full.candidates)
     assert full.choice.false_negatives == 0 and full.choice.cull.count("thesis") == 0
-    assert full.choice.rank == min(c.rank for c in full.candidates)
+    assert full.fastest.rank == min(c.rank for c in full.candidates)
     assert all(len(c.frame_rows) == len(full.frames) for c in full.candidates)
 
 
@@ -67,3 +73,38 @@ def test_stage_subsets_cover_what_the_local_search_can_reach():
     assert len(stage_subsets("bsp")) == 64 and len(stage_subsets("portal:1")) == 128
     assert "none" in stage_subsets("bsp") and "vfc+cbfc+cone+occlusion" in stage_subsets("bsp")
     assert not any("portals" in c for c in stage_subsets("octree:3"))
+
+
+def _candidate(structure, cull, per_frame):
+    from vismobile.study.tune import Candidate
+
+    per_frame = np.asarray(per_frame, float)
+    return Candidate(structure, cull, 0.0, float(per_frame.mean()), 0.0, 0.0, 0, {},
+                     per_frame_ms=per_frame)
+
+
+def test_uncertainty_picks_the_simplest_of_the_statistically_tied():
+    from vismobile.study.tune import TuneResult, uncertainty
+
+    rng = np.random.default_rng(1)
+    base = rng.uniform(80, 120, 24)                    # frame-to-frame spread of one path
+    fast = _candidate("octree:5", "vfc+cbfc+occlusion", base)
+    near = _candidate("octree:3", "vfc+occlusion", base * 1.01)      # 1% slower: tied
+    far = _candidate("grid", "vfc", base * 1.6)                      # clearly slower
+    result = TuneResult("w", "ipaq-hx2490b", list(range(24)), fast, [fast, near, far], None,
+                        {}, 0.0)
+    uncertainty(result)
+    assert result.fastest is fast and result.choice is near and result.tied == [fast]
+    assert fast.low_ms < fast.frame_ms < fast.high_ms
+    assert near.frame_ms <= fast.high_ms < far.frame_ms and np.isfinite(near.low_ms)
+
+
+def test_uncertainty_keeps_a_clear_winner():
+    from vismobile.study.tune import TuneResult, uncertainty
+
+    base = np.linspace(90, 110, 30)
+    fast = _candidate("bsp", "vfc+occlusion", base)
+    slow = _candidate("grid", "vfc", base * 1.5)
+    result = TuneResult("w", "p", list(range(30)), slow, [slow, fast], None, {}, 0.0)
+    uncertainty(result)
+    assert result.choice is fast and result.tied == []

@@ -11,8 +11,12 @@ of two cost models:
 - measured (`--cost measured`, and always for `desktop`): this machine's wall time, i.e. the
   measured mean cull time plus render time from a model fitted to a few timed renders of the
   probe's triangle sets (costmodel.CostModel).
-The choice is the cheapest candidate with zero false negatives on the probe frames (loose
-stages are never candidates); ties go to fewer stages. For each stage the choice leaves out,
+The choice is made among the candidates with zero false negatives on the probe frames (loose
+stages are never candidates), with the probe's uncertainty: a paired bootstrap over the probe
+frames gives the fastest candidate's 95% interval of its mean frame time; every candidate whose
+mean falls inside it is statistically tied with it, and the simplest of the tied (fewest stages,
+then the simplest structure) is the choice, so the pick does not flip with the probe size on
+differences the probe cannot resolve. For each stage the choice leaves out,
 `explain` prices it on the chosen structure: cull time it would add against render time it
 would save.
 """
@@ -56,6 +60,9 @@ class Candidate:
     cull_ms, render_ms : predicted ms under the tune's cost model (device or this machine)
     host_cull_ms       : cull wall time measured on this machine (numpy)
     stats              : mean Culler counters, plus refs_gathered and leaves_drawn
+    per_frame_ms       : (F,) predicted ms of each probe frame (cull + render)
+    low_ms, high_ms    : 95% bootstrap interval of the mean over the probe frames (set by
+                         uncertainty() for the choice and the tied candidates)
     """
 
     structure: str
@@ -68,6 +75,9 @@ class Candidate:
     stats: dict
     host_cull_ms: float = 0.0
     frame_rows: list = field(default_factory=list, repr=False)
+    per_frame_ms: np.ndarray = field(default=None, repr=False)
+    low_ms: float = float("nan")
+    high_ms: float = float("nan")
 
     @property
     def frame_ms(self) -> float:
@@ -86,6 +96,14 @@ class Candidate:
         """Sort key: unsafe last, then predicted ms, then fewer stages (ties: do less)."""
         return (self.false_negatives > 0, round(self.frame_ms, 9), len(cull_stages(self.cull)))
 
+    @property
+    def simplicity(self) -> tuple:
+        """Sort key among statistically tied candidates: fewer stages, then the simpler
+        structure (SIMPLE_STRUCTURES order, shallower first), then predicted ms."""
+        kind, _, depth = self.structure.partition(":")
+        return (len(cull_stages(self.cull)), SIMPLE_STRUCTURES.index(kind), int(depth or 0),
+                self.frame_ms)
+
 
 @dataclass
 class TuneResult:
@@ -101,6 +119,8 @@ class TuneResult:
     pruned: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     cost: str = "measured"
+    fastest: Candidate | None = None
+    tied: list = field(default_factory=list)
 
     def ranked(self) -> list:
         return sorted(self.candidates, key=lambda c: c.rank)
@@ -120,11 +140,13 @@ class TuneResult:
         def row(c):
             return None if c is None else {
                 "structure": c.structure, "cull": c.cull, "predicted_ms": c.frame_ms,
+                "low_ms": _number(c.low_ms), "high_ms": _number(c.high_ms),
                 "fps": c.fps, "cull_ms": c.cull_ms, "render_ms": c.render_ms,
                 "host_cull_ms": c.host_cull_ms, "triangles_sent": c.triangles_sent,
                 "false_negatives": c.false_negatives}
         return {"world": self.world, "profile": self.profile, "cost": self.cost,
                 "probe_frames": self.frames, "choice": row(self.choice),
+                "fastest": row(self.fastest), "tied": [row(c) for c in self.tied],
                 "runner_up": row(self.runner_up()),
                 "candidates": [row(c) for c in self.ranked()],
                 "model": self.model.to_dict(), "build_seconds": self.build_seconds,
@@ -148,6 +170,21 @@ class TuneResult:
                  f"{len(self.frames)} probe frames, {len(self.candidates)} candidates, "
                  f"{self.seconds:.1f} s"]
         lines += self._describe("choice", self.choice)
+        if np.isfinite(self.choice.low_ms):
+            lines.append(f"  95% interval of its mean over the {len(self.frames)} probe frames "
+                         f"(bootstrap): {self.choice.low_ms:.2f}-{self.choice.high_ms:.2f} ms")
+        if self.fastest is not None and self.fastest is not self.choice:
+            lines.append(f"  chosen as the simplest of {len(self.tied) + 1} statistically tied "
+                         f"candidates; the fastest point estimate was {self.fastest.structure} "
+                         f"{self.fastest.cull} at {self.fastest.frame_ms:.2f} ms "
+                         f"[{self.fastest.low_ms:.2f}-{self.fastest.high_ms:.2f}]")
+        if self.tied:
+            lines.append("  tied with the fastest (mean inside its interval): " + "; ".join(
+                f"{c.structure} {c.cull} {c.frame_ms:.2f} ms" for c in self.tied[:6])
+                + ("; ..." if len(self.tied) > 6 else ""))
+        if self.cost == "device":
+            lines.append("  (the interval is the probe's sampling error; the device model's "
+                         "own error, about 27% leave-one-out, shifts every candidate alike)")
         second = self.runner_up()
         if second is not None:
             gap = second.frame_ms / self.choice.frame_ms - 1.0
@@ -257,7 +294,7 @@ class _Probe:
         cand = Candidate(label, cull, float(np.mean(costs)), float(np.mean(render)),
                          float(np.mean([r["triangles_sent"] for r in rows])),
                          stats.get("draw_batches", 0.0), missed, stats, float(np.mean(host)),
-                         rows)
+                         rows, np.add(costs, render))
         self.model_rows.extend(rows)
         self.model_ms.extend(host)
         self.candidates.append(cand)
@@ -385,6 +422,20 @@ def tune(world, trajectory, profile, probe: int = 16, structures: str = DEFAULT_
                                                         CULL_FEATURES)
     result = TuneResult(world.name, profile.name, frames, search.best, search.candidates,
                         model, search.builds, 0.0, pruned=search.pruned, notes=notes, cost=cost)
+    # Choose under the probe's uncertainty; probe the choice's stage toggles in full (no
+    # bound) so explain() can price each, and choose again if one of them is tied and simpler.
+    search.bound = False
+    for _ in range(3):
+        uncertainty(result)
+        fresh = [(result.choice.structure, canonical_cull("+".join(
+                     set(cull_stages(result.choice.cull)) ^ {stage})))
+                 for stage in _toggle_stages(result.choice.structure)]
+        fresh = [key for key in fresh if key not in seen]
+        for key in fresh:
+            seen.add(key)
+            search.run(*key)
+        if not fresh:
+            break
     result.explanations = explain(result)
     result.seconds = time.perf_counter() - start
     return result
@@ -414,12 +465,50 @@ def sweep(world, trajectory, profile, frames: str = "sample:48",
         raise VisMobileError("sweep: no candidate had zero false negatives")
     result = TuneResult(world.name, profile.name, picked, search.best, search.candidates,
                         search.model, search.builds, 0.0, cost=cost)
+    uncertainty(result)
     result.explanations = explain(result)
     result.seconds = time.perf_counter() - start
     return result
 
 
 START_DEPTH = {"octree": 4, "portal": 1}
+# Simplest first: one level of slabs, a regular subdivision, planes from the world, cells and
+# portals (ties between structures go to the one with less to build and explain).
+SIMPLE_STRUCTURES = ("grid", "octree", "bsp", "portal")
+BOOTSTRAP_SAMPLES = 2000
+
+
+def uncertainty(result: TuneResult, samples: int = BOOTSTRAP_SAMPLES, seed: int = 0) -> None:
+    """Set the choice by the probe's uncertainty (in place).
+
+    Paired bootstrap over the probe frames: the same resampled frames price every fully
+    probed safe candidate, giving each one's 95% interval of its mean. The fastest mean's
+    interval decides the ties: every candidate whose mean lies inside it is tied with it, and
+    the simplest tied candidate (Candidate.simplicity) becomes result.choice; result.fastest
+    is the fastest mean, result.tied the other tied candidates by mean.
+    """
+    safe = [c for c in result.candidates
+            if c.false_negatives == 0 and c.per_frame_ms is not None
+            and len(c.per_frame_ms) == len(result.frames)]
+    if not safe:
+        return
+    table = np.stack([c.per_frame_ms for c in safe])            # (C, F)
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, table.shape[1], (samples, table.shape[1]))
+    means = table[:, picks].mean(axis=2)                         # (C, samples)
+    low, high = np.percentile(means, [2.5, 97.5], axis=1)
+    for cand, lo, hi in zip(safe, low, high):
+        cand.low_ms, cand.high_ms = float(lo), float(hi)
+    fastest = min(safe, key=lambda c: c.rank)
+    tied = [c for c in safe if c.frame_ms <= fastest.high_ms]
+    choice = min(tied, key=lambda c: c.simplicity)
+    result.fastest, result.choice = fastest, choice
+    result.tied = sorted((c for c in tied if c is not choice), key=lambda c: c.rank)
+
+
+def _number(value):
+    """float, or None for nan (JSON has no nan)."""
+    return None if value is None or not np.isfinite(value) else float(value)
 
 
 def stage_subsets(structure: str) -> list:
