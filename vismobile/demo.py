@@ -38,6 +38,7 @@ def tune_gap(result, records) -> str:
 
 
 def main(argv=None) -> int:
+    from .costmodel import label
     from .profile import get_profile
     from .study import engine
     from .study.matrix import RunSpec, expand
@@ -58,8 +59,10 @@ def main(argv=None) -> int:
         result = tune(world, trajectory, get_profile(PROFILE), probe=16,
                       cache_dir=context.cache_dir)
         tunes.append(result)
-        print(f"2/4 tune {world_name}: --structure {result.choice.structure} --cull "
-              f"{result.choice.cull.replace('+', ',')} ({result.seconds:.1f} s)")
+        c = result.choice
+        print(f"2/4 tune {world_name} ({label(PROFILE)}): --structure {c.structure} --cull "
+              f"{c.cull.replace('+', ',')}, {c.frame_ms:.1f} ms [{c.low_ms:.1f}-{c.high_ms:.1f}]"
+              f" = {c.fps:.1f} fps, {len(result.tied)} tied ({result.seconds:.1f} s)")
     specs = expand(",".join(WORLDS), STRUCTURES, CULLS, PROFILE, FRAMES)
     specs += [RunSpec(r.world, trajectory_for(r.world), r.choice.structure, r.choice.cull,
                       PROFILE, FRAMES) for r in tunes]
