@@ -349,3 +349,16 @@ def test_case18_files_that_would_crash_a_stage_are_refused(capsys, tmp_path, tra
                      values=np.zeros(good.node_count, dtype="<i8"))
     play_vmp(capsys, tmp_path, trajectory, data, "partition file",
              stages="portals,occlusion" if kind == "portal" else "vfc,occlusion")
+
+
+@pytest.mark.parametrize("argv", [
+    ["tune", "w1", "--json", "{dir}"],
+    ["compare", "--worlds", "w1", "--structures", "grid", "--cull", "vfc", "--out", "{file}"],
+    ["compare", "--worlds", "w1", "--structures", "grid", "--cull", "vfc", "--out", "{dir}/o",
+     "--report", "{dir}"],
+])
+def test_case09_outputs_are_checked_before_the_work(capsys, tmp_path, argv):
+    (tmp_path / "file").write_text("keep")
+    argv = [a.format(dir=tmp_path, file=tmp_path / "file") for a in argv]
+    refuse(capsys, argv, tmp_path)
+    assert (tmp_path / "file").read_text() == "keep"

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import io
+import itertools
 import math
 import re
 from pathlib import Path
@@ -30,8 +31,15 @@ _NUMBER = r"[+-]?(?:\d{1,400}(?:\.\d{0,400})?|\.\d{1,400})(?:[eE][+-]?\d{1,4})?"
 _INDEX = r"-?\d{1,12}"  # longer indices cannot be in range of a 1 GiB file
 # Statements trimesh finds only at the start of a line and followed by one space.
 _STRICT = ("v", "vt", "vn", "f", "o", "g")
-_BAD_START = re.compile(rf"^[ \t]+(?:{'|'.join(_STRICT)})(?:[ \t]|$)"
-                        rf"|^(?:{'|'.join(_STRICT)})(?:\t|$)", re.MULTILINE)
+_STATEMENT = re.compile(r"^([ \t]*)([^\s#]\S*)(.?)", re.MULTILINE)
+
+
+def _bad_statement(indent, keyword, after) -> bool:
+    """True for an unknown keyword, or one trimesh finds only at the start of a line followed
+    by a space, given otherwise."""
+    return keyword not in KNOWN_STATEMENTS or (keyword in _STRICT and (indent or after != " "))
+
+
 _DATA_LINE = {key: re.compile(rf"^{key} (?![ \t]*{_NUMBER}(?:[ \t]+{_NUMBER})*[ \t]*$).*$",
                               re.MULTILINE) for key in ("v", "vt", "vn")}
 _NOT_NUMERIC = re.compile(r"[^0-9eE+\-. \t]")
@@ -70,17 +78,14 @@ def validate_obj(path: Path, text: str) -> str:
                 f"character {char!r} (control, non-ASCII white space or line separator)")
         raise WorldError(path, f"unsupported {what}", _line(text, found.start()))
     text = text.replace("\r\n", "\n")
-    unknown = set(re.findall(r"^[ \t]*([^\s#]\S*)", text, re.M)) - KNOWN_STATEMENTS
-    if unknown:
-        first = min(re.search(rf"^[ \t]*{re.escape(k)}(?:\s|$)", text, re.M).start()
-                    for k in unknown)
-        keyword = text[first:].split()[0]
-        raise WorldError(path, f"unparsable statement {keyword[:20]!r}", _line(text, first))
-    bad = _BAD_START.search(text)
-    if bad is not None:
-        keyword = text[bad.start():].split()[0]
-        raise WorldError(path, f"{keyword!r} must start its line and be followed by a space",
-                         _line(text, bad.start()))
+    # One pass over every statement: (indent, keyword, the character after it).
+    starts = set(_STATEMENT.findall(text))
+    if any(_bad_statement(*start) for start in starts):
+        found = next(m for m in _STATEMENT.finditer(text) if _bad_statement(*m.groups()))
+        keyword = found.group(2)
+        message = (f"unparsable statement {keyword[:20]!r}" if keyword not in KNOWN_STATEMENTS
+                   else f"{keyword!r} must start its line and be followed by a space")
+        raise WorldError(path, message, _line(text, found.start()))
     positions, values = {}, {}
     for key in ("v", "vt", "vn"):
         starts = [m.start() for m in re.finditer(rf"^{key} ", text, re.M)]
@@ -147,11 +152,12 @@ def _check_faces(path, text, positions):
     if form is None:
         raise WorldError(path, f"face index {corners[0][0][:20]!r} is not an integer",
                          _line(text, starts[0]))
-    pattern = _FORMS[form]
-    wrong = re.search(rf"^f (?![ \t]*{pattern}(?:[ \t]+{pattern})*[ \t]*$)", text, re.M)
-    if wrong is not None:
-        i = int(np.searchsorted(starts, wrong.start()))
-        bad = next(c for c in corners[i] if not re.fullmatch(pattern, c))
+    pattern = re.compile(_FORMS[form])
+    distinct = set(itertools.chain.from_iterable(corners))  # corners repeat: test each once
+    if not all(pattern.fullmatch(c) for c in distinct):
+        i = next(i for i, line in enumerate(corners)
+                 if not all(pattern.fullmatch(c) for c in line))
+        bad = next(c for c in corners[i] if not pattern.fullmatch(c))
         message = (f"face corner {bad[:20]!r} mixes forms (v, v/t, v//n, v/t/n) with "
                    "earlier faces" if _form_of(bad) else
                    f"face index {bad[:20]!r} is not an integer")

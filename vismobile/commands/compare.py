@@ -38,12 +38,16 @@ def add_parser(sub):
 def run(args) -> int:
     import json
 
+    from ..atomic import check_destination
     from ..study.matrix import expand, parse_worlds
     from ..study.report import write_report
     from ..study.runner import Context, agreement, run_matrix
     from ..world import atomic_write_bytes
 
     specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames)
+    for path in (args.out / "runs.csv", args.out / "runs" / "x.json",
+                 args.report or args.out / "report.html"):
+        check_destination(path)  # before hours of runs, not after
     context = Context(".", args.out, args.worlds_dir, args.cache)
     print(f"{len(specs)} runs -> {args.out}/runs/ (finished runs are reused)")
     records = run_matrix(specs, context, args.jobs, progress=not args.quiet,

@@ -47,11 +47,13 @@ def parse_slabs(items):
 
 
 def run(args) -> int:
+    from ..atomic import check_destination
     from ..errors import PartitionError
     from ..partition import partition
     from ..progress import Progress
     from ..world import World
 
+    check_destination(args.output)  # before a long build, not after
     if args.world.is_dir():
         return run_out_of_core(args)
     world = World.from_obj(args.world)

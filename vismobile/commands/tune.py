@@ -30,6 +30,7 @@ def add_parser(sub):
 def run(args) -> int:
     import json
 
+    from ..atomic import check_destination
     from ..errors import TrajectoryError
     from ..profile import get_profile
     from ..study import engine
@@ -38,6 +39,8 @@ def run(args) -> int:
     from ..trajectory import Trajectory
     from ..world import atomic_write_bytes
 
+    if args.json:
+        check_destination(args.json)  # before tuning, not after
     if args.probe < 1:
         raise TrajectoryError(f"--probe must be at least 1 frame, got {args.probe}")
     if args.trajectory is None and args.world.lower() not in WORLDS:
