@@ -362,3 +362,16 @@ def test_case09_outputs_are_checked_before_the_work(capsys, tmp_path, argv):
     argv = [a.format(dir=tmp_path, file=tmp_path / "file") for a in argv]
     refuse(capsys, argv, tmp_path)
     assert (tmp_path / "file").read_text() == "keep"
+
+
+def test_case03_flat_polygon_fans_stay_cheap_in_an_octree():
+    # A flat world's octree cells have zero height: splitting them there doubled every
+    # reference per level (a 64-gon fan: 1,368 references per triangle at depth 5).
+    from vismobile.partition import partition
+
+    angles = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    ring = np.column_stack([np.cos(angles), np.sin(angles), np.zeros(64)])
+    fan = np.column_stack([np.zeros(62), np.arange(1, 63), np.arange(2, 64)])
+    tree = partition(World(ring, fan), "octree", depth=5)
+    assert tree.stats()["refs_per_triangle"] < 64
+    assert set(np.unique(tree.extras["octant"][1:])) <= {0, 1, 2, 3}  # never the z-high half

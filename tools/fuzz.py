@@ -93,7 +93,15 @@ HEADER = struct.Struct("<8sIII")
 
 
 def mutate_vmp(data: bytes, pick) -> bytes:
-    """Crafted .vmp: edit the JSON header or a section, then recompute the checksums."""
+    """Crafted .vmp: edit the JSON header or a section, then recompute the checksums (a byte
+    mutation instead when an earlier mutation broke the layout)."""
+    try:
+        return _mutate_vmp(data, pick)
+    except (ValueError, struct.error, KeyError, IndexError, TypeError, AttributeError):
+        return mutate_bytes(data, pick)
+
+
+def _mutate_vmp(data: bytes, pick) -> bytes:
     magic, version, length, _ = HEADER.unpack_from(data, 0)
     header = json.loads(data[HEADER.size:HEADER.size + length])
     body_start = HEADER.size + length + (-(HEADER.size + length) % 64)

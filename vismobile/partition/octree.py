@@ -36,7 +36,9 @@ def subdivide(world, boxes, pair_node, pair_tri, levels, progress=None):
         tb = tri_bounds[pair_tri]
         c = centre[pair_node]
         low_ok = tb[:, 0] <= c  # (P, 3) may reach the low half on each axis
-        high_ok = tb[:, 1] >= c
+        # A box of zero extent on an axis (a flat world) is not split there: both of its
+        # halves would be the same box, doubling every reference per level.
+        high_ok = (tb[:, 1] >= c) & (boxes[pair_node, 1] > boxes[pair_node, 0])
         cand = np.where(OCTANT_BITS[None], high_ok[:, None, :], low_ok[:, None, :]).all(axis=2)
         # Candidates bound the SAT work and the kept references of this level.
         check_references(int(cand.sum()), f"octree level {level + 1}", candidates=True)
