@@ -24,6 +24,7 @@ KINDS = ("grid", "octree", "portal", "bsp")
 # The largest vertex coordinate a stage may meet (the OBJ reader's limit): squares and cross
 # products of coordinates stay finite in float64.
 MAX_COORDINATE = 1e30
+CHECK_ROWS = 1 << 20  # vertices checked per block
 
 
 @dataclass(eq=False)
@@ -161,12 +162,15 @@ class Partition:
         refs = arrays["tri_refs"]
         if total and (refs.min() < 0 or refs.max() >= self.world.triangle_count):
             raise ValueError("triangle reference out of range")
-        ids = np.asarray(self.world.object_ids)
+        ids = self.world.object_ids
         if len(ids) and (ids.min() < 0 or ids.max() >= max(len(self.world.object_names), 1)):
             raise ValueError("object id without an object name")
-        vertices = np.asarray(self.world.vertices)
-        if not np.isfinite(vertices).all() or np.abs(vertices).max(initial=0) > MAX_COORDINATE:
-            raise ValueError(f"world vertices must be finite and within +-{MAX_COORDINATE:g}")
+        vertices = self.world.vertices
+        for s in range(0, len(vertices), CHECK_ROWS):  # blocks: a mapped world stays mapped
+            block = np.asarray(vertices[s:s + CHECK_ROWS])
+            if not np.isfinite(block).all() or np.abs(block).max(initial=0) > MAX_COORDINATE:
+                raise ValueError(f"world vertices must be finite and within "
+                                 f"+-{MAX_COORDINATE:g}")
         self._check_extras(n, count)
 
     def _check_extras(self, n, count) -> None:
