@@ -1,5 +1,6 @@
-"""OBJ loading: every shared model loads; each kind of bad input is a WorldError naming file and line."""
+"""OBJ loading: every shipped model loads (from .obj.gz); each kind of bad input is a WorldError naming file and line."""
 import contextlib
+import gzip
 import subprocess
 import sys
 from pathlib import Path
@@ -8,18 +9,21 @@ import numpy as np
 import pytest
 
 from vismobile.errors import WorldError
-from vismobile.scenes.objects import models_dir
+from vismobile.scenes.objects import OBJECTS, PACKAGE_MODELS
 from vismobile.world import World
 
-MODELS = sorted(models_dir().glob("*.obj"))
+MODELS = sorted(PACKAGE_MODELS.glob("*.obj.gz"))
 
 
-def test_shared_models_are_present():
-    assert len(MODELS) >= 9
+def test_every_model_the_worlds_need_ships_with_its_source():
+    shipped = {p.name for p in MODELS}
+    assert {f"{filename}.gz" for filename, _ in OBJECTS.values()} <= shipped
+    sources = (PACKAGE_MODELS / "SOURCES.md").read_text()
+    assert all(name in sources for name in shipped)
 
 
-@pytest.mark.parametrize("path", MODELS, ids=lambda p: p.stem)
-def test_every_shared_model_loads(path):
+@pytest.mark.parametrize("path", MODELS, ids=lambda p: p.name.split(".")[0])
+def test_every_shipped_model_loads(path):
     world = World.from_obj(path)
     assert world.triangle_count > 100
     assert np.isfinite(world.vertices).all()
@@ -102,3 +106,18 @@ def test_cli_info_prints_counts(tmp_path):
     assert result.returncode == 0
     assert "triangles  1" in result.stdout
 
+
+
+def test_gzipped_obj_loads_like_the_plain_file(tmp_path):
+    text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\n"
+    (tmp_path / "t.obj").write_text(text)
+    (tmp_path / "t.obj.gz").write_bytes(gzip.compress(text.encode()))
+    plain, packed = World.from_obj(tmp_path / "t.obj"), World.from_obj(tmp_path / "t.obj.gz")
+    assert plain.digest() == packed.digest()
+
+
+def test_corrupt_gzip_is_a_world_error_naming_the_file(tmp_path):
+    path = tmp_path / "bad.obj.gz"
+    path.write_bytes(b"\x1f\x8b\x08\x00not really gzip")
+    with pytest.raises(WorldError, match="bad.obj.gz"):
+        World.from_obj(path)

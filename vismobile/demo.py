@@ -50,11 +50,12 @@ def main(argv=None) -> int:
 
     start = time.perf_counter()
     out = Path("out")
-    context = Context(".", out / "demo", "worlds", out / "cache")
-    print("1/4 worlds: " + ", ".join(f"{engine.ensure_world_file(w, 'worlds')}" for w in WORLDS))
+    context = Context(".", out / "demo", None, out / "cache")
+    print("1/4 worlds: " + ", ".join(f"{engine.ensure_world_file(w, context.worlds_dir)}"
+                                     for w in WORLDS))
     tunes = []
     for world_name in WORLDS:
-        world = engine.load_world(world_name, "worlds")
+        world = engine.load_world(world_name, context.worlds_dir)
         trajectory = Trajectory.load(trajectory_for(world_name))
         result = tune(world, trajectory, get_profile(PROFILE), probe=16,
                       cache_dir=context.cache_dir)

@@ -1,10 +1,12 @@
 """OBJ input: a line-level validator for clear errors, then trimesh for the parsing itself."""
 from __future__ import annotations
 
+import gzip
 import io
 import itertools
 import math
 import re
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -204,7 +206,8 @@ def _check_groups(path, text, face_starts):
 
 
 def read_text(path: Path) -> str:
-    """File contents as text, or WorldError for missing, unreadable, empty or binary files."""
+    """File contents as text (a .gz file decompressed), or WorldError for missing, unreadable,
+    empty or binary files."""
     if not path.exists():
         raise WorldError(path, "no such file")
     if path.is_dir():
@@ -215,6 +218,15 @@ def read_text(path: Path) -> str:
     if size > MAX_BYTES:
         raise WorldError(path, f"file is {size} bytes, over the {MAX_BYTES} byte limit")
     data = path.read_bytes()
+    if path.suffix.lower() == ".gz":
+        try:
+            data = gzip.decompress(data)
+        except (OSError, EOFError, zlib.error) as error:
+            raise WorldError(path, f"not a readable gzip file ({error})") from None
+        if not data:
+            raise WorldError(path, "file is empty once decompressed")
+        if len(data) > MAX_BYTES:
+            raise WorldError(path, f"decompresses to over the {MAX_BYTES} byte limit")
     if b"\x00" in data:
         raise WorldError(path, "binary content, not an OBJ text file",
                          data[: data.index(b"\x00")].count(b"\n") + 1)
@@ -243,7 +255,8 @@ def load_obj(path) -> tuple:
     try:
         # trimesh reads the very text validated above, not the file again.
         stream = io.BytesIO(text.encode("utf-8"))
-        stream.name = path.name  # trimesh names ungrouped faces after the file
+        # trimesh names ungrouped faces after the file ("cow.obj" for cow.obj and cow.obj.gz)
+        stream.name = path.name[:-3] if path.suffix.lower() == ".gz" else path.name
         scene = trimesh.load(stream, file_type="obj", force="scene",
                              split_objects=True, split_groups=True, group_material=False, process=True,
                              skip_materials=True)

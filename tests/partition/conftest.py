@@ -9,7 +9,7 @@ import pytest
 from vismobile.partition.base import gather_ranges
 from vismobile.world import World
 
-MODELS = Path(__file__).resolve().parents[2].parent / "shared" / "models"
+from vismobile.scenes.objects import PACKAGE_MODELS as MODELS
 
 
 def quad(a, b, c, d):
@@ -35,12 +35,12 @@ def rooms_with_doorway():
 
 @pytest.fixture(scope="session")
 def cow():
-    return World.from_obj(MODELS / "cow.obj")
+    return World.from_obj(MODELS / "cow.obj.gz")
 
 
 @pytest.fixture(scope="session")
 def suzanne():
-    return World.from_obj(MODELS / "suzanne.obj")
+    return World.from_obj(MODELS / "suzanne.obj.gz")
 
 
 @pytest.fixture(scope="session")

@@ -1,9 +1,9 @@
 """`vismobile partition`: builds, saves, reports; bad parameters exit 2 with one line."""
 from vismobile.cli import main
 
-from pathlib import Path
+from vismobile.scenes.objects import PACKAGE_MODELS
 
-MODEL = Path(__file__).resolve().parents[2].parent / "shared" / "models" / "suzanne.obj"
+MODEL = PACKAGE_MODELS / "suzanne.obj.gz"
 
 
 def test_partition_command(tmp_path, capsys):

@@ -20,7 +20,9 @@ def add_parser(sub):
                         help="results folder (runs/<key>.json, runs.csv, runs.json)")
     parser.add_argument("--report", type=Path, default=None,
                         help="HTML report path (default OUT/report.html)")
-    parser.add_argument("--worlds-dir", type=Path, default=Path("worlds"))
+    parser.add_argument("--worlds-dir", type=Path, default=None,
+                        help="where thesis worlds are built and kept (default: $VISMOBILE_WORLDS, "
+                             "worlds/ in a source checkout, else ~/.cache/vismobile/worlds)")
     parser.add_argument("--cache", type=Path, default=Path("out/cache"),
                         help="partition and ground-truth cache")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: cores)")

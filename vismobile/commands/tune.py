@@ -15,7 +15,9 @@ def add_parser(sub):
     parser.add_argument("--probe", type=int, default=24,
                         help="evenly spaced probe frames (the waypoints are added)")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp")
-    parser.add_argument("--worlds-dir", type=Path, default=Path("worlds"))
+    parser.add_argument("--worlds-dir", type=Path, default=None,
+                        help="where thesis worlds are built and kept (default: $VISMOBILE_WORLDS, "
+                             "worlds/ in a source checkout, else ~/.cache/vismobile/worlds)")
     parser.add_argument("--cache", type=Path, default=None,
                         help="folder to keep partition files in (default: none, build afresh)")
     parser.add_argument("--cost", choices=("device", "measured"), default="device",
@@ -45,8 +47,10 @@ def run(args) -> int:
         raise TrajectoryError(f"--probe must be at least 1 frame, got {args.probe}")
     if args.trajectory is None and args.world.lower() not in WORLDS:
         raise TrajectoryError(f"{args.world}: not a thesis world; pass --trajectory")
+    from ..scenes.thesis import default_cache_dir
+
     world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS else args.world,
-                              args.worlds_dir)
+                              args.worlds_dir or default_cache_dir())
     trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
     result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,
                   structures=args.structures, cache_dir=args.cache, cost=args.cost)

@@ -1,6 +1,6 @@
-"""The thesis's objects (Table 5.4) from ../shared/models, decimated to the table's counts.
+"""The thesis's objects (Table 5.4) from the models shipped in this package, decimated to the table's counts.
 
-The shared models lack a lamp, a flower, a penguin and a goblet; stand-ins take their place
+The models (vismobile/scenes/models/*.obj.gz, sources and licences in SOURCES.md there) lack a lamp, a flower, a penguin and a goblet; stand-ins take their place
 (named in worlds/README.md). Each object is returned normalised: base centred on the origin,
 standing on y = 0, height 1, outward winding.
 """
@@ -29,10 +29,37 @@ OBJECTS = {
 DECIMATION_RETRIES = 24
 
 
+PACKAGE_MODELS = Path(__file__).resolve().parent / "models"
+
+
 def models_dir() -> Path:
-    """The shared models: $VISMOBILE_MODELS, else ../shared/models beside the repository."""
+    """Directory of the object models: $VISMOBILE_MODELS, else the copies shipped in the package."""
     env = os.environ.get("VISMOBILE_MODELS")
-    return Path(env) if env else Path(__file__).resolve().parents[3] / "shared" / "models"
+    return Path(env) if env else PACKAGE_MODELS
+
+
+def model_path(filename: str, directory=None) -> Path:
+    """Path of a model in `directory` (default models_dir()): `filename`, else `filename`.gz.
+
+    Returns the plain name when neither exists, so the caller's error names what was looked for.
+    """
+    path = (Path(directory) if directory else models_dir()) / filename
+    if path.is_file():
+        return path
+    packed = path.with_name(path.name + ".gz")
+    return packed if packed.is_file() else path
+
+
+def model_size(filename: str, directory=None) -> int:
+    """Uncompressed size in bytes of a model (-1 when missing): part of the worlds' build key."""
+    path = model_path(filename, directory)
+    if not path.is_file():
+        return -1
+    if path.suffix == ".gz":  # gzip's trailer holds the size modulo 2**32: ample for a model
+        with open(path, "rb") as handle:
+            handle.seek(-4, os.SEEK_END)
+            return int.from_bytes(handle.read(4), "little")
+    return path.stat().st_size
 
 
 def decimate_exact(vertices, triangles, target: int) -> tuple:
@@ -109,8 +136,7 @@ def load_object(kind: str, directory: str | None = None) -> tuple:
     from ..world import World
 
     filename, target = OBJECTS[kind]
-    path = Path(directory) if directory else models_dir()
-    world = World.from_obj(path / filename)
+    world = World.from_obj(model_path(filename, directory))
     vertices, triangles = decimate_exact(world.vertices, world.triangles, target)
     triangles = outward(vertices, triangles)
     low, high = vertices.min(axis=0), vertices.max(axis=0)
@@ -130,7 +156,8 @@ def placed(kind: str, height: float, position, yaw_degrees: float = 0.0) -> tupl
 
 def check_models(directory=None) -> None:
     """Raise WorldError naming the first missing model file."""
-    path = Path(directory) if directory else models_dir()
     for filename, _ in OBJECTS.values():
-        if not (path / filename).is_file():
-            raise WorldError(path / filename, "model missing (set VISMOBILE_MODELS to the models directory)")
+        path = model_path(filename, directory)
+        if not path.is_file():
+            raise WorldError(path, "model missing (set VISMOBILE_MODELS to a directory holding "
+                             "it as .obj or .obj.gz)")

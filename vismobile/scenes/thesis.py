@@ -50,9 +50,17 @@ TOLERANCE = 0.005  # totals within 0.5% of Table 5.2
 
 
 def default_cache_dir() -> Path:
-    """$VISMOBILE_WORLDS, else worlds/ at the repository root."""
+    """Where built worlds go: $VISMOBILE_WORLDS; else worlds/ at the repository root when
+    running from a source checkout; else the user's cache ($XDG_CACHE_HOME or ~/.cache, then
+    vismobile/worlds) for an installed package, never the current directory."""
     env = os.environ.get("VISMOBILE_WORLDS")
-    return Path(env) if env else Path(__file__).resolve().parents[2] / "worlds"
+    if env:
+        return Path(env)
+    root = Path(__file__).resolve().parents[2]
+    if (root / "pyproject.toml").is_file() and (root / "worlds").is_dir():
+        return root / "worlds"
+    cache = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(cache) / "vismobile" / "worlds"
 
 
 def _object_parts(kinds, spots, rng, heights) -> list:
@@ -144,8 +152,7 @@ def build_key(name: str) -> str:
     h = hashlib.sha256(name.encode() + _SOURCE_DIGEST)
     if name not in ("w1", "w5"):
         for filename, _ in objects.OBJECTS.values():
-            path = objects.models_dir() / filename
-            h.update(f"{filename} {path.stat().st_size if path.exists() else -1}".encode())
+            h.update(f"{filename} {objects.model_size(filename)}".encode())
     return h.hexdigest()
 
 

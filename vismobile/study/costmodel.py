@@ -96,7 +96,7 @@ def _apply(coefficients: dict, stats: dict, names) -> float:
         coefficients.get(name, 0.0) * float(stats.get(name, 0)) for name in names)
 
 
-def calibration_rows(points, worlds_dir="worlds", cache_dir=None, frames="sample:24",
+def calibration_rows(points, worlds_dir=None, cache_dir=None, frames="sample:24",
                      profile_name="ipaq-hx2490b") -> list:
     """Mean device counters (device_counters) of our run of each (world, structure, culling,
     ...) point of thesis.DEVICE_POINTS, over a frame selection of the world's thesis path."""

@@ -30,7 +30,11 @@ def _remember(cache: OrderedDict, key, value):
 
 
 def world_path(name: str, worlds_dir) -> Path:
-    """<worlds_dir>/<name>.obj (the file may not exist yet)."""
+    """<worlds_dir>/<name>.obj (the file may not exist yet); worlds_dir None: the default cache."""
+    if worlds_dir is None:
+        from ..scenes.thesis import default_cache_dir
+
+        worlds_dir = default_cache_dir()
     return Path(worlds_dir) / f"{name}.obj"
 
 

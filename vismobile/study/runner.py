@@ -37,10 +37,12 @@ RENDER_REPEATS = 2
 class Context:
     """Where a study reads and writes: repo root (trajectory paths), worlds, cache, results."""
 
-    def __init__(self, root=".", out="out/compare", worlds_dir="worlds", cache_dir=None):
+    def __init__(self, root=".", out="out/compare", worlds_dir=None, cache_dir=None):
+        from ..scenes.thesis import default_cache_dir
+
         self.root = Path(root)
         self.out = Path(out)
-        self.worlds_dir = Path(worlds_dir)
+        self.worlds_dir = Path(worlds_dir) if worlds_dir else default_cache_dir()
         self.cache_dir = Path(cache_dir) if cache_dir else Path("out/cache")
 
     def trajectory_path(self, spec: RunSpec) -> Path:
