@@ -103,7 +103,7 @@ def _number(value):
 
 
 def load_scene(path, structure="none", progress=False) -> Scene:
-    """World (OBJ, or a thesis world name w1..w6) partitioned by structure, or a .vmp file.
+    """World (a mesh file, or a thesis world name w1..w6) partitioned by structure, or a .vmp file.
 
     Raises VisMobileError (WorldError, PartitionError, ...) naming the file or the bad setting.
     """
@@ -113,12 +113,9 @@ def load_scene(path, structure="none", progress=False) -> Scene:
 
         partition = load_partition(path_text)
         return Scene(partition.world, partition, _describe(partition.kind, partition.params))
-    if path_text.lower() in {f"w{i}" for i in range(1, 7)}:
-        from .scenes import build_world
+    from .scenes.lookup import open_world
 
-        world = build_world(path_text.lower())
-    else:
-        world = World.from_obj(path_text)
+    world = open_world(path_text)
     kind, params = parse_structure(structure)
     if kind is None:
         return Scene(world, None, "none")

@@ -16,7 +16,7 @@ from .errors import WorldError
 ZERO_AREA_RELATIVE = 1e-14
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, repr=False)
 class World:
     """Triangles of a scene; every array is indexed by triangle id.
 
@@ -60,6 +60,12 @@ class World:
     @property
     def triangle_count(self) -> int:
         return len(self.triangles)
+
+    def __repr__(self) -> str:
+        low, high = self.extent
+        size = " x ".join(f"{d:.4g}" for d in high - low)
+        return (f"World({self.name!r}: {self.triangle_count:,} triangles, "
+                f"{len(self.object_names)} objects, {size})")
 
     @property
     def extent(self) -> np.ndarray:
@@ -117,13 +123,40 @@ class World:
         return cls.from_arrays(vertices, triangles, object_ids, names, path)
 
     @classmethod
+    def from_file(cls, path) -> "World":
+        """Load a mesh file: OBJ, PLY, STL, OFF, glTF or GLB, each optionally gzip-compressed.
+
+        OBJ groups (o/g) and the meshes of a scene (moved by their node transforms) become
+        objects. Raises WorldError naming the file on unknown formats and bad input.
+        """
+        from .meshfile import load_mesh, mesh_format
+
+        path = Path(path)
+        if mesh_format(path) == "obj":
+            return cls.from_obj(path)
+        return cls.from_arrays(*load_mesh(path), path)
+
+    @classmethod
+    def from_trimesh(cls, geometry, name="world") -> "World":
+        """World of a trimesh.Trimesh (one object) or trimesh.Scene (one object per mesh node,
+        moved by the node's transform); zero-area triangles dropped with a warning."""
+        from .meshfile import flatten
+
+        vertices, triangles, object_ids, names = flatten(geometry, f"<{name}>")
+        world = cls.from_arrays(vertices, triangles, object_ids, names, f"<{name}>")
+        world.name = name
+        return world
+
+    @classmethod
     def from_arrays(cls, vertices, triangles, object_ids, names, path="<arrays>") -> "World":
         """World from raw arrays, dropping zero-area and repeated triangles with a warning.
 
         A repeated triangle (the same corners in the same cyclic order) draws nothing new
         but multiplies every structure's references, so only its first copy is kept.
         """
-        world = cls(vertices, triangles, object_ids, list(names), Path(str(path)).stem)
+        base = Path(str(path)).name
+        base = base[:-3] if base.lower().endswith(".gz") else base  # "cow.obj.gz" -> "cow"
+        world = cls(vertices, triangles, object_ids, list(names), Path(base).stem)
         scale = float(np.ptp(world.extent, axis=0).max()) if world.triangle_count else 0.0
         size = max(scale, 1e-300)
         with np.errstate(over="ignore", invalid="ignore"):

@@ -8,7 +8,11 @@ def add_parser(sub):
         description="Example: vismobile compare --worlds w1,w2 --structures "
                     "grid,octree:3-6,portal:1-3,bsp --cull all --profiles "
                     "ipaq-hx2490b,nokia-n82")
-    parser.add_argument("--worlds", default="all", help="w1..w6 or all (default all)")
+    parser.add_argument("--worlds", default="all",
+                        help="comma-separated thesis worlds w1..w6, all, or mesh file paths "
+                             "(a file needs --trajectory) (default all)")
+    parser.add_argument("--trajectory", type=Path, default=None,
+                        help="trajectory CSV for the worlds given as files")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
                         help="grid, octree:A-B, portal:A-B, bsp (default the thesis's)")
     parser.add_argument("--cull", default="all",
@@ -42,11 +46,15 @@ def run(args) -> int:
 
     from ..atomic import check_destination
     from ..study.matrix import expand, parse_worlds
+    from ..study.thesis import WORLDS
     from ..study.report import write_report
     from ..study.runner import Context, agreement, run_matrix
     from ..world import atomic_write_bytes
 
-    specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames)
+    trajectories = ({w: str(args.trajectory.resolve()) for w in parse_worlds(args.worlds)
+                     if w not in WORLDS} if args.trajectory else None)
+    specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames,
+                   trajectories)
     for path in (args.out / "runs.csv", args.out / "runs" / "x.json",
                  args.report or args.out / "report.html"):
         check_destination(path)  # before hours of runs, not after
@@ -56,7 +64,8 @@ def run(args) -> int:
                          scheduler=args.scheduler)
     checks = []
     for world in parse_worlds(args.worlds) if args.agreement > 0 else []:
-        checks += agreement(world, context, specs[0].profile, args.agreement)
+        checks += agreement(world, context, specs[0].profile, args.agreement,
+                            (trajectories or {}).get(world))
     if checks:
         atomic_write_bytes(args.out / "agreement.json", json.dumps(checks, indent=1).encode())
     report = write_report(records, args.report or args.out / "report.html", agreement=checks)

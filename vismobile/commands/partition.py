@@ -1,15 +1,17 @@
-"""`vismobile partition WORLD.obj --structure KIND [params] -o OUT.vmp`: build and save."""
+"""`vismobile partition WORLD --structure KIND [params] -o OUT.vmp`: build and save."""
 from __future__ import annotations
 
 import time
 from pathlib import Path
 
+from . import WORLD_HELP
+
 
 def add_parser(sub):
     parser = sub.add_parser("partition", help="partition a world into a .vmp file")
-    parser.add_argument("world", type=Path,
-                        help="OBJ file, or a world directory (tools/make_big_world.py) for the "
-                             "out-of-core octree build (streamed, memory-mapped)")
+    parser.add_argument("world", help=WORLD_HELP + ", or a world directory "
+                        "(tools/make_big_world.py) for the out-of-core octree build (streamed, "
+                        "memory-mapped)")
     parser.add_argument("--structure", "-s", choices=("grid", "octree", "portal", "bsp"),
                         default="octree")
     parser.add_argument("-o", "--output", type=Path, required=True, help=".vmp file to write")
@@ -51,12 +53,15 @@ def run(args) -> int:
     from ..errors import PartitionError
     from ..partition import partition
     from ..progress import Progress
+    from ..scenes.lookup import world_file
     from ..world import World
 
     check_destination(args.output)  # before a long build, not after
-    if args.world.is_dir():
+    if Path(args.world).is_dir():
+        args.world = Path(args.world)
         return run_out_of_core(args)
-    world = World.from_obj(args.world)
+    args.world = world_file(args.world)
+    world = World.from_file(args.world)
     kind = args.structure
     params = {}
     try:

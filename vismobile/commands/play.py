@@ -1,12 +1,14 @@
 """`vismobile play WORLD --trajectory CSV ...`: cull and render a recorded path, log each frame."""
 from pathlib import Path
 
+from . import WORLD_HELP
+
 
 def add_parser(sub):
     parser = sub.add_parser(
         "play", help="play a trajectory through a (partitioned) world; write frames.csv, "
                      "summary.json and optional images")
-    parser.add_argument("world", help="OBJ world, partition file (.vmp) or thesis world w1..w6")
+    parser.add_argument("world", help=WORLD_HELP + ", or a partition file (.vmp)")
     parser.add_argument("--trajectory", type=Path, required=True, help="trajectory CSV")
     parser.add_argument("--structure", default="none",
                         help="partition to build for an OBJ: none, octree:5, grid:8, portal:2, "

@@ -5,10 +5,12 @@ profile's device model predicts on that device; `--measured` minimises this mach
 """
 from pathlib import Path
 
+from . import WORLD_HELP
+
 
 def add_parser(sub):
     parser = sub.add_parser("tune", help="pick the fastest conservative configuration for a world")
-    parser.add_argument("world", help="thesis world w1..w6 or an OBJ file")
+    parser.add_argument("world", help=WORLD_HELP)
     parser.add_argument("--trajectory", type=Path, default=None,
                         help="trajectory CSV (default: the thesis's path for w1..w6)")
     parser.add_argument("--profile", default="ipaq-hx2490b")

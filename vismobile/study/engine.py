@@ -29,37 +29,16 @@ def _remember(cache: OrderedDict, key, value):
     return value
 
 
-def world_path(name: str, worlds_dir) -> Path:
-    """<worlds_dir>/<name>.obj (the file may not exist yet); worlds_dir None: the default cache."""
-    if worlds_dir is None:
-        from ..scenes.thesis import default_cache_dir
-
-        worlds_dir = default_cache_dir()
-    return Path(worlds_dir) / f"{name}.obj"
-
-
 def ensure_world_file(name: str, worlds_dir) -> Path:
-    """Path of worlds/<name>.obj, (re)generating the thesis world when missing or stale.
+    """Path of a world argument: worlds_dir/<name>.obj for a thesis world, (re)built when
+    missing or stale; any other name is the path of a mesh file, returned as it is."""
+    from ..scenes.lookup import world_file
 
-    A name ending in .obj is taken as the path of an OBJ file and returned as it is.
-    """
-    if str(name).endswith(".obj"):
-        return Path(name)
-    from ..scenes.thesis import build_key, build_world
-
-    path = world_path(name, worlds_dir)
-    key_path = path.with_suffix(".key")
-    fresh = path.is_file() and key_path.is_file() and \
-        key_path.read_text().strip() == build_key(name)
-    if not fresh:
-        world = build_world(name, worlds_dir)
-        world.name = name
-        _remember(_WORLDS, str(path.resolve()), world)
-    return path
+    return world_file(name, worlds_dir)
 
 
 def load_world(name: str, worlds_dir):
-    """World of a thesis world name (or an OBJ path), cached per process."""
+    """World of a thesis world name (or a mesh file path), cached per process."""
     from ..world import World
 
     path = ensure_world_file(name, worlds_dir)
@@ -67,8 +46,7 @@ def load_world(name: str, worlds_dir):
     if key in _WORLDS:
         _WORLDS.move_to_end(key)
         return _WORLDS[key]
-    world = World.from_obj(path)
-    world.name = Path(path).stem
+    world = World.from_file(path)
     return _remember(_WORLDS, key, world)
 
 

@@ -167,15 +167,21 @@ def parse_culls(text: str) -> list:
 
 
 def parse_worlds(text: str) -> list:
-    """'w1,w3' or 'all' -> world names; SelectionError on an unknown one."""
+    """'w1,w3', 'all' or mesh file paths ('room.obj,w5') -> world names and paths, in order;
+    SelectionError on anything else (a path must name an existing file)."""
+    from pathlib import Path
+
     worlds = []
-    for item in filter(None, (part.strip().lower() for part in text.split(","))):
-        if item == "all":
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        if item.lower() == "all":
             worlds += WORLDS
-        elif item in WORLDS:
+        elif item.lower() in WORLDS:
+            worlds.append(item.lower())
+        elif Path(item).is_file():
             worlds.append(item)
         else:
-            raise SelectionError(f"unknown world {item!r}; known: {', '.join(WORLDS)}, all")
+            raise SelectionError(f"unknown world {item!r}: not {', '.join(WORLDS)}, all, "
+                                 "or an existing mesh file")
     return list(dict.fromkeys(worlds))
 
 
@@ -205,13 +211,17 @@ def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
     """Every RunSpec of a selection, in a stable order (world, structure, cull, profile).
 
     Combinations that cannot run are left out: `portals` only on the portal structure.
-    trajectories : optional {world: path} overriding the thesis's indoor/outdoor paths.
+    trajectories : optional {world: path} overriding the thesis's indoor/outdoor paths; a world
+                   given as a file needs one.
     """
     trajectories = trajectories or {}
     frames = parse_frames(frames)
     specs = []
     for world in parse_worlds(worlds):
-        path = trajectories.get(world, trajectory_for(world))
+        if world not in trajectories and world not in WORLDS:
+            raise SelectionError(f"{world}: no trajectory for a world file; pass --trajectory "
+                                 "CSV (vismobile trajectory generate WORLD makes one)")
+        path = trajectories.get(world) or trajectory_for(world)
         for structure in parse_structures(structures):
             for cull in parse_culls(culls):
                 if "portals" in cull_stages(cull) and not structure.startswith("portal"):

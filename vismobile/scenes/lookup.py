@@ -1,0 +1,35 @@
+"""What a world argument names: a thesis world (w1..w6, built on first use) or a mesh file."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .thesis import TARGETS
+
+
+def is_thesis_world(text) -> bool:
+    """True for a thesis world name, w1..w6 in any case (a file of that name is not looked for)."""
+    return str(text).strip().lower() in TARGETS
+
+
+def world_file(text, worlds_dir=None) -> Path:
+    """Path of a world argument: a thesis name gives <worlds_dir>/<name>.obj, (re)built when
+    missing or stale (worlds_dir None: scenes.default_cache_dir()); anything else is taken as
+    the path of a mesh file and returned unchecked (World.from_file reports a bad one)."""
+    if not is_thesis_world(text):
+        return Path(text)
+    from .thesis import build_key, build_world, default_cache_dir
+
+    name = str(text).strip().lower()
+    path = Path(worlds_dir if worlds_dir is not None else default_cache_dir()) / f"{name}.obj"
+    key_path = path.with_suffix(".key")
+    if not (path.is_file() and key_path.is_file()
+            and key_path.read_text().strip() == build_key(name)):
+        build_world(name, path.parent)
+    return path
+
+
+def open_world(text, worlds_dir=None):
+    """World of a world argument (thesis name or mesh file path); WorldError names a bad file."""
+    from ..world import World
+
+    return World.from_file(world_file(text, worlds_dir))
