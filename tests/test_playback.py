@@ -92,7 +92,7 @@ def test_images_are_identical_in_another_process(tmp_path):
                 "bfc", "ipaq-hx2490b", tmp_path / "here", frames_every=2)
     subprocess.run([sys.executable, "-m", "vismobile", "play", str(tmp_path / "hills.obj"),
                     "--trajectory", str(tmp_path / "walk.csv"), "--cull", "bfc", "--out",
-                    str(tmp_path / "there"), "--frames", "2", "--quiet"], check=True,
+                    str(tmp_path / "there"), "--images", "2", "--quiet"], check=True,
                    capture_output=True)
     for frame, data in here.images.items():
         assert (tmp_path / "there" / "frames" / f"frame_{frame:05d}.png").read_bytes() == data
@@ -138,7 +138,7 @@ def test_cli_plays_an_obj_and_reports_errors_in_one_line(tmp_path, capsys):
     walk(5).save(tmp_path / "walk.csv")
     code = main(["play", str(tmp_path / "hills.obj"), "--trajectory", str(tmp_path / "walk.csv"),
                  "--cull", "bfc", "--profile", "nokia-n82", "--vertex-format", "fixed16.16",
-                 "--out", str(tmp_path / "out"), "--frames", "2", "--hud", "--quiet"])
+                 "--out", str(tmp_path / "out"), "--images", "2", "--hud", "--quiet"])
     assert code == 0
     assert len(read_csv(tmp_path / "out" / "frames.csv")) == 6
     assert sorted(p.name for p in (tmp_path / "out" / "frames").iterdir()) == [
@@ -169,7 +169,7 @@ def test_culled_playback_draws_the_same_pictures_with_fewer_triangles(tmp_path):
     assert np.all(sent <= world.triangle_count) and sent.mean() < 0.8 * world.triangle_count
     assert np.all(result.frames["nodes_visited"] > 0)
     summary = result.summary
-    assert summary["structure"] == "octree:depth=3" and summary["stages"] == ["vfc", "bfc", "cbfc"]
+    assert summary["structure"] == "octree:3" and summary["stages"] == ["vfc", "bfc", "cbfc"]
     assert summary["memory"]["partition"] > 0
     assert summary["pearson_frame_ms_triangles"] is not None
     # Each device's model of the same frames, labelled; culling lowers the modelled iPaq time.
@@ -203,7 +203,7 @@ def test_partition_files_and_bad_settings(tmp_path):
     world = hills(10)
     world.to_obj(tmp_path / "hills.obj")
     scene = load_scene(tmp_path / "hills.obj", "octree:2")
-    assert scene.structure == "octree:depth=2" and scene.partition.kind == "octree"
+    assert scene.structure == "octree:2" and scene.partition.kind == "octree"
     save_partition(scene.partition, tmp_path / "hills.vmp")
     again = load_scene(tmp_path / "hills.vmp")
     assert again.partition.kind == "octree" and again.world.triangle_count == world.triangle_count

@@ -5,7 +5,8 @@ world -> partition/ -> culling/ -> render/ -> study/
 """
 from importlib import import_module
 
-VERSION = "0.1.0"
+__version__ = "0.1.0"
+VERSION = __version__  # the old name, kept for scripts that read it
 
 # Public names, imported on first use so that `import vismobile` stays light.
 _EXPORTS = {
@@ -25,6 +26,18 @@ _EXPORTS = {
     "Profile": "vismobile.profile",
     "AdaptiveCuller": "vismobile.culling.adaptive",
     "tune": "vismobile.study.tune",
+    "get_profile": "vismobile.profile",
+    "PROFILES": "vismobile.profile",
+    "STAGES": "vismobile.culling",
+    "render_rgb": "vismobile.render",
+    "item_buffer": "vismobile.render",
+    "Renderer": "vismobile.render",
+    "open_world": "vismobile.scenes",
+    "load_scene": "vismobile.playback",
+    "play": "vismobile.playback",
+    "Scene": "vismobile.playback",
+    "parse_spec": "vismobile.partition.spec",
+    "format_spec": "vismobile.partition.spec",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -13,7 +13,10 @@ COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune")
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="vismobile", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"vismobile {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name in COMMANDS:
         try:

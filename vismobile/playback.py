@@ -30,6 +30,7 @@ from .errors import VisMobileError
 from .profile import get_profile
 from .progress import Progress
 from .stats import pearson, summarize
+from .trajectory import select_frames
 from .atomic import atomic_write_bytes, check_destination, staged_directory
 from .world import World
 
@@ -59,11 +60,11 @@ class PlaybackResult:
 
 
 def parse_stages(text) -> tuple:
-    """'vfc,bfc,cbfc' -> ('vfc', 'bfc', 'cbfc'); 'none' or '' -> ()."""
+    """'vfc,bfc,cbfc' or 'vfc+bfc+cbfc' -> ('vfc', 'bfc', 'cbfc'); 'none' or '' -> ()."""
     if isinstance(text, (tuple, list)):
         parts = [str(p) for p in text]
     else:
-        parts = [p.strip() for p in str(text or "").split(",")]
+        parts = [p.strip() for p in str(text or "").replace("+", ",").split(",")]
     stages = tuple(p.lower() for p in parts if p.strip() and p.strip().lower() not in STAGES_NONE)
     if len(set(stages)) != len(stages):
         raise VisMobileError(f"culling stage listed twice in {text!r}")
@@ -72,34 +73,13 @@ def parse_stages(text) -> tuple:
 
 def parse_structure(text) -> tuple:
     """'octree:5' -> ('octree', {'depth': 5}); 'grid:8' -> ('grid', {'slabs': 8});
-    'none' -> (None, {}). A bare number is the structure's main parameter."""
-    text = str(text).strip()
-    if text.lower() in STAGES_NONE:
-        return None, {}
-    kind, _, rest = text.partition(":")
-    kind = kind.strip().lower()
-    params = {}
-    for item in filter(None, (p.strip() for p in rest.split(","))):
-        key, eq, value = item.partition("=")
-        if not eq:
-            key, value = _MAIN_PARAMETER.get(kind, "depth"), item
-        params[key.strip()] = _number(value.strip())
-    return kind, params
+    'none' -> (None, {}): partition/spec.py's grammar; VisMobileError on a bad spec."""
+    from .partition.spec import parse_spec
 
-
-# The parameter a bare number sets, per structure.
-_MAIN_PARAMETER = {"octree": "depth", "portal": "depth", "grid": "slabs", "bsp": "max_depth"}
-
-
-def _number(value):
-    if value.lower() in ("true", "false"):
-        return value.lower() == "true"
-    for cast in (int, float):
-        try:
-            return cast(value)
-        except ValueError:
-            pass
-    return value
+    try:
+        return parse_spec(text)
+    except ValueError as error:
+        raise VisMobileError(f"--structure {text}: {error}") from None
 
 
 def load_scene(path, structure="none", progress=False) -> Scene:
@@ -132,9 +112,10 @@ def load_scene(path, structure="none", progress=False) -> Scene:
 
 
 def _describe(kind, params) -> str:
-    """'octree:depth=5' style label of a structure."""
-    shown = ",".join(f"{k}={v}" for k, v in sorted(dict(params).items()))
-    return f"{kind}:{shown}" if shown else kind
+    """'octree:5' style label of a structure (partition/spec.py's canonical text)."""
+    from .partition.spec import format_spec
+
+    return format_spec(kind, dict(params))
 
 
 class _WholeWorld:
@@ -169,6 +150,9 @@ def make_culler(scene: Scene, stages, profile=None, adaptive=False):
     """
     if scene.partition is None:
         return _WholeWorld(scene.world, stages)
+    if "portals" in parse_stages(stages) and scene.partition.kind != "portal":
+        raise VisMobileError(f"--cull portals needs a portal structure (--structure portal:N); "
+                             f"this one is {scene.structure}")
     from .culling import Culler, device_options
     from .culling.adaptive import AdaptiveCuller
 
@@ -184,20 +168,21 @@ def make_culler(scene: Scene, stages, profile=None, adaptive=False):
                                   **tuning)
         return factory(scene.partition, list(stages))
     except ValueError as error:  # unknown stage, or a stage the structure cannot run
-        raise VisMobileError(f"--cull {','.join(stages)}: {error}") from None
+        raise VisMobileError(f"--cull {'+'.join(stages)}: {error}") from None
 
 
 def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
          frames_every=0, gif=False, hud=False, progress=False, frame_limit=None,
-         gif_every=None, adaptive=False) -> PlaybackResult:
+         gif_every=None, adaptive=False, frames="all") -> PlaybackResult:
     """Play trajectory through the scene; write outputs to out (if given) atomically.
 
     stages       : culling stage names (see vismobile.culling), () for none
     profile      : Profile or profile name; the heap check runs before the first frame
-    frames_every : save every Nth frame as PNG (0: none)
+    frames       : which frames to play: "all", "stride:N", "sample:N" (trajectory.select_frames)
+    frames_every : save every Nth played frame as PNG (0: none)
     gif          : write run.gif of every gif_every-th frame (default frames_every or 10)
     hud          : draw the thesis HUD onto saved frames
-    frame_limit  : play only the first frame_limit frames (>= 1)
+    frame_limit  : play only the first frame_limit frames (>= 1), before `frames` selects
     out          : run folder; filled through a staging folder, summary.json last (atomic.py)
     progress     : draw a progress bar on stderr when it is a terminal
     adaptive     : switch stages off (and back on) while they cost more than they save; a dict
@@ -230,6 +215,11 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     if out is not None:
         check_destination(Path(out) / "summary.json")  # refuse a bad folder before playing
     count = len(trajectory) if frame_limit is None else min(int(frame_limit), len(trajectory))
+    try:
+        played = select_frames(frames, count, trajectory.waypoints)
+    except ValueError as error:
+        raise VisMobileError(f"--frames: {error}") from None
+    count = len(played)
     labels = {int(f): label for label, f in trajectory.waypoints.items()}
     gif_every = int(gif_every or frames_every or 10)
     table = {name: np.zeros(count) for name in SUMMARISED}
@@ -239,7 +229,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     hud_ms = 0.0
     bar = Progress(f"play {world.name}", enabled=None if progress else False)
     step = max(count // 200, 1)  # redraw the bar about 200 times
-    for frame in range(count):
+    for index, frame in enumerate(played):
         camera = trajectory.camera(frame, profile.aspect)
         start = time.perf_counter()
         culled = culler.cull(camera)
@@ -247,34 +237,34 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
         if adaptive and hasattr(culler, "observe_render"):
             culler.observe_render(drawn.render_ms, culled.stats)
-            active[frame] = culled.stats.get("active_stages", active[frame])
+            active[index] = culled.stats.get("active_stages", active[index])
         frame_ms = cull_ms + drawn.render_ms
         counters.append(device_counters(culled, tree))
         hud_ms += hud_model.frame_ms(counters[-1]) if hud_model else frame_ms
         row = (cull_ms, drawn.render_ms, frame_ms, drawn.triangles, drawn.draw_batches,
                culled.stats.get("nodes_visited", 0), memory)
         for name, value in zip(SUMMARISED, row):
-            table[name][frame] = value
-        waypoints[frame] = labels.get(frame, "")
-        want_png = out is not None and frames_every and frame % frames_every == 0
-        want_gif = gif and frame % gif_every == 0
+            table[name][index] = value
+        waypoints[index] = labels.get(frame, "")
+        want_png = out is not None and frames_every and index % frames_every == 0
+        want_gif = gif and index % gif_every == 0
         if want_png or want_gif:
             image = renderer.read_rgb()
             if hud:
                 # fps averaged over the frames so far (one frame's fps jumps with warm-up).
                 image = draw_hud(image, hud_lines(
-                    stages, memory, drawn.triangles, 1000.0 * (frame + 1) / max(hud_ms, 1e-9),
+                    stages, memory, drawn.triangles, 1000.0 * (index + 1) / max(hud_ms, 1e-9),
                     scene.structure, heap_bytes=profile.heap_bytes,
                     fps_label=label(profile.name if hud_model else None)))
             if want_png:
                 saved[frame] = png_bytes(image, optimize=False)
             if want_gif:
                 gif_images.append(image)
-        if (frame + 1) % step == 0 or frame + 1 == count:
-            bar(frame + 1, count)
+        if (index + 1) % step == 0 or index + 1 == count:
+            bar(index + 1, count)
     bar.close()
 
-    frames = {"frame": np.arange(count), **table, "waypoint": np.array(waypoints, dtype=object),
+    frames = {"frame": np.asarray(played, dtype=np.int64), **table, "waypoint": np.array(waypoints, dtype=object),
               "active_stages": np.array(active, dtype=object)}
     summary = summarise(frames)
     summary.update({
@@ -318,7 +308,7 @@ def frames_csv(frames: dict) -> str:
     buffer = io.StringIO()
     buffer.write(",".join(COLUMNS) + "\n")
     for i in range(len(frames["frame"])):
-        buffer.write(f"{i},{frames['cull_ms'][i]:.4f},{frames['render_ms'][i]:.4f},"
+        buffer.write(f"{frames['frame'][i]},{frames['cull_ms'][i]:.4f},{frames['render_ms'][i]:.4f},"
                      f"{frames['frame_ms'][i]:.4f},{int(frames['triangles_sent'][i])},"
                      f"{int(frames['draw_batches'][i])},{int(frames['nodes_visited'][i])},"
                      f"{int(frames['memory_bytes'][i])},{frames['waypoint'][i]},"

@@ -53,3 +53,26 @@ class Progress:
             self.stream.write("\n")
             self.stream.flush()
             self.drawn = False
+
+
+class Status:
+    """Status lines on stderr for long work without a known total ("tune w1: 3 structure(s)
+    probed, 12 s"): on a terminal each overwrites the last; in a log each is one line."""
+
+    def __init__(self, label: str, enabled: bool = True, stream=None):
+        self.label, self.enabled = label, enabled
+        self.stream = sys.stderr if stream is None else stream
+        self.start = time.perf_counter()
+        self.tty = self.stream.isatty()
+
+    def __call__(self, text: str) -> None:
+        if self.enabled:
+            line = f"{self.label}: {text}, {time.perf_counter() - self.start:.0f} s"
+            self.stream.write(f"\r{line:<78}" if self.tty else line + "\n")
+            self.stream.flush()
+
+    def done(self) -> None:
+        """End the overwritten line on a terminal."""
+        if self.enabled and self.tty:
+            self.stream.write("\n")
+            self.stream.flush()

@@ -1,4 +1,9 @@
-"""Recorded camera paths: CSV `frame,x,y,z,yaw,pitch`, with named waypoints."""
+"""Recorded camera paths: CSV `frame,x,y,z,yaw,pitch,waypoint`, one pose a line.
+
+The waypoint column holds a label (A, B, ...) on the frames the thesis names, empty elsewhere,
+so plain CSV readers (numpy.genfromtxt(names=True), pandas, spreadsheets) read the file. The
+older form, `frame,x,y,z,yaw,pitch` after `# waypoint A 56` comment lines, still loads.
+"""
 from __future__ import annotations
 
 import io
@@ -13,13 +18,15 @@ from .camera import Camera
 from .errors import TrajectoryError
 from .world import atomic_write_bytes
 
-HEADER = "frame,x,y,z,yaw,pitch"
+HEADER = "frame,x,y,z,yaw,pitch,waypoint"
+OLD_HEADER = "frame,x,y,z,yaw,pitch"  # waypoints in `# waypoint A 56` comments
 # Bounds that keep a hostile file from costing gigabytes or overflowing the camera's float math.
 MAX_FRAMES = 200_000
 MAX_POSITION = 1e12
 MAX_ANGLE = 1e9
 MAX_LINE = 4096
 _WAYPOINT = re.compile(r"#\s*waypoint\s+(\S+)\s+(\S+)\s*", re.ASCII)
+_LABEL = re.compile(r"[A-Za-z0-9_.-]{1,40}", re.ASCII)
 
 
 @dataclass(eq=False)
@@ -27,7 +34,7 @@ class Trajectory:
     """Per-frame camera poses.
 
     poses     : (F, 5) float64 columns x, y, z, yaw, pitch (degrees)
-    waypoints : {label: frame index}, e.g. {"A": 56}; stored in the CSV as `# waypoint A 56`
+    waypoints : {label: frame index}, e.g. {"A": 56}; stored in the CSV's waypoint column
     """
 
     poses: np.ndarray
@@ -80,21 +87,28 @@ class Trajectory:
         return cls(np.array(rows), waypoints, **camera)
 
     def save(self, path) -> None:
-        """Write the CSV (waypoint comments, header, one pose a line), atomically."""
-        buffer = io.StringIO()
-        for label, frame in sorted(self.waypoints.items(), key=lambda item: item[1]):
-            buffer.write(f"# waypoint {label} {frame}\n")
-        buffer.write(HEADER + "\n")
-        table = np.column_stack([np.arange(len(self)), self.poses])
-        np.savetxt(buffer, table, fmt=["%d", "%.4f", "%.4f", "%.4f", "%.3f", "%.3f"],
-                   delimiter=",")
-        atomic_write_bytes(path, buffer.getvalue().encode("ascii"))
+        """Write the CSV (header, one pose a line, waypoint labels in the last column),
+        atomically. TrajectoryError for a waypoint off the path, a label that is not
+        1-40 of [A-Za-z0-9_.-], or two waypoints on one frame."""
+        labels = [""] * len(self)
+        for label, frame in self.waypoints.items():
+            if not _LABEL.fullmatch(str(label)) or not 0 <= int(frame) < len(self) \
+                    or labels[int(frame)]:
+                raise TrajectoryError(f"{path}: waypoint {str(label)[:40]!r} at frame {frame} "
+                                      f"cannot be written (path of {len(self)} frames)")
+            labels[int(frame)] = str(label)
+        table = io.StringIO()
+        np.savetxt(table, np.column_stack([np.arange(len(self)), self.poses]),
+                   fmt=["%d", "%.4f", "%.4f", "%.4f", "%.3f", "%.3f"], delimiter=",")
+        lines = table.getvalue().splitlines()
+        text = "".join(f"{line},{label}\n" for line, label in zip(lines, labels))
+        atomic_write_bytes(path, (HEADER + "\n" + text).encode("ascii"))
 
 
 def _read(path, handle, limit):
     """(waypoints, rows) of an open trajectory file, reading no further than `limit` frames."""
     waypoints, rows = {}, []
-    header_seen = False
+    header_seen, labelled = False, False
     for number in itertools.count(1):
         raw = handle.readline(MAX_LINE + 1)
         if not raw:
@@ -113,15 +127,24 @@ def _read(path, handle, limit):
                 waypoints[match[1]] = int(match[2])
             continue
         if not header_seen:
-            if text.replace(" ", "") != HEADER:
-                raise TrajectoryError(f"{path}:{number}: expected header {HEADER!r}")
-            header_seen = True
+            if text.replace(" ", "") not in (HEADER, OLD_HEADER):
+                raise TrajectoryError(f"{path}:{number}: expected header {HEADER!r} "
+                                      f"(or {OLD_HEADER!r})")
+            header_seen, labelled = True, text.replace(" ", "") == HEADER
             continue
         if limit is not None and len(rows) >= limit:
             break
         if len(rows) >= MAX_FRAMES:
             raise TrajectoryError(f"{path}:{number}: more than {MAX_FRAMES:,} frames; pass a "
                                   "frame limit to read the first ones")
+        if labelled:
+            text, _, label = text.rpartition(",")
+            label = label.strip()
+            if label:
+                if not _LABEL.fullmatch(label):
+                    raise TrajectoryError(f"{path}:{number}: waypoint label must be 1-40 of "
+                                          f"A-Z a-z 0-9 _ . -, got {label[:20]!r}")
+                waypoints[label] = len(rows)
         rows.append(_pose(path, number, text, len(rows)))
     return waypoints, rows
 
@@ -142,3 +165,24 @@ def _pose(path, number, text, expected):
     if max(map(abs, values[4:6])) > MAX_ANGLE:
         raise TrajectoryError(f"{path}:{number}: angle beyond +-{MAX_ANGLE:g} degrees")
     return values[1:]
+
+
+FRAME_SELECTION_HELP = ("all, stride:N (every Nth frame) or sample:N (N evenly spaced frames "
+                        "plus the waypoints)")
+
+
+def select_frames(selection, count: int, waypoints=None) -> list:
+    """Frame numbers (sorted, unique) of a selection over `count` frames: "all", "stride:N"
+    or "sample:N" (N evenly spaced frames plus the waypoints' frames). ValueError otherwise."""
+    text = str(selection or "all").strip().lower()
+    match = re.fullmatch(r"(stride|sample):([1-9]\d{0,8})", text)
+    if text != "all" and not match:
+        raise ValueError(f"bad frame selection {text[:40]!r}: use {FRAME_SELECTION_HELP}")
+    if text == "all":
+        frames = np.arange(count)
+    elif match[1] == "stride":
+        frames = np.arange(0, count, int(match[2]))
+    else:
+        frames = np.linspace(0, count - 1, min(int(match[2]), count)).round().astype(int)
+        frames = np.concatenate([frames, [f for f in (waypoints or {}).values() if 0 <= f < count]])
+    return sorted(set(int(f) for f in frames))

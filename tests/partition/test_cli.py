@@ -18,3 +18,13 @@ def test_partition_command(tmp_path, capsys):
 def test_bad_depth_exits_2(tmp_path, capsys):
     assert main(["partition", str(MODEL), "--depth", "9", "-o", str(tmp_path / "x.vmp")]) == 2
     assert "octree depth" in capsys.readouterr().err
+
+
+def test_structure_specs_and_options_are_one_grammar(tmp_path, capsys):
+    out = tmp_path / "g.vmp"
+    assert main(["partition", str(MODEL), "--structure", "grid:4", "--out", str(out)]) == 0
+    assert "structure   grid:auto=False,slabs=4x4x4" in capsys.readouterr().out
+    assert main(["partition", str(MODEL), "-s", "octree:3", "-o", str(out)]) == 0
+    assert "structure   octree:3" in capsys.readouterr().out
+    assert main(["partition", str(MODEL), "-s", "octree:3", "--depth", "4", "-o", str(out)]) == 2
+    assert "depth given twice" in capsys.readouterr().err

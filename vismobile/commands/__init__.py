@@ -3,3 +3,15 @@
 # Help text of every command's WORLD argument.
 WORLD_HELP = ("thesis world w1..w6 (built on first use) or a mesh file: .obj .ply .stl .off "
               ".glb .gltf, optionally .gz")
+# Valid values, spelled out here so `--help` needs no heavy import (tests/test_cli.py checks
+# them against culling.STAGES, profile.PROFILES and partition.KINDS).
+STAGE_NAMES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
+               "occlusion_thesis", "portals")
+PROFILE_NAMES = ("ipaq-hx2490b", "nokia-n82", "desktop")
+CULL_HELP = ("culling stages joined by + or , (printed with +), or none; stages: "
+             + ", ".join(STAGE_NAMES) + " (portals needs a portal structure)")
+PROFILE_HELP = "device profile: " + ", ".join(PROFILE_NAMES)
+STRUCTURE_HELP = ("none, grid[:N], octree[:N], portal[:N], bsp, or KIND:key=value,... "
+                  "(N: octree depth 1..8, portal depth 1..3, grid slabs per axis)")
+FRAMES_HELP = ("frames to play: all, stride:N (every Nth) or sample:N (N evenly spaced plus "
+               "the waypoints)")

@@ -1,6 +1,8 @@
 """`vismobile compare`: the thesis's chapter-5 matrix (SPEC §6) in one command, with a report."""
 from pathlib import Path
 
+from . import CULL_HELP, FRAMES_HELP, PROFILE_NAMES
+
 
 def add_parser(sub):
     parser = sub.add_parser(
@@ -14,13 +16,17 @@ def add_parser(sub):
     parser.add_argument("--trajectory", type=Path, default=None,
                         help="trajectory CSV for the worlds given as files")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
-                        help="grid, octree:A-B, portal:A-B, bsp (default the thesis's)")
+                        help="comma-separated grid, octree[:N or A-B], portal[:N or A-B], bsp "
+                             "or all (default the thesis's: grid,octree:3-6,portal:1-3,bsp)")
     parser.add_argument("--cull", default="all",
-                        help="all | thesis | ours | combinations like vfc+cbfc,none")
-    parser.add_argument("--profiles", default="ipaq-hx2490b,nokia-n82")
-    parser.add_argument("--frames", default="all",
-                        help="all, stride:N or sample:N (N even frames plus the waypoints)")
-    parser.add_argument("--out", type=Path, default=Path("out/compare"),
+                        help="comma-separated combinations: all, thesis (its 8), ours, or "
+                             "combinations of " + CULL_HELP.split("; stages: ")[1]
+                             + " joined by + (default all)")
+    parser.add_argument("--profiles", default="ipaq-hx2490b,nokia-n82",
+                        help="comma-separated device profiles: " + ", ".join(PROFILE_NAMES)
+                             + " (default ipaq-hx2490b,nokia-n82)")
+    parser.add_argument("--frames", default="all", help=FRAMES_HELP + " (default all)")
+    parser.add_argument("-o", "--out", type=Path, default=Path("out/compare"),
                         help="results folder (runs/<key>.json, runs.csv, runs.json)")
     parser.add_argument("--report", type=Path, default=None,
                         help="HTML report path (default OUT/report.html)")
@@ -48,7 +54,7 @@ def run(args) -> int:
     from ..study.matrix import expand, parse_worlds
     from ..study.thesis import WORLDS
     from ..study.report import write_report
-    from ..study.runner import Context, agreement, run_matrix
+    from ..study.runner import Context, agreement, reusable_runs, run_matrix
     from ..world import atomic_write_bytes
 
     trajectories = ({w: str(args.trajectory.resolve()) for w in parse_worlds(args.worlds)
@@ -59,7 +65,9 @@ def run(args) -> int:
                  args.report or args.out / "report.html"):
         check_destination(path)  # before hours of runs, not after
     context = Context(".", args.out, args.worlds_dir, args.cache)
-    print(f"{len(specs)} runs -> {args.out}/runs/ (finished runs are reused)")
+    reused = reusable_runs(specs, context)
+    print(f"{len(specs)} runs -> {args.out}/runs/: {reused} reused from earlier, "
+          f"{len(specs) - reused} to run", flush=True)
     records = run_matrix(specs, context, args.jobs, progress=not args.quiet,
                          scheduler=args.scheduler)
     checks = []

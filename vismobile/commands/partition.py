@@ -4,7 +4,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from . import WORLD_HELP
+from . import STRUCTURE_HELP, WORLD_HELP
 
 
 def add_parser(sub):
@@ -12,23 +12,27 @@ def add_parser(sub):
     parser.add_argument("world", help=WORLD_HELP + ", or a world directory "
                         "(tools/make_big_world.py) for the out-of-core octree build (streamed, "
                         "memory-mapped)")
-    parser.add_argument("--structure", "-s", choices=("grid", "octree", "portal", "bsp"),
-                        default="octree")
-    parser.add_argument("-o", "--output", type=Path, required=True, help=".vmp file to write")
+    parser.add_argument("--structure", "-s", default="octree",
+                        help=f"{STRUCTURE_HELP} (default octree, depth 5); the options below set "
+                             "the same parameters")
+    parser.add_argument("-o", "--out", "--output", dest="out", type=Path, required=True,
+                        help=".vmp file to write")
     parser.add_argument("--depth", type=int, help="octree depth 1..8 (default 5); portal 1..3 (2)")
     parser.add_argument("--slabs", action="append", default=[], metavar="AXIS:SPEC",
                         help="grid/portal cells on one axis: x:0.2,0.2,0.3,0.3 (shares) or z:4 "
                              "(count); axes not given get one slab")
     parser.add_argument("--auto", action="store_true", help="grid/portal: automatic cells")
     parser.add_argument("--cells", type=int, help="grid/portal --auto: target cell count")
-    parser.add_argument("--min-leaf", type=int, default=8, help="bsp: smallest splittable node")
-    parser.add_argument("--max-depth", type=int, default=32, help="bsp: deepest level")
-    parser.add_argument("--candidates", type=int, default=64, help="bsp: planes tried per node")
-    parser.add_argument("--rule", choices=("balanced", "thesis"), default="balanced",
-                        help="bsp: 'thesis' stops when no split has h+/h- in [0.8, 1.25]")
-    parser.add_argument("--seed", type=int, default=0, help="bsp: candidate sampling seed")
+    parser.add_argument("--min-leaf", type=int, help="bsp: smallest splittable node (default 8)")
+    parser.add_argument("--max-depth", type=int, help="bsp: deepest level (default 32)")
+    parser.add_argument("--candidates", type=int, help="bsp: planes tried per node (default 64)")
+    parser.add_argument("--rule", choices=("balanced", "thesis"),
+                        help="bsp: balanced (default) or thesis: stop when no split has h+/h- "
+                             "in [0.8, 1.25]")
+    parser.add_argument("--seed", type=int, help="bsp: candidate sampling seed (default 0)")
     parser.add_argument("--jobs", type=int, default=1,
-                        help="world directory: worker processes for the chunked octree build")
+                        help="world directory: worker processes for the chunked octree build "
+                             "(default 1)")
     return parser
 
 
@@ -52,6 +56,7 @@ def run(args) -> int:
     from ..atomic import check_destination
     from ..errors import PartitionError
     from ..partition import partition
+    from ..partition.spec import HELP, format_spec, parse_spec
     from ..progress import Progress
     from ..scenes.lookup import world_file
     from ..world import World
@@ -62,21 +67,24 @@ def run(args) -> int:
         return run_out_of_core(args)
     args.world = world_file(args.world)
     world = World.from_file(args.world)
-    kind = args.structure
-    params = {}
     try:
-        if kind in ("octree", "portal") and args.depth is not None:
-            params["depth"] = args.depth
-        if kind in ("grid", "portal"):
-            if args.slabs:
-                params["slabs"] = parse_slabs(args.slabs)
-            else:
-                params["auto"] = True if kind == "grid" else False
-            if args.cells is not None:
-                params["cells"] = args.cells
-        if kind == "bsp":
-            params.update(min_leaf=args.min_leaf, max_depth=args.max_depth,
-                          candidates=args.candidates, seed=args.seed, rule=args.rule)
+        kind, params = parse_spec(args.structure)
+        if kind is None:
+            raise ValueError("--structure none builds nothing; choose " + HELP)
+        options = {"depth": args.depth,
+                   "slabs": parse_slabs(args.slabs) if args.slabs else None,
+                   "auto": True if args.auto else None, "cells": args.cells,
+                   "min_leaf": args.min_leaf, "max_depth": args.max_depth,
+                   "candidates": args.candidates, "rule": args.rule, "seed": args.seed}
+        for key, value in options.items():
+            if value is None:
+                continue
+            if key in params and params[key] != value:
+                raise ValueError(f"{key} given twice: {params[key]} in --structure, {value} "
+                                 "as an option")
+            params[key] = value
+        if kind == "grid" and "slabs" not in params:
+            params["auto"] = True
         bar = Progress(f"{kind} {args.world.name}")
         start = time.perf_counter()
         try:
@@ -86,15 +94,15 @@ def run(args) -> int:
     except ValueError as error:
         raise PartitionError(f"{args.world}: {error}") from None
     elapsed = time.perf_counter() - start
-    result.save(args.output)
+    result.save(args.out)
     stats = result.stats()
-    size = args.output.stat().st_size
-    print(f"structure   {kind} {result.params}")
+    size = args.out.stat().st_size
+    print(f"structure   {format_spec(kind, result.params)}")
     print(f"build time  {elapsed:.2f} s")
     print(f"nodes       {stats['nodes']:,}")
     print(f"leaves      {stats['leaves']:,}")
     print(f"refs/tri    {stats['refs_per_triangle']:.3f}")
-    print(f"file        {args.output} {size / 1024:,.1f} KB "
+    print(f"file        {args.out} {size / 1024:,.1f} KB "
           f"({size / args.world.stat().st_size:.2f} x the OBJ)")
     return 0
 
@@ -104,19 +112,24 @@ def run_out_of_core(args) -> int:
     from ..errors import PartitionError
     from ..mapped import MappedWorld
     from ..partition.external import build_octree_file
+    from ..partition.spec import parse_spec
 
-    if args.structure != "octree":
+    try:
+        kind, params = parse_spec(args.structure)
+    except ValueError as error:
+        raise PartitionError(f"{args.world}: {error}") from None
+    if kind != "octree" or set(params) - {"depth"}:
         raise PartitionError(f"{args.world}: a world directory is partitioned out of core as an "
-                             f"octree only (got --structure {args.structure})")
+                             f"octree[:N] only (got --structure {args.structure})")
+    depth = args.depth if args.depth is not None else params.get("depth", 5)
     world = MappedWorld.open(args.world)
     try:
-        stats = build_octree_file(world, args.output, depth=5 if args.depth is None else args.depth,
-                                  jobs=max(1, args.jobs))
+        stats = build_octree_file(world, args.out, depth=depth, jobs=max(1, args.jobs))
     except ValueError as error:
         raise PartitionError(f"{args.world}: {error}") from None
     print(f"structure   octree (out of core, {stats['chunks']} chunks, {args.jobs} jobs)")
     print(f"build time  {sum(stats['seconds'].values()):.2f} s")
     print(f"nodes       {stats['nodes']:,}")
     print(f"refs/tri    {stats['references'] / world.triangle_count:.3f}")
-    print(f"file        {args.output} {stats['bytes'] / 1024:,.1f} KB")
+    print(f"file        {args.out} {stats['bytes'] / 1024:,.1f} KB")
     return 0

@@ -1,7 +1,7 @@
 """`vismobile play WORLD --trajectory CSV ...`: cull and render a recorded path, log each frame."""
 from pathlib import Path
 
-from . import WORLD_HELP
+from . import CULL_HELP, FRAMES_HELP, PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP
 
 
 def add_parser(sub):
@@ -11,17 +11,17 @@ def add_parser(sub):
     parser.add_argument("world", help=WORLD_HELP + ", or a partition file (.vmp)")
     parser.add_argument("--trajectory", type=Path, required=True, help="trajectory CSV")
     parser.add_argument("--structure", default="none",
-                        help="partition to build for an OBJ: none, octree:5, grid:8, portal:2, "
-                             "bsp, or kind:key=value,... (default none)")
-    parser.add_argument("--cull", default="none",
-                        help="comma-separated culling stages, e.g. vfc,bfc,cbfc (default none)")
+                        help="partition to build for a mesh: " + STRUCTURE_HELP + " (default none)")
+    parser.add_argument("--cull", default="none", help=CULL_HELP + " (default none)")
     parser.add_argument("--profile", default="ipaq-hx2490b",
-                        help="device profile: ipaq-hx2490b, nokia-n82, desktop")
+                        help=PROFILE_HELP + " (default ipaq-hx2490b)")
     parser.add_argument("--vertex-format", choices=("float32", "fixed16.16"),
                         help="override the profile's vertex format")
-    parser.add_argument("--out", type=Path, required=True, help="output folder")
-    parser.add_argument("--frames", type=int, default=0, metavar="N",
-                        help="save every Nth frame as PNG under OUT/frames/")
+    parser.add_argument("-o", "--out", type=Path, required=True, help="output folder")
+    parser.add_argument("--frames", default="all", help=FRAMES_HELP + " (default all)")
+    parser.add_argument("--images", type=int, default=0, metavar="N",
+                        help="save every Nth played frame as PNG under OUT/frames/ (default 0: "
+                             "none)")
     parser.add_argument("--gif", action="store_true", help="write OUT/run.gif")
     parser.add_argument("--hud", action="store_true",
                         help="draw algorithms, memory, triangles sent and fps onto images")
@@ -39,16 +39,16 @@ def run(args) -> int:
     from ..profile import get_profile
     from ..trajectory import Trajectory
 
-    if args.frames < 0:
-        raise VisMobileError(f"--frames must be >= 0, got {args.frames}")
+    if args.images < 0:
+        raise VisMobileError(f"--images must be >= 0, got {args.images}")
     if args.limit is not None and args.limit < 1:
         raise VisMobileError(f"--limit must be at least 1, got {args.limit}")
     profile = get_profile(args.profile, args.vertex_format)
     trajectory = Trajectory.load(args.trajectory, limit=args.limit)
     scene = load_scene(args.world, args.structure, progress=not args.quiet)
-    result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.frames,
+    result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.images,
                   gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,
-                  adaptive=args.adaptive)
+                  adaptive=args.adaptive, frames=args.frames)
     s = result.summary
     corr = s["pearson_frame_ms_triangles"]
     print(f"{s['frames']} frames of {s['world']} ({s['structure']}, cull "

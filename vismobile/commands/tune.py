@@ -5,7 +5,7 @@ profile's device model predicts on that device; `--measured` minimises this mach
 """
 from pathlib import Path
 
-from . import WORLD_HELP
+from . import PROFILE_HELP, WORLD_HELP
 
 
 def add_parser(sub):
@@ -13,21 +13,27 @@ def add_parser(sub):
     parser.add_argument("world", help=WORLD_HELP)
     parser.add_argument("--trajectory", type=Path, default=None,
                         help="trajectory CSV (default: the thesis's path for w1..w6)")
-    parser.add_argument("--profile", default="ipaq-hx2490b")
+    parser.add_argument("--profile", default="ipaq-hx2490b",
+                        help=PROFILE_HELP + " (default ipaq-hx2490b)")
     parser.add_argument("--probe", type=int, default=24,
-                        help="evenly spaced probe frames (the waypoints are added)")
-    parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp")
+                        help="evenly spaced probe frames, the waypoints added (default 24)")
+    parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
+                        help="comma-separated candidates: grid, octree[:N or A-B], portal[:N or "
+                             "A-B], bsp, all (default grid,octree:3-6,portal:1-3,bsp)")
     parser.add_argument("--worlds-dir", type=Path, default=None,
                         help="where thesis worlds are built and kept (default: $VISMOBILE_WORLDS, "
                              "worlds/ in a source checkout, else ~/.cache/vismobile/worlds)")
     parser.add_argument("--cache", type=Path, default=None,
-                        help="folder to keep partition files in (default: none, build afresh)")
+                        help="folder to keep partition files and ground truths in (default: "
+                             "none, build afresh)")
     parser.add_argument("--cost", choices=("device", "measured"), default="device",
                         help="device: minimise the frame time the profile's device model predicts "
                              "(iPaq, N82); measured: this machine's wall time (desktop always)")
     parser.add_argument("--measured", dest="cost", action="store_const", const="measured",
                         help="same as --cost measured")
-    parser.add_argument("--json", type=Path, default=None, help="also write the result as JSON")
+    parser.add_argument("-o", "--out", "--json", dest="out", type=Path, default=None,
+                        help="also write the result as JSON to this file")
+    parser.add_argument("--quiet", action="store_true", help="no status lines on stderr")
     return parser
 
 
@@ -51,12 +57,21 @@ def run(args) -> int:
         raise TrajectoryError(f"{args.world}: not a thesis world; pass --trajectory")
     from ..scenes.thesis import default_cache_dir
 
+    from ..progress import Status
+
+    status = Status(f"tune {args.world}", enabled=not args.quiet)
+    status("loading the world")
     world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS else args.world,
                               args.worlds_dir or default_cache_dir())
     trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
+    status(f"{world.triangle_count:,} triangles; ground truth of {args.probe} probe frames "
+           "plus the waypoints")
     result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,
-                  structures=args.structures, cache_dir=args.cache, cost=args.cost)
+                  structures=args.structures, cache_dir=args.cache, cost=args.cost,
+                  progress=lambda done, _: status(f"{done} structure(s) probed"))
+    status.done()
     print(result.report())
-    if args.json:
-        atomic_write_bytes(args.json, json.dumps(result.to_dict(), indent=1).encode())
+    if args.out:
+        atomic_write_bytes(args.out, json.dumps(result.to_dict(), indent=1).encode())
     return 0
+

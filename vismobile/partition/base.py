@@ -27,7 +27,7 @@ MAX_COORDINATE = 1e30
 CHECK_ROWS = 1 << 20  # vertices checked per block
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, repr=False)
 class Partition:
     """A world and its spatial partition as flat arrays.
 
@@ -62,6 +62,13 @@ class Partition:
     @property
     def node_count(self) -> int:
         return len(self.first_child)
+
+    def __repr__(self) -> str:
+        from .spec import format_spec
+
+        return (f"Partition({format_spec(self.kind, self.params)} of {self.world.name!r}: "
+                f"{self.node_count:,} nodes, {int(self.is_leaf.sum()):,} leaves, "
+                f"{len(self.tri_refs) / max(self.world.triangle_count, 1):.2f} refs/triangle)")
 
     @property
     def is_leaf(self) -> np.ndarray:

@@ -235,14 +235,6 @@ def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
 
 def frame_indices(selection: str, count: int, waypoints: dict) -> list:
     """Frame numbers of a selection over a trajectory of `count` frames (sorted, unique)."""
-    import numpy as np
+    from ..trajectory import select_frames
 
-    kind, _, number = selection.partition(":")
-    if kind == "all":
-        frames = np.arange(count)
-    elif kind == "stride":
-        frames = np.arange(0, count, int(number))
-    else:
-        frames = np.linspace(0, count - 1, min(int(number), count)).round().astype(int)
-        frames = np.concatenate([frames, [f for f in waypoints.values() if 0 <= f < count]])
-    return sorted(set(int(f) for f in frames))
+    return select_frames(selection, count, waypoints)

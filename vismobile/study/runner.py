@@ -214,6 +214,25 @@ def _execute_task(task) -> tuple:
     return key, record
 
 
+def _finished(specs, context: Context) -> tuple:
+    """({spec: result key}, {key: record}) with the records of runs already on disk."""
+    keyed = {spec: spec.key(salt) for spec, salt in salts(specs, context).items()}
+    records = {}
+    for spec, key in keyed.items():
+        path = result_path(context, key)
+        if path.is_file():
+            try:
+                records[key] = json.loads(path.read_text())
+            except (OSError, ValueError):
+                pass  # a damaged result is simply run again
+    return keyed, records
+
+
+def reusable_runs(specs, context: Context) -> int:
+    """How many of the specs have a finished result on disk that run_matrix will reuse."""
+    return len(_finished(list(dict.fromkeys(specs)), context)[1])
+
+
 def run_matrix(specs, context: Context, processes: int | None = None,
                progress: bool = True, scheduler="local", on_record=None) -> list:
     """Run every spec (reusing finished ones); returns their records in spec order.
@@ -227,15 +246,7 @@ def run_matrix(specs, context: Context, processes: int | None = None,
     on_record : with Dask, called with (client, key, record) as each run finishes
     """
     specs = list(dict.fromkeys(specs))
-    keyed = {spec: spec.key(salt) for spec, salt in salts(specs, context).items()}
-    records = {}
-    for spec, key in keyed.items():
-        path = result_path(context, key)
-        if path.is_file():
-            try:
-                records[key] = json.loads(path.read_text())
-            except (OSError, ValueError):
-                pass  # a damaged result is simply run again
+    keyed, records = _finished(specs, context)
     todo = [spec for spec, key in keyed.items() if key not in records]
     processes = max(1, min(processes or os.cpu_count() or 1, len(todo) or 1))
     if todo:

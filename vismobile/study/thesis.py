@@ -52,8 +52,12 @@ WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6")
 
 
 def trajectory_for(world: str) -> str:
-    """Default trajectory file (relative to the repo root) for a thesis world name."""
-    return "trajectories/outdoor.csv" if world in ("w5", "w6") else "trajectories/indoor.csv"
+    """The thesis's trajectory file for a world name (outdoor for w5, w6; indoor otherwise):
+    the absolute path of the copy shipped in the package, so it resolves from any directory."""
+    from pathlib import Path
+
+    name = "outdoor.csv" if world in ("w5", "w6") else "indoor.csv"
+    return str(Path(__file__).resolve().parents[1] / "trajectories" / name)
 
 # The device frame times the device model is fitted to (study/costmodel.fit_device): per
 # device, (world, structure, culling, mean ms per frame, where the number comes from).
