@@ -169,7 +169,7 @@ def test_culled_playback_draws_the_same_pictures_with_fewer_triangles(tmp_path):
     assert np.all(sent <= world.triangle_count) and sent.mean() < 0.8 * world.triangle_count
     assert np.all(result.frames["nodes_visited"] > 0)
     summary = result.summary
-    assert summary["structure"] == "octree:3" and summary["stages"] == ["vfc", "bfc", "cbfc"]
+    assert summary["structure"] == "octree:depth=3" and summary["stages"] == ["vfc", "bfc", "cbfc"]
     assert summary["memory"]["partition"] > 0
     assert summary["pearson_frame_ms_triangles"] is not None
     # Each device's model of the same frames, labelled; culling lowers the modelled iPaq time.

@@ -9,6 +9,7 @@ from __future__ import annotations
 import io
 import itertools
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -88,12 +89,15 @@ class Trajectory:
 
     def save(self, path) -> None:
         """Write the CSV (header, one pose a line, waypoint labels in the last column),
-        atomically. TrajectoryError for a waypoint off the path, a label that is not
-        1-40 of [A-Za-z0-9_.-], or two waypoints on one frame."""
+        atomically. A waypoint beyond the path is left out with a warning; TrajectoryError for
+        a label that is not 1-40 of [A-Za-z0-9_.-] or two waypoints on one frame."""
         labels = [""] * len(self)
         for label, frame in self.waypoints.items():
-            if not _LABEL.fullmatch(str(label)) or not 0 <= int(frame) < len(self) \
-                    or labels[int(frame)]:
+            if not 0 <= int(frame) < len(self):
+                warnings.warn(f"{path}: waypoint {str(label)[:40]!r} at frame {frame} is beyond "
+                              f"the {len(self)} frames and is not written", stacklevel=2)
+                continue
+            if not _LABEL.fullmatch(str(label)) or labels[int(frame)]:
                 raise TrajectoryError(f"{path}: waypoint {str(label)[:40]!r} at frame {frame} "
                                       f"cannot be written (path of {len(self)} frames)")
             labels[int(frame)] = str(label)

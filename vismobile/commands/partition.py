@@ -120,7 +120,7 @@ def run_out_of_core(args) -> int:
         raise PartitionError(f"{args.world}: {error}") from None
     if kind != "octree" or set(params) - {"depth"}:
         raise PartitionError(f"{args.world}: a world directory is partitioned out of core as an "
-                             f"octree[:N] only (got --structure {args.structure})")
+                             f"octree only, octree[:N] (got --structure {args.structure})")
     depth = args.depth if args.depth is not None else params.get("depth", 5)
     world = MappedWorld.open(args.world)
     try:
