@@ -61,7 +61,7 @@ def run(args) -> int:
     from ..scenes.lookup import world_file
     from ..world import World
 
-    check_destination(args.output)  # before a long build, not after
+    check_destination(args.out)  # before a long build, not after
     if Path(args.world).is_dir():
         args.world = Path(args.world)
         return run_out_of_core(args)

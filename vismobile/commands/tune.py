@@ -49,8 +49,8 @@ def run(args) -> int:
     from ..trajectory import Trajectory
     from ..world import atomic_write_bytes
 
-    if args.json:
-        check_destination(args.json)  # before tuning, not after
+    if args.out:
+        check_destination(args.out)  # before tuning, not after
     if args.probe < 1:
         raise TrajectoryError(f"--probe must be at least 1 frame, got {args.probe}")
     if args.trajectory is None and args.world.lower() not in WORLDS:
