@@ -1,0 +1,130 @@
+"""The heightmap: (2^n+1)^2 uint16 samples on a square grid, with their metric scale.
+
+Grid convention (every terrain module uses it): sample (i, j) sits at world
+x = j * spacing, z = i * spacing, y = z_offset + z_scale * samples[i, j]. Cell (i, j) is cut
+along the diagonal (i, j)-(i+1, j+1) into (i, j)(i+1, j+1)(i, j+1) and (i, j)(i+1, j)(i+1, j+1),
+both counter-clockwise seen from +y.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import WorldError
+
+MAX_LEVEL = 13  # 8193^2 samples; a 4097^2 map (n = 12) is the largest the issue asks for
+
+
+def grid_exponent(size: int) -> int | None:
+    """n when size == 2^n + 1 (n >= 1), else None."""
+    n = int(size - 1).bit_length() - 1
+    return n if size >= 3 and (1 << n) + 1 == size else None
+
+
+@dataclass(eq=False)
+class Heightmap:
+    """A square terrain of (2^n+1)^2 samples.
+
+    samples  : (N, N) uint16, N = 2^n + 1, row i = world z, column j = world x
+    spacing  : world units between neighbouring samples (> 0)
+    z_scale  : world units per sample step (> 0); z_offset: world height of sample 0
+    name     : where it came from (shown by info and in reports)
+    """
+
+    samples: np.ndarray
+    spacing: float = 1.0
+    z_scale: float = 1.0
+    z_offset: float = 0.0
+    name: str = "terrain"
+    _heights: np.ndarray | None = field(default=None, repr=False)
+
+    def __post_init__(self):
+        self.samples = np.ascontiguousarray(self.samples, dtype=np.uint16)
+        size = self.samples.shape[0]
+        if self.samples.ndim != 2 or self.samples.shape[1] != size or grid_exponent(size) is None:
+            raise ValueError(f"heightmap must be (2^n+1)^2 samples, got {self.samples.shape}")
+        if grid_exponent(size) > MAX_LEVEL:
+            raise ValueError(f"heightmap of {size}^2 samples exceeds 2^{MAX_LEVEL}+1")
+        for name in ("spacing", "z_scale"):
+            value = float(getattr(self, name))
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and positive, got {value}")
+            setattr(self, name, value)
+        self.z_offset = float(self.z_offset)
+        if not np.isfinite(self.z_offset):
+            raise ValueError("z_offset must be finite")
+
+    @property
+    def size(self) -> int:
+        """N, samples per side."""
+        return self.samples.shape[0]
+
+    @property
+    def exponent(self) -> int:
+        """n with N = 2^n + 1."""
+        return grid_exponent(self.size)
+
+    @property
+    def heights(self) -> np.ndarray:
+        """(N, N) float32 world heights (computed once; float32 is exact for 16-bit samples
+        times a power-of-two scale and within 2^-24 relative otherwise)."""
+        if self._heights is None:
+            self._heights = (self.z_offset + self.z_scale * self.samples.astype(np.float64)
+                             ).astype(np.float32)
+        return self._heights
+
+    @property
+    def extent(self) -> float:
+        """World width of the square, (N - 1) * spacing."""
+        return (self.size - 1) * self.spacing
+
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float64 world box of the whole terrain."""
+        low = self.z_offset + self.z_scale * float(self.samples.min())
+        high = self.z_offset + self.z_scale * float(self.samples.max())
+        return np.array([[0.0, low, 0.0], [self.extent, high, self.extent]])
+
+    def height_at(self, x, z) -> np.ndarray:
+        """Heights of the full-resolution mesh at world points (x, z) (arrays of one shape).
+
+        Interpolates on the mesh's own triangles (diagonal (i, j)-(i+1, j+1)), so it is the
+        exact surface the full render draws; points outside the square are clamped onto it.
+        """
+        h = self.heights
+        u = np.clip(np.asarray(x, dtype=np.float64) / self.spacing, 0, self.size - 1)
+        v = np.clip(np.asarray(z, dtype=np.float64) / self.spacing, 0, self.size - 1)
+        j = np.minimum(np.floor(u).astype(np.int64), self.size - 2)
+        i = np.minimum(np.floor(v).astype(np.int64), self.size - 2)
+        fu, fv = u - j, v - i
+        h00, h11 = h[i, j].astype(np.float64), h[i + 1, j + 1].astype(np.float64)
+        upper = fu >= fv  # triangle (i,j)(i+1,j+1)(i,j+1)
+        h_side = np.where(upper, h[i, j + 1], h[i + 1, j]).astype(np.float64)
+        a, b = np.where(upper, fu, fv), np.where(upper, fv, fu)
+        return h00 + (a - b) * (h_side - h00) + b * (h11 - h00)
+
+    def digest(self) -> bytes:
+        """32-byte SHA-256 of samples and scale (files and caches refuse another terrain)."""
+        h = hashlib.sha256()
+        h.update(np.ascontiguousarray(self.samples, "<u2").tobytes())
+        h.update(np.array([self.spacing, self.z_scale, self.z_offset], "<f8").tobytes())
+        return h.digest()
+
+
+def quantize(heights, spacing: float = 1.0, name: str = "terrain", path="<array>") -> Heightmap:
+    """Heightmap of float heights (N, N), N = 2^n+1, stored as uint16 over their range.
+
+    The quantisation step is (max - min) / 65535 (at most half a step of error, reported by
+    Heightmap.heights being the stored values, not the input). Raises WorldError naming path on
+    non-finite input or a shape that is not (2^n+1)^2.
+    """
+    heights = np.asarray(heights, dtype=np.float64)
+    if heights.ndim != 2 or heights.shape[0] != heights.shape[1] or grid_exponent(heights.shape[0]) is None:
+        raise WorldError(path, f"heights must be (2^n+1)^2 samples, got shape {heights.shape}")
+    if not np.isfinite(heights).all():
+        raise WorldError(path, "heights contain NaN or infinite values")
+    low, high = float(heights.min()), float(heights.max())
+    scale = (high - low) / 65535.0 if high > low else 1.0
+    samples = np.rint((heights - low) / scale).astype(np.uint16)
+    return Heightmap(samples, spacing, scale, low, name)

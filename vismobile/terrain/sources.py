@@ -1,0 +1,141 @@
+"""Where heightmaps come from: matplotlib's two DEMs, user files and diamond-square terrain.
+
+Every source returns a Heightmap of (2^n+1)^2 samples; inputs of another size are resampled
+bilinearly onto that grid over the same extent (the spacing grows or shrinks to match).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import WorldError
+from .heightmap import Heightmap, grid_exponent, quantize
+
+# matplotlib sample DEMs: file, array key, metres per sample (3 arc-seconds ~ 92.6 m north-south
+# for jacksboro; topobathy is a 1 arc-minute grid, ~1852 m).
+DEMS = {
+    "jacksboro": ("jacksboro_fault_dem.npz", "elevation", 92.6),
+    "topobathy": ("topobathy.npz", "topo", 1852.0),
+}
+SYNTHETIC = "fractal"
+
+
+def resample(heights, size: int) -> np.ndarray:
+    """(size, size) float64 bilinear resampling of a 2-D array over the same extent.
+
+    Corners map to corners, so a (2^n+1)^2 input of the requested size comes back unchanged.
+    """
+    heights = np.asarray(heights, dtype=np.float64)
+    rows, cols = heights.shape
+    if (rows, cols) == (size, size):
+        return heights.copy()
+    r = np.linspace(0.0, rows - 1, size)
+    c = np.linspace(0.0, cols - 1, size)
+    r0 = np.minimum(np.floor(r).astype(np.int64), max(rows - 2, 0))
+    c0 = np.minimum(np.floor(c).astype(np.int64), max(cols - 2, 0))
+    fr, fc = (r - r0)[:, None], (c - c0)[None, :]
+    r1, c1 = np.minimum(r0 + 1, rows - 1), np.minimum(c0 + 1, cols - 1)
+    top = heights[r0][:, c0] * (1 - fc) + heights[r0][:, c1] * fc
+    bottom = heights[r1][:, c0] * (1 - fc) + heights[r1][:, c1] * fc
+    return top * (1 - fr) + bottom * fr
+
+
+def _to_grid(heights, size, spacing, name, path) -> Heightmap:
+    """Heightmap of an arbitrary (R, C) array resampled to size^2 (default: next 2^n+1)."""
+    heights = np.asarray(heights, dtype=np.float64)
+    if heights.ndim != 2 or min(heights.shape) < 2:
+        raise WorldError(path, f"a heightmap needs a 2-D array of at least 2x2, got {heights.shape}")
+    if not np.isfinite(heights).all():
+        raise WorldError(path, "heights contain NaN or infinite values (holes are not supported)")
+    longest = max(heights.shape)
+    if size is None:
+        size = (1 << int(np.ceil(np.log2(max(longest - 1, 2))))) + 1
+    if grid_exponent(size) is None:
+        raise WorldError(path, f"size must be 2^n+1, got {size}")
+    # Keep the input's metric footprint: its longer side spans (longest - 1) * spacing.
+    new_spacing = spacing * (longest - 1) / (size - 1)
+    return quantize(resample(heights, size), new_spacing, name, path)
+
+
+def dem(name: str, size: int | None = None) -> Heightmap:
+    """One of matplotlib's sample DEMs ("jacksboro" or "topobathy"), resampled to size^2."""
+    if name not in DEMS:
+        raise WorldError(name, f"unknown DEM; known: {', '.join(DEMS)}")
+    from matplotlib import cbook
+
+    filename, key, metres = DEMS[name]
+    with cbook.get_sample_data(filename) as data:
+        heights = np.asarray(data[key], dtype=np.float64)
+    return _to_grid(heights, size, metres, name, filename)
+
+
+def diamond_square(size: int, seed: int = 0, roughness: float = 0.55,
+                   relief: float = 0.25, spacing: float = 1.0) -> Heightmap:
+    """Deterministic diamond-square (midpoint displacement) terrain of size^2 samples.
+
+    roughness : amplitude ratio between successive octaves (0.5 = fractal dimension ~2.5)
+    relief    : height range as a fraction of the map's width
+    The same (size, seed, roughness, relief, spacing) always gives the same samples.
+    """
+    n = grid_exponent(size)
+    if n is None:
+        raise ValueError(f"size must be 2^n+1, got {size}")
+    rng = np.random.default_rng(seed)
+    h = np.zeros((size, size))
+    h[::size - 1, ::size - 1] = rng.uniform(-1, 1, (2, 2))
+    amplitude, step = 1.0, size - 1
+    while step > 1:
+        half = step // 2
+        # Diamond step: centres of squares get the corner mean plus noise.
+        corners = (h[0:-1:step, 0:-1:step] + h[0:-1:step, step::step]
+                   + h[step::step, 0:-1:step] + h[step::step, step::step]) / 4
+        h[half::step, half::step] = corners + amplitude * rng.uniform(-1, 1, corners.shape)
+        # Square step: edge midpoints get the mean of their (up to) four neighbours.
+        for r0, c0 in ((0, half), (half, 0)):
+            rows, cols = np.arange(r0, size, step), np.arange(c0, size, step)
+            rr, cc = np.meshgrid(rows, cols, indexing="ij")
+            total, count = np.zeros(rr.shape), np.zeros(rr.shape)
+            for dr, dc in ((-half, 0), (half, 0), (0, -half), (0, half)):
+                r, c = rr + dr, cc + dc
+                ok = (r >= 0) & (r < size) & (c >= 0) & (c < size)
+                total[ok] += h[r[ok], c[ok]]
+                count[ok] += 1
+            h[rr, cc] = total / count + amplitude * rng.uniform(-1, 1, rr.shape)
+        amplitude *= roughness
+        step = half
+    h = (h - h.min()) / max(np.ptp(h), 1e-12) * relief * (size - 1) * spacing
+    return quantize(h, spacing, f"{SYNTHETIC}-{size}-s{seed}")
+
+
+def load_file(path, size: int | None = None, spacing: float = 1.0,
+              vertical: float = 1.0) -> Heightmap:
+    """A user heightmap: .npy (2-D numbers), 16-bit or 8-bit greyscale PNG, or TIFF.
+
+    vertical scales sample values to world units. Raises WorldError naming the file when it is
+    missing, unreadable or not a 2-D finite array.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise WorldError(path, "no such file")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".npy":
+            heights = np.load(path, allow_pickle=False)
+        elif suffix in (".png", ".tif", ".tiff"):
+            from PIL import Image
+
+            with Image.open(path) as image:
+                if image.mode not in ("I;16", "I;16B", "I;16L", "I", "L", "F"):
+                    image = image.convert("L") if image.mode in ("RGB", "RGBA", "P", "LA") else image
+                heights = np.asarray(image)
+        else:
+            raise WorldError(path, "unknown heightmap format (use .npy, .png, .tif or .vmt)")
+    except WorldError:
+        raise
+    except Exception as error:  # numpy and PIL raise many types for bad files
+        raise WorldError(path, f"cannot read heightmap ({type(error).__name__}: {error})") from None
+    if heights.dtype.kind not in "uif":
+        raise WorldError(path, f"heightmap values must be numbers, got dtype {heights.dtype}")
+    return _to_grid(np.asarray(heights, dtype=np.float64) * float(vertical), size,
+                    spacing, path.stem, path)
