@@ -1,0 +1,167 @@
+"""Draws terrain tiles as an OpenGL ES 1.1 device would: uint16 indices, batches of whole tiles.
+
+Each frame the drawn tiles' vertices are gathered from the heightmap (position, a normal from
+the full-resolution samples' central differences, a height colour) into one vertex buffer per
+batch of at most 65,535 vertices, with one uint16 index buffer per batch. The full render and
+every LOD share this path, so their images differ only by geometry. Positions are float32 on
+every profile (terrains span more than GL_FIXED's +-32767 units).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..profile import MAX_INDEX_VERTICES
+from .context import gl_context, render_target
+from .renderer import SENTINEL, DrawStats, _set_lights
+from .shaders import CLEAR_RGB
+from .world_buffers import program
+
+ITEM_VERTEX = """#version 330
+in vec3 in_position;
+uniform mat4 u_mvp;
+invariant gl_Position;
+void main() { gl_Position = u_mvp * vec4(in_position, 1.0); }
+"""
+ITEM_FRAGMENT = """#version 330
+uniform uint u_first_id;
+out uint f_id;
+void main() { f_id = u_first_id + uint(gl_PrimitiveID) + 1u; }
+"""
+_ITEM_PROGRAM = []
+
+
+def _item_program():
+    if not _ITEM_PROGRAM:
+        _ITEM_PROGRAM.append(gl_context().program(vertex_shader=ITEM_VERTEX,
+                                                  fragment_shader=ITEM_FRAGMENT))
+    return _ITEM_PROGRAM[0]
+
+
+def height_colors(heights, low: float, high: float) -> np.ndarray:
+    """(..., 4) uint8 hypsometric colours (matplotlib's "terrain" map over [low, high])."""
+    from matplotlib import colormaps
+
+    table = np.rint(colormaps["terrain"](np.linspace(0.15, 1.0, 256)) * 255).astype(np.uint8)
+    t = (np.asarray(heights, np.float64) - low) / max(high - low, 1e-12)
+    return table[np.clip((t * 255).astype(np.int64), 0, 255)]
+
+
+def terrain_vertices(heightmap, rows, cols) -> np.ndarray:
+    """(K*V,) records (position 3f, normal 3f, colour 4u1) of the samples rows/cols (K, V)."""
+    h = heightmap.heights
+    n = heightmap.size - 1
+    r, c = rows.ravel(), cols.ravel()
+    # Central differences at full resolution (one-sided at the border).
+    dx = (h[r, np.minimum(c + 1, n)] - h[r, np.maximum(c - 1, 0)]) / \
+         ((np.minimum(c + 1, n) - np.maximum(c - 1, 0)) * heightmap.spacing)
+    dz = (h[np.minimum(r + 1, n), c] - h[np.maximum(r - 1, 0), c]) / \
+         ((np.minimum(r + 1, n) - np.maximum(r - 1, 0)) * heightmap.spacing)
+    normal = np.stack([-dx, np.ones_like(dx), -dz], axis=1)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    dtype = np.dtype([("position", np.float32, 3), ("normal", np.float32, 3),
+                      ("color", np.uint8, 4)])
+    records = np.empty(len(r), dtype=dtype)
+    records["position"] = np.stack([c * heightmap.spacing, h[r, c], r * heightmap.spacing], 1)
+    records["normal"] = normal
+    low, high = heightmap.bounds()[:, 1]
+    records["color"] = height_colors(h[r, c], low, high)
+    return records
+
+
+class TerrainRenderer:
+    """Renders tile selections of one heightmap at a profile's resolution."""
+
+    def __init__(self, heightmap, profile):
+        self.heightmap = heightmap
+        self.profile = profile
+
+    def draw(self, rows, cols, triangles, camera, kind="shaded", clear=True) -> DrawStats:
+        """Draw K tiles: rows/cols (K, V) sample coordinates, triangles K local (T_k, 3) lists.
+
+        kind "shaded" (RGB) or "item" (ids: triangle index in draw order, + first id 0).
+        render_ms covers vertex gathering, uploads, draws and glFinish.
+        """
+        ctx = gl_context()
+        target = render_target(self.profile.resolution, "rgb" if kind == "shaded" else "ids")
+        ctx.finish()
+        start = time.perf_counter()
+        target.use()
+        ctx.viewport = (0, 0, *self.profile.resolution)
+        if clear:
+            if kind == "shaded":
+                target.clear(*CLEAR_RGB, 1.0, depth=1.0)
+            else:
+                target.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.depth_func = "<"
+        ctx.front_face = "ccw"
+        ctx.enable_only(ctx.DEPTH_TEST)
+        prog = program("shaded", "float32") if kind == "shaded" else _item_program()
+        prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
+        if kind == "shaded":
+            _set_lights(prog)
+        per_tile = rows.shape[1] if len(rows) else 1
+        tiles_per_batch = max(1, MAX_INDEX_VERTICES // per_tile)
+        batches, drawn, first_id = 0, 0, 0
+        for b0 in range(0, len(rows), tiles_per_batch):
+            b1 = min(b0 + tiles_per_batch, len(rows))
+            records = terrain_vertices(self.heightmap, rows[b0:b1], cols[b0:b1])
+            counts = np.array([len(t) for t in triangles[b0:b1]])
+            if not counts.sum():
+                continue
+            offsets = np.repeat(np.arange(b1 - b0) * per_tile, counts)
+            indices = (np.concatenate(triangles[b0:b1]) + offsets[:, None]).astype(np.uint16)
+            vbo = ctx.buffer(records.tobytes())
+            ibo = ctx.buffer(indices.tobytes())
+            if kind == "shaded":
+                vao = ctx.vertex_array(prog, [(vbo, "3f 3f 4f1", "in_position", "in_normal",
+                                                "in_color")], index_buffer=ibo,
+                                       index_element_size=2)
+            else:
+                prog["u_first_id"].value = first_id
+                vao = ctx.vertex_array(prog, [(vbo, "3f 16x", "in_position")], index_buffer=ibo,
+                                       index_element_size=2)
+            vao.render(vertices=indices.size)
+            first_id += len(indices)
+            drawn += len(indices)
+            batches += 1
+            vao.release()
+            vbo.release()
+            ibo.release()
+        ctx.finish()
+        return DrawStats((time.perf_counter() - start) * 1000.0, batches, drawn)
+
+    def read_rgb(self) -> np.ndarray:
+        """(H, W, 3) uint8 image of the last shaded draw, row 0 = top."""
+        target = render_target(self.profile.resolution, "rgb")
+        data = np.frombuffer(target.read(components=3), dtype=np.uint8)
+        return data.reshape(self.profile.height, self.profile.width, 3)[::-1].copy()
+
+    def read_depth(self, kind="shaded") -> np.ndarray:
+        """(H, W) float32 window depth in [0, 1] of the last draw, row 0 = top."""
+        target = render_target(self.profile.resolution, "rgb" if kind == "shaded" else "ids")
+        data = np.frombuffer(target.read(components=1, attachment=-1, dtype="f4"), dtype=np.float32)
+        return data.reshape(self.profile.height, self.profile.width)[::-1].copy()
+
+    def read_ids(self) -> np.ndarray:
+        """(H, W) uint32 ids of the last item draw, SENTINEL for background, row 0 = top."""
+        target = render_target(self.profile.resolution, "ids")
+        raw = np.frombuffer(target.read(components=1, dtype="u4"), dtype=np.uint32)
+        return raw.reshape(self.profile.height, self.profile.width)[::-1] - np.uint32(1)
+
+
+def unproject(depth, camera) -> np.ndarray:
+    """(H, W, 3) float64 world points of window depths (H, W) (NaN where depth == 1)."""
+    height, width = depth.shape
+    inverse = np.linalg.inv(camera.view_projection())
+    y, x = np.mgrid[0:height, 0:width]
+    ndc = np.stack([(x + 0.5) / width * 2 - 1, 1 - (y + 0.5) / height * 2,
+                    depth.astype(np.float64) * 2 - 1, np.ones_like(depth, np.float64)], -1)
+    world = ndc @ inverse.T
+    points = world[..., :3] / world[..., 3:]
+    points[depth >= 1.0] = np.nan
+    return points
+
+
+__all__ = ["TerrainRenderer", "terrain_vertices", "height_colors", "unproject", "SENTINEL"]

@@ -1,0 +1,106 @@
+"""Scan-conversion of grid triangles over the full-resolution samples (numba kernels).
+
+A triangle of a tile at stride s has its corners on samples; every sample inside it (edges
+included) gets the triangle's linear interpolation, with integer edge functions so the inside
+test is exact. Used for tile errors (build time) and for the drawn surface (measurement).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _scan(heights, r0, c0, r1, c1, r2, c2, h0, h1, h2, out, mode):
+    """Visit samples inside triangle (r_k, c_k): mode 0 returns max |heights - interp|,
+    mode 1 writes interp into out. Returns the max error (mode 0) or 0."""
+    area = (r1 - r0) * (c2 - c0) - (c1 - c0) * (r2 - r0)
+    if area == 0:
+        return 0.0
+    worst = 0.0
+    for r in range(min(r0, r1, r2), max(r0, r1, r2) + 1):
+        for c in range(min(c0, c1, c2), max(c0, c1, c2) + 1):
+            w0 = (r2 - r1) * (c - c1) - (c2 - c1) * (r - r1)
+            w1 = (r0 - r2) * (c - c2) - (c0 - c2) * (r - r2)
+            w2 = (r1 - r0) * (c - c0) - (c1 - c0) * (r - r0)
+            if area > 0:
+                if w0 < 0 or w1 < 0 or w2 < 0:
+                    continue
+            elif w0 > 0 or w1 > 0 or w2 > 0:
+                continue
+            value = (w0 * h0 + w1 * h1 + w2 * h2) / area
+            if mode == 0:
+                e = abs(heights[r, c] - value)
+                if e > worst:
+                    worst = e
+            else:
+                out[r, c] = value
+    return worst
+
+
+@njit(cache=True)
+def tile_statistics(heights, patch, stride, local):
+    """Per tile of one level: (error, hmin, hmax), each (m, m) float64, m = (N-1)/(patch*stride).
+
+    heights : (N, N) float64 full-resolution samples
+    local   : (K, 3, 2) int64 (row, col) template corners in local grid units
+    error is the largest vertical distance between any sample of the tile and any of the K
+    triangles covering it (exact for the piecewise-linear surfaces: both are linear on every
+    full-resolution triangle, so the maximum is at a sample).
+    """
+    span = patch * stride
+    m = (heights.shape[0] - 1) // span
+    error = np.zeros((m, m))
+    hmin = np.zeros((m, m))
+    hmax = np.zeros((m, m))
+    dummy = np.zeros((1, 1))
+    for ti in range(m):
+        for tj in range(m):
+            r_org, c_org = ti * span, tj * span
+            lo, hi = heights[r_org, c_org], heights[r_org, c_org]
+            for r in range(r_org, r_org + span + 1):
+                for c in range(c_org, c_org + span + 1):
+                    v = heights[r, c]
+                    lo = min(lo, v)
+                    hi = max(hi, v)
+            hmin[ti, tj], hmax[ti, tj] = lo, hi
+            worst = 0.0
+            for k in range(local.shape[0]):
+                r0 = r_org + local[k, 0, 0] * stride
+                c0 = c_org + local[k, 0, 1] * stride
+                r1 = r_org + local[k, 1, 0] * stride
+                c1 = c_org + local[k, 1, 1] * stride
+                r2 = r_org + local[k, 2, 0] * stride
+                c2 = c_org + local[k, 2, 1] * stride
+                e = _scan(heights, r0, c0, r1, c1, r2, c2, heights[r0, c0], heights[r1, c1],
+                          heights[r2, c2], dummy, 0)
+                worst = max(worst, e)
+            error[ti, tj] = worst
+    return error, hmin, hmax
+
+
+@njit(cache=True)
+def _lod_heights(heights, rows, cols, sides, tris, starts, out):
+    for t in range(rows.shape[0]):
+        s = sides[t]
+        for k in range(starts[s], starts[s + 1]):
+            a, b, c = tris[k, 0], tris[k, 1], tris[k, 2]
+            r0, c0 = rows[t, a], cols[t, a]
+            r1, c1 = rows[t, b], cols[t, b]
+            r2, c2 = rows[t, c], cols[t, c]
+            _scan(heights, r0, c0, r1, c1, r2, c2, heights[r0, c0], heights[r1, c1],
+                  heights[r2, c2], out, 1)
+
+
+def lod_heights(heights, rows, cols, sides, templates) -> np.ndarray:
+    """(N, N) float64 drawn-surface height at every sample (NaN where no tile is drawn).
+
+    rows, cols : (K, V) int64 sample coordinates of each drawn tile's local vertices
+    sides      : (K,) int64 template index per tile; templates: list of (T, 3) int32
+    """
+    out = np.full(heights.shape, np.nan)
+    starts = np.r_[0, np.cumsum([len(t) for t in templates])].astype(np.int64)
+    tris = np.concatenate(templates).astype(np.int64)
+    _lod_heights(heights, np.ascontiguousarray(rows), np.ascontiguousarray(cols),
+                 np.asarray(sides, np.int64), tris, starts, out)
+    return out

@@ -1,0 +1,265 @@
+"""Tile quadtree with a screen-space error in pixels (seed 002, Rodrigues 2016), ES 1.1 form.
+
+Instead of tessellating patches on the GPU, each quadtree tile is drawn from pre-built LODs: a
+tile at level l covers P * 2^(L-l) cells with a (P+1)^2 vertex grid at stride 2^(L-l); P is the
+patch size. A tile is refined while rho = lambda_b * E / d > tau (pixels), with E the tile's
+nested vertical error, d the distance from the eye to the tile's box and lambda_b the seed's
+lambda = w / (2 tan(theta/2)) times the off-axis factor 1 + tan^2(hx) + tan^2(hy), so that the
+bound holds at the screen corners too (the seed's plain lambda is exact only on the axis).
+
+Crack-free edges: neighbouring leaves differ by at most one level (a fine-to-coarse balancing
+pass), and a leaf next to a coarser one drops every other vertex of that edge by snapping it
+onto the even vertex before it (16 pre-built index templates, one per set of reduced sides),
+so both tiles draw exactly the coarse edge: the seed's n_outer = n_max / 2^delta with
+delta <= 1. E covers every template (it is measured on the union of their triangles against
+every full-resolution sample) and is nested (a parent's E is at least its children's), so
+balancing, which only refines, never breaks the bound.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry.planes import classify_boxes
+from .heightmap import Heightmap
+from .mesh import grid_triangles
+from .raster import lod_heights, tile_statistics
+
+# Side bits of a template: which edges are reduced to every other vertex.
+ROW0, COLP, ROWP, COL0 = 1, 2, 4, 8
+
+
+def pixel_scale(camera, resolution) -> tuple:
+    """(lambda, lambda_bound): pixels per unit at unit distance, and the strict off-axis bound.
+
+    lambda = h / (2 tan(fov_y / 2)) (= w / (2 tan(fov_x / 2)) for square pixels). A segment of
+    length E anywhere in the frustum at distance >= d from the eye projects to at most
+    lambda_bound * E / d pixels (errs high by up to the off-axis factor on the axis).
+    """
+    ty = np.tan(np.radians(camera.fov) / 2.0)
+    tx = ty * camera.aspect
+    lam = resolution[1] / (2.0 * ty)
+    return lam, lam * (1.0 + tx * tx + ty * ty)
+
+
+def template(patch: int, sides: int) -> np.ndarray:
+    """(T, 3) int32 triangles over a (patch+1)^2 local grid with the `sides` edges halved.
+
+    Vertices on a reduced side snap to the even vertex at or before them; triangles that
+    collapse are dropped. Counter-clockwise from +y, no overlaps, and the union covers the
+    tile (checked in the tests).
+    """
+    n = patch + 1
+    a, b = np.divmod(np.arange(n * n), n)  # row, column of each local vertex
+    sa, sb = a.copy(), b.copy()
+    if sides & ROW0:
+        sb = np.where(a == 0, sb - sb % 2, sb)
+    if sides & ROWP:
+        sb = np.where(a == patch, sb - sb % 2, sb)
+    if sides & COL0:
+        sa = np.where(b == 0, sa - sa % 2, sa)
+    if sides & COLP:
+        sa = np.where(b == patch, sa - sa % 2, sa)
+    remap = sa * n + sb
+    tris = remap[grid_triangles(patch)]
+    keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
+    return tris[keep].astype(np.int32)
+
+
+@dataclass
+class TilePyramid:
+    """Per-level tile statistics of one heightmap for one patch size.
+
+    patch        : P, cells per tile side (power of two, <= N - 1)
+    levels       : L, so the finest tiles (level L) have stride 1; level l has 2^l x 2^l tiles
+    error[l]     : (2^l, 2^l) float64 nested vertical error E (world units)
+    hmin, hmax   : per level (2^l, 2^l) float64 height range of each tile's footprint
+    templates    : 16 (T_k, 3) int32 local triangle lists, indexed by side bits
+    build_seconds: time to compute the statistics
+    """
+
+    heightmap: Heightmap
+    patch: int
+    levels: int
+    error: list
+    hmin: list
+    hmax: list
+    templates: list
+    build_seconds: float
+
+    @classmethod
+    def build(cls, heightmap: Heightmap, patch: int = 16) -> "TilePyramid":
+        cells = heightmap.size - 1
+        if patch < 2 or patch & (patch - 1) or patch > cells:
+            raise ValueError(f"patch must be a power of two in [2, {cells}], got {patch}")
+        levels = (cells // patch).bit_length() - 1
+        start = time.perf_counter()
+        templates = [template(patch, sides) for sides in range(16)]
+        union = np.unique(np.sort(np.concatenate(templates), axis=1), axis=0)
+        n = patch + 1
+        local = np.stack(np.divmod(union, n), axis=-1).astype(np.int64)  # (K, 3, 2) row, col
+        heights = heightmap.heights.astype(np.float64)
+        error, hmin, hmax = [], [], []
+        for level in range(levels + 1):
+            stride = 1 << (levels - level)
+            e, lo, hi = tile_statistics(heights, patch, stride, local)
+            error.append(e)
+            hmin.append(lo)
+            hmax.append(hi)
+        for level in range(levels - 1, -1, -1):  # nest: a parent bounds its children
+            child = error[level + 1]
+            k = child.shape[0] // 2
+            error[level] = np.maximum(error[level], child.reshape(k, 2, k, 2).max(axis=(1, 3)))
+        return cls(heightmap, patch, levels, error, hmin, hmax, templates,
+                   time.perf_counter() - start)
+
+    def tile_boxes(self, level: int, ti, tj) -> np.ndarray:
+        """(K, 2, 3) float64 world boxes of tiles (level, ti, tj)."""
+        size = self.patch * (1 << (self.levels - level)) * self.heightmap.spacing
+        x0, z0 = np.asarray(tj) * size, np.asarray(ti) * size
+        low = np.stack([x0, self.hmin[level][ti, tj], z0], axis=-1)
+        high = np.stack([x0 + size, self.hmax[level][ti, tj], z0 + size], axis=-1)
+        return np.stack([low, high], axis=1)
+
+
+@dataclass
+class TileSelection:
+    """Drawn tiles of one frame.
+
+    level, ti, tj : (K,) int64 tile ids (level, row, column)
+    sides         : (K,) int64 template index (reduced-side bits)
+    triangles     : int, triangles the tiles draw
+    leaves        : int, leaves of the balanced quadtree (drawn or culled)
+    tested        : int, tiles whose box was tested against the frustum
+    """
+
+    level: np.ndarray
+    ti: np.ndarray
+    tj: np.ndarray
+    sides: np.ndarray
+    triangles: int
+    leaves: int
+    tested: int
+
+
+def _dilate(mask: np.ndarray) -> np.ndarray:
+    out = mask.copy()
+    out[1:] |= mask[:-1]
+    out[:-1] |= mask[1:]
+    out[:, 1:] |= mask[:, :-1]
+    out[:, :-1] |= mask[:, 1:]
+    return out
+
+
+def _block_any(mask: np.ndarray) -> np.ndarray:
+    k = mask.shape[0] // 2
+    return mask.reshape(k, 2, k, 2).any(axis=(1, 3))
+
+
+def _up(mask: np.ndarray) -> np.ndarray:
+    return np.repeat(np.repeat(mask, 2, axis=0), 2, axis=1)
+
+
+def _distances(eye, boxes) -> np.ndarray:
+    """(K,) float64 Euclidean distance from eye to each box (0 inside)."""
+    nearest = np.clip(eye, boxes[:, 0], boxes[:, 1])
+    return np.linalg.norm(nearest - eye, axis=1)
+
+
+def select_tiles(pyramid: TilePyramid, camera, resolution, tau: float,
+                 cull: bool = True) -> TileSelection:
+    """Tiles to draw for camera at a pixel tolerance tau (seed 002's TRAVERSE, balanced).
+
+    Contract: every full-resolution sample inside the frustum lies on a drawn tile whose
+    surface is within tau pixels of it vertically (the bound errs high: it assumes the worst
+    direction and the nearest point of the box). cull=False draws tiles outside the frustum too.
+    """
+    levels = pyramid.levels
+    _, lam = pixel_scale(camera, resolution)
+    planes = camera.frustum_planes()
+    eye = camera.eye
+    split = [np.zeros((1 << l, 1 << l), dtype=bool) for l in range(levels + 1)]
+    ti = tj = np.zeros(1, dtype=np.int64)
+    tested = 0
+    for level in range(levels):
+        boxes = pyramid.tile_boxes(level, ti, tj)
+        tested += len(ti)
+        visible = ~classify_boxes(boxes, planes)[0] if cull else np.ones(len(ti), bool)
+        refine = visible & (lam * pyramid.error[level][ti, tj] > tau * _distances(eye, boxes))
+        ti, tj = ti[refine], tj[refine]
+        split[level][ti, tj] = True
+        ti = (2 * ti[:, None] + np.array([0, 0, 1, 1])).ravel()
+        tj = (2 * tj[:, None] + np.array([0, 1, 0, 1])).ravel()
+    # Balance fine to coarse: a split tile's four edge neighbours must exist (their parents
+    # split), so adjacent leaves differ by at most one level. One pass suffices: splitting at
+    # level l-1 only creates leaves at level l, which need nothing further.
+    for level in range(levels - 1, 0, -1):
+        split[level - 1] |= _block_any(_dilate(split[level]))
+    present = [np.ones((1, 1), dtype=bool)] + [_up(split[l]) for l in range(levels)]
+    out_level, out_i, out_j, out_sides, leaves = [], [], [], [], 0
+    for level in range(levels + 1):
+        leaf = present[level] & ~split[level]
+        i, j = np.nonzero(leaf)
+        leaves += len(i)
+        if cull and len(i):
+            boxes = pyramid.tile_boxes(level, i, j)
+            tested += len(i)
+            keep = ~classify_boxes(boxes, planes)[0]
+            i, j = i[keep], j[keep]
+        # A side is reduced when the same-level neighbour across it does not exist (it is
+        # covered by a coarser leaf); the terrain's border is never reduced.
+        here = present[level]
+        m = here.shape[0]
+        sides = np.zeros(len(i), dtype=np.int64)
+        sides |= np.where((i > 0) & ~here[np.maximum(i - 1, 0), j], ROW0, 0)
+        sides |= np.where((i < m - 1) & ~here[np.minimum(i + 1, m - 1), j], ROWP, 0)
+        sides |= np.where((j > 0) & ~here[i, np.maximum(j - 1, 0)], COL0, 0)
+        sides |= np.where((j < m - 1) & ~here[i, np.minimum(j + 1, m - 1)], COLP, 0)
+        out_level.append(np.full(len(i), level, dtype=np.int64))
+        out_i.append(i.astype(np.int64))
+        out_j.append(j.astype(np.int64))
+        out_sides.append(sides)
+    sides = np.concatenate(out_sides)
+    counts = np.array([len(t) for t in pyramid.templates])
+    return TileSelection(np.concatenate(out_level), np.concatenate(out_i), np.concatenate(out_j),
+                         sides, int(counts[sides].sum()), leaves, tested)
+
+
+def full_selection(pyramid: TilePyramid, camera=None) -> TileSelection:
+    """Every finest tile (the full-resolution mesh), frustum-culled when a camera is given."""
+    m = 1 << pyramid.levels
+    i, j = np.divmod(np.arange(m * m, dtype=np.int64), m)
+    tested = 0
+    if camera is not None:
+        boxes = pyramid.tile_boxes(pyramid.levels, i, j)
+        keep = ~classify_boxes(boxes, camera.frustum_planes())[0]
+        tested = len(i)
+        i, j = i[keep], j[keep]
+    sides = np.zeros(len(i), dtype=np.int64)
+    return TileSelection(np.full(len(i), pyramid.levels, dtype=np.int64), i, j, sides,
+                         int(len(i) * len(pyramid.templates[0])), m * m, tested)
+
+
+def selection_mesh(pyramid: TilePyramid, selection: TileSelection) -> tuple:
+    """Grid coordinates and triangles of a selection.
+
+    Returns (rows (K, V) int64, cols (K, V) int64 sample coordinates of each tile's
+    V = (P+1)^2 local vertices, triangles list of K (T_k, 3) int32 local index arrays).
+    """
+    n = pyramid.patch + 1
+    a, b = np.divmod(np.arange(n * n), n)
+    stride = (1 << (pyramid.levels - selection.level))[:, None]
+    origin_r = (selection.ti * pyramid.patch)[:, None] * stride
+    origin_c = (selection.tj * pyramid.patch)[:, None] * stride
+    rows = origin_r + a[None] * stride
+    cols = origin_c + b[None] * stride
+    return rows, cols, [pyramid.templates[s] for s in selection.sides]
+
+
+def selection_heights(pyramid: TilePyramid, selection: TileSelection) -> np.ndarray:
+    """(N, N) float64 height of the drawn surface at every sample (NaN where nothing is drawn)."""
+    rows, cols, _ = selection_mesh(pyramid, selection)
+    return lod_heights(pyramid.heightmap.heights.astype(np.float64), rows, cols,
+                       selection.sides, pyramid.templates)
