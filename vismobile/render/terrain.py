@@ -80,9 +80,40 @@ class TerrainRenderer:
     def draw(self, rows, cols, triangles, camera, kind="shaded", clear=True) -> DrawStats:
         """Draw K tiles: rows/cols (K, V) sample coordinates, triangles K local (T_k, 3) lists.
 
-        kind "shaded" (RGB) or "item" (ids: triangle index in draw order, + first id 0).
-        render_ms covers vertex gathering, uploads, draws and glFinish.
+        kind "shaded" (RGB) or "item" (ids: triangle index in draw order). Whole tiles go into
+        batches of at most 65,535 vertices. render_ms covers vertex gathering, uploads, draws
+        and glFinish.
         """
+        per_tile = rows.shape[1] if len(rows) else 1
+        tiles_per_batch = max(1, MAX_INDEX_VERTICES // per_tile)
+
+        def batches():
+            for b0 in range(0, len(rows), tiles_per_batch):
+                b1 = min(b0 + tiles_per_batch, len(rows))
+                counts = np.array([len(t) for t in triangles[b0:b1]])
+                if not counts.sum():
+                    continue
+                offsets = np.repeat(np.arange(b1 - b0) * per_tile, counts)
+                indices = np.concatenate(triangles[b0:b1]) + offsets[:, None]
+                yield rows[b0:b1], cols[b0:b1], indices
+
+        return self._render(batches, camera, kind, clear)
+
+    def draw_samples(self, triangles, camera, kind="shaded", clear=True) -> DrawStats:
+        """Draw (T, 3) triangles given as sample ids (row * N + col), three corners each, in
+        batches of 21,845 triangles (65,535 vertices)."""
+        triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+        step = MAX_INDEX_VERTICES // 3
+
+        def batches():
+            for t0 in range(0, len(triangles), step):
+                part = triangles[t0:t0 + step].ravel()
+                rows, cols = np.divmod(part, self.heightmap.size)
+                yield rows, cols, np.arange(len(part)).reshape(-1, 3)
+
+        return self._render(batches, camera, kind, clear)
+
+    def _render(self, batches, camera, kind, clear) -> DrawStats:
         ctx = gl_context()
         target = render_target(self.profile.resolution, "rgb" if kind == "shaded" else "ids")
         ctx.finish()
@@ -101,17 +132,10 @@ class TerrainRenderer:
         prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
         if kind == "shaded":
             _set_lights(prog)
-        per_tile = rows.shape[1] if len(rows) else 1
-        tiles_per_batch = max(1, MAX_INDEX_VERTICES // per_tile)
-        batches, drawn, first_id = 0, 0, 0
-        for b0 in range(0, len(rows), tiles_per_batch):
-            b1 = min(b0 + tiles_per_batch, len(rows))
-            records = terrain_vertices(self.heightmap, rows[b0:b1], cols[b0:b1])
-            counts = np.array([len(t) for t in triangles[b0:b1]])
-            if not counts.sum():
-                continue
-            offsets = np.repeat(np.arange(b1 - b0) * per_tile, counts)
-            indices = (np.concatenate(triangles[b0:b1]) + offsets[:, None]).astype(np.uint16)
+        count, drawn, first_id = 0, 0, 0
+        for rows, cols, indices in batches():
+            records = terrain_vertices(self.heightmap, rows, cols)
+            indices = indices.astype(np.uint16)
             vbo = ctx.buffer(records.tobytes())
             ibo = ctx.buffer(indices.tobytes())
             if kind == "shaded":
@@ -125,12 +149,12 @@ class TerrainRenderer:
             vao.render(vertices=indices.size)
             first_id += len(indices)
             drawn += len(indices)
-            batches += 1
+            count += 1
             vao.release()
             vbo.release()
             ibo.release()
         ctx.finish()
-        return DrawStats((time.perf_counter() - start) * 1000.0, batches, drawn)
+        return DrawStats((time.perf_counter() - start) * 1000.0, count, drawn)
 
     def read_rgb(self) -> np.ndarray:
         """(H, W, 3) uint8 image of the last shaded draw, row 0 = top."""

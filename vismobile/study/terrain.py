@@ -79,39 +79,105 @@ def image_error(reference, image) -> dict:
     return {"psnr": psnr, "differing": float((diff != 0).any(axis=-1).mean())}
 
 
-def measure_tiles(pyramid, cameras, taus, profile, exact_vertices: bool = False) -> list:
-    """One row per (camera, tau): the tile quadtree against the full render.
+class TileMethod:
+    """Seed 002's tile quadtree as a measurable method."""
 
-    Row keys: frame, tau, triangles, full_triangles, tiles, lod_ms, render_ms, psnr, differing,
-    pixel_height_max, pixel_height_p99 (and vertex_error_max when exact_vertices).
-    """
+    name = "tiles"
+
+    def __init__(self, pyramid):
+        self.pyramid = pyramid
+
+    def frame(self, camera, resolution, tau) -> tuple:
+        """(result, lod_ms, triangles) for one frame."""
+        from ..terrain.tiles import select_tiles
+
+        start = time.perf_counter()
+        selection = select_tiles(self.pyramid, camera, resolution, tau)
+        return selection, (time.perf_counter() - start) * 1000.0, selection.triangles
+
+    def draw(self, renderer, selection, camera):
+        from ..terrain.tiles import selection_mesh
+
+        return renderer.draw(*selection_mesh(self.pyramid, selection), camera)
+
+    def heights(self, selection) -> np.ndarray:
+        from ..terrain.tiles import selection_heights
+
+        return selection_heights(self.pyramid, selection)
+
+
+class RoettgerMethod:
+    """Seed 000's Röttger CLOD as a measurable method (frame-to-frame state is kept)."""
+
+    name = "roettger"
+
+    def __init__(self, roettger):
+        self.roettger = roettger
+
+    def frame(self, camera, resolution, tau) -> tuple:
+        result = self.roettger.update(camera, resolution, tau)
+        return result, result.lod_ms, len(result.triangles)
+
+    def draw(self, renderer, result, camera):
+        return renderer.draw_samples(result.triangles, camera)
+
+    def heights(self, result) -> np.ndarray:
+        from ..terrain.raster import triangle_heights
+
+        return triangle_heights(self.roettger.heightmap.heights.astype(np.float64),
+                                result.triangles)
+
+
+def reference_images(pyramid, cameras, profile) -> tuple:
+    """(images, triangles): the full-resolution render of every camera (frustum-culled tiles
+    at stride 1) and its triangle counts."""
     from ..render.terrain import TerrainRenderer
-    from ..terrain.tiles import full_selection, select_tiles, selection_heights, selection_mesh
+    from ..terrain.tiles import full_selection, selection_mesh
 
-    heightmap = pyramid.heightmap
-    renderer = TerrainRenderer(heightmap, profile)
-    resolution = profile.resolution
-    rows = []
-    for frame, camera in enumerate(cameras):
+    renderer = TerrainRenderer(pyramid.heightmap, profile)
+    images, counts = [], []
+    for camera in cameras:
         full = full_selection(pyramid, camera)
         renderer.draw(*selection_mesh(pyramid, full), camera)
-        reference = renderer.read_rgb()
+        images.append(renderer.read_rgb())
+        counts.append(full.triangles)
+    return images, counts
+
+
+def measure(methods, pyramid, cameras, taus, profile, exact_vertices: bool = False,
+            render: bool = True) -> list:
+    """One row per (method, tau, camera) against the full render of the heightmap.
+
+    Cameras run in order for each (method, tau), so frame-to-frame methods see a path.
+    Row keys: method, tau, frame, triangles, full_triangles, lod_ms, render_ms, psnr,
+    differing, pixel_height_max, pixel_height_p99 (vertex_error_max with exact_vertices;
+    render=False skips the renders and image errors).
+    """
+    from ..render.terrain import TerrainRenderer
+
+    heightmap = pyramid.heightmap
+    resolution = profile.resolution
+    references, full_counts = reference_images(pyramid, cameras, profile) if render else \
+        (None, [None] * len(cameras))
+    renderer = TerrainRenderer(heightmap, profile)
+    rows = []
+    for method in methods:
         for tau in taus:
-            start = time.perf_counter()
-            selection = select_tiles(pyramid, camera, resolution, tau)
-            lod_ms = (time.perf_counter() - start) * 1000.0
-            stats = renderer.draw(*selection_mesh(pyramid, selection), camera)
-            image = renderer.read_rgb()
-            gaps = pixel_height_errors(renderer.read_depth(), camera, heightmap, resolution)
-            row = {"frame": frame, "tau": tau, "triangles": selection.triangles,
-                   "full_triangles": full.triangles, "tiles": len(selection.level),
-                   "lod_ms": lod_ms, "render_ms": stats.render_ms,
-                   **image_error(reference, image),
-                   "pixel_height_max": float(gaps.max()) if len(gaps) else 0.0,
-                   "pixel_height_p99": float(np.percentile(gaps, 99)) if len(gaps) else 0.0}
-            if exact_vertices:
-                errors = vertex_errors(heightmap, selection_heights(pyramid, selection),
-                                       camera, resolution)
-                row["vertex_error_max"] = float(errors.max()) if len(errors) else 0.0
-            rows.append(row)
+            for frame, camera in enumerate(cameras):
+                result, lod_ms, triangles = method.frame(camera, resolution, tau)
+                row = {"method": method.name, "tau": tau, "frame": frame,
+                       "triangles": triangles, "full_triangles": full_counts[frame],
+                       "lod_ms": lod_ms}
+                if render:
+                    stats = method.draw(renderer, result, camera)
+                    gaps = pixel_height_errors(renderer.read_depth(), camera, heightmap,
+                                               resolution)
+                    row.update(render_ms=stats.render_ms,
+                               **image_error(references[frame], renderer.read_rgb()),
+                               pixel_height_max=float(gaps.max()) if len(gaps) else 0.0,
+                               pixel_height_p99=float(np.percentile(gaps, 99)) if len(gaps) else 0.0)
+                if exact_vertices:
+                    errors = vertex_errors(heightmap, method.heights(result), camera, resolution)
+                    row["vertex_error_max"] = float(errors.max()) if len(errors) else 0.0
+                rows.append(row)
     return rows

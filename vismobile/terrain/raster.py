@@ -104,3 +104,22 @@ def lod_heights(heights, rows, cols, sides, templates) -> np.ndarray:
     _lod_heights(heights, np.ascontiguousarray(rows), np.ascontiguousarray(cols),
                  np.asarray(sides, np.int64), tris, starts, out)
     return out
+
+
+@njit(cache=True)
+def _triangle_heights(heights, tris, out):
+    n = heights.shape[0]
+    for t in range(tris.shape[0]):
+        r0, c0 = tris[t, 0] // n, tris[t, 0] % n
+        r1, c1 = tris[t, 1] // n, tris[t, 1] % n
+        r2, c2 = tris[t, 2] // n, tris[t, 2] % n
+        _scan(heights, r0, c0, r1, c1, r2, c2, heights[r0, c0], heights[r1, c1],
+              heights[r2, c2], out, 1)
+
+
+def triangle_heights(heights, triangles) -> np.ndarray:
+    """(N, N) float64 drawn-surface height at every sample of triangles given as sample ids
+    (row * N + col), NaN where none is drawn."""
+    out = np.full(heights.shape, np.nan)
+    _triangle_heights(heights, np.ascontiguousarray(triangles, dtype=np.int64), out)
+    return out

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.planes import classify_boxes
+from . import quadtree
 from .heightmap import Heightmap
 from .mesh import grid_triangles
 from .raster import lod_heights, tile_statistics
@@ -89,6 +90,19 @@ class TilePyramid:
     templates: list
     build_seconds: float
 
+    def __post_init__(self):
+        self.offsets = quadtree.level_offsets(self.levels)
+        self.flat_error = np.concatenate([e.ravel() for e in self.error])
+        self.flat_hmin = np.concatenate([e.ravel() for e in self.hmin])
+        self.flat_hmax = np.concatenate([e.ravel() for e in self.hmax])
+        self.template_counts = np.array([len(t) for t in self.templates])
+        # Per-frame state of select_tiles (stamps: nothing is cleared between frames).
+        self.stamp = np.zeros(self.offsets[-1], np.int64)
+        self.lists = np.zeros(self.offsets[-1], np.int64)
+        self.counts = np.zeros(self.levels + 1, np.int64)
+        self.out = np.zeros((4 ** self.levels, 4), np.int64)
+        self.frame = 0
+
     @classmethod
     def build(cls, heightmap: Heightmap, patch: int = 16) -> "TilePyramid":
         cells = heightmap.size - 1
@@ -144,30 +158,6 @@ class TileSelection:
     tested: int
 
 
-def _dilate(mask: np.ndarray) -> np.ndarray:
-    out = mask.copy()
-    out[1:] |= mask[:-1]
-    out[:-1] |= mask[1:]
-    out[:, 1:] |= mask[:, :-1]
-    out[:, :-1] |= mask[:, 1:]
-    return out
-
-
-def _block_any(mask: np.ndarray) -> np.ndarray:
-    k = mask.shape[0] // 2
-    return mask.reshape(k, 2, k, 2).any(axis=(1, 3))
-
-
-def _up(mask: np.ndarray) -> np.ndarray:
-    return np.repeat(np.repeat(mask, 2, axis=0), 2, axis=1)
-
-
-def _distances(eye, boxes) -> np.ndarray:
-    """(K,) float64 Euclidean distance from eye to each box (0 inside)."""
-    nearest = np.clip(eye, boxes[:, 0], boxes[:, 1])
-    return np.linalg.norm(nearest - eye, axis=1)
-
-
 def select_tiles(pyramid: TilePyramid, camera, resolution, tau: float,
                  cull: bool = True) -> TileSelection:
     """Tiles to draw for camera at a pixel tolerance tau (seed 002's TRAVERSE, balanced).
@@ -176,55 +166,22 @@ def select_tiles(pyramid: TilePyramid, camera, resolution, tau: float,
     surface is within tau pixels of it vertically (the bound errs high: it assumes the worst
     direction and the nearest point of the box). cull=False draws tiles outside the frustum too.
     """
-    levels = pyramid.levels
     _, lam = pixel_scale(camera, resolution)
     planes = camera.frustum_planes()
-    eye = camera.eye
-    split = [np.zeros((1 << l, 1 << l), dtype=bool) for l in range(levels + 1)]
-    ti = tj = np.zeros(1, dtype=np.int64)
-    tested = 0
-    for level in range(levels):
-        boxes = pyramid.tile_boxes(level, ti, tj)
-        tested += len(ti)
-        visible = ~classify_boxes(boxes, planes)[0] if cull else np.ones(len(ti), bool)
-        refine = visible & (lam * pyramid.error[level][ti, tj] > tau * _distances(eye, boxes))
-        ti, tj = ti[refine], tj[refine]
-        split[level][ti, tj] = True
-        ti = (2 * ti[:, None] + np.array([0, 0, 1, 1])).ravel()
-        tj = (2 * tj[:, None] + np.array([0, 1, 0, 1])).ravel()
-    # Balance fine to coarse: a split tile's four edge neighbours must exist (their parents
-    # split), so adjacent leaves differ by at most one level. One pass suffices: splitting at
-    # level l-1 only creates leaves at level l, which need nothing further.
-    for level in range(levels - 1, 0, -1):
-        split[level - 1] |= _block_any(_dilate(split[level]))
-    present = [np.ones((1, 1), dtype=bool)] + [_up(split[l]) for l in range(levels)]
-    out_level, out_i, out_j, out_sides, leaves = [], [], [], [], 0
-    for level in range(levels + 1):
-        leaf = present[level] & ~split[level]
-        i, j = np.nonzero(leaf)
-        leaves += len(i)
-        if cull and len(i):
-            boxes = pyramid.tile_boxes(level, i, j)
-            tested += len(i)
-            keep = ~classify_boxes(boxes, planes)[0]
-            i, j = i[keep], j[keep]
-        # A side is reduced when the same-level neighbour across it does not exist (it is
-        # covered by a coarser leaf); the terrain's border is never reduced.
-        here = present[level]
-        m = here.shape[0]
-        sides = np.zeros(len(i), dtype=np.int64)
-        sides |= np.where((i > 0) & ~here[np.maximum(i - 1, 0), j], ROW0, 0)
-        sides |= np.where((i < m - 1) & ~here[np.minimum(i + 1, m - 1), j], ROWP, 0)
-        sides |= np.where((j > 0) & ~here[i, np.maximum(j - 1, 0)], COL0, 0)
-        sides |= np.where((j < m - 1) & ~here[i, np.minimum(j + 1, m - 1)], COLP, 0)
-        out_level.append(np.full(len(i), level, dtype=np.int64))
-        out_i.append(i.astype(np.int64))
-        out_j.append(j.astype(np.int64))
-        out_sides.append(sides)
-    sides = np.concatenate(out_sides)
-    counts = np.array([len(t) for t in pyramid.templates])
-    return TileSelection(np.concatenate(out_level), np.concatenate(out_i), np.concatenate(out_j),
-                         sides, int(counts[sides].sum()), leaves, tested)
+    pyramid.frame += 1
+    cells = pyramid.heightmap.size - 1
+    spacing = pyramid.heightmap.spacing
+    tested = quadtree.refine(cells, spacing, pyramid.flat_hmin, pyramid.flat_error,
+                             pyramid.flat_hmin, pyramid.flat_hmax, pyramid.offsets,
+                             pyramid.levels, pyramid.stamp, pyramid.frame, camera.eye, planes,
+                             quadtree.BOUND, lam, float(tau), cull, pyramid.lists, pyramid.counts)
+    count, total = quadtree.leaves(cells, spacing, pyramid.flat_hmin, pyramid.flat_hmax,
+                                   pyramid.offsets, pyramid.levels, pyramid.stamp, pyramid.frame,
+                                   planes, cull, pyramid.out)
+    rows = pyramid.out[:count]
+    return TileSelection(rows[:, 0].copy(), rows[:, 1].copy(), rows[:, 2].copy(),
+                         rows[:, 3].copy(), int(pyramid.template_counts[rows[:, 3]].sum()),
+                         int(total), int(tested))
 
 
 def full_selection(pyramid: TilePyramid, camera=None) -> TileSelection:

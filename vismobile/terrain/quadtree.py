@@ -1,0 +1,168 @@
+"""Per-frame quadtree refinement shared by the tile and Röttger methods (numba kernels).
+
+Nodes are squares of a (2^n+1)^2 heightmap: node (l, bi, bj) spans s = cells >> l cells from
+(bi*s, bj*s); level l has 4^l nodes stored at offsets[l] + bi * 2^l + bj of flat per-node
+arrays. Frame state is a stamp per node: subdivided in frame F when stamp == F, so nothing is
+cleared between frames. After refinement, balancing makes every subdivided node's four edge
+neighbours exist, so neighbouring leaves differ by at most one level.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+ROETTGER, BOUND = 0, 1  # refinement criteria
+
+
+def level_offsets(levels: int) -> np.ndarray:
+    """(levels + 2,) int64 start of each level's nodes in flat arrays (4^l nodes per level)."""
+    return np.r_[0, np.cumsum(4 ** np.arange(levels + 1))].astype(np.int64)
+
+
+@njit(cache=True, inline="always")
+def box_visible(planes, x0, y0, z0, x1, y1, z1):
+    """False only if the box is entirely outside one plane (errs visible)."""
+    for p in range(planes.shape[0]):
+        px = x1 if planes[p, 0] >= 0 else x0
+        py = y1 if planes[p, 1] >= 0 else y0
+        pz = z1 if planes[p, 2] >= 0 else z0
+        if planes[p, 0] * px + planes[p, 1] * py + planes[p, 2] * pz + planes[p, 3] < 0:
+            return False
+    return True
+
+
+@njit(cache=True)
+def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, stamp, frame,
+           eye, planes, mode, a, b, cull, lists, counts):
+    """Top-down refinement, then balancing.
+
+    mode ROETTGER: refine while l1(eye, centre) < d * a * max(b * error, 1) (a = C, b = c,
+      error = d2); mode BOUND: refine while a * error > b * dist(eye, box) (a = lambda, b = tau).
+    Nodes outside the frustum are not refined when cull. lists gets level l's subdivided nodes
+    at lists[offsets[l]:offsets[l] + counts[l]]. Returns the nodes whose criterion ran.
+    """
+    for l in range(levels + 1):
+        counts[l] = 0
+    stack = np.empty((4 * (levels + 2), 3), np.int64)
+    stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, 0
+    top = 1
+    tested = 0
+    while top > 0:
+        top -= 1
+        l, bi, bj = stack[top, 0], stack[top, 1], stack[top, 2]
+        if l == levels:
+            continue
+        m = 1 << l
+        index = offsets[l] + bi * m + bj
+        s = cells >> l
+        x0, z0 = bj * s * spacing, bi * s * spacing
+        x1, z1 = x0 + s * spacing, z0 + s * spacing
+        tested += 1
+        if cull and not box_visible(planes, x0, hmin[index], z0, x1, hmax[index], z1):
+            continue
+        if mode == ROETTGER:
+            cx, cz = 0.5 * (x0 + x1), 0.5 * (z0 + z1)
+            l1 = abs(eye[0] - cx) + abs(eye[1] - centre_heights[index]) + abs(eye[2] - cz)
+            d = s * spacing
+            split = l1 < d * a * max(b * error[index], 1.0)
+        else:
+            dx = max(x0 - eye[0], 0.0, eye[0] - x1)
+            dy = max(hmin[index] - eye[1], 0.0, eye[1] - hmax[index])
+            dz = max(z0 - eye[2], 0.0, eye[2] - z1)
+            split = a * error[index] > b * np.sqrt(dx * dx + dy * dy + dz * dz)
+        if split:
+            stamp[index] = frame
+            lists[offsets[l] + counts[l]] = bi * m + bj
+            counts[l] += 1
+            for k in range(4):
+                stack[top, 0] = l + 1
+                stack[top, 1] = 2 * bi + (k >> 1)
+                stack[top, 2] = 2 * bj + (k & 1)
+                top += 1
+    # Balance, fine to coarse: a subdivided node and its edge neighbours must exist (their
+    # parents subdivided). Splitting at level l-1 only adds leaves at level l, so one pass.
+    for l in range(levels - 1, 0, -1):
+        m = 1 << l
+        pm = m >> 1
+        k = 0
+        while k < counts[l]:
+            node = lists[offsets[l] + k]
+            bi, bj = node // m, node % m
+            k += 1
+            for q in range(5):
+                ni, nj = bi, bj
+                if q == 1:
+                    ni += 1
+                elif q == 2:
+                    ni -= 1
+                elif q == 3:
+                    nj += 1
+                elif q == 4:
+                    nj -= 1
+                if ni < 0 or nj < 0 or ni >= m or nj >= m:
+                    continue
+                parent = (ni >> 1) * pm + (nj >> 1)
+                if stamp[offsets[l - 1] + parent] != frame:
+                    stamp[offsets[l - 1] + parent] = frame
+                    lists[offsets[l - 1] + counts[l - 1]] = parent
+                    counts[l - 1] += 1
+    return tested
+
+
+@njit(cache=True, inline="always")
+def present(stamp, offsets, frame, l, bi, bj):
+    """Node (l, bi, bj) exists this frame: the root, or its parent is subdivided."""
+    if l == 0:
+        return True
+    pm = 1 << (l - 1)
+    return stamp[offsets[l - 1] + (bi >> 1) * pm + (bj >> 1)] == frame
+
+
+@njit(cache=True, inline="always")
+def coarser_sides(stamp, offsets, frame, l, bi, bj):
+    """Bits of the sides whose same-level neighbour does not exist (a coarser leaf is there):
+    1 row-0 side, 2 last-column side, 4 last-row side, 8 column-0 side; never the border."""
+    m = 1 << l
+    sides = 0
+    if bi > 0 and not present(stamp, offsets, frame, l, bi - 1, bj):
+        sides |= 1
+    if bj < m - 1 and not present(stamp, offsets, frame, l, bi, bj + 1):
+        sides |= 2
+    if bi < m - 1 and not present(stamp, offsets, frame, l, bi + 1, bj):
+        sides |= 4
+    if bj > 0 and not present(stamp, offsets, frame, l, bi, bj - 1):
+        sides |= 8
+    return sides
+
+
+@njit(cache=True)
+def leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull, out):
+    """Visible leaves as rows (level, bi, bj, sides) of out (capacity >= 4^levels); returns
+    (count, leaves in the tree)."""
+    stack = np.empty((4 * (levels + 2), 3), np.int64)
+    stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, 0
+    top = 1
+    count = 0
+    total = 0
+    while top > 0:
+        top -= 1
+        l, bi, bj = stack[top, 0], stack[top, 1], stack[top, 2]
+        m = 1 << l
+        index = offsets[l] + bi * m + bj
+        if l < levels and stamp[index] == frame:
+            for k in range(4):
+                stack[top, 0] = l + 1
+                stack[top, 1] = 2 * bi + (k >> 1)
+                stack[top, 2] = 2 * bj + (k & 1)
+                top += 1
+            continue
+        total += 1
+        s = cells >> l
+        x0, z0 = bj * s * spacing, bi * s * spacing
+        if cull and not box_visible(planes, x0, hmin[index], z0, x0 + s * spacing, hmax[index],
+                                    z0 + s * spacing):
+            continue
+        out[count, 0], out[count, 1], out[count, 2] = l, bi, bj
+        out[count, 3] = coarser_sides(stamp, offsets, frame, l, bi, bj)
+        count += 1
+    return count, total

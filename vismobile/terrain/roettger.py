@@ -1,0 +1,243 @@
+"""Röttger et al. 1998 quadtree continuous LOD, as Pires 2003 (seed 000) used it.
+
+Blocks are squares of 3x3 vertices at their own scale; block (l, bi, bj) at level l spans
+s = (N-1) / 2^l cells from (bi*s, bj*s). Per frame a block is refined while
+
+    f = l1 / (d * C * max(c * d2, 1)) < 1
+
+with l1 the L1 distance from the eye to the block centre, d the block's edge length, C the
+minimum global resolution and c the desired global resolution. d2 is the block's roughness
+(the largest of its six one-level height changes over d), propagated upward with
+K = C / (2 (C - 1)) from the finer blocks inside and around it, which keeps neighbouring
+leaves within one level of each other. One pixel knob tau sets c: the roughness branch refines
+while l1 < C * c * e with e = d * d2 a height error, i.e. while lambda * e / l1 > tau for
+c = lambda / (tau * C) (lambda with the off-axis bound of tiles.pixel_scale).
+
+Each leaf is drawn as a closed fan of up to 8 triangles around its centre; the midpoint of an
+edge is skipped when the neighbour across it is coarser. A balancing pass after refinement
+enforces the one-level rule explicitly (K makes it rare; the pass makes it certain).
+
+Frame state lives in flat per-level arrays (no per-block objects): a block is subdivided in
+frame F when stamp[block] == F, so nothing is cleared between frames. Chunks (blocks at a
+fixed level, Pires's display lists as cached index ranges) carry a signature of their leaves;
+a chunk whose signature is unchanged keeps last frame's triangles (counted as reused).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .heightmap import Heightmap
+from .quadtree import ROETTGER, box_visible, coarser_sides, level_offsets, refine
+from .tiles import pixel_scale
+
+CHUNK_CELLS = 32  # chunk size in cells (a "display list"): at most 32^2 * 2 triangles
+
+
+def roughness(heightmap: Heightmap, C: float) -> tuple:
+    """(d2, hmin, hmax, centre heights, levels): flat float64 per block, d2 K-propagated.
+
+    d2 of a block = max(local, K * max(d2 of the 4x4 finer blocks over and around it)).
+    """
+    h = heightmap.heights.astype(np.float64)
+    cells = heightmap.size - 1
+    levels = cells.bit_length() - 2  # finest blocks are 2 cells wide
+    K = C / (2.0 * (C - 1.0))
+    offsets = level_offsets(levels)
+    d2 = np.zeros(offsets[-1])
+    hmin = np.zeros(offsets[-1])
+    hmax = np.zeros(offsets[-1])
+    centres = np.zeros(offsets[-1])
+    below = None
+    lo_fine = hi_fine = None
+    for level in range(levels, -1, -1):
+        s = cells >> level
+        half = s // 2
+        m = 1 << level
+        corners = h[0::s, 0::s]
+        a, b = corners[:-1, :-1], corners[:-1, 1:]   # (r0, c0), (r0, c0 + s)
+        c_, d = corners[1:, 1:], corners[1:, :-1]     # (r0 + s, c0 + s), (r0 + s, c0)
+        centre = h[half::s, half::s]
+        top, bottom = h[0:-1:s, half::s], h[s::s, half::s]
+        left, right = h[half::s, 0:-1:s], h[half::s, s::s]
+        dh = np.stack([np.abs(top - (a + b) / 2), np.abs(bottom - (d + c_) / 2),
+                       np.abs(left - (a + d) / 2), np.abs(right - (b + c_) / 2),
+                       np.abs(centre - (a + c_) / 2), np.abs(centre - (b + d) / 2)]).max(axis=0)
+        local = dh / (s * heightmap.spacing)
+        if below is not None:
+            padded = np.pad(below, 1)
+            window = np.lib.stride_tricks.sliding_window_view(padded, (4, 4))[::2, ::2]
+            local = np.maximum(local, K * window.max(axis=(-1, -2)))
+            lo = lo_fine.reshape(m, 2, m, 2).min(axis=(1, 3))
+            hi = hi_fine.reshape(m, 2, m, 2).max(axis=(1, 3))
+        else:
+            windows = np.lib.stride_tricks.sliding_window_view(h, (s + 1, s + 1))[::s, ::s]
+            lo, hi = windows.min(axis=(-1, -2)), windows.max(axis=(-1, -2))
+        d2[offsets[level]:offsets[level + 1]] = local.ravel()
+        hmin[offsets[level]:offsets[level + 1]] = lo.ravel()
+        hmax[offsets[level]:offsets[level + 1]] = hi.ravel()
+        centres[offsets[level]:offsets[level + 1]] = centre.ravel()
+        below, lo_fine, hi_fine = local, lo, hi
+    return d2, hmin, hmax, centres, levels
+
+
+@njit(cache=True)
+def _emit(heights, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull,
+          chunk_level, out, signatures):
+    """Fans of the visible leaves, chunk by chunk. out: (capacity, 3) int64 sample ids.
+    signatures[chunk] gets an FNV-1a hash of the chunk's leaves and skips (0 = empty).
+    Returns the triangle count, or -1 if out is too small."""
+    n = heights.shape[0]
+    cells = n - 1
+    count = 0
+    stack = np.empty((4 * (levels + 2), 3), np.int64)
+    ring_r = np.empty(8, np.int64)
+    ring_c = np.empty(8, np.int64)
+    chunks = 1 << chunk_level
+    for chunk in range(chunks * chunks):
+        signatures[chunk] = 0
+    stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, 0
+    top = 1
+    while top > 0:
+        top -= 1
+        l, bi, bj = stack[top, 0], stack[top, 1], stack[top, 2]
+        m = 1 << l
+        index = offsets[l] + bi * m + bj
+        if l < levels and stamp[index] == frame:
+            for k in range(4):
+                stack[top, 0] = l + 1
+                stack[top, 1] = 2 * bi + (k >> 1)
+                stack[top, 2] = 2 * bj + (k & 1)
+                top += 1
+            continue
+        s = cells >> l
+        r0, c0 = bi * s, bj * s
+        if cull and not box_visible(planes, c0 * spacing, hmin[index], r0 * spacing,
+                                    (c0 + s) * spacing, hmax[index], (r0 + s) * spacing):
+            continue
+        half = s // 2
+        # Skip an edge midpoint when the same-level neighbour across it does not exist.
+        sides = coarser_sides(stamp, offsets, frame, l, bi, bj)
+        skip_top, skip_right = (sides & 1) != 0, (sides & 2) != 0
+        skip_bottom, skip_left = (sides & 4) != 0, (sides & 8) != 0
+        k = 0
+        ring_r[k], ring_c[k] = r0, c0
+        k += 1
+        if not skip_left:
+            ring_r[k], ring_c[k] = r0 + half, c0
+            k += 1
+        ring_r[k], ring_c[k] = r0 + s, c0
+        k += 1
+        if not skip_bottom:
+            ring_r[k], ring_c[k] = r0 + s, c0 + half
+            k += 1
+        ring_r[k], ring_c[k] = r0 + s, c0 + s
+        k += 1
+        if not skip_right:
+            ring_r[k], ring_c[k] = r0 + half, c0 + s
+            k += 1
+        ring_r[k], ring_c[k] = r0, c0 + s
+        k += 1
+        if not skip_top:
+            ring_r[k], ring_c[k] = r0, c0 + half
+            k += 1
+        if count + k > out.shape[0]:
+            return -1
+        centre = (r0 + half) * n + c0 + half
+        for t in range(k):
+            u = (t + 1) % k
+            out[count, 0] = centre
+            out[count, 1] = ring_r[t] * n + ring_c[t]
+            out[count, 2] = ring_r[u] * n + ring_c[u]
+            count += 1
+        # Chunk signature: the leaf's id and its skip bits.
+        if l >= chunk_level:
+            ci, cj = bi >> (l - chunk_level), bj >> (l - chunk_level)
+        else:  # a leaf coarser than a chunk: charge it to its first chunk
+            ci, cj = bi << (chunk_level - l), bj << (chunk_level - l)
+        chunk = ci * chunks + cj
+        key = (index << 4) | sides
+        hsh = signatures[chunk] if signatures[chunk] != 0 else np.uint64(14695981039346656037)
+        hsh = (hsh ^ np.uint64(key)) * np.uint64(1099511628211)
+        signatures[chunk] = hsh
+    return count
+
+
+@dataclass
+class RoettgerFrame:
+    """One frame's mesh and work.
+
+    triangles   : (T, 3) int64 sample ids (row * N + col), counter-clockwise from +y
+    tested      : blocks whose refinement criterion ran
+    subdivided  : blocks subdivided after balancing
+    lod_ms      : refinement + balancing + fan emission wall time
+    chunks_changed, chunks_reused : chunks whose triangles changed / were kept from last frame
+    """
+
+    triangles: np.ndarray
+    tested: int
+    subdivided: int
+    lod_ms: float
+    chunks_changed: int
+    chunks_reused: int
+
+
+class Roettger:
+    """Per-frame Röttger CLOD of one heightmap with one pixel knob.
+
+    C : minimum global resolution (Pires used 10 and 20); c follows from tau (module doc).
+    """
+
+    def __init__(self, heightmap: Heightmap, C: float = 8.0):
+        if not C > 1:
+            raise ValueError("C must be > 1")
+        self.heightmap = heightmap
+        self.C = float(C)
+        start = time.perf_counter()
+        self.d2, self.hmin, self.hmax, self.centres, self.levels = roughness(heightmap, self.C)
+        self.build_seconds = time.perf_counter() - start
+        self.offsets = level_offsets(self.levels)
+        self.heights = heightmap.heights
+        self.stamp = np.zeros(self.offsets[-1], np.int64)
+        self.lists = np.zeros(self.offsets[-1], np.int64)
+        self.counts = np.zeros(self.levels + 1, np.int64)
+        self.frame = 0
+        cells = heightmap.size - 1
+        self.chunk_level = max(0, min(self.levels, (cells // CHUNK_CELLS).bit_length() - 1))
+        self.signatures = np.zeros(4 ** self.chunk_level, np.uint64)
+        self.previous = None
+        self.out = np.zeros((1 << 16, 3), np.int64)
+
+    def c_for(self, tau: float, lam_bound: float) -> float:
+        """Pires's desired global resolution c for a tolerance of tau pixels."""
+        return lam_bound / (tau * self.C)
+
+    def update(self, camera, resolution, tau: float, cull: bool = True) -> RoettgerFrame:
+        """Refine for this camera and emit the leaves' fans."""
+        _, lam = pixel_scale(camera, resolution)
+        c = self.c_for(tau, lam)
+        self.frame += 1
+        start = time.perf_counter()
+        planes = camera.frustum_planes()
+        tested = refine(self.heightmap.size - 1, self.heightmap.spacing, self.centres, self.d2,
+                        self.hmin, self.hmax, self.offsets, self.levels, self.stamp, self.frame,
+                        camera.eye, planes, ROETTGER, self.C, c, cull, self.lists, self.counts)
+        while True:
+            count = _emit(self.heights, self.heightmap.spacing, self.hmin, self.hmax,
+                          self.offsets, self.levels, self.stamp, self.frame, planes, cull,
+                          self.chunk_level, self.out, self.signatures)
+            if count >= 0:
+                break
+            self.out = np.zeros((2 * len(self.out), 3), np.int64)
+        lod_ms = (time.perf_counter() - start) * 1000.0
+        changed = reused = 0
+        if self.previous is not None:
+            same = self.signatures == self.previous
+            live = (self.signatures != 0) | (self.previous != 0)
+            changed, reused = int((live & ~same).sum()), int((live & same).sum())
+        self.previous = self.signatures.copy()
+        return RoettgerFrame(self.out[:count].copy(), int(tested), int(self.counts.sum()),
+                             lod_ms, changed, reused)
