@@ -47,7 +47,7 @@ def test_small_tolerance_is_invisible_and_large_is_not(pyramid257):
     within the knob (plus depth-buffer rounding); 8 px draws fewer triangles and costs PSNR."""
     hm = pyramid257.heightmap
     camera = overview_cameras(hm)[0].with_(aspect=PROFILE.aspect)
-    low, high = measure([TileMethod(pyramid257)], pyramid257, [camera], [0.5, 8.0], PROFILE)
+    low, high = measure([TileMethod(pyramid257)], pyramid257.heightmap, [camera], [0.5, 8.0], PROFILE)
     assert low["psnr"] >= 40 and low["pixel_height_max"] <= 0.5 + 0.25
     assert high["triangles"] < low["triangles"] <= low["full_triangles"]
     assert high["psnr"] < low["psnr"] and high["differing"] > low["differing"]

@@ -113,6 +113,35 @@ class TerrainRenderer:
 
         return self._render(batches, camera, kind, clear)
 
+    def draw_mesh_items(self, vertices, triangles, camera, first_id: int) -> DrawStats:
+        """Add a triangle mesh (vertices (V, 3), triangles (T, 3)) to the current item buffer
+        without clearing it: triangle t gets id first_id + t. Used to put objects on terrain."""
+        vertices = np.asarray(vertices, dtype=np.float64)
+        triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+        step = MAX_INDEX_VERTICES // 3
+        ctx = gl_context()
+        target = render_target(self.profile.resolution, "ids")
+        ctx.finish()
+        start = time.perf_counter()
+        target.use()
+        ctx.viewport = (0, 0, *self.profile.resolution)
+        ctx.depth_func = "<"
+        ctx.enable_only(ctx.DEPTH_TEST)
+        prog = _item_program()
+        prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
+        count = 0
+        for t0 in range(0, len(triangles), step):
+            corners = vertices[triangles[t0:t0 + step].ravel()].astype(np.float32)
+            vbo = ctx.buffer(corners.tobytes())
+            prog["u_first_id"].value = first_id + t0
+            vao = ctx.vertex_array(prog, [(vbo, "3f", "in_position")])
+            vao.render(vertices=len(corners))
+            vao.release()
+            vbo.release()
+            count += 1
+        ctx.finish()
+        return DrawStats((time.perf_counter() - start) * 1000.0, count, len(triangles))
+
     def _render(self, batches, camera, kind, clear) -> DrawStats:
         ctx = gl_context()
         target = render_target(self.profile.resolution, "rgb" if kind == "shaded" else "ids")

@@ -56,8 +56,9 @@ def vertex_errors(heightmap, drawn, camera, resolution) -> np.ndarray:
     return gap[np.isfinite(gap)]
 
 
-def pixel_height_errors(depth, camera, heightmap, resolution) -> np.ndarray:
-    """(M,) float64 pixel gaps at every pixel covered by terrain in a depth image (H, W)."""
+def pixel_height_errors(depth, camera, heightmap, resolution, alternating=False) -> np.ndarray:
+    """(M,) float64 pixel gaps at every pixel covered by terrain in a depth image (H, W),
+    against the grid mesh (or Röttger's 4-8 mesh when alternating)."""
     from ..render.terrain import unproject
 
     points = unproject(depth, camera)
@@ -66,8 +67,8 @@ def pixel_height_errors(depth, camera, heightmap, resolution) -> np.ndarray:
     inside = (p[:, 0] >= 0) & (p[:, 0] <= heightmap.extent) & (p[:, 2] >= 0) & \
         (p[:, 2] <= heightmap.extent)
     p = p[inside]
-    gap = vertical_gap_pixels(p[:, 0], p[:, 1], heightmap.height_at(p[:, 0], p[:, 2]), p[:, 2],
-                              camera, resolution)
+    truth = heightmap.height_at(p[:, 0], p[:, 2], alternating)
+    gap = vertical_gap_pixels(p[:, 0], p[:, 1], truth, p[:, 2], camera, resolution)
     return gap[np.isfinite(gap)]
 
 
@@ -83,9 +84,18 @@ class TileMethod:
     """Seed 002's tile quadtree as a measurable method."""
 
     name = "tiles"
+    alternating = False  # the grid's diagonals
 
     def __init__(self, pyramid):
         self.pyramid = pyramid
+
+    def reference(self, renderer, camera):
+        """Draw the full-resolution mesh this method converges to."""
+        from ..terrain.tiles import full_selection, selection_mesh
+
+        full = full_selection(self.pyramid, camera)
+        renderer.draw(*selection_mesh(self.pyramid, full), camera)
+        return full.triangles
 
     def frame(self, camera, resolution, tau) -> tuple:
         """(result, lod_ms, triangles) for one frame."""
@@ -110,9 +120,22 @@ class RoettgerMethod:
     """Seed 000's Röttger CLOD as a measurable method (frame-to-frame state is kept)."""
 
     name = "roettger"
+    alternating = True  # the finest fans form a 4-8 mesh
 
     def __init__(self, roettger):
         self.roettger = roettger
+
+    def reference(self, renderer, camera):
+        """Draw Röttger's own full-resolution mesh (every block at the finest level)."""
+        import copy
+
+        full = copy.copy(self.roettger)  # fresh frame state, shared read-only arrays
+        full.stamp, full.lists = full.stamp.copy(), full.lists.copy()
+        full.counts, full.previous = full.counts.copy(), None
+        full.signatures = full.signatures.copy()
+        result = full.update(camera, renderer.profile.resolution, 1.0, full=True)
+        renderer.draw_samples(result.triangles, camera)
+        return len(result.triangles)
 
     def frame(self, camera, resolution, tau) -> tuple:
         result = self.roettger.update(camera, resolution, tau)
@@ -128,40 +151,28 @@ class RoettgerMethod:
                                 result.triangles)
 
 
-def reference_images(pyramid, cameras, profile) -> tuple:
-    """(images, triangles): the full-resolution render of every camera (frustum-culled tiles
-    at stride 1) and its triangle counts."""
-    from ..render.terrain import TerrainRenderer
-    from ..terrain.tiles import full_selection, selection_mesh
-
-    renderer = TerrainRenderer(pyramid.heightmap, profile)
-    images, counts = [], []
-    for camera in cameras:
-        full = full_selection(pyramid, camera)
-        renderer.draw(*selection_mesh(pyramid, full), camera)
-        images.append(renderer.read_rgb())
-        counts.append(full.triangles)
-    return images, counts
-
-
-def measure(methods, pyramid, cameras, taus, profile, exact_vertices: bool = False,
+def measure(methods, heightmap, cameras, taus, profile, exact_vertices: bool = False,
             render: bool = True) -> list:
     """One row per (method, tau, camera) against the full render of the heightmap.
 
-    Cameras run in order for each (method, tau), so frame-to-frame methods see a path.
-    Row keys: method, tau, frame, triangles, full_triangles, lod_ms, render_ms, psnr,
-    differing, pixel_height_max, pixel_height_p99 (vertex_error_max with exact_vertices;
-    render=False skips the renders and image errors).
+    Each method is compared with its own full-resolution mesh (the grid for tiles, the 4-8
+    mesh of finest fans for Röttger). Cameras run in order for each (method, tau), so
+    frame-to-frame methods see a path. Row keys: method, tau, frame, triangles,
+    full_triangles, lod_ms, render_ms, psnr, differing, pixel_height_max, pixel_height_p99
+    (vertex_error_max with exact_vertices; render=False skips renders and image errors).
     """
     from ..render.terrain import TerrainRenderer
 
-    heightmap = pyramid.heightmap
     resolution = profile.resolution
-    references, full_counts = reference_images(pyramid, cameras, profile) if render else \
-        (None, [None] * len(cameras))
     renderer = TerrainRenderer(heightmap, profile)
     rows = []
     for method in methods:
+        references, full_counts = [], []
+        for camera in cameras if render else ():
+            full_counts.append(method.reference(renderer, camera))
+            references.append(renderer.read_rgb())
+        if not render:
+            full_counts = [None] * len(cameras)
         for tau in taus:
             for frame, camera in enumerate(cameras):
                 result, lod_ms, triangles = method.frame(camera, resolution, tau)
@@ -171,7 +182,7 @@ def measure(methods, pyramid, cameras, taus, profile, exact_vertices: bool = Fal
                 if render:
                     stats = method.draw(renderer, result, camera)
                     gaps = pixel_height_errors(renderer.read_depth(), camera, heightmap,
-                                               resolution)
+                                               resolution, method.alternating)
                     row.update(render_ms=stats.render_ms,
                                **image_error(references[frame], renderer.read_rgb()),
                                pixel_height_max=float(gaps.max()) if len(gaps) else 0.0,

@@ -86,11 +86,13 @@ class Heightmap:
         high = self.z_offset + self.z_scale * float(self.samples.max())
         return np.array([[0.0, low, 0.0], [self.extent, high, self.extent]])
 
-    def height_at(self, x, z) -> np.ndarray:
+    def height_at(self, x, z, alternating: bool = False) -> np.ndarray:
         """Heights of the full-resolution mesh at world points (x, z) (arrays of one shape).
 
         Interpolates on the mesh's own triangles (diagonal (i, j)-(i+1, j+1)), so it is the
         exact surface the full render draws; points outside the square are clamped onto it.
+        alternating: the 4-8 mesh of Röttger's finest fans instead (cells with i + j odd use
+        the other diagonal, (i, j+1)-(i+1, j)).
         """
         h = self.heights
         u = np.clip(np.asarray(x, dtype=np.float64) / self.spacing, 0, self.size - 1)
@@ -98,6 +100,17 @@ class Heightmap:
         j = np.minimum(np.floor(u).astype(np.int64), self.size - 2)
         i = np.minimum(np.floor(v).astype(np.int64), self.size - 2)
         fu, fv = u - j, v - i
+        if alternating:
+            # Mirror odd cells left-right: their diagonal becomes the grid's.
+            odd = (i + j) % 2 == 1
+            h00, h11 = np.where(odd, h[i, j + 1], h[i, j]), np.where(odd, h[i + 1, j], h[i + 1, j + 1])
+            h01, h10 = np.where(odd, h[i, j], h[i, j + 1]), np.where(odd, h[i + 1, j + 1], h[i + 1, j])
+            fu = np.where(odd, 1 - fu, fu)
+            h00, h11 = h00.astype(np.float64), h11.astype(np.float64)
+            upper = fu >= fv
+            h_side = np.where(upper, h01, h10).astype(np.float64)
+            a, b = np.where(upper, fu, fv), np.where(upper, fv, fu)
+            return h00 + (a - b) * (h_side - h00) + b * (h11 - h00)
         h00, h11 = h[i, j].astype(np.float64), h[i + 1, j + 1].astype(np.float64)
         upper = fu >= fv  # triangle (i,j)(i+1,j+1)(i,j+1)
         h_side = np.where(upper, h[i, j + 1], h[i + 1, j]).astype(np.float64)

@@ -22,14 +22,17 @@ def _yaw(dx, dz) -> np.ndarray:
 
 def path_cameras(heightmap, kind: str = "circle", speed: str = "fast", frames: int = 100,
                  start: int = 0, eye_height: float = 1.0, pitch: float = -10.0,
-                 fov: float = 60.0, aspect: float = 240 / 320, far: float | None = None,
+                 fov: float | None = None, aspect: float = 240 / 320, far: float | None = None,
                  every: int = 1) -> list:
     """Cameras of frames start, start + every, ... (frames of them) along one path.
 
     circle: radius 0.4 of the width around the centre, looking at the centre.
     lemniscate: a figure of eight (half-width 0.45 of the map) through the centre, looking
     along the direction of travel; speed varies along it as in Pires's runs.
+    fov is vertical; by default it gives the digest's 60 degrees horizontally.
     """
+    if fov is None:
+        fov = float(np.degrees(2 * np.arctan(np.tan(np.radians(30.0)) / aspect)))
     if (kind, speed) not in SPEEDS:
         raise ValueError(f"unknown path {kind}/{speed}; kinds circle, lemniscate; speeds slow, fast")
     width = heightmap.extent

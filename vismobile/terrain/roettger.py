@@ -215,16 +215,19 @@ class Roettger:
         """Pires's desired global resolution c for a tolerance of tau pixels."""
         return lam_bound / (tau * self.C)
 
-    def update(self, camera, resolution, tau: float, cull: bool = True) -> RoettgerFrame:
-        """Refine for this camera and emit the leaves' fans."""
+    def update(self, camera, resolution, tau: float, cull: bool = True,
+               full: bool = False) -> RoettgerFrame:
+        """Refine for this camera and emit the leaves' fans (full: every block to the finest
+        level, the method's own full-resolution mesh)."""
         _, lam = pixel_scale(camera, resolution)
         c = self.c_for(tau, lam)
+        C = 1e300 if full else self.C
         self.frame += 1
         start = time.perf_counter()
         planes = camera.frustum_planes()
         tested = refine(self.heightmap.size - 1, self.heightmap.spacing, self.centres, self.d2,
                         self.hmin, self.hmax, self.offsets, self.levels, self.stamp, self.frame,
-                        camera.eye, planes, ROETTGER, self.C, c, cull, self.lists, self.counts)
+                        camera.eye, planes, ROETTGER, C, c, cull, self.lists, self.counts)
         while True:
             count = _emit(self.heights, self.heightmap.spacing, self.hmin, self.hmax,
                           self.offsets, self.levels, self.stamp, self.frame, planes, cull,

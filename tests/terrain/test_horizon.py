@@ -1,0 +1,79 @@
+"""Horizon occlusion (seed 001) is conservative against the real item buffer."""
+import numpy as np
+
+from vismobile.profile import get_profile
+from vismobile.render import SENTINEL
+from vismobile.render.terrain import TerrainRenderer
+from vismobile.terrain.horizon import HorizonCaster, min_mip
+from vismobile.terrain.paths import path_cameras
+from vismobile.terrain.tiles import full_selection, selection_mesh
+
+PROFILE = get_profile("ipaq-hx2490b")
+BASE = 1 << 28  # item ids of the boxes start here
+
+
+def box_mesh(boxes):
+    """(V, 3) vertices and (12K, 3) outward triangles of K axis-aligned boxes."""
+    bits = ((np.arange(8)[:, None] >> np.arange(3)) & 1).astype(bool)
+    quads = [(0, 2, 6, 4), (1, 5, 7, 3), (0, 4, 5, 1), (2, 3, 7, 6), (0, 1, 3, 2), (4, 6, 7, 5)]
+    faces = np.array([[q[0], q[1], q[2]] for q in quads] + [[q[0], q[2], q[3]] for q in quads])
+    vertices = np.where(bits[None], boxes[:, None, 1], boxes[:, None, 0]).reshape(-1, 3)
+    triangles = (faces[None] + 8 * np.arange(len(boxes))[:, None, None]).reshape(-1, 3)
+    return vertices, triangles
+
+
+def ground_boxes(heightmap, count, seed):
+    rng = np.random.default_rng(seed)
+    xz = rng.uniform(0.05, 0.95, (count, 2)) * heightmap.extent
+    size = rng.uniform(1.0, 5.0, count)
+    ground = heightmap.height_at(xz[:, 0], xz[:, 1])
+    low = np.c_[xz[:, 0] - size / 2, ground - 0.5, xz[:, 1] - size / 2]
+    high = np.c_[xz[:, 0] + size / 2, ground + size, xz[:, 1] + size / 2]
+    return np.stack([low, high], axis=1)
+
+
+def test_min_mip_is_the_block_minimum(fractal129):
+    h = fractal129.heights.astype(np.float64)
+    mips = min_mip(h)
+    assert len(mips) == 8 and mips[-1].shape == (1, 1) and mips[-1][0, 0] == h.min()
+    for k in (0, 3, 5):
+        s = 1 << k
+        i, j = 1, 2
+        assert mips[k][i, j] == h[i * s:(i + 1) * s + 1, j * s:(j + 1) * s + 1].min()
+
+
+def test_hidden_boxes_are_never_seen(pyramid257):
+    """Over a low path, no box the horizon hides shows in the item buffer of the full terrain
+    plus the boxes, and the horizon does hide a good share of the boxes in view."""
+    from vismobile.geometry.planes import classify_boxes
+
+    hm = pyramid257.heightmap
+    boxes = ground_boxes(hm, 300, seed=4)
+    vertices, triangles = box_mesh(boxes)
+    caster = HorizonCaster(hm, bands=60, step=0.02)
+    renderer = TerrainRenderer(hm, PROFILE)
+    hidden_total = in_view_total = 0
+    for camera in path_cameras(hm, "lemniscate", "fast", frames=4, every=200, eye_height=1.5):
+        hidden = caster.cast(camera).hidden(boxes)
+        renderer.draw(*selection_mesh(pyramid257, full_selection(pyramid257, camera)), camera,
+                      kind="item")
+        renderer.draw_mesh_items(vertices, triangles, camera, BASE)
+        ids = renderer.read_ids()
+        seen = np.unique((ids[(ids != SENTINEL) & (ids >= BASE)] - BASE) // 12)
+        assert not hidden[seen].any()
+        in_view = ~classify_boxes(boxes, camera.frustum_planes())[0]
+        hidden_total += int((hidden & in_view).sum())
+        in_view_total += int(in_view.sum())
+    assert hidden_total >= 0.2 * in_view_total > 0
+
+
+def test_boxes_at_or_behind_the_eye_stay_visible(fractal129):
+    caster = HorizonCaster(fractal129, bands=30)
+    camera = path_cameras(fractal129, "circle", "fast", frames=1, eye_height=2)[0]
+    eye = camera.eye
+    around = np.array([[eye - 1, eye + 1]])
+    behind = np.array([[eye - 3 * camera.forward - 1, eye - 3 * camera.forward + 1]])
+    assert not caster.cast(camera).hidden(np.concatenate([around, behind])).any()
+    under = camera.with_(position=(eye[0], float(fractal129.heights.min()) - 10, eye[2]))
+    far_box = np.array([[eye + 50 * camera.forward - 1, eye + 50 * camera.forward + 1]])
+    assert not caster.cast(under).hidden(far_box).any()  # eye under the ground: no claims

@@ -1,0 +1,162 @@
+"""Terrain LOD benchmark (issue 15): LOD+cull time and triangles of the tile quadtree (seed 002)
+and Röttger CLOD (seed 000) along Pires's paths on a large map, and image error against the
+full-resolution render for a sweep of the pixel knob on a smaller one.
+
+    .venv/bin/python tools/bench_terrain.py [--size 4097] [--frames 60] [--render-size 1025]
+        [--taus 0.25,0.5,0.7,1,2,4,8] [--error-frames 4] [--out runs/bench_terrain.md]
+
+Heightmaps are deterministic diamond-square maps (seed 1, roughness 0.5, relief 0.12 of the
+width, unit spacing), cached as out/terrain/fractal-N.vmt. Times are medians over consecutive
+frames of each path in this process (host-dependent; the machine may be shared); triangle
+counts and errors are hardware-independent.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from vismobile.profile import get_profile  # noqa: E402
+from vismobile.study.terrain import RoettgerMethod, TileMethod, measure  # noqa: E402
+from vismobile.terrain import sources, store  # noqa: E402
+from vismobile.terrain.paths import path_cameras  # noqa: E402
+from vismobile.terrain.roettger import Roettger  # noqa: E402
+from vismobile.terrain.tiles import TilePyramid  # noqa: E402
+
+PATHS = [("circle", "slow"), ("circle", "fast"), ("lemniscate", "slow"), ("lemniscate", "fast")]
+
+
+def heightmap(size: int):
+    path = ROOT / "out" / "terrain" / f"fractal-{size}.vmt"
+    if path.is_file():
+        return store.load(path)[0]
+    hm = sources.diamond_square(size, seed=1, roughness=0.5, relief=0.12)
+    store.save(path, hm)
+    return hm
+
+
+def speed(hm, frames, tau, profile, patch, C, eye_height) -> list:
+    """Per path and method: median/p95 LOD ms, median/max triangles, chunk churn."""
+    start = time.perf_counter()
+    pyramid = TilePyramid.build(hm, patch)
+    tile_build = time.perf_counter() - start
+    roettger = Roettger(hm, C=C)
+    rows = []
+    for kind, pace in PATHS:
+        cameras = path_cameras(hm, kind, pace, frames=frames, eye_height=eye_height)
+        for method in (TileMethod(pyramid), RoettgerMethod(roettger)):
+            ms, tris, changed, reused = [], [], [], []
+            for camera in cameras:
+                result, lod_ms, triangles = method.frame(camera, profile.resolution, tau)
+                ms.append(lod_ms)
+                tris.append(triangles)
+                if method.name == "roettger":
+                    changed.append(result.chunks_changed)
+                    reused.append(result.chunks_reused)
+            warm = slice(2, None)  # first frames: JIT cache load, first refinement
+            rows.append({"path": f"{kind} {pace}", "method": method.name, "tau": tau,
+                         "lod_ms_median": float(np.median(ms[warm])),
+                         "lod_ms_p95": float(np.percentile(ms[warm], 95)),
+                         "lod_ms_min": float(np.min(ms[warm])),
+                         "triangles_median": int(np.median(tris)), "triangles_max": int(max(tris)),
+                         "chunks_changed_mean": float(np.mean(changed[1:])) if changed else None,
+                         "chunks_reused_mean": float(np.mean(reused[1:])) if reused else None})
+    return rows, tile_build, roettger.build_seconds
+
+
+def errors(hm, taus, frames, profile, patch, C, eye_height, exact) -> list:
+    pyramid = TilePyramid.build(hm, patch)
+    cameras = path_cameras(hm, "lemniscate", "fast", frames=frames, every=900 // max(frames, 1),
+                           eye_height=eye_height)
+    methods = [TileMethod(pyramid), RoettgerMethod(Roettger(hm, C=C))]
+    rows = measure(methods, hm, cameras, taus, profile, exact_vertices=exact)
+    summary = []
+    for method in ("tiles", "roettger"):
+        for tau in taus:
+            r = [x for x in rows if x["method"] == method and x["tau"] == tau]
+            summary.append({
+                "method": method, "tau": tau,
+                "triangles": int(np.median([x["triangles"] for x in r])),
+                "share_of_full": float(np.median([x["triangles"] / x["full_triangles"] for x in r])),
+                "psnr_min": float(min(x["psnr"] for x in r)),
+                "psnr_median": float(np.median([x["psnr"] for x in r])),
+                "differing_median": float(np.median([x["differing"] for x in r])),
+                "pixel_height_max": float(max(x["pixel_height_max"] for x in r)),
+                "pixel_height_p99": float(np.median([x["pixel_height_p99"] for x in r])),
+                "vertex_error_max": float(max(x.get("vertex_error_max", np.nan) for x in r)),
+                "render_ms": float(np.median([x["render_ms"] for x in r])),
+            })
+    return summary
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--size", type=int, default=4097)
+    parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--tau", type=float, default=1.0)
+    parser.add_argument("--render-size", type=int, default=1025)
+    parser.add_argument("--taus", default="0.25,0.5,0.7,1,2,4,8")
+    parser.add_argument("--error-frames", type=int, default=4)
+    parser.add_argument("--patch", type=int, default=16)
+    parser.add_argument("--C", type=float, default=8.0)
+    parser.add_argument("--eye-height", type=float, default=1.0)
+    parser.add_argument("--exact", action="store_true", help="also the exact per-sample error")
+    parser.add_argument("--skip-speed", action="store_true")
+    parser.add_argument("--skip-errors", action="store_true")
+    parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_terrain.md")
+    args = parser.parse_args(argv)
+    profile = get_profile("ipaq-hx2490b")
+    lines, record = [], {}
+    if not args.skip_speed:
+        hm = heightmap(args.size)
+        rows, tile_build, r_build = speed(hm, args.frames, args.tau, profile, args.patch, args.C,
+                                          args.eye_height)
+        record["speed"] = rows
+        lines += [f"## LOD + cull per frame, {args.size}^2, tau = {args.tau} px, "
+                  f"{args.frames} consecutive frames per path (eye {args.eye_height} above ground)",
+                  "", f"Pre-processing: tile errors {tile_build:.1f} s (patch {args.patch}), "
+                  f"Röttger d2 {r_build:.1f} s (C = {args.C:g}).", "",
+                  "| path | method | LOD ms median | p95 | min | triangles median | max | "
+                  "chunks changed / reused |", "|---|---|---:|---:|---:|---:|---:|---|"]
+        for r in rows:
+            churn = (f"{r['chunks_changed_mean']:.1f} / {r['chunks_reused_mean']:.1f}"
+                     if r["chunks_changed_mean"] is not None else "")
+            lines.append(f"| {r['path']} | {r['method']} | {r['lod_ms_median']:.2f} | "
+                         f"{r['lod_ms_p95']:.2f} | {r['lod_ms_min']:.2f} | "
+                         f"{r['triangles_median']:,} | {r['triangles_max']:,} | {churn} |")
+        lines.append("")
+        print("\n".join(lines), flush=True)
+    if not args.skip_errors:
+        taus = [float(t) for t in args.taus.split(",")]
+        hm = heightmap(args.render_size)
+        summary = errors(hm, taus, args.error_frames, profile, args.patch, args.C,
+                         args.eye_height, args.exact)
+        record["errors"] = summary
+        table = [f"## Image error against the full render, {args.render_size}^2, "
+                 f"{args.error_frames} frames of the fast lemniscate, 240x320", "",
+                 "| method | tau px | triangles | of full | PSNR min | PSNR median | "
+                 "pixels differing | pixel-height max | p99 | sample error max | render ms |",
+                 "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        for r in summary:
+            table.append(f"| {r['method']} | {r['tau']:g} | {r['triangles']:,} | "
+                         f"{100 * r['share_of_full']:.0f}% | {r['psnr_min']:.1f} | "
+                         f"{r['psnr_median']:.1f} | {100 * r['differing_median']:.2f}% | "
+                         f"{r['pixel_height_max']:.2f} | {r['pixel_height_p99']:.2f} | "
+                         f"{r['vertex_error_max']:.2f} | {r['render_ms']:.0f} |")
+        print("\n".join(table), flush=True)
+        lines += table
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text("\n".join(lines) + "\n")
+    args.out.with_suffix(".json").write_text(json.dumps(record, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,190 @@
+"""Floating-horizon occlusion from a terrain (seed 001, Szenberg 1997), conservative.
+
+An ES 1.1 device cannot read its depth buffer back, so the CPU casts the terrain's horizon
+itself, Szenberg's way: with a level camera at the eye (pitch plays no part: whether a point
+is hidden by the ground depends only on the eye), each band of horizontal directions is
+marched in slices parallel to the screen, z_{k+1} = z_k (1 + step). For each band and slice the
+ground is bounded from below by the minimum sample over a min-mip block covering the slice's
+piece of the band, which gives a lower bound of the elevation slope (h - eye_y) / z of the
+terrain there; the horizon H[band, k] is the running maximum over the slices up to k.
+
+A point at depth z with slope m is hidden if, in its band, H at the last slice ending before z
+exceeds m: the ray from the eye to it then passes below ground in front of it. A box is hidden
+when all its corners are in front of the eye and, over every band its corners span, the
+horizon before its nearest depth exceeds its largest corner slope (a linear-fractional function
+peaks at a corner). Every bound errs toward "visible", so the test never hides a box that any
+pixel of the full-resolution terrain render would show; `lower` lowers the ground further for
+LOD meshes that sink below the samples (by their vertical error).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+
+def min_mip(heights) -> list:
+    """[(2^(n-k))^2 float64 minima over blocks of 2^k cells, samples on the block edge
+    included] for k = 0..n."""
+    h = np.asarray(heights, dtype=np.float64)
+    level = np.minimum(np.minimum(h[:-1, :-1], h[1:, :-1]), np.minimum(h[:-1, 1:], h[1:, 1:]))
+    mips = [level]
+    while level.shape[0] > 1:
+        k = level.shape[0] // 2
+        level = level.reshape(k, 2, k, 2).min(axis=(1, 3))
+        mips.append(level)
+    return mips
+
+
+def pack(mips) -> tuple:
+    """(flat minima, offsets (levels + 1,), sizes) for the numba kernel."""
+    offsets = np.r_[0, np.cumsum([m.size for m in mips])].astype(np.int64)
+    sizes = np.array([m.shape[0] for m in mips], dtype=np.int64)
+    return np.concatenate([m.ravel() for m in mips]), offsets, sizes
+
+
+@njit(cache=True)
+def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon):
+    """horizon[b, k]: running max over slices <= k of the lowest slope in band b, slice k."""
+    bands = tans.shape[0] - 1
+    slices = depths.shape[0] - 1
+    cells = sizes[0]
+    for b in range(bands):
+        best = -np.inf
+        for k in range(slices):
+            z0, z1 = depths[k], depths[k + 1]
+            # World bbox of the slice's piece of the band (a quadrilateral).
+            xmin, xmax, wmin, wmax = np.inf, -np.inf, np.inf, -np.inf
+            for z in (z0, z1):
+                for t in (tans[b], tans[b + 1]):
+                    x = eye[0] + forward[0] * z + right[0] * t * z
+                    w = eye[2] + forward[2] * z + right[2] * t * z
+                    xmin, xmax = min(xmin, x), max(xmax, x)
+                    wmin, wmax = min(wmin, w), max(wmax, w)
+            j0 = int(np.floor(xmin / spacing))
+            j1 = int(np.floor(xmax / spacing))
+            i0 = int(np.floor(wmin / spacing))
+            i1 = int(np.floor(wmax / spacing))
+            if j1 < 0 or i1 < 0 or j0 >= cells or i0 >= cells:
+                horizon[b, k] = best
+                continue
+            if j0 < 0 or i0 < 0 or j1 >= cells or i1 >= cells:
+                # Part of the piece is off the map, where there is no ground.
+                horizon[b, k] = best
+                continue
+            level = 0
+            while (j1 >> level) - (j0 >> level) > 1 or (i1 >> level) - (i0 >> level) > 1:
+                level += 1
+            size = sizes[level]
+            low = np.inf
+            for i in range(i0 >> level, (i1 >> level) + 1):
+                for j in range(j0 >> level, (j1 >> level) + 1):
+                    low = min(low, flat[offsets[level] + i * size + j])
+            rise = low - lower - eye[1]
+            # Lowest slope over the slice's depths: the far end when above the eye.
+            slope = rise / z1 if rise > 0 else rise / z0
+            best = max(best, slope)
+            horizon[b, k] = best
+
+
+@dataclass
+class Horizon:
+    """One frame's horizon.
+
+    eye      : (3,) float64
+    forward, right : (3,) float64 level camera axes (y = 0)
+    tans     : (B+1,) float64 band edges as tan of the horizontal angle
+    depths   : (S+1,) float64 slice boundaries along forward
+    values   : (B, S) float64 running max of lowest slopes (-inf: nothing yet)
+    """
+
+    eye: np.ndarray
+    forward: np.ndarray
+    right: np.ndarray
+    tans: np.ndarray
+    depths: np.ndarray
+    values: np.ndarray
+
+    def hidden(self, boxes) -> np.ndarray:
+        """(K,) bool: box (K, 2, 3) entirely hidden by the ground (errs visible)."""
+        return _hidden(np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3), self.eye,
+                       self.forward, self.right, self.tans, self.depths, self.values)
+
+
+@njit(cache=True)
+def _hidden(boxes, eye, forward, right, tans, depths, values):
+    out = np.zeros(boxes.shape[0], dtype=np.bool_)
+    bands = tans.shape[0] - 1
+    for n in range(boxes.shape[0]):
+        zmin, tmin, tmax, mmax = np.inf, np.inf, -np.inf, -np.inf
+        for c in range(8):
+            x = boxes[n, (c >> 0) & 1, 0] - eye[0]
+            y = boxes[n, (c >> 1) & 1, 1] - eye[1]
+            w = boxes[n, (c >> 2) & 1, 2] - eye[2]
+            z = x * forward[0] + w * forward[2]
+            lateral = x * right[0] + w * right[2]
+            if z <= 0:
+                zmin = -1.0
+                break
+            zmin = min(zmin, z)
+            tmin, tmax = min(tmin, lateral / z), max(tmax, lateral / z)
+            mmax = max(mmax, y / z)
+        if zmin <= depths[0] or tmin < tans[0] or tmax > tans[bands]:
+            continue
+        # Last slice that ends before the box's nearest depth.
+        k = np.searchsorted(depths, zmin, side="right") - 2
+        if k < 0:
+            continue
+        b0 = np.searchsorted(tans, tmin, side="right") - 1
+        b1 = np.searchsorted(tans, tmax, side="left") - 1
+        hidden = True
+        for b in range(max(b0, 0), min(b1, bands - 1) + 1):
+            if not values[b, k] > mmax:
+                hidden = False
+                break
+        out[n] = hidden
+    return out
+
+
+class HorizonCaster:
+    """Casts horizons of one heightmap (min-mip built once)."""
+
+    def __init__(self, heightmap, bands: int = 120, step: float = 0.01):
+        self.heightmap = heightmap
+        self.bands = bands
+        self.step = step
+        self.flat, self.offsets, self.sizes = pack(min_mip(heightmap.heights))
+
+    def cast(self, camera, lower: float = 0.0, far: float | None = None) -> Horizon:
+        """Horizon for camera's eye over the horizontal span of its frustum.
+
+        lower : world units to sink the ground (a drawn LOD's vertical error)
+        """
+        eye = camera.eye
+        if not (0 <= eye[0] <= self.heightmap.extent and 0 <= eye[2] <= self.heightmap.extent) \
+                or eye[1] < float(self.heightmap.height_at(eye[0], eye[2])):
+            # Off the map or under the ground: the ground-as-solid argument does not hold.
+            return Horizon(eye, np.array([0.0, 0, -1]), np.array([1.0, 0, 0]),
+                           np.array([-1.0, 1.0]), np.array([1.0, 2.0]), np.full((1, 1), -np.inf))
+        yaw = np.radians(camera.yaw)
+        forward = np.array([-np.sin(yaw), 0.0, -np.cos(yaw)])
+        right = np.array([np.cos(yaw), 0.0, -np.sin(yaw)])
+        # Horizontal span: the frustum's corner directions in level-camera terms.
+        r, u, f = camera.basis()
+        ty = np.tan(np.radians(camera.fov) / 2)
+        tx = ty * camera.aspect
+        corners = np.array([f + sx * tx * r + sy * ty * u for sx in (-1, 1) for sy in (-1, 1)])
+        depth = corners @ forward
+        lateral = corners @ right
+        ok = depth > 1e-6
+        span = np.abs(lateral[ok] / depth[ok]).max() * 1.01 if ok.all() else 4.0
+        tans = np.linspace(-span, span, self.bands + 1)
+        far = far if far is not None else camera.far
+        near = max(camera.near, 0.5 * self.heightmap.spacing)
+        count = int(np.ceil(np.log(far / near) / np.log1p(self.step)))
+        depths = near * (1 + self.step) ** np.arange(count + 1)
+        values = np.empty((self.bands, count))
+        _cast(self.flat, self.offsets, self.sizes, self.heightmap.spacing, eye, forward, right,
+              tans, depths, float(lower), values)
+        return Horizon(eye, forward, right, tans, depths, values)
