@@ -77,3 +77,25 @@ def test_boxes_at_or_behind_the_eye_stay_visible(fractal129):
     under = camera.with_(position=(eye[0], float(fractal129.heights.min()) - 10, eye[2]))
     far_box = np.array([[eye + 50 * camera.forward - 1, eye + 50 * camera.forward + 1]])
     assert not caster.cast(under).hidden(far_box).any()  # eye under the ground: no claims
+
+
+def test_tiles_behind_the_horizon_change_no_pixel(pyramid257):
+    """Dropping the tiles the horizon hides (ground lowered by the drawn error) leaves the
+    rendered image exactly as it was, and drops something on the low valley path."""
+    from vismobile.terrain.tiles import drop_hidden, select_tiles, selection_error
+
+    hm = pyramid257.heightmap
+    caster = HorizonCaster(hm, bands=60, step=0.02)
+    renderer = TerrainRenderer(hm, PROFILE)
+    dropped = 0
+    for camera in path_cameras(hm, "valley", "fast", frames=3, every=100, eye_height=1.0):
+        selection = select_tiles(pyramid257, camera, PROFILE.resolution, 1.0)
+        kept = drop_hidden(pyramid257, selection,
+                           caster.cast(camera, selection_error(pyramid257, selection)))
+        images = []
+        for s in (selection, kept):
+            renderer.draw(*selection_mesh(pyramid257, s), camera)
+            images.append(renderer.read_rgb())
+        assert np.array_equal(images[0], images[1])
+        dropped += selection.triangles - kept.triangles
+    assert dropped > 0

@@ -86,8 +86,12 @@ class TileMethod:
     name = "tiles"
     alternating = False  # the grid's diagonals
 
-    def __init__(self, pyramid):
+    def __init__(self, pyramid, caster=None):
+        """caster: a HorizonCaster to drop tiles hidden behind nearer ground (seed 001)."""
         self.pyramid = pyramid
+        self.caster = caster
+        if caster is not None:
+            self.name = "tiles+horizon"
 
     def reference(self, renderer, camera):
         """Draw the full-resolution mesh this method converges to."""
@@ -99,10 +103,13 @@ class TileMethod:
 
     def frame(self, camera, resolution, tau) -> tuple:
         """(result, lod_ms, triangles) for one frame."""
-        from ..terrain.tiles import select_tiles
+        from ..terrain.tiles import drop_hidden, select_tiles, selection_error
 
         start = time.perf_counter()
         selection = select_tiles(self.pyramid, camera, resolution, tau)
+        if self.caster is not None:
+            lower = selection_error(self.pyramid, selection)
+            selection = drop_hidden(self.pyramid, selection, self.caster.cast(camera, lower))
         return selection, (time.perf_counter() - start) * 1000.0, selection.triangles
 
     def draw(self, renderer, selection, camera):

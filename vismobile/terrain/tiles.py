@@ -220,3 +220,32 @@ def selection_heights(pyramid: TilePyramid, selection: TileSelection) -> np.ndar
     rows, cols, _ = selection_mesh(pyramid, selection)
     return lod_heights(pyramid.heightmap.heights.astype(np.float64), rows, cols,
                        selection.sides, pyramid.templates)
+
+
+def drop_hidden(pyramid: TilePyramid, selection: TileSelection, horizon) -> TileSelection:
+    """The selection without tiles whose box the horizon hides (seed 001 as a terrain occluder).
+
+    Conservative for the drawn surface when the horizon was cast with lower >= the largest
+    error of the selected tiles (the drawn ground may sink that far below the samples).
+    """
+    if not len(selection.level):
+        return selection
+    boxes = np.concatenate([pyramid.tile_boxes(int(l), selection.ti[selection.level == l],
+                                               selection.tj[selection.level == l])
+                            for l in np.unique(selection.level)])
+    order = np.concatenate([np.flatnonzero(selection.level == l)
+                            for l in np.unique(selection.level)])
+    keep = np.ones(len(selection.level), dtype=bool)
+    keep[order[horizon.hidden(boxes)]] = False
+    sides = selection.sides[keep]
+    return TileSelection(selection.level[keep], selection.ti[keep], selection.tj[keep], sides,
+                         int(pyramid.template_counts[sides].sum()), selection.leaves,
+                         selection.tested)
+
+
+def selection_error(pyramid: TilePyramid, selection: TileSelection) -> float:
+    """Largest vertical error E (world units) among the selected tiles (0 when empty)."""
+    if not len(selection.level):
+        return 0.0
+    return float(pyramid.flat_error[pyramid.offsets[selection.level]
+                                    + selection.ti * (1 << selection.level) + selection.tj].max())
