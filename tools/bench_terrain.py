@@ -30,7 +30,8 @@ from vismobile.terrain.paths import path_cameras  # noqa: E402
 from vismobile.terrain.roettger import Roettger  # noqa: E402
 from vismobile.terrain.tiles import TilePyramid  # noqa: E402
 
-PATHS = [("circle", "slow"), ("circle", "fast"), ("lemniscate", "slow"), ("lemniscate", "fast")]
+PATHS = [("circle", "slow"), ("circle", "fast"), ("lemniscate", "slow"), ("lemniscate", "fast"),
+         ("valley", "fast")]
 
 
 def heightmap(size: int):
@@ -52,10 +53,11 @@ def speed(hm, frames, tau, profile, patch, C, eye_height) -> list:
     for kind, pace in PATHS:
         cameras = path_cameras(hm, kind, pace, frames=frames, eye_height=eye_height)
         for method in (TileMethod(pyramid), RoettgerMethod(roettger)):
-            ms, tris, changed, reused = [], [], [], []
+            ms, cpu, tris, changed, reused = [], [], [], [], []
             for camera in cameras:
                 result, lod_ms, triangles = method.frame(camera, profile.resolution, tau)
                 ms.append(lod_ms)
+                cpu.append(method.cpu_ms)
                 tris.append(triangles)
                 if method.name == "roettger":
                     changed.append(result.chunks_changed)
@@ -65,6 +67,7 @@ def speed(hm, frames, tau, profile, patch, C, eye_height) -> list:
                          "lod_ms_median": float(np.median(ms[warm])),
                          "lod_ms_p95": float(np.percentile(ms[warm], 95)),
                          "lod_ms_min": float(np.min(ms[warm])),
+                         "lod_cpu_ms_median": float(np.median(cpu[warm])),
                          "triangles_median": int(np.median(tris)), "triangles_max": int(max(tris)),
                          "chunks_changed_mean": float(np.mean(changed[1:])) if changed else None,
                          "chunks_reused_mean": float(np.mean(reused[1:])) if reused else None})
@@ -96,6 +99,51 @@ def errors(hm, taus, frames, profile, patch, C, eye_height, exact) -> list:
     return summary
 
 
+def horizon(hm, frames, profile, patch, eye_height, objects) -> dict:
+    """Objects the horizon hides on the valley path, checked against the item buffer, and the
+    tile triangles it removes."""
+    from vismobile.geometry.planes import classify_boxes
+    from vismobile.render import SENTINEL
+    from vismobile.render.terrain import TerrainRenderer
+    from vismobile.terrain.horizon import HorizonCaster
+    from vismobile.terrain.placement import place_objects
+    from vismobile.terrain.tiles import full_selection, selection_mesh
+
+    placement = place_objects(hm, objects, seed=3, height=6.0 * hm.spacing)
+    boxes = placement.boxes()
+    meshes = placement.meshes()
+    starts = np.cumsum([0] + [len(t) for _, t in meshes])
+    offsets = np.cumsum([0] + [len(v) for v, _ in meshes])
+    vertices = np.concatenate([v for v, _ in meshes])
+    triangles = np.concatenate([t + o for (_, t), o in zip(meshes, offsets[:-1])])
+    pyramid = TilePyramid.build(hm, patch)
+    caster = HorizonCaster(hm, bands=120, step=0.01)
+    renderer = TerrainRenderer(hm, profile)
+    base = 1 << 28
+    rows = []
+    plain, culled = TileMethod(pyramid), TileMethod(pyramid, HorizonCaster(hm, 60, 0.02))
+    cameras = path_cameras(hm, "valley", "fast", frames=frames, every=max(1, 1800 // frames),
+                           eye_height=eye_height)
+    for camera in cameras:
+        cpu = time.thread_time()
+        hidden = caster.cast(camera).hidden(boxes)
+        cast_ms = (time.thread_time() - cpu) * 1000.0
+        in_view = ~classify_boxes(boxes, camera.frustum_planes())[0]
+        renderer.draw(*selection_mesh(pyramid, full_selection(pyramid, camera)), camera,
+                      kind="item")
+        renderer.draw_mesh_items(vertices, triangles, camera, base)
+        ids = renderer.read_ids()
+        seen = np.unique(np.searchsorted(starts, ids[(ids != SENTINEL) & (ids >= base)] - base,
+                                         side="right") - 1)
+        tiles = plain.frame(camera, profile.resolution, 1.0)[2]
+        tiles_culled = culled.frame(camera, profile.resolution, 1.0)[2]
+        rows.append({"in_view": int(in_view.sum()), "hidden": int((hidden & in_view).sum()),
+                     "visible": int(len(seen)), "lost": int(hidden[seen].sum()),
+                     "cast_cpu_ms": cast_ms, "tiles": tiles, "tiles_horizon": tiles_culled,
+                     "tiles_horizon_cpu_ms": culled.cpu_ms})
+    return rows
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--size", type=int, default=4097)
@@ -110,6 +158,9 @@ def main(argv=None) -> int:
     parser.add_argument("--exact", action="store_true", help="also the exact per-sample error")
     parser.add_argument("--skip-speed", action="store_true")
     parser.add_argument("--skip-errors", action="store_true")
+    parser.add_argument("--skip-horizon", action="store_true")
+    parser.add_argument("--objects", type=int, default=200)
+    parser.add_argument("--horizon-frames", type=int, default=12)
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_terrain.md")
     args = parser.parse_args(argv)
     profile = get_profile("ipaq-hx2490b")
@@ -123,13 +174,14 @@ def main(argv=None) -> int:
                   f"{args.frames} consecutive frames per path (eye {args.eye_height} above ground)",
                   "", f"Pre-processing: tile errors {tile_build:.1f} s (patch {args.patch}), "
                   f"Röttger d2 {r_build:.1f} s (C = {args.C:g}).", "",
-                  "| path | method | LOD ms median | p95 | min | triangles median | max | "
-                  "chunks changed / reused |", "|---|---|---:|---:|---:|---:|---:|---|"]
+                  "| path | method | LOD ms median | p95 | min | CPU ms median | triangles median "
+                  "| max | chunks changed / reused |", "|---|---|---:|---:|---:|---:|---:|---:|---|"]
         for r in rows:
             churn = (f"{r['chunks_changed_mean']:.1f} / {r['chunks_reused_mean']:.1f}"
                      if r["chunks_changed_mean"] is not None else "")
             lines.append(f"| {r['path']} | {r['method']} | {r['lod_ms_median']:.2f} | "
                          f"{r['lod_ms_p95']:.2f} | {r['lod_ms_min']:.2f} | "
+                         f"{r['lod_cpu_ms_median']:.2f} | "
                          f"{r['triangles_median']:,} | {r['triangles_max']:,} | {churn} |")
         lines.append("")
         print("\n".join(lines), flush=True)
@@ -150,6 +202,26 @@ def main(argv=None) -> int:
                          f"{r['psnr_median']:.1f} | {100 * r['differing_median']:.2f}% | "
                          f"{r['pixel_height_max']:.2f} | {r['pixel_height_p99']:.2f} | "
                          f"{r['vertex_error_max']:.2f} | {r['render_ms']:.0f} |")
+        print("\n".join(table), flush=True)
+        lines += table
+    if not args.skip_horizon:
+        hm = heightmap(args.render_size)
+        rows = horizon(hm, args.horizon_frames, profile, args.patch, 2.0, args.objects)
+        record["horizon"] = rows
+        in_view = sum(r["in_view"] for r in rows)
+        hidden = sum(r["hidden"] for r in rows)
+        table = [f"## Horizon on the valley path, {args.render_size}^2, {args.objects} objects, "
+                 f"{len(rows)} frames, eye 2 above ground", "",
+                 "| frame | objects in view | hidden | visible (item buffer) | hidden but visible "
+                 "| cast CPU ms | tile triangles | with horizon | tiles+horizon CPU ms |",
+                 "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        for k, r in enumerate(rows):
+            table.append(f"| {k} | {r['in_view']} | {r['hidden']} | {r['visible']} | {r['lost']} "
+                         f"| {r['cast_cpu_ms']:.1f} | {r['tiles']:,} | {r['tiles_horizon']:,} "
+                         f"| {r['tiles_horizon_cpu_ms']:.1f} |")
+        table += ["", f"Hidden: {hidden} of {in_view} objects in view "
+                      f"({100 * hidden / max(in_view, 1):.0f}%); hidden but visible: "
+                      f"{sum(r['lost'] for r in rows)}."]
         print("\n".join(table), flush=True)
         lines += table
     args.out.parent.mkdir(parents=True, exist_ok=True)

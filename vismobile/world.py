@@ -124,7 +124,8 @@ class World:
 
     @classmethod
     def from_file(cls, path) -> "World":
-        """Load a mesh file: OBJ, PLY, STL, OFF, glTF or GLB, each optionally gzip-compressed.
+        """Load a mesh file: OBJ, PLY, STL, OFF, glTF or GLB, each optionally gzip-compressed,
+        or a terrain .vmt (its ground at a bounded stride plus its objects, terrain/mesh.py).
 
         OBJ groups (o/g) and the meshes of a scene (moved by their node transforms) become
         objects. Raises WorldError naming the file on unknown formats and bad input.
@@ -132,6 +133,10 @@ class World:
         from .meshfile import load_mesh, mesh_format
 
         path = Path(path)
+        if path.suffix.lower() == ".vmt":
+            from .terrain.mesh import terrain_world_file
+
+            return terrain_world_file(path)
         if mesh_format(path) == "obj":
             return cls.from_obj(path)
         return cls.from_arrays(*load_mesh(path), path)

@@ -57,3 +57,16 @@ def test_cli_bad_input_is_one_line_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "bad.vmt" in err and err.count("\n") == 1
     assert main(["terrain", "build", "fractal", "--size", "100", "-o", str(tmp_path / "x.vmt")]) == 2
+
+
+def test_existing_commands_accept_a_terrain(tmp_path, capsys):
+    """info and partition take a .vmt like an OBJ (ground at a bounded stride)."""
+    out = tmp_path / "t.vmt"
+    assert main(["terrain", "build", "fractal", "--size", "129", "-o", str(out)]) == 0
+    assert main(["info", str(out)]) == 0
+    assert "32,768" in capsys.readouterr().out  # 2 * 128^2 triangles
+    assert main(["partition", str(out), "--structure", "octree", "--depth", "3",
+                 "-o", str(tmp_path / "t.vmp")]) == 0
+    from vismobile.terrain.mesh import terrain_world_file
+
+    assert terrain_world_file(out, max_triangles=2000).triangle_count == 2 * 16 * 16

@@ -102,15 +102,18 @@ class TileMethod:
         return full.triangles
 
     def frame(self, camera, resolution, tau) -> tuple:
-        """(result, lod_ms, triangles) for one frame."""
+        """(result, lod_ms, triangles) for one frame; self.cpu_ms: its thread CPU time."""
         from ..terrain.tiles import drop_hidden, select_tiles, selection_error
 
+        cpu = time.thread_time()
         start = time.perf_counter()
         selection = select_tiles(self.pyramid, camera, resolution, tau)
         if self.caster is not None:
             lower = selection_error(self.pyramid, selection)
             selection = drop_hidden(self.pyramid, selection, self.caster.cast(camera, lower))
-        return selection, (time.perf_counter() - start) * 1000.0, selection.triangles
+        wall = (time.perf_counter() - start) * 1000.0
+        self.cpu_ms = (time.thread_time() - cpu) * 1000.0
+        return selection, wall, selection.triangles
 
     def draw(self, renderer, selection, camera):
         from ..terrain.tiles import selection_mesh
@@ -145,7 +148,9 @@ class RoettgerMethod:
         return len(result.triangles)
 
     def frame(self, camera, resolution, tau) -> tuple:
+        cpu = time.thread_time()
         result = self.roettger.update(camera, resolution, tau)
+        self.cpu_ms = (time.thread_time() - cpu) * 1000.0
         return result, result.lod_ms, len(result.triangles)
 
     def draw(self, renderer, result, camera):

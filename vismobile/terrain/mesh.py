@@ -53,3 +53,21 @@ def terrain_world(heightmap: Heightmap, placement=None, stride: int = 1):
                                [f"{placement.kinds[index]}{index}"], heightmap.name))
     world = World.concatenate(parts, heightmap.name) if len(parts) > 1 else parts[0]
     return world
+
+
+MAX_WORLD_TRIANGLES = 1 << 19  # ground triangles of a terrain loaded as a World
+
+
+def terrain_world_file(path, max_triangles: int = MAX_WORLD_TRIANGLES):
+    """World of a .vmt terrain for the triangle-world commands: the ground at the finest
+    stride that stays within max_triangles (a 1025^2 map at stride 2: 524,288), plus its
+    objects. WorldError names the file when it cannot be read."""
+    from . import store
+
+    heightmap, placement = store.load(path)
+    stride = 1
+    while 2 * ((heightmap.size - 1) // stride) ** 2 > max_triangles and stride < heightmap.size - 1:
+        stride *= 2
+    world = terrain_world(heightmap, placement if len(placement) else None, stride)
+    world.name = str(path).rsplit("/", 1)[-1].rsplit(".", 1)[0]
+    return world
