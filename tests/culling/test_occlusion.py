@@ -129,3 +129,41 @@ def test_walls_nearer_than_the_near_plane_hide_nothing(kit):
     world = kit.literal_world([q(-3, 3, -3, 3, -0.2), q(-0.2, 0.2, -0.2, 0.2, -3.0)])
     sent = Culler(partition(world, "octree", depth=2), "vfc,occlusion").cull(cam).triangles
     assert not np.isin([2, 3], sent).any()  # a wall safely beyond near does hide it
+
+
+def test_thesis_occluder_nearer_than_the_near_plane_hides_nothing_there(kit):
+    # Issue 17: the eye 0.0957 above a slab's top, looking down steeply with near 0.1: the GPU
+    # clips the whole top face, so the item buffer shows the slab's bottom face; the top's
+    # shadow volume must not hide it. The occluder is clipped by the near plane first.
+    world = kit.literal_world([cube(20, 40, 3, 4, 10, 30)], "slab")
+    part = partition(world, "octree", depth=5)
+    cam = Camera((28.192, 4.0957, 19.414), yaw=0.0, pitch=-80.0, fov=10.0, aspect=1.0, near=0.1)
+    culler = Culler(part, "vfc,occlusion_thesis")
+    culler.cull(cam)  # the first frame records the occluder candidates
+    visible = kit.visible_ids(world, cam, False)
+    bottom = np.flatnonzero(world.normals[:, 1] < -0.5)
+    assert np.isin(bottom, visible).any()
+    sent = culler.cull(cam).triangles
+    assert np.isin(visible, sent).all()
+    # A camera well above the slab: the unclipped top still hides nodes holding only bottom.
+    high = cam.with_(position=(28.192, 6.0, 19.414))
+    culler.cull(high)
+    result = culler.cull(high)
+    assert result.stats["occlusion_thesis.nodes_culled"] > 0
+    assert result.stats["occlusion_thesis.occluders_clipped"] == 0
+    assert np.isin(kit.visible_ids(world, high, False), result.triangles).all()
+
+
+def test_clip_near_keeps_the_part_beyond_the_plane():
+    from vismobile.culling.occlusion_thesis import clip_near
+    tri = np.array([[0.0, 0, -1], [1, 0, -3], [0, 1, -3]])  # depths 1, 3, 3 looking down -z
+    eye, forward = np.zeros(3), np.array([0.0, 0, -1])
+    cases = {0.5: 3, 2.0: 4, 2.999: 4, 3.5: 0}  # all, a quad, a thin quad, nothing
+    for depth, count in cases.items():
+        poly, counts = clip_near(tri[None], eye, forward, depth)
+        assert counts[0] == count, depth
+        if count:
+            assert np.all(poly[0, :count] @ forward >= depth - 1e-12)
+    poly, counts = clip_near(tri[None], eye, forward, 2.0)
+    assert np.allclose(poly[0], [[0.5, 0, -2], [1, 0, -3], [0, 1, -3], [0, 0.5, -2]])
+    assert clip_near(np.zeros((0, 3, 3)), eye, forward, 1.0)[1].shape == (0,)
