@@ -15,12 +15,20 @@ with n = 360 / (90 - FOV) sectors. That ignores pitch, the vertical field of vie
 aspect: a floor (normal straight up) sits in some yaw sector and is dropped whenever the camera
 yaws into it, though it faces the eye. Here sectors are split further into elevation bands, and
 the per-frame table is derived from the actual frustum, so any FOV, aspect and pitch are safe.
+
+Device rounding. The device draws the triangle with rounded corners and eye; its GPU clips to
+the same frustum directions, so only the rounded normal matters: if every corner moves by at
+most m, the normal turns by an angle theta with sin(theta) <= k1 m + k2 m^2 (geometry/tilt.py).
+A triangle is dropped only when its region's cap, widened by its own theta, still passes the
+test, i.e. asin(min_i m.c_i) - rho >= theta.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..geometry.sphere_regions import caps_within, direction_regions, region_caps
+from ..geometry.tilt import tilt_coefficients, tilt_sine
+from .precision import device_move
 from .state import CullState
 from .tree import Tree
 
@@ -59,12 +67,14 @@ class ConservativeBackface:
 
     yaw_regions : sectors about the vertical axis (default the thesis's 360/(90-45) = 8)
     pitch_bands : elevation bands of the normal (the 3D extension)
-    Contract: never drops a triangle that faces the eye and has a point inside the frustum.
-    Per frame: a (R,) table from 4 R dot products, then one lookup per candidate reference.
+    Contract: never drops a triangle that faces the eye and has a point inside the frustum,
+    also after the device moves its corners by device_move(arithmetic) (errs toward keeping).
+    Per frame: a (R,) table from 4 R dot products, then per candidate one lookup and its tilt.
     """
 
     name = "cbfc"
     cost = 80
+    arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def __init__(self, yaw_regions: int | None = None, pitch_bands: int = 6):
         self.yaw_regions = thesis_region_count() if yaw_regions is None else int(yaw_regions)
@@ -73,8 +83,11 @@ class ConservativeBackface:
             raise ValueError("cbfc needs yaw_regions >= 1 and pitch_bands >= 1")
 
     def prepare(self, tree: Tree) -> None:
-        self.regions = direction_regions(tree.world.normals, self.yaw_regions, self.pitch_bands)
+        world = tree.world
+        self.regions = direction_regions(world.normals, self.yaw_regions, self.pitch_bands)
         self.centers, self.radii = region_caps(self.yaw_regions, self.pitch_bands)
+        self.k1, self.k2 = tilt_coefficients(world.corners)
+        self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
 
     def droppable(self, camera) -> np.ndarray:
         """(R + 1,) bool per region (last: degenerate normals, never dropped).
@@ -85,15 +98,29 @@ class ConservativeBackface:
         table[:-1] = caps_within(self.centers, self.radii, corner_rays(camera))
         return table
 
+    def spare(self, camera, table) -> np.ndarray:
+        """(R + 1,) float64 per droppable region: sin of the angle its cap could still grow and
+        pass (asin(min_i m.c_i) - rho); -1 elsewhere. Errs small by 1e-12."""
+        rays = corner_rays(camera)
+        rays = rays / np.linalg.norm(rays, axis=1, keepdims=True)
+        low = np.clip((self.centers @ rays.T).min(axis=1), -1.0, 1.0)
+        room = np.clip(np.arcsin(low) - self.radii, 0.0, np.pi / 2)
+        out = np.full(len(table), -1.0)
+        out[:-1] = np.where(table[:-1], np.sin(room) - 1e-12, -1.0)
+        return out
+
     def apply(self, state: CullState) -> None:
         table = self.droppable(state.camera)
         state.count(f"{self.name}.regions_dropped", table.sum())
         if not table.any():
             return
         regions = self.regions
+        spare = self.spare(state.camera, table)
+        scale = max(self.magnitude, float(np.abs(state.camera.eye).max()))
+        move = np.sqrt(3.0) * device_move(self.arithmetic, scale)  # Euclidean, per corner
 
         def keep_of(ids):
-            keep = ~table[regions[ids]]
+            keep = ~(spare[regions[ids]] >= tilt_sine(self.k1[ids], self.k2[ids], move))
             state.count("triangles_tested", len(ids))
             state.count(f"{self.name}.refs_culled", len(ids) - np.count_nonzero(keep))
             return keep

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.cones import cluster_cones, cones_backfacing
+from ..geometry.cones import cluster_cones, cone_rounding, cones_backfacing
 from ..partition.base import gather_ranges
+from .precision import device_move
 from .state import CullState
 from .tree import Tree
 
@@ -22,11 +23,13 @@ class NormalConeStage:
 
     clusters : "leaf" (one cone per leaf) or "octant" (one per leaf and normal octant)
     Contract: never drops a triangle that faces the eye (margins 1e-9 relative, see
-    geometry.cones), wherever it is; whole leaves go when all their clusters are back-facing.
+    geometry.cones), wherever it is, also after the device moves corners and eye by
+    device_move(arithmetic); whole leaves go when all their clusters are back-facing.
     """
 
     name = "cone"
     cost = 30
+    arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def __init__(self, clusters: str = "octant"):
         if clusters not in GROUPS:
@@ -57,14 +60,21 @@ class NormalConeStage:
         self.apex, self.axis, self.cutoff = cluster_cones(
             world.normals[self.cluster_refs], world.corners[self.cluster_refs],
             self.starts, self.ends, scale=tree.scale)
+        self.rounding = cone_rounding(world.normals[self.cluster_refs],
+                                      world.corners[self.cluster_refs], self.apex, self.starts,
+                                      self.ends)
+        self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
 
     def apply(self, state: CullState) -> None:
         tree, k = self.tree, self.per_leaf
         ranks = tree.leaves_under(state.nodes)
         clusters = (ranks[:, None] * k + np.arange(k)).ravel()
         clusters = clusters[self.ends[clusters] > self.starts[clusters]]
+        eye = state.camera.eye
+        move = np.sqrt(3.0) * device_move(self.arithmetic,
+                                          max(self.magnitude, float(np.abs(eye).max())))
         back = cones_backfacing(self.apex[clusters], self.axis[clusters], self.cutoff[clusters],
-                                state.camera.eye)
+                                eye, self.rounding[clusters], move)
         state.count(f"{self.name}.clusters_tested", len(clusters))
         state.count(f"{self.name}.clusters_culled", back.sum())
         # Leaves with a front (or unknown) cluster stay; the rest go whole.

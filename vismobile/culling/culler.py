@@ -60,7 +60,9 @@ class Culler:
                 vfc, vfc_thesis, cone, occlusion_thesis, occlusion) refine the set of draw nodes,
                 triangle stages (cbfc, tbfc) then filter the gathered references, bfc sets a flag.
     arithmetic: the device's arithmetic mode (float64, float32, fixed16.16); frustum planes are
-                pushed out by its error bound so every decision stays conservative in that mode
+                pushed out by its error bound, and stages with an `arithmetic` attribute (cbfc,
+                cone, occlusion, occlusion_thesis) get it for their device-rounding margins
+                (precision.device_move), so every decision stays conservative in that mode
     options   : per-stage keyword dicts, e.g. occlusion={"occluders": 32}, cbfc={"pitch_bands": 8}
     """
 
@@ -77,6 +79,8 @@ class Culler:
         self.partition = partition
         self.stages = [STAGES[n](**options.get(n, {})) for n in self.names]
         for stage in self.stages:
+            if hasattr(stage, "arithmetic"):  # stages with a device-rounding margin
+                stage.arithmetic = arithmetic
             stage.prepare(self.tree)
 
     @property

@@ -23,8 +23,16 @@ Each frame:
    (`screen`) a triangle covering no pixel centre of the device's screen goes too.
 Occluders are clipped slightly beyond the near plane (NEAR_RELATIVE plus device rounding), so
 only parts the GPU certainly draws occlude: the item buffer sees through walls nearer than near.
+
+Device rounding (issue 17). The device draws rounded vertices from a rounded eye: relative to
+the eye every point moves by at most m = 2 device_move(arithmetic) per coordinate. A tested box
+or triangle is taken with all its moves (rectangle grown by the projection of m, nearest depth
+lowered by sqrt(3) m); an occluder point at depth z >= z_occ (the nearest occluder point, at
+least the clip depth) shifts on screen by at most sqrt(3) m / z_occ (1 + tan) and recedes by at
+most sqrt(3) m, so the rectangle grows by that shift too and the depth test gains sqrt(3) m.
 Contract: never drops a triangle that the full world's item buffer shows (any resolution; with
-`screen`, at that resolution).
+`screen`, at that resolution), also when the device moves points by m (T-junction cracks of
+that width excepted).
 """
 from __future__ import annotations
 
@@ -33,6 +41,7 @@ import numpy as np
 from ..geometry.raster import (box_rects, covers_no_sample, max_table, point_rects, rect_max,
                                split_edges, to_camera, union_depth)
 from ..partition.base import gather_ranges
+from .precision import device_move
 from .state import CullState
 from .tree import Tree
 from .triangle_backface import (DEVICE_ABSOLUTE, DEVICE_RELATIVE, certainly_backfacing,
@@ -66,6 +75,7 @@ class DepthBufferOcclusion:
 
     name = "occlusion"
     cost = 50
+    arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def __init__(self, width: int = 60, height: int = 80, occluders: int = 256,
                  candidates: int = 16384, triangles: bool = True, self_occluders: int = 0,
@@ -82,6 +92,7 @@ class DepthBufferOcclusion:
         if self.screen is not None and (len(self.screen) != 2 or min(self.screen) < 1):
             raise ValueError(f"occlusion screen must be (width, height) > 0, got {screen!r}")
         self.last_buffer = None
+        self.nearest = np.inf  # nearest depth of this frame's rasterised occluder points
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -146,11 +157,30 @@ class DepthBufferOcclusion:
         good = good[np.argsort(-score[good], kind="stable")]
         return pool[good[self.facing(pool[good], eye)]]
 
+    def move(self, camera) -> float:
+        """m: per-coordinate move of any point relative to the eye on the device (its own
+        rounding and the eye's), at this world's and eye's scale."""
+        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
+        return 2.0 * device_move(self.arithmetic, scale)
+
     def near_clip(self, camera) -> float:
         """Depth occluders are clipped at: beyond the near plane by more than the device's error
-        in placing it, so only parts the GPU certainly draws occlude (it clips at `near`)."""
+        in placing it (sqrt(3) m, and DEVICE_RELATIVE x scale as before), so only parts the GPU
+        certainly draws occlude (it clips at `near`)."""
         scale = max(self.magnitude, float(np.abs(camera.eye).max()))
-        return camera.near * (1.0 + NEAR_RELATIVE) + DEVICE_RELATIVE * scale
+        return (camera.near * (1.0 + NEAR_RELATIVE)
+                + max(DEVICE_RELATIVE * scale, 2.0 * self.move(camera)))
+
+    def shift(self, camera, move: float) -> float:
+        """Largest screen shift (x / z units) of a rasterised occluder point moved by `move` per
+        coordinate: sqrt(3) move / z (1 + |x| / z) at z >= self.nearest; inf when too near."""
+        reach = np.sqrt(3.0) * move
+        z = self.nearest - reach
+        if not z > 0:
+            return np.inf
+        ty = np.tan(np.radians(camera.fov) / 2.0)
+        tangent = max(ty, ty * camera.aspect) * self.nearest / z + reach / z
+        return reach / z * (1.0 + tangent)
 
     def rasterise(self, camera, chosen) -> np.ndarray:
         """(H, W) union depth buffer (geometry/raster.py) of world triangles `chosen` (K,) int64,
@@ -170,6 +200,8 @@ class DepthBufferOcclusion:
         where = np.full(len(self.points), -1, dtype=np.int64)
         where[used] = np.arange(len(used))
         points = to_camera(self.points[used], camera.eye, rotation)
+        clip = self.near_clip(camera)
+        self.nearest = min(self.nearest, max(clip, float(points[:, 2].min())))
         # Camera-space planes n.x = d, d > 0 (n away from the eye), from the exact world planes.
         normals = self.tree.world.normals[chosen]
         n = -normals @ rotation.T
@@ -178,7 +210,7 @@ class DepthBufferOcclusion:
         return union_depth(points, where[self.tri_points[chosen]],
                            (local[self.piece_tri[pieces]], where[self.piece_a[pieces]],
                             where[self.piece_b[pieces]]),
-                           self.groups[chosen], np.column_stack([n, d]), self.near_clip(camera),
+                           self.groups[chosen], np.column_stack([n, d]), clip,
                            ty * camera.aspect, ty, self.width, self.height)
 
     def depth_buffer(self, camera) -> tuple:
@@ -188,6 +220,7 @@ class DepthBufferOcclusion:
 
     def apply(self, state: CullState) -> None:
         tree, camera = self.tree, state.camera
+        self.nearest = np.inf
         buffer, drawn = self.depth_buffer(camera)
         self.last_buffer = buffer
         covered = np.isfinite(buffer)
@@ -198,6 +231,8 @@ class DepthBufferOcclusion:
         ty = np.tan(np.radians(camera.fov) / 2.0)
         tx = ty * camera.aspect
         margin = ZBUFFER_MARGIN / camera.near
+        move = self.move(camera)
+        recede = np.sqrt(3.0) * move  # an occluder point moves this much farther at most
         table = max_table(buffer) if covered.any() else None
         if table is not None:
             area = np.zeros((self.height + 1, self.width + 1), dtype=np.int64)
@@ -207,9 +242,9 @@ class DepthBufferOcclusion:
             while len(active):
                 x0, x1, y0, y1, zmin, testable = box_rects(
                     tree.node_bounds[active], camera.eye, rotation, camera.near, tx, ty,
-                    self.width, self.height)
+                    self.width, self.height, move, self.shift(camera, move))
                 far = rect_max(table, x0, x1, y0, y1)
-                hidden = testable & (zmin > far + margin * far * far)
+                hidden = testable & (zmin > far + margin * far * far + recede)
                 touches = ~testable | (area[y1 + 1, x1 + 1] - area[y0, x1 + 1]
                                        - area[y1 + 1, x0] + area[y0, x0] > 0)
                 visited += len(active)
@@ -223,31 +258,37 @@ class DepthBufferOcclusion:
             state.count(f"{self.name}.nodes_tested", visited)
             state.count(f"{self.name}.nodes_culled", hidden_count)
         if self.triangles and (table is not None or self.self_occluders or self.screen):
-            hidden = self._hidden_triangles(state, buffer, table, rotation, tx, ty, margin)
+            hidden = self._hidden_triangles(state, buffer, table, rotation, tx, ty, margin, move)
             state.filters.append(lambda ids: ~hidden[ids])
 
-    def _hidden_triangles(self, state, buffer, table, rotation, tx, ty, margin) -> np.ndarray:
+    def _hidden_triangles(self, state, buffer, table, rotation, tx, ty, margin,
+                          move) -> np.ndarray:
         """(T,) bool over the world: surviving triangles hidden by the large occluders' buffer,
         or by a second buffer that adds the survivors certainly facing the eye, nearest first,
         or (with `screen`) covering no pixel centre. A triangle is hidden by a buffer when in
         front of the near plane and either off screen or behind the buffer's maximum over its
-        rectangle."""
+        rectangle (each grown by the device's moves, as for nodes)."""
         world, camera = self.tree.world, state.camera
         ids = np.unique(self.tree.refs(state.nodes))
         cam = to_camera(world.vertices[world.triangles[ids]], camera.eye, rotation)
-        x0, x1, y0, y1, zmin, testable, onscreen = point_rects(
-            cam, camera.near, tx, ty, self.width, self.height)
+        recede = np.sqrt(3.0) * move
+
+        def rects():
+            return point_rects(cam, camera.near, tx, ty, self.width, self.height, move,
+                               self.shift(camera, move))
+
+        x0, x1, y0, y1, zmin, testable, onscreen = rects()
 
         def behind(table_):
             far = rect_max(table_, x0, x1, y0, y1)
-            return testable & (~onscreen | (zmin > far + margin * far * far))
+            return testable & (~onscreen | (zmin > far + margin * far * far + recede))
 
         hidden = behind(table) if table is not None else testable & ~onscreen
         state.count("triangles_tested", len(ids))
         if self.screen is not None:
             delta = DEVICE_RELATIVE * max(self.magnitude, float(np.abs(camera.eye).max()))
             empty = ~hidden & covers_no_sample(cam, camera.near, tx, ty, *self.screen,
-                                               move=delta + DEVICE_ABSOLUTE)
+                                               move=max(delta + DEVICE_ABSOLUTE, move))
             state.count(f"{self.name}.subpixel_culled", empty.sum())
             hidden |= empty
         if self.self_occluders:
@@ -258,7 +299,8 @@ class DepthBufferOcclusion:
                             [:self.self_occluders]]
             state.count(f"{self.name}.self_occluders", len(live))
             if len(live):
-                extra = self.rasterise(camera, ids[live])
+                extra = self.rasterise(camera, ids[live])  # may lower self.nearest
+                x0, x1, y0, y1, zmin, testable, onscreen = rects()
                 hidden |= behind(max_table(np.minimum(buffer, extra)))
         state.count(f"{self.name}.triangles_culled", hidden.sum())
         mask = np.zeros(world.triangle_count, dtype=bool)

@@ -12,6 +12,12 @@ inside. Two corrections keep it conservative, and are the only differences:
 - an occluder is first clipped by the near plane (pushed out by the device's error in placing
   it): the GPU does not draw the part nearer than `near`, so that part hides nothing (issue 17:
   an eye 0.0957 above a slab, near 0.1, sees the slab's bottom through its clipped top).
+Device rounding: relative to the eye every point moves by at most m = 2 device_move per
+coordinate (mu = sqrt(3) m). A plane through the eye and corners p, q then turns with
+|n' - n| <= 2 (mu (|p - e| + |q - e|) + mu^2) / |(p - e) x (q - e)|, the occluder's own plane
+with |n' - n| <= 2 tilt_sine(mu) (geometry/tilt.py) and moves by mu; so a node is hidden only
+when its box, grown by m, is inside every plane by tol + A + B R (R: the grown box's farthest
+distance from the eye; B = |n' - n|, A = 0 for eye planes, |n' - n| |e - q| + mu for the face).
 Occluders are single triangles (no fusion), which is why the thesis found little gain.
 """
 from __future__ import annotations
@@ -19,10 +25,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.planes import box_plane_distances
+from ..geometry.tilt import tilt_coefficients, tilt_sine
 from .occlusion import NEAR_RELATIVE
+from .precision import device_move
 from .state import CullState, CullResult
 from .tree import Tree
-from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE
 
 GRAZING = 1e-6  # |cos| of the view angle below which an occluder is skipped
 
@@ -54,21 +61,31 @@ def clip_near(corners, eye, forward, depth: float) -> tuple:
     return polygons, counts
 
 
-def shadow_planes(polygons, eye, face_normals, face_points) -> np.ndarray:
-    """(K, C + 1, 4) float64 inward planes of each convex polygon's shadow volume: C through the
-    eye and an edge (a repeated corner's empty edge repeats edge 0's plane), then the
-    occluder's plane facing away from the eye (exact, no slack).
+def shadow_planes(polygons, eye, face_normals, face_points, move: float = 0.0,
+                  face_tilt=None) -> tuple:
+    """Shadow volumes of convex polygons: (planes (K, C + 1, 4) float64 inward planes, C through
+    the eye and an edge (a repeated corner's empty edge repeats edge 0's plane), then the
+    occluder's plane facing away from the eye (exact); slack (K, C + 1, 2) float64 (A, B): after
+    the device moves every point by <= move (Euclidean, relative to the eye) a point x is still
+    inside a plane when its distance exceeds A + B |x - e| (module docstring)).
 
     polygons     : (K, C, 3) float64 convex polygons, e.g. from clip_near (C = 3 or 4)
     face_normals : (K, 3) float64 normals of the occluders' planes (either side)
     face_points  : (K, 3) float64 a point of each occluder's plane
+    face_tilt    : (K,) float64 bound on |c' - c| / |c| of each occluder (tilt_sine) or None (0)
     """
     rel = np.asarray(polygons, dtype=np.float64) - eye
-    normals = np.cross(rel, np.roll(rel, -1, axis=1))  # (K, 4, 3): through eye, corner i, i+1
+    normals = np.cross(rel, np.roll(rel, -1, axis=1))  # (K, C, 3): through eye, corner i, i+1
     length = np.linalg.norm(normals, axis=2)
     empty = length <= 1e-300
+    reach = np.linalg.norm(rel, axis=2)
+    mu = float(move)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        turn = 2.0 * (mu * (reach + np.roll(reach, -1, axis=1)) + mu * mu) / length
+    turn = np.where(np.isnan(turn), np.inf, np.minimum(turn, 2.0))
     normals = np.where(empty[..., None], normals[:, :1], normals)
     length = np.where(empty, length[:, :1], length)
+    turn = np.where(empty, turn[:, :1], turn)
     # The corners' mean is inside a convex polygon: it sets each plane's inner side.
     inner = rel.mean(axis=1)  # repeated corners weigh more, still inside
     sign = np.sign(np.einsum("kij,kj->ki", normals, inner))
@@ -79,7 +96,14 @@ def shadow_planes(polygons, eye, face_normals, face_points) -> np.ndarray:
     all_normals = np.concatenate([normals, face[:, None]], axis=1)
     offsets = -np.einsum("kij,j->ki", all_normals, eye)
     offsets[:, -1] = -np.einsum("ij,ij->i", face, face_points)
-    return np.concatenate([all_normals, offsets[..., None]], axis=2)
+    planes = np.concatenate([all_normals, offsets[..., None]], axis=2)
+    tilt = np.zeros(len(rel)) if face_tilt is None else np.asarray(face_tilt, dtype=np.float64)
+    face_turn = np.minimum(2.0 * tilt, 2.0)
+    slack = np.zeros(planes.shape[:2] + (2,))
+    slack[:, :-1, 1] = turn
+    slack[:, -1, 0] = face_turn * np.linalg.norm(face_points - eye, axis=1) + mu
+    slack[:, -1, 1] = face_turn
+    return planes, slack
 
 
 class ThesisOcclusion:
@@ -90,6 +114,7 @@ class ThesisOcclusion:
 
     name = "occlusion_thesis"
     cost = 40
+    arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def __init__(self, occluders: int = 16):
         self.occluders = int(occluders)
@@ -102,6 +127,7 @@ class ThesisOcclusion:
         self.previous = np.zeros(0, dtype=np.int64)
         world = tree.world
         self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
+        self.k1, self.k2 = tilt_coefficients(world.corners)
 
     def observe(self, result: CullResult) -> None:
         """Remember the triangles sent this frame: next frame's occluder candidates."""
@@ -128,11 +154,16 @@ class ThesisOcclusion:
         best = good[np.argsort(-score[good], kind="stable")[:k]]
         return ids[best]
 
+    def move(self, camera) -> float:
+        """m: per-coordinate move of any point relative to the eye on the device (its own
+        rounding and the eye's), at this world's and eye's scale."""
+        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
+        return 2.0 * device_move(self.arithmetic, scale)
+
     def near_clip(self, camera) -> float:
         """Depth occluders are clipped at: beyond `near` by more than the device's error in
-        placing it (as the `occlusion` stage), so only parts the GPU certainly draws occlude."""
-        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
-        return camera.near * (1.0 + NEAR_RELATIVE) + DEVICE_RELATIVE * scale + DEVICE_ABSOLUTE
+        placing a point (2 sqrt(3) m), so only parts the GPU certainly draws occlude."""
+        return camera.near * (1.0 + NEAR_RELATIVE) + 2.0 * np.sqrt(3.0) * self.move(camera)
 
     def apply(self, state: CullState) -> None:
         tree, camera = self.tree, state.camera
@@ -149,15 +180,23 @@ class ThesisOcclusion:
             return
         chosen = chosen[left]
         sides = 4 if (counts == 4).any() else 3  # no quads: no repeated fourth plane to test
-        planes = shadow_planes(polygons[left, :sides], camera.eye, world.normals[chosen],
-                               world.corners[chosen, 0])
+        m = self.move(camera)
+        mu = np.sqrt(3.0) * m
+        planes, slack = shadow_planes(polygons[left, :sides], camera.eye, world.normals[chosen],
+                                      world.corners[chosen, 0], mu,
+                                      tilt_sine(self.k1[chosen], self.k2[chosen], mu))
         per = planes.shape[1]
-        planes = planes.reshape(-1, 4)
+        planes, slack = planes.reshape(-1, 4), slack.reshape(-1, 2)
+        need_a, need_b = slack[:, 0] + tree.tol, slack[:, 1]
         active = state.nodes
         kept, visited, hidden_count = [], 0, 0
         while len(active):
-            _, n_dist = box_plane_distances(tree.node_bounds[active], planes)
-            inside = (n_dist >= tree.tol).reshape(len(active), -1, per).all(axis=2)
+            boxes = tree.node_bounds[active] + np.array([-m, m])[None, :, None]
+            _, n_dist = box_plane_distances(boxes, planes)
+            far = np.linalg.norm(np.maximum(np.abs(boxes[:, 0] - camera.eye),
+                                            np.abs(boxes[:, 1] - camera.eye)), axis=1)
+            inside = (n_dist >= need_a + far[:, None] * need_b).reshape(
+                len(active), -1, per).all(axis=2)
             hidden = inside.any(axis=1)
             visited += len(active)
             hidden_count += int(hidden.sum())

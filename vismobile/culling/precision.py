@@ -25,6 +25,15 @@ from ..world import World
 # grows the frustum, so it is conservative).
 _ALWAYS_INSIDE = np.array([0.0, 0.0, 0.0, 1.0])
 
+# How far the device moves a vertex or the eye, per coordinate: DEVICE_RELATIVE x the largest
+# coordinate magnitude (16 float32 ulps: rounding the vertex plus the GPU's float32 transform,
+# which runs in float32 whatever the storage) plus, in fixed16.16, DEVICE_ABSOLUTE (2x the
+# grid's rounding). tbfc, cbfc, cone and both occlusion stages keep what such moves could show.
+DEVICE_RELATIVE = 2.0 ** -20
+DEVICE_ABSOLUTE = 2.0 ** -16
+# Float32's smallest normal: below it relative bounds no longer hold (absolute floor).
+_FLOAT32_TINY = float(np.finfo(np.float32).tiny)
+
 
 def world_scale(vertices, camera: Camera | None = None) -> float:
     """Largest |coordinate| of the vertices (V, 3) and the camera eye: the magnitude bounds use."""
@@ -42,6 +51,14 @@ def margin(mode: str, scale: float) -> float:
     move = np.sqrt(3.0) * float(arithmetic.representation_error(scale, mode))
     own = arithmetic.distance_error_bound("float64", scale)
     return arithmetic.distance_error_bound(mode, scale) + move + own
+
+
+def device_move(mode: str, scale: float) -> float:
+    """Per-coordinate bound on how far the device moves a vertex or the eye from its float64
+    value, for coordinates up to `scale`: DEVICE_RELATIVE x scale, plus DEVICE_ABSOLUTE in
+    fixed16.16 (float modes: plus float32's smallest normal). Errs large (16 ulps, not 1)."""
+    absolute = DEVICE_ABSOLUTE if arithmetic.check_mode(mode) == "fixed16.16" else _FLOAT32_TINY
+    return DEVICE_RELATIVE * float(scale) + absolute
 
 
 def conservative_planes(planes, mode: str, scale: float) -> np.ndarray:

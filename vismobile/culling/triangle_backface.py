@@ -24,14 +24,12 @@ from __future__ import annotations
 
 import numpy as np
 
+# Device rounding covered (precision.py): each coordinate moves by up to DEVICE_RELATIVE x the
+# largest coordinate magnitude (16 float32 ulps) plus DEVICE_ABSOLUTE (2x the fixed16.16 step).
+from .precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE
 from .state import CullState
 from .tree import Tree
 
-# Device rounding covered: each coordinate moves by up to DEVICE_RELATIVE x the largest
-# coordinate magnitude (16 float32 ulps: vertex rounding plus a float32 transform) plus
-# DEVICE_ABSOLUTE (2x the fixed16.16 rounding error).
-DEVICE_RELATIVE = 2.0 ** -20
-DEVICE_ABSOLUTE = 2.0 ** -16
 _U = 2.0 ** -53
 GAMMA_8 = 8 * _U / (1 - 8 * _U)
 

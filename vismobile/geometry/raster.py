@@ -381,24 +381,32 @@ def rect_max(table, x0, x1, y0, y1) -> np.ndarray:
                       np.maximum(values[base + yr * w + x0], values[base + yr * w + xr]))
 
 
-def point_rects(points, near: float, tx: float, ty: float, width: int, height: int) -> tuple:
+def point_rects(points, near: float, tx: float, ty: float, width: int, height: int,
+                move: float = 0.0, shift: float = 0.0) -> tuple:
     """Conservative screen rectangles of point sets: (x0, x1, y0, y1 (B,) int64 inclusive pixels,
     zmin (B,) float64 nearest depth x (1 - DEPTH_SLACK), testable (B,) bool, onscreen (B,) bool).
 
-    Errs large: the rectangle bounds the projection of every point, grown by SLACK_PX pixels;
-    testable is False when a point is nearer than `near`; onscreen is False when the grown
-    rectangle misses the buffer (then nothing of the convex hull of points in front is seen).
-    points : (B, m, 3) float64 camera-space points
+    Errs large: the rectangle bounds the projection of every point, also after a move of up to
+    `move` per coordinate (zmin is lowered by sqrt(3) move), grown by SLACK_PX pixels plus
+    `shift` (in units of x / z, i.e. tangents); testable is False when a point (moved) is
+    nearer than `near`; onscreen is False when the grown rectangle misses the buffer (then
+    nothing of the convex hull of points in front is seen).
+    points : (B, m, 3) float64 camera-space points;  move, shift : float >= 0
     """
-    z = points[..., 2]
+    reach = np.sqrt(3.0) * float(move)
+    z = points[..., 2] - reach
     zmin = z.min(axis=1)
     testable = zmin >= near
     zsafe = np.where(testable[:, None], z, 1.0)
     u, v = points[..., 0] / (zsafe * tx), points[..., 1] / (zsafe * ty)
-    x0 = np.floor((u.min(axis=1) + 1.0) * 0.5 * width - SLACK_PX)
-    x1 = np.floor((u.max(axis=1) + 1.0) * 0.5 * width + SLACK_PX)
-    y0 = np.floor((v.min(axis=1) + 1.0) * 0.5 * height - SLACK_PX)
-    y1 = np.floor((v.max(axis=1) + 1.0) * 0.5 * height + SLACK_PX)
+    # d(x / z) <= m / z (1 + |x| / z) for moves of each coordinate <= m (z already lowered).
+    lateral = np.maximum(np.abs(points[..., 0]), np.abs(points[..., 1])) + reach
+    grow = (reach / zsafe * (1.0 + lateral / zsafe)).max(axis=1) + float(shift)
+    gu, gv = grow / tx, grow / ty
+    x0 = np.floor((u.min(axis=1) - gu + 1.0) * 0.5 * width - SLACK_PX)
+    x1 = np.floor((u.max(axis=1) + gu + 1.0) * 0.5 * width + SLACK_PX)
+    y0 = np.floor((v.min(axis=1) - gv + 1.0) * 0.5 * height - SLACK_PX)
+    y1 = np.floor((v.max(axis=1) + gv + 1.0) * 0.5 * height + SLACK_PX)
     onscreen = (x1 >= 0) & (x0 <= width - 1) & (y1 >= 0) & (y0 <= height - 1)
     x0, x1 = np.clip(x0, 0, width - 1), np.clip(x1, 0, width - 1)
     y0, y1 = np.clip(y0, 0, height - 1), np.clip(y1, 0, height - 1)
@@ -407,16 +415,18 @@ def point_rects(points, near: float, tx: float, ty: float, width: int, height: i
 
 
 def box_rects(boxes, eye, rotation, near: float, tx: float, ty: float,
-              width: int, height: int) -> tuple:
+              width: int, height: int, move: float = 0.0, shift: float = 0.0) -> tuple:
     """Conservative screen rectangles of boxes: (x0, x1, y0, y1 (B,) int64 inclusive pixels,
     zmin (B,) float64 nearest depth, testable (B,) bool).
 
-    Errs large: the rectangle bounds the projection of all 8 corners, grown by SLACK_PX pixels;
-    a box is not testable when any corner is nearer than `near` or its rectangle is off screen.
+    Errs large: the rectangle bounds the projection of all 8 corners (also moved by `move` per
+    coordinate), grown by SLACK_PX pixels plus `shift` (point_rects); a box is not testable
+    when any corner is nearer than `near` or its rectangle is off screen.
     boxes : (B, 2, 3) float64;  rotation : (3, 3) rows right, up, forward
     """
     cam = to_camera(box_corners(boxes), eye, rotation)  # (B, 8, 3)
-    x0, x1, y0, y1, zmin, testable, onscreen = point_rects(cam, near, tx, ty, width, height)
+    x0, x1, y0, y1, zmin, testable, onscreen = point_rects(cam, near, tx, ty, width, height,
+                                                           move, shift)
     return x0, x1, y0, y1, zmin, testable & onscreen
 
 
