@@ -105,7 +105,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     args.out = args.out or args.world.with_suffix(".vmp")
     if args.cull_only:
-        print(json.dumps(cull(args)))
+        text = json.dumps(cull(args))
+        args.out.with_suffix(".cull.json").write_text(text + "\n")  # kept beside the .vmp
+        print(text)
         return 0
     if not args.skip_build:
         stats = build(args)
@@ -122,7 +124,8 @@ def main(argv=None) -> int:
     print(f"cull (vfc, mapped): map + verify {result['map_s']:.1f} s, culler set-up "
           f"{result['culler_setup_s']:.2f} s, first frame {result['first_frame_ms']:.1f} ms, "
           f"median {result['median_ms']:.2f} ms, max {result['max_ms']:.1f} ms over "
-          f"{result['frames']} frames; mean sent {result['mean_sent']:,.0f} (max "
+          f"{result['frames']} frames (median CPU {result['median_cpu_ms']:.2f} ms, load "
+          f"{result['load']:.1f}); mean sent {result['mean_sent']:,.0f} (max "
           f"{result['max_sent']:,}); peak RSS {result['peak_rss_mb']:.0f} MB")
     return 0
 
