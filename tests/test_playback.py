@@ -226,7 +226,7 @@ def test_adaptive_playback_switches_off_a_stage_that_removes_nothing(tmp_path):
     scene = Scene(world, partition(world, "octree", depth=3), "octree:3")
     ticks = itertools.count()  # every cull takes exactly 1 s on this clock: timing is not tested
     result = play(scene, walk(60), "vfc,vfc_thesis", "ipaq-hx2490b", tmp_path / "run",
-                  adaptive={"clock": lambda: float(next(ticks))})
+                  adaptive={"clock": lambda: float(next(ticks)), "ms_per_triangle": 1e-3})
     events = result.summary["adaptive_events"]
     assert [(e["stage"], e["action"]) for e in events][:1] == [("vfc_thesis", "off")]
     assert events[0]["saving_ms"] == 0.0 and events[0]["cost_ms"] == 0.0  # equal either way

@@ -45,6 +45,7 @@ class AdaptiveCuller:
         self.window = max(int(window), 1)
         self.probe_every = max(int(probe_every), 1)
         self.ms_per_triangle = ms_per_triangle
+        self._learns_render = ms_per_triangle is None  # a caller's model is kept as given
         self.ms_per_batch = float(ms_per_batch)
         self._factory = culler_factory
         self._clock = clock
@@ -76,7 +77,10 @@ class AdaptiveCuller:
         return result, (self._clock() - start) * 1e3
 
     def observe_render(self, render_ms: float, stats: dict) -> None:
-        """Feed one measured render time; refits render_ms ~ r0 + d*triangles + e*batches."""
+        """Feed one measured render time; refits render_ms ~ r0 + d*triangles + e*batches
+        (only when the caller gave no render-cost model)."""
+        if not self._learns_render:
+            return
         row = np.array([1.0, float(stats.get("triangles_sent", 0)),
                         float(stats.get("draw_batches", 0))])
         self._render += np.outer(row, row)
