@@ -50,3 +50,14 @@ def render_target(size, kind):
             raise ValueError(f"unknown render target kind {kind!r}")
         _TARGETS[key] = ctx.framebuffer([color], ctx.depth_renderbuffer(size))
     return _TARGETS[key]
+
+
+def make_current() -> None:
+    """Make the headless context current on this thread (a window's context may have taken
+    its place); pair with release_current()."""
+    gl_context().__enter__()
+
+
+def release_current() -> None:
+    """Give the thread back the context that was current before make_current()."""
+    gl_context().__exit__(None, None, None)

@@ -77,11 +77,28 @@ void main() { f_id = v_id; }
 """
 
 
+# Overlays (viewer only, never timed): one flat colour, e.g. culled triangles or node boxes.
+FLAT_VERTEX = """#version 330
+{inputs}{transform}
+void main() {{
+    gl_Position = u_mvp * vec4(position(), 1.0);
+}}
+"""
+
+FLAT_FRAGMENT = """#version 330
+uniform vec4 u_color;
+out vec4 f_color;
+void main() { f_color = u_color; }
+"""
+
+
 def sources(kind: str, vertex_format: str) -> tuple:
-    """(vertex, fragment) GLSL for kind "shaded" or "item" and a profile vertex format."""
+    """(vertex, fragment) GLSL for kind "shaded", "item" or "flat" and a vertex format."""
     inputs = _INPUTS[vertex_format]
-    if kind == "item":
-        # The item program reads positions only; drop the unused normal input.
+    if kind in ("item", "flat"):
+        # These programs read positions only; drop the unused normal input.
         inputs = inputs.split("in vec3 in_normal")[0].split("in ivec3 in_normal")[0]
+        if kind == "flat":
+            return FLAT_VERTEX.format(inputs=inputs, transform=_TRANSFORM), FLAT_FRAGMENT
         return ITEM_VERTEX.format(inputs=inputs, transform=_TRANSFORM), ITEM_FRAGMENT
     return SHADED_VERTEX.format(inputs=inputs, transform=_TRANSFORM), SHADED_FRAGMENT

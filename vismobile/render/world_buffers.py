@@ -48,11 +48,12 @@ class WorldBuffers:
         self._arrays = {}
 
     def vertex_arrays(self, kind: str) -> list:
-        """One vertex array per batch for program kind "shaded" or "item", sharing self.ibo."""
+        """One vertex array per batch for program kind "shaded", "item" or "flat", sharing
+        self.ibo."""
         if kind not in self._arrays:
             ctx = gl_context()
             prog = program(kind, self.vertex_format)
-            if kind == "item":
+            if kind in ("item", "flat"):
                 layout = f"{self.format.split()[0]} 16x"  # skip normal (12 B) and colour (4 B)
                 self._arrays[kind] = [
                     ctx.vertex_array(prog, [(vbo, layout, "in_position")], index_buffer=self.ibo,

@@ -1,0 +1,170 @@
+"""The viewer's logic without a window: scripted keys, recording, playback, toggles, frames."""
+import numpy as np
+import pytest
+
+from vismobile.partition import partition
+from vismobile.playback import Scene
+from vismobile.render import render_rgb
+from vismobile.trajectory import Trajectory
+from vismobile.viewer import Session
+
+
+@pytest.fixture(scope="module")
+def scene(thesis_world):
+    world = thesis_world("w1")
+    return Scene(world, partition(world, "octree", depth=3), "octree:depth=3")
+
+
+@pytest.fixture
+def session(scene, tmp_path):
+    return Session(scene, (), "ipaq-hx2490b", "trajectories/indoor.csv",
+                   record_path=tmp_path / "recorded.csv",
+                   structures=("none", "octree:depth=3", "portal:1"))
+
+
+def hold(session, key, updates, dt=0.1):
+    session.key_down(key)
+    for _ in range(updates):
+        session.update(dt)
+    session.key_up(key)
+
+
+def test_scripted_keys_record_a_trajectory_that_replays_to_the_same_cameras(session, tmp_path):
+    session.key_down("R")
+    hold(session, "UP", 6)
+    hold(session, "LEFT", 4)
+    hold(session, "PAGEUP", 3)
+    session.key_down("R")
+    assert not session.recorder.on and len(session.recorder) == 13
+    recorded = session.recorder.poses
+    assert np.linalg.norm(recorded[5, :3] - recorded[0, :3]) > 0 and recorded[9, 3] != recorded[5, 3]
+    assert recorded[12, 1] > recorded[9, 1]
+    session.key_down("V")
+    saved = tmp_path / "recorded.csv"
+    loaded = Trajectory.load(saved)
+    assert np.allclose(loaded.poses, recorded, atol=1e-3)  # the CSV keeps 4 and 3 decimals
+
+    session.key_down("L")  # loads the file just saved and plays it
+    assert session.mode == "play"
+    cameras = [session.camera()]
+    for _ in range(len(loaded) - 1):
+        session.update(0.1)
+        cameras.append(session.camera())
+    assert cameras == list(loaded.cameras(session.profile.aspect))
+
+
+def test_pause_and_step(session):
+    session.key_down("L")  # the --trajectory file
+    for _ in range(5):
+        session.update(0.1)
+    session.key_down("SPACE")
+    assert session.mode == "pause"
+    session.update(0.1)
+    assert session.player.frame == 5
+    session.key_down("PERIOD")
+    session.key_down("PERIOD")
+    session.key_down("COMMA")
+    assert session.player.frame == 6
+    assert session.camera() == Trajectory.load("trajectories/indoor.csv").camera(
+        6, session.profile.aspect)
+    session.key_down("P")  # back to flying from where playback stopped
+    assert session.mode == "fly"
+    session.key_down("UP")
+    session.update(0.1)
+    assert not np.array_equal(session.pose, session.player.pose())
+
+
+def test_toggles_change_the_triangles_sent(session):
+    total = session.world.triangle_count
+    none = session.render()
+    assert len(none.triangles) == total and none.info["sent"] == total
+    session.key_down("_1")  # vfc
+    vfc = session.render()
+    assert session.stages == ("vfc",)
+    assert 0 < len(vfc.triangles) < total
+    session.key_down("_6")  # occlusion
+    both = session.render()
+    assert set(both.triangles) <= set(vfc.triangles) and len(both.triangles) < len(vfc.triangles)
+    session.key_down("_1")
+    session.key_down("_6")
+    assert len(session.render().triangles) == total
+    session.key_down("_2")  # bfc: everything sent, the driver culls back faces
+    frame = session.render()
+    assert len(frame.triangles) == total and session.culler.cull_back
+
+
+def test_structures_cycle_and_keep_the_stages_they_can_run(session):
+    session.key_down("_1")
+    session.key_down("TAB")  # portal:1
+    assert session.structure == "portal:depth=1" and session.stages == ("vfc",)
+    session.key_down("_7")
+    assert session.stages == ("vfc", "portals")
+    session.key_down("TAB")  # none: no partition, so no vfc or portals
+    assert session.structure == "none" and session.stages == ()
+    assert len(session.render().triangles) == session.world.triangle_count
+    session.key_down("_1")  # refused without a partition, with a message
+    assert session.stages == () and "need a partition" in session.message
+
+
+def test_frame_is_the_headless_renderers_image_of_the_same_camera(session):
+    session.key_down("_1")
+    hold(session, "UP", 3)
+    frame = session.render()
+    expected = render_rgb(session.world, frame.triangles, frame.camera, session.profile)
+    assert frame.image.shape == (320, 240, 3)
+    assert np.array_equal(frame.image, expected)
+
+
+def test_overlays_draw_over_the_frame(session):
+    session.key_down("_1")
+    session.key_down("_6")
+    plain = session.render().image
+    session.key_down("C")
+    culled = session.render().image
+    session.key_down("C")
+    session.key_down("B")
+    boxes = session.render().image
+    assert not np.array_equal(plain, culled) and not np.array_equal(plain, boxes)
+    # x-ray red: culled geometry behind the walls tints the image toward red
+    assert culled[..., 0].astype(int).sum() > plain[..., 0].astype(int).sum()
+
+
+def test_hud_reports_the_frame(session):
+    session.key_down("_1")
+    frame = session.render()
+    text = "\n".join(frame.hud)
+    assert f"sent {len(frame.triangles):,} / {session.world.triangle_count:,}" in text
+    assert "VFC  /  octree:depth=3" in text
+    assert "fps on ipaq-hx2490b (model)" in text and "/ 64 MB heap" in text
+    assert frame.info["nodes_visited"] == frame.stats["nodes_visited"] > 0
+    session.key_down("L")
+    for _ in range(55):
+        session.update(0.1)
+    assert "waypoint A in 1 frames" in "\n".join(session.render().hud)
+
+
+def test_god_view_cycles_top_side_off(session):
+    assert session.render().god.shape == (360, 360, 3)
+    session.key_down("G")
+    assert session.god_view == "side" and session.render().god is not None
+    session.key_down("G")
+    assert session.render().god is None
+
+
+def test_desktop_frames_follow_the_window(scene):
+    session = Session(scene, ("vfc",), "desktop")
+    session.set_view_size(320, 200)
+    frame = session.render()
+    assert frame.image.shape == (200, 320, 3) and frame.camera.aspect == 1.6
+    assert frame.info["device_fps"] is None
+
+
+def test_saving_nothing_or_loading_nothing_is_a_message_not_an_error(scene, tmp_path):
+    session = Session(scene, (), "ipaq-hx2490b", record_path=tmp_path / "r.csv")
+    session.key_down("V")
+    assert "nothing recorded" in session.message and not (tmp_path / "r.csv").exists()
+    session.key_down("L")
+    assert "no trajectory" in session.message and session.mode == "fly"
+    bad = tmp_path / "bad.csv"
+    bad.write_text("frame,x\n")
+    assert not session.load_trajectory(bad) and str(bad) in session.message

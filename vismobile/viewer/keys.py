@@ -1,0 +1,56 @@
+"""Key bindings: key names (pyglet's symbol strings, e.g. "UP", "W", "_1") to viewer actions.
+
+HELD keys act while down (the thesis's joystick); PRESSED keys act once per press.
+"""
+from __future__ import annotations
+
+HELD = {
+    "UP": "forward", "W": "forward",
+    "DOWN": "back", "S": "back",
+    "LEFT": "turn_left", "A": "turn_left",
+    "RIGHT": "turn_right", "D": "turn_right",
+    "PAGEUP": "rise", "E": "rise",
+    "PAGEDOWN": "sink", "Q": "sink",
+    "HOME": "look_up", "END": "look_down",
+}
+
+# Number keys toggle stages in this order (0 is the tenth).
+STAGE_KEYS = ("vfc", "bfc", "cbfc", "tbfc", "cone", "occlusion", "portals", "vfc_thesis",
+              "cbfc_thesis", "occlusion_thesis")
+
+PRESSED = {
+    **{f"_{(i + 1) % 10}": f"toggle:{stage}" for i, stage in enumerate(STAGE_KEYS)},
+    "TAB": "next_structure",
+    "R": "record",            # start / stop recording the camera path
+    "V": "save",              # save the recording (the project's trajectory CSV)
+    "L": "load",              # load the trajectory file and play it back
+    "P": "play",              # start / stop playback of the loaded trajectory
+    "SPACE": "pause",
+    "PERIOD": "step_forward",
+    "COMMA": "step_back",
+    "C": "show_culled",       # draw culled triangles in a second colour (x-ray)
+    "B": "show_nodes",        # overlay the boxes of the drawn partition nodes
+    "G": "god_view",          # god view: top, side, off
+    "F1": "help",
+    "ESCAPE": "quit",
+}
+
+# One line per binding for the help panel and the README.
+HELP = [
+    "Up/W Down/S  forward / back      Left/A Right/D  turn",
+    "PgUp/E PgDn/Q  height            Home/End  look up/down; drag: mouse look",
+    "1-9,0  toggle " + " ".join(f"{(i + 1) % 10}:{s}" for i, s in enumerate(STAGE_KEYS)),
+    "Tab  next structure              C  culled in red     B  node boxes",
+    "R  record on/off   V  save   L  load + play   P  play/stop",
+    "Space  pause   . ,  step (paused)   G  god view   F1  help   Esc  quit",
+]
+
+
+def action_held(name: str):
+    """The held action of a key name, or None."""
+    return HELD.get(name.upper())
+
+
+def action_pressed(name: str):
+    """The one-shot action of a key name, or None."""
+    return PRESSED.get(name.upper())

@@ -1,0 +1,372 @@
+"""Everything the viewer knows and does, without a window: the world and its structures, the
+Culler for the active stages, the camera driven by the joystick or by a trajectory, the
+recorder, the overlays; render() culls and draws one frame and returns it as arrays."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..camera import Camera
+from ..errors import VisMobileError
+from ..playback import Scene, load_scene, make_culler, parse_structure, _describe
+from ..profile import get_profile
+from ..trajectory import Trajectory
+from . import keys
+from .controls import Speeds, mouse_look, overview_pose, step_pose
+from .godview import VIEWS, GodView
+from .hud import hud_lines
+from .recorder import Player, Recorder
+
+# Tab cycles through these (built on first use), from the session's first structure.
+STRUCTURES = ("none", "grid", "octree:4", "octree:5", "portal:1", "bsp")
+GOD_VIEWS = tuple(VIEWS) + (None,)
+
+
+@dataclass
+class Frame:
+    """One rendered frame.
+
+    image     : (H, W, 3) uint8 at the render resolution, row 0 = top
+    god       : (h, w, 3) uint8 god view, or None when it is off
+    hud       : list of HUD text lines; info: the figures behind them
+    camera    : the Camera drawn; triangles: (S,) int64 ids sent; stats: the Culler's counters
+    """
+
+    image: np.ndarray
+    god: np.ndarray | None
+    hud: list
+    info: dict
+    camera: object
+    triangles: np.ndarray
+    stats: dict = field(default_factory=dict)
+
+
+class Session:
+    """The viewer's state; key_down/key_up/press/drag change it, update(dt) moves time on,
+    render() draws. Rendering needs the headless GL context current (window.py makes it so).
+
+    scene      : playback.Scene (world + first partition); structures: the Tab cycle
+    stages     : culling stage names active at start
+    profile    : Profile or name; frames render at its resolution (set_view_size changes it
+                 for `desktop`, whose frames fill the window)
+    trajectory : path of a trajectory CSV that L loads (and that sets the first pose)
+    record_path: where V saves the recording
+    """
+
+    def __init__(self, scene: Scene, stages=(), profile="ipaq-hx2490b", trajectory=None,
+                 record_path="recorded.csv", structures=STRUCTURES, god_size=(360, 360)):
+        from ..playback import parse_stages
+
+        self.world = scene.world
+        self.profile = get_profile(profile)
+        self.profile.check_range(self.world.extent, f"world {self.world.name!r}")
+        self.partitions = {scene.structure: scene.partition}
+        self.structures = list(dict.fromkeys(self._label(s) for s in structures))
+        if scene.structure not in self.structures:
+            self.structures.insert(0, scene.structure)
+        self.structure = scene.structure
+        self.stages = tuple(parse_stages(stages))
+        self._cullers = {}
+        self.culler = self._culler(self.structure, self.stages)  # bad stages fail at start
+        self.speeds = Speeds.for_extent(self.world.extent)
+        self.trajectory_path = Path(trajectory) if trajectory is not None else None
+        self.record_path = Path(record_path)
+        self.recorder = Recorder()
+        self.player = None
+        self.held = set()
+        self.frame = 0
+        self.running = True
+        self.show_culled = False
+        self.show_nodes = False
+        self.show_help = False
+        self.god_view = "top"
+        self.message = ""
+        self._god = GodView(self.world, god_size)
+        self._renderer = None
+        self._model = None
+        if self.profile.cost is not None:
+            from ..study.costmodel import DeviceModel
+
+            self._model = DeviceModel(self.profile)
+        if self.trajectory_path is not None:
+            first = Trajectory.load(self.trajectory_path)
+            self.pose = first.poses[0].copy()
+        else:
+            self.pose = overview_pose(self.world.extent)
+
+    @classmethod
+    def open(cls, world, structure="none", stages=(), profile="ipaq-hx2490b", trajectory=None,
+             **options) -> "Session":
+        """Session of a world path (OBJ, .vmp or thesis name w1..w6) partitioned by structure."""
+        return cls(load_scene(world, structure), stages, profile, trajectory, **options)
+
+    # ---- structures and stages -------------------------------------------------------------
+    @staticmethod
+    def _label(structure) -> str:
+        kind, params = parse_structure(structure)
+        return "none" if kind is None else _describe(kind, params)
+
+    def _partition(self, label):
+        if label not in self.partitions and label == "none":
+            self.partitions[label] = None
+        elif label not in self.partitions:
+            from ..partition import partition as build
+
+            kind, params = parse_structure(label)
+            try:
+                self.partitions[label] = build(self.world, kind, **params)
+            except ValueError as error:
+                raise VisMobileError(f"structure {label}: {error}") from None
+        return self.partitions[label]
+
+    def _culler(self, label, stages):
+        key = (label, tuple(sorted(stages)))
+        if key not in self._cullers:
+            scene = Scene(self.world, self._partition(label), label)
+            self._cullers[key] = make_culler(scene, stages, self.profile)
+        return self._cullers[key]
+
+    def set_stages(self, stages) -> bool:
+        """Switch to these stages; False (and a message) when the structure cannot run them."""
+        try:
+            self.culler = self._culler(self.structure, tuple(stages))
+        except VisMobileError as error:
+            self.message = str(error)
+            return False
+        self.stages = tuple(stages)
+        return True
+
+    def toggle_stage(self, stage) -> bool:
+        """Switch one stage on or off; False when the structure cannot run the result."""
+        stages = tuple(s for s in self.stages if s != stage) if stage in self.stages \
+            else self.stages + (stage,)
+        if self.set_stages(stages):
+            self.message = f"{stage} {'on' if stage in stages else 'off'}"
+            return True
+        return False
+
+    def set_structure(self, structure) -> bool:
+        """Switch structure keeping the stages that it can run (others are switched off)."""
+        label = self._label(structure)
+        self._partition(label)
+        kept = self.stages
+        try:
+            self.culler = self._culler(label, kept)
+        except VisMobileError:  # e.g. portals on an octree: keep the stages it can run
+            kept = tuple(s for s in self.stages if self._runs(label, s))
+            self.culler = self._culler(label, kept)
+        dropped = [s for s in self.stages if s not in kept]
+        self.structure, self.stages = label, tuple(kept)
+        self.message = f"structure {label}" + (f" ({', '.join(dropped)} off)" if dropped else "")
+        return True
+
+    def _runs(self, label, stage) -> bool:
+        try:
+            self._culler(label, (stage,))
+            return True
+        except VisMobileError:
+            return False
+
+    def next_structure(self) -> None:
+        index = self.structures.index(self.structure)
+        self.set_structure(self.structures[(index + 1) % len(self.structures)])
+
+    # ---- input -----------------------------------------------------------------------------
+    def key_down(self, name: str) -> None:
+        """A key went down: held actions start, one-shot actions run."""
+        held = keys.action_held(name)
+        if held is not None:
+            self.held.add(held)
+        pressed = keys.action_pressed(name)
+        if pressed is not None:
+            self.press(pressed)
+
+    def key_up(self, name: str) -> None:
+        held = keys.action_held(name)
+        if held is not None:
+            self.held.discard(held)
+
+    def drag(self, dx: float, dy: float) -> None:
+        """Mouse look by a drag of (dx, dy) pixels (flying only)."""
+        if self.mode == "fly":
+            self.pose = mouse_look(self.pose, dx, dy, self.speeds)
+
+    def press(self, action: str) -> None:
+        """Run a one-shot action (keys.PRESSED values)."""
+        if action.startswith("toggle:"):
+            self.toggle_stage(action.split(":", 1)[1])
+        elif action == "next_structure":
+            self.next_structure()
+        elif action == "record":
+            if self.recorder.on:
+                self.recorder.stop()
+                self.message = f"recorded {len(self.recorder)} poses (V saves)"
+            else:
+                self.recorder.start()
+                self.message = "recording"
+        elif action == "save":
+            self.save_recording()
+        elif action == "load":
+            self.load_trajectory()
+        elif action == "play":
+            if self.player is None:
+                self.message = "no trajectory loaded (L loads one)"
+            elif self.mode == "fly":
+                self.player.paused = False
+                self._mode = "play"
+            else:
+                self._mode = "fly"
+        elif action == "pause":
+            if self.player is not None and self.mode != "fly":
+                self.player.paused = not self.player.paused
+        elif action in ("step_forward", "step_back"):
+            if self.player is not None and self.mode != "fly":
+                self.player.paused = True
+                self.player.step(1 if action == "step_forward" else -1)
+                self.pose = self.player.pose()
+        elif action == "show_culled":
+            self.show_culled = not self.show_culled
+        elif action == "show_nodes":
+            self.show_nodes = not self.show_nodes
+        elif action == "god_view":
+            self.god_view = GOD_VIEWS[(GOD_VIEWS.index(self.god_view) + 1) % len(GOD_VIEWS)]
+        elif action == "help":
+            self.show_help = not self.show_help
+        elif action == "quit":
+            self.running = False
+        else:
+            raise ValueError(f"unknown viewer action {action!r}")
+
+    # ---- trajectories ----------------------------------------------------------------------
+    _mode = "fly"
+
+    @property
+    def mode(self) -> str:
+        """"fly" (joystick), "play" or "pause" (trajectory playback)."""
+        if self._mode == "play" and self.player is not None and self.player.paused:
+            return "pause"
+        return self._mode
+
+    def save_recording(self, path=None) -> Path | None:
+        """Save the recording (trajectory CSV); L then loads it. None when nothing recorded."""
+        path = Path(path) if path is not None else self.record_path
+        if not len(self.recorder):
+            self.message = "nothing recorded (R starts recording)"
+            return None
+        self.recorder.save(path)
+        self.trajectory_path = path
+        self.message = f"saved {len(self.recorder)} poses to {path}"
+        return path
+
+    def load_trajectory(self, path=None) -> bool:
+        """Load a trajectory CSV and play it from its first frame; False with a message when
+        there is none or it is malformed."""
+        path = Path(path) if path is not None else self.trajectory_path
+        if path is None:
+            self.message = "no trajectory file (--trajectory, or record and save one)"
+            return False
+        try:
+            trajectory = Trajectory.load(path)
+        except VisMobileError as error:
+            self.message = str(error)
+            return False
+        self.player = Player(trajectory)
+        self._mode = "play"
+        self.pose = self.player.pose()
+        self.message = f"playing {path} ({len(trajectory)} frames)"
+        return True
+
+    # ---- time and drawing ------------------------------------------------------------------
+    def update(self, dt: float) -> None:
+        """Move time on by dt seconds: the joystick moves the camera, or playback advances
+        one frame (the trajectory has one pose per frame, as the thesis's did)."""
+        if self.mode == "play":
+            if self.player.finished:
+                self.player.paused = True
+            self.player.advance()
+            self.pose = self.player.pose()
+        elif self.mode == "fly":
+            self.pose = step_pose(self.pose, self.held, dt, self.speeds)
+        self.recorder.add(self.pose)
+        self.frame += 1
+
+    def camera(self):
+        """The Camera of the current pose at the render aspect (playback: the trajectory's)."""
+        aspect = self.profile.aspect
+        if self.mode != "fly":
+            return self.player.trajectory.camera(self.player.frame, aspect)
+        x, y, z, yaw, pitch = self.pose
+        return Camera((x, y, z), yaw, pitch, aspect=aspect)  # fov, near, far as trajectories
+
+    def set_view_size(self, width: int, height: int) -> None:
+        """For the `desktop` profile frames fill the window: render at its size."""
+        if self.profile.name == "desktop" and (width, height) != self.profile.resolution \
+                and width > 0 and height > 0:
+            self.profile = self.profile.with_(resolution=(int(width), int(height)))
+            self._renderer = None
+
+    @property
+    def renderer(self):
+        if self._renderer is None:
+            from ..render import Renderer
+
+            self._renderer = Renderer(self.world, self.profile)
+        return self._renderer
+
+    def render(self) -> Frame:
+        """Cull and draw the current camera; overlays and god view added (not timed)."""
+        camera = self.camera()
+        start = time.perf_counter()
+        culled = self.culler.cull(camera)
+        cull_ms = (time.perf_counter() - start) * 1000.0
+        renderer = self.renderer
+        drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
+        nodes = getattr(culled, "nodes", None)
+        culled_ids = None
+        if self.show_culled:
+            keep = np.ones(self.world.triangle_count, dtype=bool)
+            keep[culled.triangles] = False
+            culled_ids = np.flatnonzero(keep)
+        if self.show_culled or self.show_nodes:
+            from ..render.overlay import draw_boxes, draw_flat
+
+            if self.show_culled and len(culled_ids):
+                draw_flat(renderer, culled_ids, camera)
+            if self.show_nodes and nodes is not None and len(nodes):
+                draw_boxes(renderer, self.culler.tree.node_bounds[nodes], camera)
+        image = renderer.read_rgb()
+        god = None
+        if self.god_view:
+            boxes = self.culler.tree.node_bounds[nodes] if nodes is not None else None
+            god = self._god.draw(self.god_view, camera, culled.triangles, boxes, culled_ids)
+        info = self._info(culled, drawn, cull_ms)
+        return Frame(image, god, hud_lines(info), info, camera, culled.triangles,
+                     dict(culled.stats))
+
+    def _info(self, culled, drawn, cull_ms) -> dict:
+        partition = self.partitions.get(self.structure)
+        memory = self.profile.estimate_memory(self.world, partition)["total"]
+        device_fps = None
+        if self._model is not None:
+            stats = dict(culled.stats)
+            tree = getattr(self.culler, "tree", None)
+            if tree is not None:
+                from ..study.costmodel import device_counters
+
+                stats = device_counters(culled, tree)
+            device_fps = 1000.0 / self._model.frame_ms(stats, bool(culled.cull_back))
+        return {
+            "stages": self.stages, "structure": self.structure, "sent": drawn.triangles,
+            "total": self.world.triangle_count,
+            "nodes_visited": int(culled.stats.get("nodes_visited", 0)),
+            "cull_ms": cull_ms, "render_ms": drawn.render_ms, "device_fps": device_fps,
+            "profile": self.profile.name, "memory_bytes": memory,
+            "heap_bytes": self.profile.heap_bytes,
+            "frame": self.player.frame if self.mode != "fly" else self.frame,
+            "mode": self.mode, "recording": self.recorder.on, "recorded": len(self.recorder),
+            "waypoint": self.player.nearest_waypoint() if self.player is not None else None,
+            "message": self.message,
+        }
