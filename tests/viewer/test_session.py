@@ -135,7 +135,7 @@ def test_hud_reports_the_frame(session):
     text = "\n".join(frame.hud)
     assert f"sent {len(frame.triangles):,} / {session.world.triangle_count:,}" in text
     assert "VFC  /  octree:depth=3" in text
-    assert "fps on ipaq-hx2490b (model)" in text and "/ 64 MB heap" in text
+    assert "fps (iPaq hx2490b model)" in text and "/ 64 MB heap" in text
     assert frame.info["nodes_visited"] == frame.stats["nodes_visited"] > 0
     session.key_down("L")
     for _ in range(55):

@@ -1,6 +1,8 @@
 """The HUD of the thesis's runtime (SPEC §1) with the viewer's additions: one text line each."""
 from __future__ import annotations
 
+from ..costmodel import label
+
 MB = 1 << 20
 
 
@@ -16,7 +18,7 @@ def hud_lines(info: dict) -> list:
     stages = "+".join(s.upper() for s in info["stages"]) or "no culling"
     frame_ms = info["cull_ms"] + info["render_ms"]
     fps = 1000.0 / frame_ms if frame_ms > 0 else float("inf")
-    device = (f"{info['device_fps']:.1f} fps on {info['profile']} (model)"
+    device = (f"{info['device_fps']:.1f} fps ({label(info['profile'])})"
               if info.get("device_fps") is not None else f"{info['profile']}: no device model")
     share = 100.0 * info["sent"] / max(info["total"], 1)
     memory, heap = info["memory_bytes"], info["heap_bytes"]

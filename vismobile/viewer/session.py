@@ -88,9 +88,9 @@ class Session:
         self._renderer = None
         self._model = None
         if self.profile.cost is not None:
-            from ..study.costmodel import DeviceModel
+            from ..costmodel import device_model
 
-            self._model = DeviceModel(self.profile)
+            self._model = device_model(self.profile.name)
         if self.trajectory_path is not None:
             first = Trajectory.load(self.trajectory_path)
             self.pose = first.poses[0].copy()
@@ -351,12 +351,9 @@ class Session:
         memory = self.profile.estimate_memory(self.world, partition)["total"]
         device_fps = None
         if self._model is not None:
-            stats = dict(culled.stats)
-            tree = getattr(self.culler, "tree", None)
-            if tree is not None:
-                from ..study.costmodel import device_counters
+            from ..costmodel import device_counters
 
-                stats = device_counters(culled, tree)
+            stats = device_counters(culled, getattr(self.culler, "tree", None))
             device_fps = 1000.0 / self._model.frame_ms(stats, bool(culled.cull_back))
         return {
             "stages": self.stages, "structure": self.structure, "sent": drawn.triangles,
