@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test worlds bench clean browser
+.PHONY: demo test worlds bench clean browser xvfb
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/python -m vismobile.demo
 
-test: $(STAMP) browser
+test: $(STAMP) browser xvfb
 	$(BIN)/python -m pytest
 
 # Debian's chromium for the report's browser test (tests/study/test_report_browser.py), installed
@@ -27,6 +27,16 @@ browser:
 	    DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq \
 	      --no-install-recommends chromium >/dev/null; \
 	  else echo "chromium not installed (needs root and apt-get): the browser test is skipped"; fi; }
+
+# Debian's xvfb (and xauth) for the viewer's real-window test (tests/viewer/test_window.py),
+# installed only when missing and only as root with apt-get; elsewhere that test is skipped.
+xvfb:
+	@command -v Xvfb >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	    apt-get -o DPkg::Lock::Timeout=600 update -qq && \
+	    DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq \
+	      --no-install-recommends xvfb xauth >/dev/null; \
+	  else echo "Xvfb not installed (needs root and apt-get): the viewer window test is skipped"; fi; }
 
 worlds: $(STAMP)
 	$(BIN)/vismobile worlds build --out worlds

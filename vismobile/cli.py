@@ -9,7 +9,7 @@ from importlib import import_module
 from .errors import VisMobileError, one_line
 
 # Each module in commands/ offers add_parser(subparsers) and run(args) -> int.
-COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune", "terrain")
+COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune", "terrain", "view")
 
 
 def build_parser() -> argparse.ArgumentParser:

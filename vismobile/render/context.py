@@ -52,12 +52,26 @@ def render_target(size, kind):
     return _TARGETS[key]
 
 
+
 def make_current() -> None:
-    """Make the headless context current on this thread (a window's context may have taken
-    its place); pair with release_current()."""
+    """Make the headless context current on this thread (created here on first use). A thread
+    has one current context across GLX and EGL: a window's context must be released first."""
     gl_context().__enter__()
 
 
 def release_current() -> None:
-    """Give the thread back the context that was current before make_current()."""
-    gl_context().__exit__(None, None, None)
+    """Leave no EGL context current on this thread, so a window's context can take its place."""
+    egl = _egl_library()
+    display = egl.eglGetCurrentDisplay()
+    if display:
+        egl.eglMakeCurrent(display, None, None, None)
+
+
+def _egl_library():
+    import ctypes
+    from ctypes.util import find_library
+
+    egl = ctypes.CDLL(find_library("EGL") or "libEGL.so.1")
+    egl.eglGetCurrentDisplay.restype = ctypes.c_void_p
+    egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+    return egl

@@ -54,3 +54,26 @@ def action_held(name: str):
 def action_pressed(name: str):
     """The one-shot action of a key name, or None."""
     return PRESSED.get(name.upper())
+
+
+def parse_script(text: str) -> list:
+    """Scripted key presses for tests and demos: "UP*10,_6,LEFT*3,WAIT*5" holds UP for 10
+    frames, taps 6, holds LEFT for 3, then lets 5 frames pass. Returns [(frame, "down" or
+    "up", key name)], sorted by frame; a tap goes down and up in one frame. ValueError on an
+    unknown key or a bad count."""
+    events, frame = [], 0
+    for token in filter(None, (t.strip() for t in str(text).split(","))):
+        name, _, count = token.partition("*")
+        name = name.upper()
+        if name not in HELD and name not in PRESSED and name != "WAIT":
+            raise ValueError(f"unknown key {name!r} in script {text!r}")
+        if count and not (count.isdigit() and int(count) > 0):
+            raise ValueError(f"bad repeat count {count!r} in script {text!r}")
+        frames = int(count or 1)
+        if name == "WAIT":
+            frame += frames
+            continue
+        events.append((frame, "down", name))
+        events.append((frame + frames if count else frame, "up", name))
+        frame += frames
+    return events

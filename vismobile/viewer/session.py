@@ -357,6 +357,7 @@ class Session:
             device_fps = 1000.0 / self._model.frame_ms(stats, bool(culled.cull_back))
         return {
             "stages": self.stages, "structure": self.structure, "sent": drawn.triangles,
+            "cull_back": bool(culled.cull_back),
             "total": self.world.triangle_count,
             "nodes_visited": int(culled.stats.get("nodes_visited", 0)),
             "cull_ms": cull_ms, "render_ms": drawn.render_ms, "device_fps": device_fps,

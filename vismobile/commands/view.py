@@ -1,0 +1,56 @@
+"""`vismobile view WORLD ...`: fly through a world with the thesis's HUD, toggles and recorder."""
+from pathlib import Path
+
+
+def add_parser(sub):
+    parser = sub.add_parser(
+        "view", help="open a window and fly through a world (joystick keys, stage toggles, "
+                     "HUD, god view, trajectory recorder); F1 in the window lists the keys")
+    parser.add_argument("world", help="OBJ world, partition file (.vmp) or thesis world w1..w6")
+    parser.add_argument("--structure", default="octree:4",
+                        help="partition to start with (Tab cycles): none, octree:5, grid, "
+                             "portal:1, bsp, ... (default octree:4)")
+    parser.add_argument("--cull", default="vfc",
+                        help="stages on at start (number keys toggle), e.g. vfc,bfc,cbfc "
+                             "(default vfc)")
+    parser.add_argument("--profile", default="ipaq-hx2490b",
+                        help="device profile: its screen, scaled up, is the view (desktop: the "
+                             "window's size); ipaq-hx2490b, nokia-n82, desktop")
+    parser.add_argument("--trajectory", type=Path, help="trajectory CSV that L loads and plays; "
+                        "the camera starts at its first pose")
+    parser.add_argument("--record-to", type=Path, default=Path("recorded.csv"),
+                        help="where V saves the recorded trajectory (default recorded.csv)")
+    parser.add_argument("--scale", type=int, default=2,
+                        help="whole-number zoom of the device screen (default 2)")
+    parser.add_argument("--script", help=argparse_suppress(), default=None)
+    parser.add_argument("--screenshot", type=Path, help=argparse_suppress(), default=None)
+    return parser
+
+
+def argparse_suppress():
+    import argparse
+
+    return argparse.SUPPRESS  # --script KEYS --screenshot PNG: scripted runs for tests
+
+
+def run(args) -> int:
+    from ..errors import VisMobileError
+    from ..viewer import Session
+    from ..viewer.keys import parse_script
+
+    if args.scale < 1:
+        raise VisMobileError(f"--scale must be >= 1, got {args.scale}")
+    try:
+        script = parse_script(args.script) if args.script else None
+    except ValueError as error:
+        raise VisMobileError(f"--script: {error}") from None
+    if args.screenshot is not None and script is None:
+        raise VisMobileError("--screenshot needs --script")
+    session = Session.open(args.world, args.structure, args.cull, args.profile,
+                           args.trajectory, record_path=args.record_to)
+    from ..viewer.window import run as run_window
+
+    frames = run_window(session, args.scale, script, args.screenshot)
+    if script is None:
+        print(f"{frames} frames; {session.message or 'bye'}")
+    return 0
