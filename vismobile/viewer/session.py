@@ -76,6 +76,7 @@ class Session:
         self.record_path = Path(record_path)
         self.recorder = Recorder()
         self.player = None
+        self._mode = "fly"  # or "play": the player drives the camera (see mode)
         self.held = set()
         self.frame = 0
         self.running = True
@@ -241,8 +242,6 @@ class Session:
             raise ValueError(f"unknown viewer action {action!r}")
 
     # ---- trajectories ----------------------------------------------------------------------
-    _mode = "fly"
-
     @property
     def mode(self) -> str:
         """"fly" (joystick), "play" or "pause" (trajectory playback)."""
