@@ -12,14 +12,14 @@ from vismobile.viewer import Session
 @pytest.fixture(scope="module")
 def scene(thesis_world):
     world = thesis_world("w1")
-    return Scene(world, partition(world, "octree", depth=3), "octree:depth=3")
+    return Scene(world, partition(world, "octree", depth=3), Session._label("octree:3"))
 
 
 @pytest.fixture
 def session(scene, tmp_path):
     return Session(scene, (), "ipaq-hx2490b", "trajectories/indoor.csv",
                    record_path=tmp_path / "recorded.csv",
-                   structures=("none", "octree:depth=3", "portal:1"))
+                   structures=("none", "octree:3", "portal:1"))
 
 
 def hold(session, key, updates, dt=0.1):
@@ -96,7 +96,7 @@ def test_toggles_change_the_triangles_sent(session):
 def test_structures_cycle_and_keep_the_stages_they_can_run(session):
     session.key_down("_1")
     session.key_down("TAB")  # portal:1
-    assert session.structure == "portal:depth=1" and session.stages == ("vfc",)
+    assert session.structure == Session._label("portal:1") and session.stages == ("vfc",)
     session.key_down("_7")
     assert session.stages == ("vfc", "portals")
     session.key_down("TAB")  # none: no partition, so no vfc or portals
@@ -134,7 +134,7 @@ def test_hud_reports_the_frame(session):
     frame = session.render()
     text = "\n".join(frame.hud)
     assert f"sent {len(frame.triangles):,} / {session.world.triangle_count:,}" in text
-    assert "VFC  /  octree:depth=3" in text
+    assert f"VFC  /  {Session._label('octree:3')}" in text
     assert "fps (iPaq hx2490b model)" in text and "/ 64 MB heap" in text
     assert frame.info["nodes_visited"] == frame.stats["nodes_visited"] > 0
     session.key_down("L")
