@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.boxes import box_centers, box_corners, box_sizes
-from ..geometry.planes import box_plane_distances, points_inside, spheres_outside
+from ..geometry.planes import points_inside, spheres_outside
 from .state import CullState
 from .tree import Tree
 
@@ -29,34 +29,7 @@ def frustum_traverse(tree: Tree, roots, plane_sets, root_sets, state: CullState,
     Errs toward keeping by tree.tol (never rejects a box touching the frustum).
     Counts nodes_visited, plane_tests and <prefix>.nodes_culled/.nodes_accepted in state.
     """
-    plane_sets = np.asarray(plane_sets, dtype=np.float64)
-    active = np.asarray(roots, dtype=np.int64)
-    sets = np.asarray(root_sets, dtype=np.int64)
-    masks = np.ones((len(active), plane_sets.shape[1]), dtype=bool)
-    single = plane_sets.shape[0] == 1
-    accepted, visited, tests, culled = [], 0, 0, 0
-    while len(active):
-        live = tree.nonempty[active]
-        active, sets, masks = active[live], sets[live], masks[live]
-        if not len(active):
-            break
-        planes = plane_sets[0] if single else plane_sets[sets]
-        p_dist, n_dist = box_plane_distances(tree.node_bounds[active], planes)
-        outside = ((p_dist < -tree.tol) & masks).any(axis=1)
-        straddles = masks & (n_dist < tree.tol)
-        inner = straddles.any(axis=1)
-        leaf = tree.child_count[active] == 0
-        keep = ~outside & (~inner | leaf)
-        accepted.append(active[keep])
-        visited += len(active)
-        tests += int(masks.sum())
-        culled += int(outside.sum())
-        grow = ~outside & inner & ~leaf
-        kids, parent = tree.children(active[grow])
-        active = kids
-        sets = sets[grow][parent]
-        masks = straddles[grow][parent]
-    result = np.concatenate(accepted) if accepted else np.zeros(0, dtype=np.int64)
+    result, visited, tests, culled = tree.walk(roots, root_sets, plane_sets)
     state.count("nodes_visited", visited)
     state.count("plane_tests", tests)
     state.count(f"{prefix}.nodes_culled", culled)

@@ -13,6 +13,7 @@ change to the Culler; the direct form is `conservative_planes` in place of
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -44,6 +45,7 @@ def world_scale(vertices, camera: Camera | None = None) -> float:
     return scale
 
 
+@lru_cache(maxsize=256)  # called every frame with the same few (mode, scale) pairs
 def margin(mode: str, scale: float) -> float:
     """Distance by which every plane must be pushed out: plane-test error in the mode plus the
     largest move of a rounded vertex (sqrt(3) x its per-coordinate error), plus float64's own

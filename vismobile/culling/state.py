@@ -8,10 +8,6 @@ import numpy as np
 from ..camera import Camera
 from .tree import Tree
 
-# finish() sorts the gathered refs instead of marking a world-sized mask when they number less
-# than 1/SORT_FRACTION of the world's triangles (per-frame work then follows what is gathered).
-SORT_FRACTION = 32
-
 
 @dataclass
 class CullResult:
@@ -53,15 +49,7 @@ class CullState:
 
         Filters see each referenced triangle once, and only the survivors of earlier filters.
         """
-        tree = self.tree
-        refs = tree.refs(self.nodes)
-        count = tree.world.triangle_count
-        if len(refs) * SORT_FRACTION < count:
-            ids = np.unique(refs)  # a few refs of a large world: sorting beats a world-wide mask
-        else:
-            mask = np.zeros(count, dtype=bool)
-            mask[refs] = True  # dedupes without sorting: leaves share triangles
-            ids = np.flatnonzero(mask)
+        ids = self.tree.distinct_refs(self.nodes)  # leaves share triangles: each once
         for keep_of in self.filters:
             ids = ids[keep_of(ids)]
         self.count("triangles_sent", len(ids))

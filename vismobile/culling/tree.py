@@ -6,6 +6,7 @@ import numpy as np
 
 from ..geometry.planes import slack
 from ..partition.base import Partition, gather_ranges
+from .kernels import frustum_walk, gather_distinct
 
 
 class Tree:
@@ -39,6 +40,39 @@ class Tree:
         # empty leaves hold no triangles.
         self.tol = slack(self.node_bounds[self.nonempty]) if self.node_count else 0.0
         self.scale = self.tol / 1e-9
+        # Kernel inputs and scratch, allocated once: frames reuse them.
+        self.lo = np.ascontiguousarray(self.node_bounds[:, 0])
+        self.hi = np.ascontiguousarray(self.node_bounds[:, 1])
+        words = self.world.triangle_count // 64 + 1
+        self._bits = np.zeros(words, dtype=np.uint64)
+        self._words = np.empty(words, dtype=np.int64)
+        self._ids = np.empty(self.world.triangle_count, dtype=np.int64)
+        self._stacks = self._stack_scratch(64)
+
+    def _stack_scratch(self, roots: int) -> tuple:
+        size = self.node_count + roots
+        return tuple(np.empty(size, dtype=np.int64) for _ in range(4))
+
+    def walk(self, roots, root_sets, plane_sets) -> tuple:
+        """Frustum walk (kernels.frustum_walk) from roots (K,) int64 with plane_sets (S, P, 4)
+        and root_sets (K,) int64: (accepted nodes (A,) int64, visited, plane tests, culled)."""
+        roots = np.ascontiguousarray(roots, dtype=np.int64)
+        if len(roots) + self.node_count > len(self._stacks[0]):
+            self._stacks = self._stack_scratch(2 * len(roots))
+        out, nodes, sets, masks = self._stacks
+        count, visited, tests, culled = frustum_walk(
+            self.lo, self.hi, self.first_child, self.child_count, self.nonempty, roots,
+            np.ascontiguousarray(root_sets, dtype=np.int64),
+            np.ascontiguousarray(plane_sets, dtype=np.float64), self.tol, out, nodes, sets, masks)
+        return out[:count].copy(), visited, tests, culled
+
+    def distinct_refs(self, nodes) -> np.ndarray:
+        """(S,) int64 sorted distinct triangle ids of the nodes' subtrees; cost follows the
+        references gathered, not the world's triangle count (kernels.gather_distinct)."""
+        count = gather_distinct(self.tri_refs, self.ref_start, self.ref_end,
+                                np.ascontiguousarray(nodes, dtype=np.int64), self._bits,
+                                self._words, self._ids)
+        return self._ids[:count].copy()
 
     def children(self, nodes) -> tuple:
         """(children (C,) int64, parent_index (C,) int64 index into nodes) of inner nodes."""

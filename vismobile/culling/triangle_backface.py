@@ -27,6 +27,7 @@ import numpy as np
 # Device rounding covered (precision.py): each coordinate moves by up to DEVICE_RELATIVE x the
 # largest coordinate magnitude (16 float32 ulps) plus DEVICE_ABSOLUTE (2x the fixed16.16 step).
 from .precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE
+from .kernels import backfacing
 from .state import CullState
 from .tree import Tree
 
@@ -106,14 +107,12 @@ class TriangleBackface:
         eye = np.asarray(state.camera.eye, dtype=np.float64)
         delta = self.delta(eye)
 
-        def keep_of(ids):
-            ids, back = np.unique(ids, return_inverse=True)
-            p = self.packed[ids]
-            drop = certainly_backfacing(p[:, 0:3], p[:, 3:6], p[:, 9], p[:, 10], p[:, 6:9], eye,
-                                        delta)
+        def keep_of(ids):  # ids are distinct (CullState.finish)
+            drop = backfacing(np.ascontiguousarray(ids, dtype=np.int64), self.packed, eye, delta,
+                              GAMMA_8)
             state.count("triangles_tested", len(ids))
             state.count(f"{self.name}.triangles_tested", len(ids))
             state.count(f"{self.name}.triangles_culled", drop.sum())
-            return ~drop[back.ravel()]
+            return ~drop
 
         state.filters.append(keep_of)

@@ -1,0 +1,142 @@
+"""Compiled per-frame kernels (numba, cached on disk): the frustum walk over the flat tree, the
+distinct gather of triangle references, and the per-triangle back-face test.
+
+Each frame used to cost hundreds of small numpy calls (one batch per tree level, masks over the
+whole world); these loops do the same arithmetic once per touched node or reference, so a
+frame's cost follows what is in the frustum, not the size of the world. Scratch arrays are
+allocated once per tree (Tree.scratch) and reused.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def frustum_walk(lo, hi, first_child, child_count, nonempty, roots, root_sets, plane_sets, tol,
+                 out, stack_node, stack_set, stack_mask):
+    """Hierarchical p/n-vertex frustum test with plane masks, depth first from `roots`.
+
+    Errs toward keeping by tol: a box is rejected only when its p-vertex is more than tol
+    behind a plane; it is accepted whole when its n-vertex is at least tol inside every plane
+    its parent straddled.
+    lo, hi      : (N, 3) float64 node box corners;  first_child, child_count : (N,) int64
+    nonempty    : (N,) bool;  roots : (K,) int64;  root_sets : (K,) int64 into plane_sets
+    plane_sets  : (S, P, 4) float64 inward planes (n, d), P <= 62
+    out         : (>= accepted,) int64 receives accepted nodes; stacks : (>= K + N,) scratch
+    returns (accepted, visited, plane tests, culled)
+    """
+    planes_per_set = plane_sets.shape[1]
+    full = (np.int64(1) << planes_per_set) - 1
+    top = 0
+    for k in range(len(roots) - 1, -1, -1):
+        stack_node[top] = roots[k]
+        stack_set[top] = root_sets[k]
+        stack_mask[top] = full
+        top += 1
+    count = visited = tests = culled = 0
+    while top > 0:
+        top -= 1
+        node, s, mask = stack_node[top], stack_set[top], stack_mask[top]
+        if not nonempty[node]:
+            continue
+        visited += 1
+        cx = 0.5 * (lo[node, 0] + hi[node, 0])
+        cy = 0.5 * (lo[node, 1] + hi[node, 1])
+        cz = 0.5 * (lo[node, 2] + hi[node, 2])
+        hx = 0.5 * (hi[node, 0] - lo[node, 0])
+        hy = 0.5 * (hi[node, 1] - lo[node, 1])
+        hz = 0.5 * (hi[node, 2] - lo[node, 2])
+        straddle = np.int64(0)
+        outside = False
+        for p in range(planes_per_set):
+            bit = np.int64(1) << p
+            if not (mask & bit):
+                continue
+            tests += 1
+            nx, ny, nz = plane_sets[s, p, 0], plane_sets[s, p, 1], plane_sets[s, p, 2]
+            mid = cx * nx + cy * ny + cz * nz + plane_sets[s, p, 3]
+            reach = hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
+            if mid + reach < -tol:
+                outside = True
+                break
+            if mid - reach < tol:
+                straddle |= bit
+        if outside:
+            culled += 1
+            continue
+        n = child_count[node]
+        if straddle == 0 or n == 0:
+            out[count] = node
+            count += 1
+            continue
+        first = first_child[node]
+        for c in range(n - 1, -1, -1):  # first child on top: depth-first in stored order
+            stack_node[top] = first + c
+            stack_set[top] = s
+            stack_mask[top] = straddle
+            top += 1
+    return count, visited, tests, culled
+
+
+@njit(cache=True, nogil=True)
+def gather_distinct(tri_refs, ref_start, ref_end, nodes, bits, words, out):
+    """Sorted distinct triangle ids referenced by the nodes' subtrees; returns their count.
+
+    A bitmap of T bits marks the ids; only the 64-bit words touched are listed, sorted and read
+    back (and cleared), so nothing of size T is cleared or scanned: the cost follows the
+    references gathered.
+    bits  : (T // 64 + 1,) uint64 scratch, all zero on entry and on return
+    words : (T // 64 + 1,) int64 scratch;  out : (T,) int64 receives the ids
+    """
+    touched = 0
+    for k in range(len(nodes)):
+        node = nodes[k]
+        for r in range(ref_start[node], ref_end[node]):
+            t = tri_refs[r]
+            w = t >> 6
+            if bits[w] == 0:
+                words[touched] = w
+                touched += 1
+            bits[w] |= np.uint64(1) << np.uint64(t & 63)
+    listed = np.sort(words[:touched])
+    count = 0
+    for k in range(touched):
+        w = listed[k]
+        x = bits[w]
+        bits[w] = 0
+        base = w << 6
+        b = 0
+        while x:
+            if x & np.uint64(1):
+                out[count] = base + b
+                count += 1
+            x >>= np.uint64(1)
+            b += 1
+    return count
+
+
+@njit(cache=True, nogil=True)
+def backfacing(ids, packed, eye, delta, gamma8):
+    """(n,) bool: triangle ids certainly face away from the eye, also after any move of corners
+    and eye by up to delta per coordinate, and despite float64 rounding (triangle_backface's
+    bound, evaluated per triangle). Errs toward False by that bound; edge-on is never True.
+
+    packed : (T, 11) float64 rows cross (3), abs_cross (3), v0 (3), |v1 - v0|, |v2 - v0|
+    """
+    out = np.zeros(len(ids), dtype=np.bool_)
+    s3 = np.sqrt(3.0) * delta
+    cube = 48.0 * delta * delta * delta
+    for k in range(len(ids)):
+        row = packed[ids[k]]
+        wx, wy, wz = eye[0] - row[6], eye[1] - row[7], eye[2] - row[8]
+        det = row[0] * wx + row[1] * wy + row[2] * wz
+        if not det < 0:
+            continue
+        ea, eb = row[9], row[10]
+        lw = np.sqrt(wx * wx + wy * wy + wz * wz)
+        moved = s3 * (2.0 * lw * (ea + eb) + 2.0 * ea * eb) \
+            + 36.0 * delta * delta * (lw + ea + eb) + cube
+        rounding = gamma8 * (row[3] * abs(wx) + row[4] * abs(wy) + row[5] * abs(wz))
+        out[k] = det < -(moved + rounding) * (1.0 + 2.0 ** -50)
+    return out
