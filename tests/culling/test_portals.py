@@ -1,5 +1,7 @@
 """`portals` keeps every triangle the item buffer shows: through thin cracks, from inside hollow
 walls and slabs, and from eyes so close to a wall that the near plane cuts it."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -73,3 +75,20 @@ def test_w1_room_eye_uses_the_portals(kit, w1_portal):
     stats = check_keeps_visible(kit, w1_portal, cam)
     assert "portals.fallbacks" not in stats
     assert 1 < stats["portals.cells_visited"] < len(w1_portal.extras["cell_node"])
+
+
+def test_w2_frame_692_sees_a_wall_through_an_open_slab(kit):
+    # Regression: from indoor frame 692 W2 triangle 99947 (an upper-storey wall) shows in one
+    # pixel of the back-face-culled item buffer, seen through the uncapped floor slab; portal
+    # octrees of depth 2 used to close the slab band between the walls of the face x = 24.1.
+    from vismobile.partition import partition
+    from vismobile.trajectory import Trajectory
+
+    world = kit.world("w2")
+    traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
+    cam = traj.camera(692, kit.ASPECT)
+    shown = kit.visible_ids(world, cam, True)
+    assert 99947 in shown
+    part = partition(world, "portal", depth=2)
+    sent = Culler(part, "portals,occlusion,tbfc").cull(cam).triangles
+    assert not len(np.setdiff1d(shown, sent))

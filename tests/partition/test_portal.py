@@ -67,6 +67,18 @@ def test_hollow_slab_is_blocked_on_a_vertical_face(literal, gap):
     assert len(rects) == 2 and np.allclose(np.sort(ys), [0.0, 3.0, 3.0 + gap, 6.0 + gap])
 
 
+def test_slab_between_walls_in_the_face_stays_open(literal):
+    # walls of both storeys lie in the face x = 2 and the slab between them has no cap there:
+    # with back faces culled a sight line can run inside the slab (entering where it is open
+    # elsewhere) and cross the face between the walls, so that band stays a portal
+    rect, gap = literal.rect, 0.2
+    w = slab_world(literal, gap)
+    walls = [rect(0, 2.0, (0.0, 3.0), (0, 4), 1), rect(0, 2.0, (3.0 + gap, 6.0 + gap), (0, 4), 1)]
+    w = literal.world([(w.vertices, w.triangles)] + walls, "slab_walls")
+    rects = portal.face_openings(w, 0, 2.0, (0.0, 0.0), (6.0 + gap, 4.0), 1e-9)
+    assert len(rects) == 1 and np.allclose(rects[0], [[3.0, 0.0], [3.0 + gap, 4.0]])
+
+
 def test_thin_crack_stays_open(literal):
     # a wall in the face x = 2 stops 1 mm below the ceiling: the crack is an opening
     rect = literal.rect

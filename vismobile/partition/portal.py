@@ -372,8 +372,25 @@ def face_blocked(flat_uv, outline, seg, side, lo_uv, hi_uv, samples, eps):
     free = ~walls
     if free.any() and len(seg):
         solid = ~cells_crossed(seg, bu, bv, eps) & _solid(seg, side, bu, bv, eps)
-        return bu, bv, walls | solid
+        return bu, bv, walls | (solid & ~_touching_walls(solid, walls))
     return bu, bv, walls
+
+
+def _touching_walls(solid, walls):
+    """(nu, nv) bool: solid sample cells whose 4-connected solid region borders a wall cell.
+
+    Such a region is not closed in the face: where a wall in the face meets it, no crossing
+    surface separates it from what lies beyond the wall's edge (a floor slab between two
+    storeys' walls, open at the atrium), and with back faces culled a sight line can run
+    inside it and leave through a back face. These regions stay open (errs toward open)."""
+    labels = _components(solid)
+    near = np.zeros_like(walls)
+    near[1:] |= walls[:-1]
+    near[:-1] |= walls[1:]
+    near[:, 1:] |= walls[:, :-1]
+    near[:, :-1] |= walls[:, 1:]
+    hit = np.unique(labels[near & solid])
+    return solid & np.isin(labels, hit)
 
 
 def open_rectangles(open_mask, bu, bv, max_rects=MAX_RECTS):
