@@ -137,8 +137,8 @@ def coarser_sides(stamp, offsets, frame, l, bi, bj):
 
 @njit(cache=True)
 def leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull, out):
-    """Visible leaves as rows (level, bi, bj, sides) of out (capacity >= 4^levels); returns
-    (count, leaves in the tree)."""
+    """Visible leaves as rows (level, bi, bj, sides) of out, in depth-first order; returns
+    (count, leaves in the tree), count -1 when out has too few rows (4^levels always suffice)."""
     stack = np.empty((4 * (levels + 2), 3), np.int64)
     stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, 0
     top = 1
@@ -162,6 +162,8 @@ def leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cu
         if cull and not box_visible(planes, x0, hmin[index], z0, x0 + s * spacing, hmax[index],
                                     z0 + s * spacing):
             continue
+        if count == out.shape[0]:
+            return -1, total
         out[count, 0], out[count, 1], out[count, 2] = l, bi, bj
         out[count, 3] = coarser_sides(stamp, offsets, frame, l, bi, bj)
         count += 1

@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from .heightmap import Heightmap
-from .quadtree import ROETTGER, box_visible, coarser_sides, level_offsets, refine
+from .quadtree import ROETTGER, leaves, level_offsets, refine
 from .tiles import pixel_scale
 
 CHUNK_CELLS = 32  # chunk size in cells (a "display list"): at most 32^2 * 2 triangles
@@ -85,42 +85,26 @@ def roughness(heightmap: Heightmap, C: float) -> tuple:
 
 
 @njit(cache=True)
-def _emit(heights, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull,
-          chunk_level, out, signatures):
-    """Fans of the visible leaves, chunk by chunk. out: (capacity, 3) int64 sample ids.
-    signatures[chunk] gets an FNV-1a hash of the chunk's leaves and skips (0 = empty).
-    Returns the triangle count, or -1 if out is too small."""
+def _emit(heights, leaf_rows, leaf_count, offsets, chunk_level, out, signatures):
+    """Fans of the visible leaves (rows level, bi, bj, sides from quadtree.leaves), in order.
+    out: (capacity, 3) int64 sample ids. signatures[chunk] gets an FNV-1a hash of the chunk's
+    leaves and skips (0 = empty). Returns the triangle count, or -1 if out is too small."""
     n = heights.shape[0]
     cells = n - 1
     count = 0
-    stack = np.empty((4 * (levels + 2), 3), np.int64)
     ring_r = np.empty(8, np.int64)
     ring_c = np.empty(8, np.int64)
     chunks = 1 << chunk_level
     for chunk in range(chunks * chunks):
         signatures[chunk] = 0
-    stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, 0
-    top = 1
-    while top > 0:
-        top -= 1
-        l, bi, bj = stack[top, 0], stack[top, 1], stack[top, 2]
-        m = 1 << l
-        index = offsets[l] + bi * m + bj
-        if l < levels and stamp[index] == frame:
-            for k in range(4):
-                stack[top, 0] = l + 1
-                stack[top, 1] = 2 * bi + (k >> 1)
-                stack[top, 2] = 2 * bj + (k & 1)
-                top += 1
-            continue
+    for row in range(leaf_count):
+        l, bi, bj, sides = (leaf_rows[row, 0], leaf_rows[row, 1], leaf_rows[row, 2],
+                            leaf_rows[row, 3])
+        index = offsets[l] + bi * (1 << l) + bj
         s = cells >> l
         r0, c0 = bi * s, bj * s
-        if cull and not box_visible(planes, c0 * spacing, hmin[index], r0 * spacing,
-                                    (c0 + s) * spacing, hmax[index], (r0 + s) * spacing):
-            continue
         half = s // 2
         # Skip an edge midpoint when the same-level neighbour across it does not exist.
-        sides = coarser_sides(stamp, offsets, frame, l, bi, bj)
         skip_top, skip_right = (sides & 1) != 0, (sides & 2) != 0
         skip_bottom, skip_left = (sides & 4) != 0, (sides & 8) != 0
         k = 0
@@ -209,6 +193,7 @@ class Roettger:
         self.chunk_level = max(0, min(self.levels, (cells // CHUNK_CELLS).bit_length() - 1))
         self.signatures = np.zeros(4 ** self.chunk_level, np.uint64)
         self.previous = None
+        self.leaf_rows = np.zeros((1 << 14, 4), np.int64)
         self.out = np.zeros((1 << 16, 3), np.int64)
 
     def c_for(self, tau: float, lam_bound: float) -> float:
@@ -229,8 +214,14 @@ class Roettger:
                         self.hmin, self.hmax, self.offsets, self.levels, self.stamp, self.frame,
                         camera.eye, planes, ROETTGER, C, c, cull, self.lists, self.counts)
         while True:
-            count = _emit(self.heights, self.heightmap.spacing, self.hmin, self.hmax,
-                          self.offsets, self.levels, self.stamp, self.frame, planes, cull,
+            leaf_count, _ = leaves(self.heightmap.size - 1, self.heightmap.spacing, self.hmin,
+                                   self.hmax, self.offsets, self.levels, self.stamp, self.frame,
+                                   planes, cull, self.leaf_rows)
+            if leaf_count >= 0:
+                break
+            self.leaf_rows = np.zeros((2 * len(self.leaf_rows), 4), np.int64)
+        while True:
+            count = _emit(self.heights, self.leaf_rows, leaf_count, self.offsets,
                           self.chunk_level, self.out, self.signatures)
             if count >= 0:
                 break
