@@ -82,8 +82,10 @@ def parse_structure(text) -> tuple:
         raise VisMobileError(f"--structure {text}: {error}") from None
 
 
-def load_scene(path, structure="none", progress=False) -> Scene:
+def load_scene(path, structure="none", progress=False, fix_winding=False) -> Scene:
     """World (a mesh file, or a thesis world name w1..w6) partitioned by structure, or a .vmp file.
+
+    fix_winding : reverse triangles first (winding.fixed_world); meshes only, not .vmp files
 
     Raises VisMobileError (WorldError, PartitionError, ...) naming the file or the bad setting.
     """
@@ -91,11 +93,19 @@ def load_scene(path, structure="none", progress=False) -> Scene:
     if path_text.lower().endswith(".vmp"):
         from .partition import load_partition
 
+        if fix_winding:
+            raise VisMobileError(f"{path_text}: --fix-winding applies to a mesh; a partition "
+                                 "file keeps its world (fix it with partition --fix-winding)")
+
         partition = load_partition(path_text)
         return Scene(partition.world, partition, _describe(partition.kind, partition.params))
     from .scenes.lookup import open_world
 
     world = open_world(path_text)
+    if fix_winding:
+        from .winding import fixed_world
+
+        world = fixed_world(world)[0]
     kind, params = parse_structure(structure)
     if kind is None:
         return Scene(world, None, "none")

@@ -108,3 +108,14 @@ def test_uncertainty_keeps_a_clear_winner():
     result = TuneResult("w", "p", list(range(30)), slow, [slow, fast], None, {}, 0.0)
     uncertainty(result)
     assert result.choice is fast and result.tied == []
+
+
+def test_python_and_cli_default_probe_frames_agree():
+    import inspect
+
+    from vismobile.cli import build_parser
+    from vismobile.commands import tune as command
+
+    default = inspect.signature(tune).parameters["probe"].default
+    parser = build_parser()._subparsers._group_actions[0].choices["tune"]
+    assert default == command.PROBE_FRAMES == parser.get_default("probe") == 24

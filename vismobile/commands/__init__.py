@@ -15,3 +15,20 @@ STRUCTURE_HELP = ("none, grid[:N], octree[:N], portal[:N], bsp, or KIND:key=valu
                   "(N: octree depth 1..8, portal depth 1..3, grid slabs per axis)")
 FRAMES_HELP = ("frames to play: all, stride:N (every Nth) or sample:N (N evenly spaced plus "
                "the waypoints)")
+FIX_WINDING_HELP = ("first reverse triangles so that triangles sharing an edge agree and closed "
+                    "rooms face their interior (closed solids face out); `vismobile info` "
+                    "reports what it would change")
+
+
+def fix_winding(world, enabled: bool):
+    """world with its winding fixed (winding.fixed_world) when enabled, saying so on stderr."""
+    if not enabled:
+        return world
+    import sys
+
+    from ..winding import fixed_world
+
+    fixed, report = fixed_world(world)
+    print(f"--fix-winding: reversed {report.to_fix:,} of {report.triangles:,} triangles",
+          file=sys.stderr)
+    return fixed

@@ -1,17 +1,28 @@
-"""`vismobile info WORLD`: triangles, objects, bounds and file size of a thesis world or mesh."""
-from . import WORLD_HELP
+"""`vismobile info WORLD`: triangles, objects, bounds, size and winding of a world or mesh."""
+from pathlib import Path
+
+from . import FIX_WINDING_HELP, WORLD_HELP
 
 
 def add_parser(sub):
-    parser = sub.add_parser("info", help="print a world's triangles, objects, bounds and size")
+    parser = sub.add_parser("info", help="print a world's triangles, objects, bounds, size and "
+                                         "winding (consistency, closed rooms, open edges)")
     parser.add_argument("world", help=WORLD_HELP)
+    parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP
+                        + "; prints the winding before and after")
+    parser.add_argument("-o", "--out", type=Path, default=None,
+                        help="write the world (after --fix-winding) as an OBJ file")
     return parser
 
 
 def run(args) -> int:
+    from ..atomic import check_destination
     from ..scenes.lookup import world_file
+    from ..winding import check_winding, fixed_world
     from ..world import World
 
+    if args.out:
+        check_destination(args.out)
     path = world_file(args.world)
     world = World.from_file(path)
     low, high = world.extent
@@ -22,4 +33,19 @@ def run(args) -> int:
     print(f"bounds     min ({low[0]:.4g}, {low[1]:.4g}, {low[2]:.4g})"
           f"  max ({high[0]:.4g}, {high[1]:.4g}, {high[2]:.4g})")
     print(f"file size  {path.stat().st_size / 1024:,.1f} KB")
+    report = check_winding(world)
+    _print_winding("winding", report.lines())
+    if args.fix_winding:
+        world, report = fixed_world(world, report)
+        _print_winding("fixed", check_winding(world).lines())
+    elif report.to_fix:
+        print("           (reverse them with --fix-winding here or on partition, play, tune)")
+    if args.out:
+        world.to_obj(args.out)
+        print(f"wrote {args.out}")
     return 0
+
+
+def _print_winding(label, lines):
+    for i, line in enumerate(lines):
+        print(f"{label if i == 0 else '':10} {line}")

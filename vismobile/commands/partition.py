@@ -4,7 +4,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from . import STRUCTURE_HELP, WORLD_HELP
+from . import FIX_WINDING_HELP, STRUCTURE_HELP, WORLD_HELP, fix_winding
 
 
 def add_parser(sub):
@@ -33,6 +33,8 @@ def add_parser(sub):
     parser.add_argument("--jobs", type=int, default=1,
                         help="world directory: worker processes for the chunked octree build "
                              "(default 1)")
+    parser.add_argument("--fix-winding", action="store_true",
+                        help=FIX_WINDING_HELP + "; the .vmp carries the fixed world")
     return parser
 
 
@@ -66,7 +68,7 @@ def run(args) -> int:
         args.world = Path(args.world)
         return run_out_of_core(args)
     args.world = world_file(args.world)
-    world = World.from_file(args.world)
+    world = fix_winding(World.from_file(args.world), args.fix_winding)
     try:
         kind, params = parse_spec(args.structure)
         if kind is None:
@@ -111,6 +113,10 @@ def run_out_of_core(args) -> int:
     """Octree of a memory-mapped world directory, built in chunks and streamed to the file."""
     from ..errors import PartitionError
     from ..mapped import MappedWorld
+
+    if args.fix_winding:
+        raise PartitionError(f"{args.world}: --fix-winding needs a mesh file, not a world "
+                             "directory")
     from ..partition.external import build_octree_file
     from ..partition.spec import parse_spec
 

@@ -1,7 +1,7 @@
 """`vismobile play WORLD --trajectory CSV ...`: cull and render a recorded path, log each frame."""
 from pathlib import Path
 
-from . import CULL_HELP, FRAMES_HELP, PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP
+from . import CULL_HELP, FIX_WINDING_HELP, FRAMES_HELP, PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP
 
 
 def add_parser(sub):
@@ -19,6 +19,7 @@ def add_parser(sub):
                         help="override the profile's vertex format")
     parser.add_argument("-o", "--out", type=Path, required=True, help="output folder")
     parser.add_argument("--frames", default="all", help=FRAMES_HELP + " (default all)")
+    parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP)
     parser.add_argument("--images", type=int, default=0, metavar="N",
                         help="save every Nth played frame as PNG under OUT/frames/ (default 0: "
                              "none)")
@@ -45,7 +46,8 @@ def run(args) -> int:
         raise VisMobileError(f"--limit must be at least 1, got {args.limit}")
     profile = get_profile(args.profile, args.vertex_format)
     trajectory = Trajectory.load(args.trajectory, limit=args.limit)
-    scene = load_scene(args.world, args.structure, progress=not args.quiet)
+    scene = load_scene(args.world, args.structure, progress=not args.quiet,
+                       fix_winding=args.fix_winding)
     result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.images,
                   gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,
                   adaptive=args.adaptive, frames=args.frames)

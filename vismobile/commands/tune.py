@@ -5,7 +5,11 @@ profile's device model predicts on that device; `--measured` minimises this mach
 """
 from pathlib import Path
 
-from . import PROFILE_HELP, WORLD_HELP
+from . import FIX_WINDING_HELP, PROFILE_HELP, WORLD_HELP, fix_winding
+
+# The same default as tune() (study/tune.py PROBE_FRAMES; tests/study/test_tune.py checks), kept
+# here so that `--help` needs no heavy import.
+PROBE_FRAMES = 24
 
 
 def add_parser(sub):
@@ -15,7 +19,7 @@ def add_parser(sub):
                         help="trajectory CSV (default: the thesis's path for w1..w6)")
     parser.add_argument("--profile", default="ipaq-hx2490b",
                         help=PROFILE_HELP + " (default ipaq-hx2490b)")
-    parser.add_argument("--probe", type=int, default=24,
+    parser.add_argument("--probe", type=int, default=PROBE_FRAMES,
                         help="evenly spaced probe frames, the waypoints added (default 24)")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
                         help="comma-separated candidates: grid, octree[:N or A-B], portal[:N or "
@@ -33,6 +37,7 @@ def add_parser(sub):
                         help="same as --cost measured")
     parser.add_argument("-o", "--out", "--json", dest="out", type=Path, default=None,
                         help="also write the result as JSON to this file")
+    parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP)
     parser.add_argument("--quiet", action="store_true", help="no status lines on stderr")
     return parser
 
@@ -63,6 +68,7 @@ def run(args) -> int:
     status("loading the world")
     world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS else args.world,
                               args.worlds_dir or default_cache_dir())
+    world = fix_winding(world, args.fix_winding)
     trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
     status(f"{world.triangle_count:,} triangles; ground truth of {args.probe} probe frames "
            "plus the waypoints")

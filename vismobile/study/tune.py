@@ -37,6 +37,7 @@ from .matrix import (LOOSE_STAGES, OUR_CULLS, THESIS_CULLS, canonical_cull, cull
 from .metrics import frame_errors
 
 DEFAULT_STRUCTURES = "grid,octree:3-6,portal:1-3,bsp"
+PROBE_FRAMES = 24  # evenly spaced probe frames; `vismobile tune --probe` has the same default
 COSTS = ("device", "measured")
 
 
@@ -121,6 +122,8 @@ class TuneResult:
     cost: str = "measured"
     fastest: Candidate | None = None
     tied: list = field(default_factory=list)
+    warning: str | None = None   # set when back-face culling hides what the unculled image shows
+    behind: tuple = (0, 0, 0, 0)  # seen_from_behind() over the probe frames
 
     def ranked(self) -> list:
         return sorted(self.candidates, key=lambda c: c.rank)
@@ -151,6 +154,9 @@ class TuneResult:
                 "candidates": [row(c) for c in self.ranked()],
                 "model": self.model.to_dict(), "build_seconds": self.build_seconds,
                 "seconds": self.seconds, "explanations": self.explanations,
+                "seen_from_behind": dict(zip(("triangles", "visible", "pixels",
+                                              "covered_pixels"), self.behind)),
+                "backface_exact": self.warning is None, "warning": self.warning,
                 "pruned": [list(p) for p in self.pruned]}
 
     def _describe(self, label, c) -> list:
@@ -169,6 +175,8 @@ class TuneResult:
         lines = [f"world {self.world}, profile {self.profile}, cost model {self.cost}, "
                  f"{len(self.frames)} probe frames, {len(self.candidates)} candidates, "
                  f"{self.seconds:.1f} s"]
+        if self.warning:
+            lines.append("WARNING: " + self.warning)
         lines += self._describe("choice", self.choice)
         if np.isfinite(self.choice.low_ms):
             lines.append(f"  95% interval of its mean over the {len(self.frames)} probe frames "
@@ -247,6 +255,7 @@ class _Probe:
         self.candidates, self.pruned = [], []
         self.model_rows, self.model_ms = [], []
         self.best = None
+        self.warning, self.behind = None, (0, 0, 0, 0)
 
     def structure(self, label):
         if label not in self.partitions:
@@ -268,7 +277,10 @@ class _Probe:
             result, ms = engine.timed_cull(culler, camera)
             sent = engine.sent_triangles(result)
             stats = device_counters(result, culler.tree)
-            missed += frame_errors(visible, sent)["false_negatives"]
+            drawn = sent
+            if back and self.warning:  # judged against the unculled image: GL_CULL_FACE drops
+                drawn = sent[~_facing_away(self.world, sent, camera)]  # what faces away
+            missed += frame_errors(visible, drawn)["false_negatives"]
             host.append(ms)
             rows.append(stats)
             if self.device:
@@ -341,10 +353,51 @@ def _setup(world, trajectory, profile, frames, cost, cache_dir, progress, bound)
               for back in (False, True)}
     model = DeviceModel(profile) if cost == "device" else \
         calibrate(world, profile, cameras, truths[False])
-    return _Probe(world, profile, cameras, truths, model, cache_dir, progress, bound)
+    search = _Probe(world, profile, cameras, truths, model, cache_dir, progress, bound)
+    seen = seen_from_behind(world, cameras, truths[False])
+    search.behind = seen
+    behind, visible, behind_pixels, pixels = seen
+    if behind > BEHIND_LIMIT * visible and behind_pixels > BEHIND_LIMIT * pixels:
+        # Back-face culling would hide what the unculled image shows: judge back-face stages
+        # against the unculled truth, so none of them passes as exact.
+        search.truths = {False: truths[False], True: truths[False]}
+        search.warning = (
+            f"back-face culling removes {behind:,} of the {visible:,} visible triangles of the "
+            f"probe frames ({behind / visible:.1%}, {behind_pixels / pixels:.1%} of the covered "
+            "pixels: seen from behind in the unculled item buffer), so no configuration with "
+            "bfc, cbfc, cone or tbfc is exact here; they were judged against the unculled "
+            "image. Fix the winding (`vismobile info` reports it; --fix-winding) to use them")
+    return search
 
 
-def tune(world, trajectory, profile, probe: int = 16, structures: str = DEFAULT_STRUCTURES,
+# tune refuses to call back-face culling exact when more than this share of the triangles
+# visible in the unculled item buffer, and of the pixels they cover, are seen from behind (the
+# pixel share keeps one-pixel depth ties along a solid's silhouette, where its far side shows
+# through, from counting: the tiny study world has 1 such triangle among 68).
+BEHIND_LIMIT = 0.01
+
+
+def seen_from_behind(world, cameras, visible_sets) -> tuple:
+    """(triangles seen from behind, triangles visible, their pixels, covered pixels), summed
+    over frames: visible in the unculled item buffer and facing away from the eye."""
+    behind = total = behind_pixels = pixels = 0
+    for camera, visible in zip(cameras, visible_sets):
+        away = _facing_away(world, visible.ids, camera)
+        behind += int(away.sum())
+        total += len(visible.ids)
+        behind_pixels += int(visible.pixels[away].sum())
+        pixels += int(visible.pixels.sum())
+    return behind, total, behind_pixels, pixels
+
+
+def _facing_away(world, ids, camera) -> np.ndarray:
+    """(K,) bool: triangle ids whose front faces away from the eye, n.(p - e) > 0 (float64;
+    edge-on and degenerate triangles count as facing the eye)."""
+    ids = np.asarray(ids, dtype=np.int64)
+    return np.einsum("ij,ij->i", world.normals[ids], world.corners[ids, 0] - camera.eye) > 0
+
+
+def tune(world, trajectory, profile, probe: int = PROBE_FRAMES, structures: str = DEFAULT_STRUCTURES,
          cache_dir=None, exhaustive: bool = False, progress=None,
          cost: str = "device") -> TuneResult:
     """Choose the configuration minimising predicted mean frame time with zero false negatives.
@@ -421,7 +474,8 @@ def tune(world, trajectory, profile, probe: int = 16, structures: str = DEFAULT_
         model.cull, model.residual["cull"] = fit_linear(search.model_rows, search.model_ms,
                                                         CULL_FEATURES)
     result = TuneResult(world.name, profile.name, frames, search.best, search.candidates,
-                        model, search.builds, 0.0, pruned=search.pruned, notes=notes, cost=cost)
+                        model, search.builds, 0.0, pruned=search.pruned, notes=notes, cost=cost,
+                        warning=search.warning, behind=search.behind)
     # Choose under the probe's uncertainty; probe the choice's stage toggles in full (no
     # bound) so explain() can price each, and choose again if one of them is tied and simpler.
     search.bound = False
@@ -464,7 +518,8 @@ def sweep(world, trajectory, profile, frames: str = "sample:48",
 
         raise VisMobileError("sweep: no candidate had zero false negatives")
     result = TuneResult(world.name, profile.name, picked, search.best, search.candidates,
-                        search.model, search.builds, 0.0, cost=cost)
+                        search.model, search.builds, 0.0, cost=cost,
+                        warning=search.warning, behind=search.behind)
     uncertainty(result)
     result.explanations = explain(result)
     result.seconds = time.perf_counter() - start
