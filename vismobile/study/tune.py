@@ -13,10 +13,11 @@ of two cost models:
   probe's triangle sets (costmodel.CostModel).
 The choice is made among the candidates with zero false negatives on the probe frames (loose
 stages are never candidates), with the probe's uncertainty: a paired bootstrap over the probe
-frames gives the fastest candidate's 95% interval of its mean frame time; every candidate whose
-mean falls inside it is statistically tied with it, and the simplest of the tied (fewest stages,
-then the simplest structure) is the choice, so the pick does not flip with the probe size on
-differences the probe cannot resolve. For each stage the choice leaves out,
+frames gives each candidate a 95% interval of its mean frame time and of its difference from
+the fastest; every candidate the probe does not show to be more than 1% slower than the fastest
+is tied with it, and the simplest of the tied (fewest stages, then the simplest structure) is
+the choice, so the pick does not flip with the probe size on differences the probe cannot
+resolve or that are too small to matter. For each stage the choice leaves out,
 `explain` prices it on the chosen structure: cull time it would add against render time it
 would save.
 """
@@ -187,7 +188,7 @@ class TuneResult:
                          f"{self.fastest.cull} at {self.fastest.frame_ms:.2f} ms "
                          f"[{self.fastest.low_ms:.2f}-{self.fastest.high_ms:.2f}]")
         if self.tied:
-            lines.append("  tied with the fastest (mean inside its interval): " + "; ".join(
+            lines.append("  tied with the fastest (not shown > 1% slower): " + "; ".join(
                 f"{c.structure} {c.cull} {c.frame_ms:.2f} ms" for c in self.tied[:6])
                 + ("; ..." if len(self.tied) > 6 else ""))
         if self.cost == "device":
@@ -485,11 +486,13 @@ def tune(world, trajectory, profile, probe: int = PROBE_FRAMES, structures: str 
                      set(cull_stages(result.choice.cull)) ^ {stage})))
                  for stage in _toggle_stages(result.choice.structure)]
         fresh = [key for key in fresh if key not in seen]
+        if not fresh:
+            break
         for key in fresh:
             seen.add(key)
             search.run(*key)
-        if not fresh:
-            break
+    else:
+        uncertainty(result)  # the last round's toggles are candidates too
     result.explanations = explain(result)
     result.seconds = time.perf_counter() - start
     return result
@@ -531,16 +534,21 @@ START_DEPTH = {"octree": 4, "portal": 1}
 # portals (ties between structures go to the one with less to build and explain).
 SIMPLE_STRUCTURES = ("grid", "octree", "bsp", "portal")
 BOOTSTRAP_SAMPLES = 2000
+# Differences below this fraction of the frame time are not worth a more complex configuration:
+# the device model's own error (27% leave-one-out) is far larger.
+PRACTICAL_MARGIN = 0.01
 
 
-def uncertainty(result: TuneResult, samples: int = BOOTSTRAP_SAMPLES, seed: int = 0) -> None:
+def uncertainty(result: TuneResult, samples: int = BOOTSTRAP_SAMPLES, seed: int = 0,
+                margin: float = PRACTICAL_MARGIN) -> None:
     """Set the choice by the probe's uncertainty (in place).
 
     Paired bootstrap over the probe frames: the same resampled frames price every fully
-    probed safe candidate, giving each one's 95% interval of its mean. The fastest mean's
-    interval decides the ties: every candidate whose mean lies inside it is tied with it, and
-    the simplest tied candidate (Candidate.simplicity) becomes result.choice; result.fastest
-    is the fastest mean, result.tied the other tied candidates by mean.
+    probed safe candidate, giving each one's 95% interval of its mean and of its difference
+    from the fastest mean. A candidate is tied with the fastest unless its difference's
+    interval lies wholly above `margin` of the fastest's mean (the probe shows it slower by
+    more than that), and the simplest tied candidate (Candidate.simplicity) becomes
+    result.choice; result.fastest is the fastest mean, result.tied the others tied by mean.
     """
     safe = [c for c in result.candidates
             if c.false_negatives == 0 and c.per_frame_ms is not None
@@ -554,8 +562,11 @@ def uncertainty(result: TuneResult, samples: int = BOOTSTRAP_SAMPLES, seed: int 
     low, high = np.percentile(means, [2.5, 97.5], axis=1)
     for cand, lo, hi in zip(safe, low, high):
         cand.low_ms, cand.high_ms = float(lo), float(hi)
-    fastest = min(safe, key=lambda c: c.rank)
-    tied = [c for c in safe if c.frame_ms <= fastest.high_ms]
+    best = min(range(len(safe)), key=lambda i: safe[i].rank)
+    fastest = safe[best]
+    # Paired: frame-to-frame variation common to both candidates cancels in the difference.
+    slower_by = np.percentile(means - means[best], 2.5, axis=1)
+    tied = [c for c, lo in zip(safe, slower_by) if lo <= margin * fastest.frame_ms]
     choice = min(tied, key=lambda c: c.simplicity)
     result.fastest, result.choice = fastest, choice
     result.tied = sorted((c for c in tied if c is not choice), key=lambda c: c.rank)
