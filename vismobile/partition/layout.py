@@ -1,13 +1,30 @@
 """Flatten a tree built in any node order into the breadth-first layout of base.py."""
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from .base import gather_ranges
 
-# Triangle references one tree level (or a grid) may hold: about 0.5 GiB of build arrays.
-# Checked before allocating, so a duplicate-heavy world or an extreme parameter is refused.
-MAX_REFERENCES = 1 << 22
+# Build arrays per triangle reference of one level (ids, boxes, masks, sort keys), measured
+# order of magnitude; 4 Mi references take about 0.5 GiB.
+BYTES_PER_REFERENCE = 128
+
+
+def host_reference_limit(memory_fraction: float = 0.25) -> int:
+    """References one level may hold on this host: a quarter of physical memory's worth,
+    never below 4 Mi (the limit on any machine)."""
+    try:
+        memory = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # no sysconf: the portable floor
+        return 1 << 22
+    return max(1 << 22, int(memory * memory_fraction) // BYTES_PER_REFERENCE)
+
+
+# Checked before allocating, so a duplicate-heavy world or an extreme parameter is refused
+# with a message instead of exhausting memory.
+MAX_REFERENCES = host_reference_limit()
 
 
 def check_references(count, what, candidates=False) -> None:
@@ -17,7 +34,9 @@ def check_references(count, what, candidates=False) -> None:
     if count > limit:
         held = "test" if candidates else "hold"
         raise ValueError(f"{what} would {held} {int(count):,} triangle references, over the "
-                         f"limit of {limit:,}; use fewer cells or a smaller depth")
+                         f"limit of {limit:,} for this machine's memory; use fewer cells or a "
+                         f"smaller depth, or for a world of millions of triangles the streamed "
+                         f"octree build (`vismobile partition WORLD_DIR --jobs N`, docs/scale.md)")
 
 
 def flatten(parent, ref_node, ref_tri) -> dict:
