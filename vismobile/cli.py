@@ -9,7 +9,8 @@ from importlib import import_module
 from .errors import VisMobileError, one_line
 
 # Each module in commands/ offers add_parser(subparsers) and run(args) -> int.
-COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune", "terrain", "view")
+COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune", "trajectory", "terrain",
+            "view")
 
 
 def build_parser() -> argparse.ArgumentParser:
