@@ -2,6 +2,7 @@
 import csv
 import itertools
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -234,3 +235,43 @@ def test_adaptive_playback_switches_off_a_stage_that_removes_nothing(tmp_path):
     stages = [row[COLUMNS.index("active_stages")] for row in rows[1:]]
     frame = events[0]["frame"]
     assert stages[frame - 1] == "vfc+vfc_thesis" and stages[frame + 1] == "vfc"
+
+
+def test_play_warns_in_one_line_when_the_path_misses_the_world(tmp_path):
+    """The thesis's indoor path on a small trimesh room: the camera is outside it and sends
+    nothing; `vismobile play` (the real entry point) says so in one stderr line, exit 0."""
+    import os
+    import subprocess
+    import sys
+
+    import trimesh
+
+    from vismobile.trajectory import Trajectory
+
+    root = Path(__file__).resolve().parents[1]
+    room = trimesh.creation.box(extents=(4, 3, 4))
+    room.invert()
+    room.export(tmp_path / "room.stl")
+    far = np.column_stack([np.linspace(20, 40, 6), np.full(6, 1.7), np.full(6, 20.0),
+                           np.full(6, -90.0), np.zeros(6)])
+    Trajectory(far).save(tmp_path / "far.csv")
+    inside = np.column_stack([np.zeros(6), np.zeros(6), np.zeros(6), np.linspace(0, 300, 6),
+                              np.zeros(6)])
+    Trajectory(inside).save(tmp_path / "inside.csv")
+    env = dict(os.environ, PYTHONPATH=str(root))
+
+    def play(path):
+        return subprocess.run([sys.executable, "-m", "vismobile", "play", "room.stl",
+                               "--trajectory", path, "-o", f"run-{path}", "--structure",
+                               "octree:1", "--cull", "vfc", "--quiet"], cwd=tmp_path, env=env,
+                              capture_output=True, text=True, timeout=300)
+
+    done = play("far.csv")
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.count("\n") == 1 and done.stderr.startswith("warning: ")
+    assert "outside the world's bounds on 6 of 6 frames" in done.stderr
+    assert "6 of 6 frames sent no triangles" in done.stderr
+    summary = json.loads((tmp_path / "run-far.csv" / "summary.json").read_text())
+    assert len(summary["warnings"]) == 2
+    quiet = play("inside.csv")
+    assert quiet.returncode == 0 and quiet.stderr == ""

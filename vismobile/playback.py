@@ -20,6 +20,7 @@ from __future__ import annotations
 import io
 import json
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -287,6 +288,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         "timing": label(None), "model": model_block(counters),
         "adaptive": bool(adaptive), "adaptive_events": list(getattr(culler, "events", [])),
     })
+    summary["warnings"] = path_warnings(world, trajectory, played, table["triangles_sent"])
+    if summary["warnings"]:
+        warnings.warn("; ".join(summary["warnings"]), stacklevel=2)
     result = PlaybackResult(frames, summary, Path(out) if out is not None else None)
     if out is not None:
         # Staged: a folder holding summary.json (written last) holds one whole run.
@@ -300,6 +304,36 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
                                (json.dumps(summary, indent=2, sort_keys=True) + "\n").encode())
     result.images = saved
     return result
+
+
+def path_warnings(world, trajectory, played, sent) -> list:
+    """What suggests the trajectory is not for this world: the eye outside the world's box
+    (x or z beyond it, or y below its floor or more than one world size above its top; above
+    the top is allowed, for fly-overs; 1e-6 of the size of slack), and most frames sending no
+    triangle. One clause each, for one warning line."""
+    notes = []
+    if not len(played):
+        return notes
+    low, high = world.extent
+    size = float((high - low).max())
+    slack = 1e-6 * size
+    eyes = trajectory.poses[np.asarray(played, dtype=np.int64), :3]
+    outside = ((eyes[:, [0, 2]] < low[[0, 2]] - slack) | (eyes[:, [0, 2]] > high[[0, 2]] + slack)
+               ).any(axis=1) | (eyes[:, 1] < low[1] - slack) | (eyes[:, 1] > high[1] + size)
+    if outside.any():
+        first = int(np.argmax(outside))
+        x, y, z = eyes[first]
+        notes.append(f"the camera is outside the world's bounds on {int(outside.sum())} of "
+                     f"{len(played)} frames (first frame {played[first]} at ({x:.4g}, {y:.4g}, "
+                     f"{z:.4g}); the world spans ({low[0]:.4g}, {low[1]:.4g}, {low[2]:.4g}) to "
+                     f"({high[0]:.4g}, {high[1]:.4g}, {high[2]:.4g}))")
+    empty = int((np.asarray(sent) == 0).sum())
+    if 2 * empty > len(played):
+        notes.append(f"{empty} of {len(played)} frames sent no triangles")
+    if notes:
+        notes[-1] += ("; is the trajectory for this world? `vismobile trajectory generate` makes "
+                      "one")
+    return notes
 
 
 def summarise(frames: dict) -> dict:
