@@ -92,3 +92,64 @@ def test_w2_frame_692_sees_a_wall_through_an_open_slab(kit):
     part = partition(world, "portal", depth=2)
     sent = Culler(part, "portals,occlusion,tbfc").cull(cam).triangles
     assert not len(np.setdiff1d(shown, sent))
+
+
+# Issue 17 on the device: W1 moved by 1e5 and drawn in float32 (a rounding step of 0.0078, the
+# device's moves up to 16 of them). Cameras near walls and portals with small near planes; the
+# device's own item buffer shows rooms behind the walls next to the eye. Before the portal
+# stage took the device's moves (portal rectangles, cell frusta, free-space reach, near plane),
+# `portals` dropped 32, 5 and 3 of these triangles.
+OFFSET = np.array([1e5, 5e4, 1e5])
+DEVICE_CAMERAS = [((100024.101, 50005.810140805464, 100031.60647304298), 92.80912283882517,
+                   15.787711952643193, 1e-4),
+                  ((100029.37883724403, 50000.123209019126, 100017.13), 171.7466420294458,
+                   -22.34275881023582, 0.02),
+                  ((100030.89899999999, 50000.50237548711, 100019.79693702425),
+                   31.687822971056416, -20.955660517802684, 0.02)]
+
+
+@pytest.fixture(scope="module")
+def w1_offset_portals(kit):
+    from vismobile.partition import partition
+
+    world = kit.world("w1").transformed(1.0, OFFSET)
+    return partition(world, "portal", depth=1)
+
+
+@pytest.mark.parametrize("index", range(len(DEVICE_CAMERAS)))
+def test_w1_offset_1e5_float32_keeps_what_the_device_shows(kit, w1_offset_portals, index):
+    from vismobile.culling import device_options
+    from vismobile.profile import get_profile
+    from vismobile.render import SENTINEL, item_buffer
+
+    part = w1_offset_portals
+    profile = get_profile(kit.PROFILE, "float32")
+    position, yaw, pitch, near = DEVICE_CAMERAS[index]
+    cam = Camera(position, yaw=yaw, pitch=pitch, aspect=profile.aspect, near=near)
+    for stages, back in (("portals", False), ("portals,cbfc", True)):
+        shown = np.unique(item_buffer(part.world, None, cam, profile, cull_back=back))
+        shown = shown[shown != SENTINEL].astype(np.int64)
+        sent = Culler(part, stages, **device_options(profile)).cull(cam).triangles
+        missing = np.setdiff1d(shown, sent)
+        assert not len(missing), f"{stages} dropped {len(missing)} shown triangles {missing[:6]}"
+
+
+def test_portal_rectangles_hold_the_grown_polygon():
+    # A unit square 5 ahead, grown by 0.5: its rectangle holds every point within 0.5 of it.
+    from vismobile.culling.portals import portal_rects
+
+    square = np.array([[-0.5, -0.5, 5.0], [0.5, -0.5, 5.0], [0.5, 0.5, 5.0], [-0.5, 0.5, 5.0]])
+    rects, state = portal_rects(square, np.array([0, 4]), np.zeros(3), np.eye(3), 1.0, 1.0, 0.5)
+    assert state.tolist() == [0]
+    rng = np.random.default_rng(0)
+    ball = rng.normal(size=(2000, 3))
+    ball *= 0.5 * rng.uniform(0, 1, (2000, 1)) ** (1 / 3) / np.linalg.norm(ball, axis=1)[:, None]
+    points = square[rng.integers(0, 4, 2000)] + ball
+    u, v = points[:, 0] / points[:, 2], points[:, 1] / points[:, 2]
+    u0, u1, v0, v1 = rects[0]
+    assert np.all((u0 <= u) & (u <= u1) & (v0 <= v) & (v <= v1))
+    assert u1 < 1.0 / 4.5 + 1e-6  # and no looser than the ball's box needs
+    # within the grow of the eye's plane: the whole current rectangle
+    _, near = portal_rects(square - [0, 0, 4.7], np.array([0, 4]), np.zeros(3), np.eye(3),
+                           1.0, 1.0, 0.5)
+    assert near.tolist() == [2]

@@ -17,9 +17,21 @@ front or meet nothing (at most MAX_ESCAPES of them). An eye seeing a back face o
 nothing (inside a wall or a slab, past a slab's edge), an eye near a surface, an eye outside
 every cell, or a partition without portals falls back to plain `vfc` (portals.fallbacks).
 
+Device rounding. The device draws corners and eye moved by up to m = sqrt(3) device_move
+(precision.py) each, in the Culler's arithmetic mode. Shifting a device sight line by the eye's
+move gives a line from the exact eye that passes within D = 2 m of every portal it crossed and
+ends within D of the exact triangle; so each portal's rectangle bounds its polygon grown by a
+ball of radius D (a portal within D of the eye's plane takes the whole current rectangle), the
+cell frusta's four side planes are pushed out by D plus the frustum margin, and the eye must be
+D farther from every triangle's box to count as in free space. At a 1e5 offset in float32, D
+is about 0.33: eyes that close to a wall fall back to `vfc`. A near plane within the device's
+move of the eye (near <= device_move: 0.095 at 1e5 in float32) falls back too: the device then
+cannot place the near plane or order depths (at 1e5 in float32 with near 1e-3 its item buffer
+is mostly background or far rooms seen through walls), so no wall certainly hides anything.
+
 Contract: conservative for free-space eyes provided the portals cover every opening between
-cells; portal rectangles err outward, a portal that crosses the eye's plane widens to the whole
-current rectangle; every other eye gets plain `vfc`.
+cells; portal rectangles err outward (by RECT_SLACK and the device's moves), a portal that
+crosses the eye's plane widens to the whole current rectangle; every other eye gets plain `vfc`.
 """
 from __future__ import annotations
 
@@ -30,6 +42,7 @@ from ..geometry.planes import planes_through_eye
 from ..geometry.raster import to_camera
 from ..geometry.ray import ray_triangle
 from .frustum import frustum_refine, frustum_traverse
+from .precision import device_move, margin
 from .state import CullState
 from .tree import Tree
 
@@ -39,12 +52,14 @@ RECT_SLACK = 1e-7  # NDC units added around every rectangle
 MAX_ESCAPES = 2  # axis rays from a free-space eye that may meet nothing (through windows)
 
 
-def portal_rects(vertices, starts, eye, rotation, tx: float, ty: float) -> tuple:
-    """Screen rectangles of convex portal polygons: (rects (P, 4) float64 u0, u1, v0, v1 in NDC,
-    state (P,) int8: 0 visible rectangle, 1 wholly behind the eye (invisible), 2 crosses the
-    eye's plane (rectangle unknown: use the whole current region)).
+def portal_rects(vertices, starts, eye, rotation, tx: float, ty: float,
+                 grow: float = 0.0) -> tuple:
+    """Screen rectangles of convex portal polygons grown by a ball of radius `grow` (world
+    units): (rects (P, 4) float64 u0, u1, v0, v1 in NDC, state (P,) int8: 0 visible rectangle,
+    1 wholly behind the eye's plane by more than grow (invisible), 2 within grow of it or
+    crossing it (rectangle unknown: use the whole current region)).
 
-    Errs outward: bounds of the projected vertices grown by RECT_SLACK.
+    Errs outward: bounds of the projected grown vertices, plus RECT_SLACK.
     vertices : (M, 3) float64;  starts : (P + 1,) int64 offsets of each polygon in vertices
     """
     starts = np.asarray(starts, dtype=np.int64)
@@ -57,19 +72,28 @@ def portal_rects(vertices, starts, eye, rotation, tx: float, ty: float) -> tuple
     z = cam[:, 2]
     zmin = np.minimum.reduceat(z, starts[:-1])
     zmax = np.maximum.reduceat(z, starts[:-1])
-    zsafe = np.where(z > 0, z, 1.0)
-    u, v = cam[:, 0] / (zsafe * tx), cam[:, 1] / (zsafe * ty)
-    rects = np.column_stack([np.minimum.reduceat(u, starts[:-1]) - RECT_SLACK,
-                             np.maximum.reduceat(u, starts[:-1]) + RECT_SLACK,
-                             np.minimum.reduceat(v, starts[:-1]) - RECT_SLACK,
-                             np.maximum.reduceat(v, starts[:-1]) + RECT_SLACK])
-    state = np.where(zmin > 0, 0, np.where(zmax <= 0, 1, 2)).astype(np.int8)
+    # The ball's projection lies within the box [x +- grow] x [z +- grow]'s: x / z is monotone
+    # in x, and in z for z > 0, so its bounds are at the box's corners.
+    near, far = z - grow, z + grow
+    near = np.where(near > 0, near, 1.0)
+    bounds = []
+    for coord, t in ((cam[:, 0], tx), (cam[:, 1], ty)):
+        low, high = coord - grow, coord + grow
+        bounds.append(np.minimum(low / near, low / far) / t)
+        bounds.append(np.maximum(high / near, high / far) / t)
+    u0, u1, v0, v1 = bounds
+    rects = np.column_stack([np.minimum.reduceat(u0, starts[:-1]) - RECT_SLACK,
+                             np.maximum.reduceat(u1, starts[:-1]) + RECT_SLACK,
+                             np.minimum.reduceat(v0, starts[:-1]) - RECT_SLACK,
+                             np.maximum.reduceat(v1, starts[:-1]) + RECT_SLACK])
+    state = np.where(zmin > grow, 0, np.where(zmax < -grow, 1, 2)).astype(np.int8)
     return rects, state
 
 
-def rect_planes(rects, camera) -> np.ndarray:
+def rect_planes(rects, camera, push: float = 0.0, limits=None) -> np.ndarray:
     """(K, 6, 4) float64 frustum planes narrowed to NDC rectangles (K, 4): four through the eye,
-    then the camera's near and far planes (exact for the rectangle)."""
+    pushed out by `push` (world units), then near and far: limits (2, 4) (the Culler's
+    conservative frustum planes [4:]) or the camera's own. Errs outward by push."""
     right, up, forward = camera.basis()
     ty = np.tan(np.radians(camera.fov) / 2.0)
     tx = ty * camera.aspect
@@ -81,7 +105,8 @@ def rect_planes(rects, camera) -> np.ndarray:
     dirs = forward + (us * tx)[..., None] * right + (vs * ty)[..., None] * up
     out = np.empty((len(rects), 6, 4))
     out[:, :4] = planes_through_eye(camera.eye, dirs)
-    out[:, 4:] = camera.frustum_planes()[4:]
+    out[:, :4, 3] += push
+    out[:, 4:] = camera.frustum_planes()[4:] if limits is None else limits
     return out
 
 
@@ -90,6 +115,7 @@ class PortalStage:
 
     name = "portals"
     cost = 5
+    arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -99,6 +125,7 @@ class PortalStage:
             self.x = {key: np.asarray(extras[key]) for key in EXTRAS}
             world = tree.world
             self.corners, self.normals, self.bounds = world.corners, world.normals, world.bounds
+            self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
 
     def eye_in_free_space(self, eye, reach: float) -> bool:
         """True when no triangle's box comes within `reach` of the eye and each of the six axis
@@ -141,6 +168,14 @@ class PortalStage:
                 return False
         return True
 
+    def device_reach(self, camera) -> tuple:
+        """(D, push): how far the device's rounding can move a sight line relative to the exact
+        eye (2 sqrt(3) device_move: eye and point), and the cell frusta's side-plane push
+        (D plus the frustum margin), for coordinates up to the world's and the eye's."""
+        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
+        reach = 2.0 * np.sqrt(3.0) * device_move(self.arithmetic, scale)
+        return reach, reach + margin(self.arithmetic, scale)
+
     def apply(self, state: CullState) -> None:
         tree, camera = self.tree, state.camera
         cells = self.visible_cells(camera, state) if self.available else None
@@ -150,23 +185,30 @@ class PortalStage:
             return
         ids, rects = cells
         state.count(f"{self.name}.cells_visited", len(ids))
+        planes = rect_planes(rects, camera, self.device_reach(camera)[1], state.planes[4:])
         state.nodes = frustum_traverse(tree, self.x["cell_node"][ids].astype(np.int64),
-                                       rect_planes(rects, camera), np.arange(len(ids)), state,
-                                       self.name)
+                                       planes, np.arange(len(ids)), state, self.name)
 
     def visible_cells(self, camera, state: CullState):
         """(cell ids (V,), rects (V, 4)) reached through portals, or None when the eye is in
-        no cell or not in free space."""
+        no cell, not in free space (also once the device moves it: see device_reach), or
+        nearer to the near plane than the device's move."""
         x = self.x
-        starts = np.flatnonzero(boxes_contain_point(x["cell_bounds"], camera.eye, self.tree.tol))
+        grow = self.device_reach(camera)[0]
+        if camera.near <= grow / (2.0 * np.sqrt(3.0)):  # near within the device's move
+            return None
+        # the device's eye may sit in any cell within its move of the exact eye
+        starts = np.flatnonzero(boxes_contain_point(x["cell_bounds"], camera.eye,
+                                                    self.tree.tol + grow))
         ty = np.tan(np.radians(camera.fov) / 2.0)
-        reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
+        reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2)) + grow
         if not len(starts) or not self.eye_in_free_space(np.asarray(camera.eye, np.float64),
                                                          reach):
             return None
         right, up, forward = camera.basis()
         prect, pstate = portal_rects(x["portal_vertices"], x["portal_start"], camera.eye,
-                                     np.stack([right, up, forward]), ty * camera.aspect, ty)
+                                     np.stack([right, up, forward]), ty * camera.aspect, ty,
+                                     grow)
         count = len(x["cell_node"])
         rect = np.tile([np.inf, -np.inf, np.inf, -np.inf], (count, 1))
         rect[starts] = [-1.0, 1.0, -1.0, 1.0]

@@ -37,9 +37,10 @@ def ray_triangle(origins, directions, corners, t_min=0.0, tolerance=EDGE_TOLERAN
         qvec = np.cross(tvec, e1)
         v = np.sum(d * qvec, axis=-1) * inv
         t = np.sum(e2 * qvec, axis=-1) * inv
-    front = det > 0 if cull_back else det != 0
-    hit = (front & (u >= -tolerance) & (v >= -tolerance) & (u + v <= 1.0 + tolerance)
-           & (t >= t_min) & np.isfinite(t))
+        front = det > 0 if cull_back else det != 0
+        # det == 0 makes u, v, t inf or nan (0 x inf): those pairs never hit, quietly.
+        hit = (front & (u >= -tolerance) & (v >= -tolerance) & (u + v <= 1.0 + tolerance)
+               & (t >= t_min) & np.isfinite(t))
     return np.where(hit, t, np.inf)
 
 
