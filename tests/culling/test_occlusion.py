@@ -167,3 +167,30 @@ def test_clip_near_keeps_the_part_beyond_the_plane():
     poly, counts = clip_near(tri[None], eye, forward, 2.0)
     assert np.allclose(poly[0], [[0.5, 0, -2], [1, 0, -3], [0, 1, -3], [0, 0.5, -2]])
     assert clip_near(np.zeros((0, 3, 3)), eye, forward, 1.0)[1].shape == (0,)
+
+
+def test_w2_indoor_frames_keep_everything_the_item_buffer_shows(kit):
+    # W2 octree 5 (the benchmarks' tree) at the profile's 240 x 320, sampled indoor frames, with
+    # and without the screen option, frames in order so last frame's candidates carry over.
+    from pathlib import Path
+
+    from vismobile.trajectory import Trajectory
+
+    world = kit.world("w2")
+    part = partition(world, "octree", depth=5)
+    traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
+    frames = np.linspace(0, len(traj) - 1, 16).astype(int)
+    screen = tuple(kit.PROFILE.resolution)
+    assert screen == (240, 320)
+    cullers = [Culler(part, "vfc,occlusion,tbfc"),
+               Culler(part, "vfc,occlusion,tbfc", occlusion={"screen": screen})]
+    culled = 0
+    for f in frames:
+        cam = traj.camera(int(f), kit.ASPECT)
+        visible = kit.visible_ids(world, cam, True)
+        for culler in cullers:
+            result = culler.cull(cam)
+            missing = np.setdiff1d(visible, result.triangles)
+            assert not len(missing), (int(f), culler.stages[1].screen, missing[:5])
+            culled += result.stats.get("occlusion.nodes_culled", 0)
+    assert culled > 0  # the buffer did hide something

@@ -11,7 +11,7 @@ from vismobile.geometry.boxes import box_corners, boxes_contain_point
 from vismobile.geometry.cones import NEVER, cluster_cones, cones_backfacing
 from vismobile.geometry.planes import (classify_boxes, planes_through_eye, points_inside,
                                        slack, spheres_outside)
-from vismobile.geometry.raster import box_rects
+from vismobile.culling.hiz import screen_rect
 from vismobile.geometry.sphere_regions import caps_within, direction_regions, region_caps
 from vismobile.geometry.triangle_box import triangles_overlap_boxes
 
@@ -224,7 +224,7 @@ def test_caps_within_means_every_cap_direction_is_within_90_degrees(center, radi
         assert np.all(rim @ rays.T >= -1e-9)
 
 
-# ---- raster.py: screen rectangles ------------------------------------------------------------
+# ---- culling/hiz.py: screen rectangles ------------------------------------------------------------
 
 @SETTINGS
 @given(boxes(offset=0.0), st.floats(0, 360), st.floats(-89, 89),
@@ -236,16 +236,16 @@ def test_screen_rectangle_contains_every_projected_corner(box, yaw, pitch, fov):
     tx = np.tan(np.radians(fov) / 2) * cam.aspect
     ty = np.tan(np.radians(fov) / 2)
     w, h = 240, 320
-    x0, x1, y0, y1, zmin, ok = box_rects(box[None], cam.eye, rotation, cam.near, tx, ty, w, h)
-    if not ok[0]:
-        return
     pts = (box_corners(box[None])[0] - cam.eye) @ rotation.T
-    assert np.all(pts[:, 2] >= zmin[0])
+    x0, x1, y0, y1, zmin, testable, onscreen = screen_rect(pts, cam.near, tx, ty, w, h)
+    if not (testable and onscreen):
+        return
+    assert np.all(pts[:, 2] >= zmin)
     px = (pts[:, 0] / (pts[:, 2] * tx) + 1) * 0.5 * w
     py = (pts[:, 1] / (pts[:, 2] * ty) + 1) * 0.5 * h
     inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
-    assert np.all(np.floor(px[inside]) >= x0[0]) and np.all(np.floor(px[inside]) <= x1[0])
-    assert np.all(np.floor(py[inside]) >= y0[0]) and np.all(np.floor(py[inside]) <= y1[0])
+    assert np.all(np.floor(px[inside]) >= x0) and np.all(np.floor(px[inside]) <= x1)
+    assert np.all(np.floor(py[inside]) >= y0) and np.all(np.floor(py[inside]) <= y1)
 
 
 # ---- camera.frustum_planes (foundation): agrees with the clip-space test -----------------------

@@ -1,28 +1,29 @@
-"""`occlusion`: a CPU software depth buffer at low resolution, in the style of Masked Occlusion
-Culling (Hasselgren, Andersson, Akenine-Moller 2016) and the hierarchical Z-buffer (Greene 1993).
+"""`occlusion`: a conservative tiled depth buffer on the CPU (culling/hiz.py), in the style of
+Masked Occlusion Culling (Hasselgren, Andersson, Akenine-Moller 2016) and the hierarchical
+Z-buffer (Greene 1993).
 
 OpenGL ES 1.1 has no occlusion queries and no depth readback, so all of this runs on the CPU.
 Each frame:
-1. Occluders: the world's largest triangles (precomputed pool) that face the eye and reach the
-   frustum, ranked by estimated solid angle A |n.d| / |d|^3 (d eye to centroid), best
-   `occluders` taken, each certainly front-facing also as the device rounds it (tbfc's bound).
-   Any front-facing world triangle is opaque in the final image (with or without
-   GL_CULL_FACE), so this needs no frame history.
-2. They are clipped to the near plane and rasterised as one UNION (geometry/raster.py): a pixel
-   is covered only when wholly inside it; edges are split at T-junctions beforehand, so shared
-   edges, creases and T-junctions leave no cracks. Each covered pixel holds a depth bound >=
-   the nearest occluder's depth everywhere over it. A sparse table answers exact
-   "max depth over a pixel rectangle" queries.
-3. Node boxes are tested: hidden when the box's nearest depth is beyond that maximum over its
-   screen rectangle (plus the 24-bit depth buffer's resolution there), or the rectangle is off
-   screen with the box in front. Visible inner nodes touching covered pixels are expanded.
-4. Each triangle gathered from the surviving nodes gets the same test with its own vertices.
-   Optionally (`self_occluders`) the survivors that certainly face the eye, nearest first, are
-   rasterised too (objects hiding objects) and the test reruns against the pointwise minimum of
-   both buffers (each bounds the nearest real surface, so their minimum does); optionally
-   (`screen`) a triangle covering no pixel centre of the device's screen goes too.
-Occluders are clipped slightly beyond the near plane (NEAR_RELATIVE plus device rounding), so
-only parts the GPU certainly draws occlude: the item buffer sees through walls nearer than near.
+1. Occluder candidates come from the frustum around the eye, never from a global pool: a walk
+   from the frame's nodes (after vfc or portals) takes each node's precomputed list of its
+   `candidates` largest triangles once the node is a leaf or small as seen from the eye
+   (diagonal < `detail` x distance), plus last frame's best sent triangles (`observe`). They are
+   ranked by estimated solid angle A |n.d| / |d|^3 and the best `occluders` that certainly face
+   the eye, also as the device rounds it (tbfc's bound), are rasterised. Any front-facing world
+   triangle is opaque in the final image (with or without GL_CULL_FACE).
+2. hiz.rasterise: per exact-plane group, a pixel counts only when wholly inside the union of the
+   group's triangles clipped slightly beyond the near plane (NEAR_RELATIVE plus device
+   rounding: only parts the GPU certainly draws occlude), with the plane's farthest depth over
+   it; edges are split at T-junctions beforehand, so shared edges leave no cracks. Tiles of
+   `tile` pixels keep the farthest depth of their pixels.
+3. Node boxes are tested (hiz.cull_nodes): hidden when the box's nearest depth is beyond the
+   largest depth over its screen rectangle (plus the 24-bit depth buffer's resolution there),
+   or the rectangle is off screen with the box in front. Visible inner nodes touching covered
+   tiles are expanded.
+4. Each triangle gathered from the surviving nodes gets the same test with its own vertices
+   (hiz.hidden_triangles). Optionally (`self_occluders`) the survivors that certainly face the
+   eye, nearest first, are rasterised too (objects hiding objects) and the test reruns;
+   optionally (`screen`) a triangle covering no pixel centre of the device's screen goes too.
 
 Device rounding (issue 17). The device draws rounded vertices from a rounded eye: relative to
 the eye every point moves by at most m = 2 device_move(arithmetic) per coordinate. A tested box
@@ -38,14 +39,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.raster import (box_rects, covers_no_sample, max_table, point_rects, rect_max,
-                               split_edges, to_camera, union_depth)
-from ..partition.base import gather_ranges
+from ..geometry.raster import split_edges
+from .hiz import (build_tiles, cull_nodes, gather_candidates, hidden_triangles, node_candidates,
+                  rasterise, score_candidates)
+from .kernels import backfacing
 from .precision import device_move
-from .state import CullState
+from .state import CullResult, CullState
 from .tree import Tree
-from .triangle_backface import (DEVICE_ABSOLUTE, DEVICE_RELATIVE, certainly_backfacing,
-                                triangle_cross)
+from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE, GAMMA_8, triangle_cross
 
 # Depth margin in units of z^2 / near: the GPU's 24-bit depth buffer resolves z^2 / near * 2^-24
 # (window depth 1 - near / z); 64x that keeps z-fighting pairs visible.
@@ -57,70 +58,134 @@ GRAZING = 1e-6
 NEAR_RELATIVE = 2.0 ** -10
 
 
-class DepthBufferOcclusion:
-    """`occlusion`: software depth buffer occlusion culling; refines state.nodes.
+def piece_partners(tri, a, b, groups) -> np.ndarray:
+    """(S,) int64 for each directed edge piece a -> b of triangle tri, a triangle of the same
+    plane group holding the reverse piece b -> a, or -1 (exact: matched by vertex index)."""
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    g = groups[tri]
+    order = np.lexsort((lo, hi, g))
+    key = np.column_stack([g[order], lo[order], hi[order]])
+    new = np.ones(len(order), dtype=bool)
+    new[1:] = (key[1:] != key[:-1]).any(axis=1)
+    run = np.cumsum(new) - 1
+    forward = (a < b)[order]
+    count = run.max() + 1 if len(run) else 0
+    # First forward and first backward piece of each run of equal undirected keys.
+    first_fwd = np.full(count, -1, dtype=np.int64)
+    first_bwd = np.full(count, -1, dtype=np.int64)
+    idx = np.arange(len(order))
+    f, k = run[forward][::-1], idx[forward][::-1]
+    first_fwd[f] = order[k]  # reversed: the first one written last wins
+    f, k = run[~forward][::-1], idx[~forward][::-1]
+    first_bwd[f] = order[k]
+    partner_piece = np.where(forward, first_bwd[run], first_fwd[run])
+    out = np.full(len(tri), -1, dtype=np.int64)
+    out[order] = np.where(partner_piece >= 0, tri[np.maximum(partner_piece, 0)], -1)
+    return out
 
-    width, height : depth buffer size in pixels (default 60 x 80, a quarter of 240 x 320)
-    occluders     : large triangles rasterised per frame (the best by estimated solid angle)
-    candidates    : size of the precomputed pool of largest triangles they are chosen from
+
+def occluder_mesh(vertices, triangles, normals) -> tuple:
+    """The rasteriser's tables (hiz.rasterise) for triangles (T, 3) int64 over vertices (V, 3)
+    with unit normals (T, 3): (points (P, 3) each value once, tri_points (T, 3), normals,
+    offsets (T,), groups (T,) exact-plane labels, piece_start, piece_end (T,), piece_a,
+    piece_b (S,) edge pieces split at T-junctions, partner (S,) reverse piece's triangle or -1).
+    Each point once, so shared corners project to bit-identical values."""
+    points, index = np.unique(np.asarray(vertices, dtype=np.float64), axis=0,
+                              return_inverse=True)
+    tri_points = np.ascontiguousarray(index.ravel()[np.asarray(triangles)], dtype=np.int64)
+    normals = np.ascontiguousarray(normals, dtype=np.float64)
+    offsets = np.einsum("ij,ij->i", normals, points[tri_points[:, 0]])
+    _, group = np.unique(np.column_stack([normals, offsets]), axis=0, return_inverse=True)
+    groups = group.ravel().astype(np.int64)
+    tri, a, b = split_edges(points, tri_points)
+    ids = np.arange(len(tri_points))
+    start = np.searchsorted(tri, ids, "left").astype(np.int64)
+    end = np.searchsorted(tri, ids, "right").astype(np.int64)
+    return (points, tri_points, normals, offsets, groups, start, end, a.astype(np.int64),
+            b.astype(np.int64), piece_partners(tri, a, b, groups))
+
+
+class DepthBufferOcclusion:
+    """`occlusion`: conservative tiled depth buffer occlusion culling; refines state.nodes.
+
+    width, height : depth buffer size in pixels (default 120 x 160, half of 240 x 320)
+    tile          : (w, h) pixels per tile of the coarse buffer (default 8 x 4)
+    occluders     : triangles rasterised per frame (the best candidates by solid angle)
+    candidates    : largest triangles listed per node (the candidates a node offers)
+    detail        : a node offers its list once its diagonal is below detail x its distance
     triangles     : also test each surviving triangle (a filter after the node pass)
     self_occluders: up to this many of the frame's surviving candidates that certainly face the
-                    eye (objects' near sides), nearest first, are rasterised into a second
-                    buffer for the triangle test; 0 turns it off
+                    eye (objects' near sides), nearest first, are rasterised too before the
+                    triangle test; 0 turns it off
     screen        : (width, height) of the device's screen, or None. When given, the triangle
                     test also drops triangles that cover no pixel centre of that screen
-                    (geometry.raster.covers_no_sample): safe only for that resolution, without
-                    multisampling (the item buffer's), so it is off unless the caller says
+                    (hiz._no_sample): safe only for that resolution, without multisampling
+                    (the item buffer's), so it is off unless the caller says
     """
 
     name = "occlusion"
     cost = 50
     arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
-    def __init__(self, width: int = 60, height: int = 80, occluders: int = 256,
-                 candidates: int = 16384, triangles: bool = True, self_occluders: int = 0,
-                 screen=None):
+    def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
+                 candidates: int = 4, detail: float = 0.5, triangles: bool = True,
+                 self_occluders: int = 0, screen=None):
         self.width, self.height = int(width), int(height)
+        self.tile = tuple(int(v) for v in tile)
         self.occluders, self.candidates = int(occluders), int(candidates)
+        self.detail = float(detail)
         self.triangles = bool(triangles)
         self.self_occluders = int(self_occluders)
         if min(self.width, self.height, self.occluders, self.candidates) < 1:
             raise ValueError("occlusion needs positive width, height, occluders and candidates")
+        if len(self.tile) != 2 or min(self.tile) < 1:
+            raise ValueError(f"occlusion tile must be (width, height) > 0, got {tile!r}")
+        if not self.detail > 0:
+            raise ValueError("occlusion needs detail > 0")
         if self.self_occluders < 0:
             raise ValueError("occlusion needs self_occluders >= 0")
         self.screen = None if screen is None else tuple(int(v) for v in screen)
         if self.screen is not None and (len(self.screen) != 2 or min(self.screen) < 1):
             raise ValueError(f"occlusion screen must be (width, height) > 0, got {screen!r}")
-        self.last_buffer = None
         self.nearest = np.inf  # nearest depth of this frame's rasterised occluder points
+        self.history = np.zeros(0, dtype=np.int64)
+        self._frame = 0
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
         world = tree.world
-        count = min(self.candidates, world.triangle_count)
-        pool = np.argsort(-world.areas, kind="stable")[:count]
-        self.pool = pool = pool[world.areas[pool] > 0]  # world ids of the large-occluder pool
-        self.pool_normals, self.pool_areas = world.normals[pool], world.areas[pool]
-        self.pool_centroids, self.pool_v0 = world.centroids[pool], world.corners[pool, 0]
-        self.pool_radius = np.linalg.norm(world.corners[pool] - self.pool_centroids[:, None],
-                                          axis=2).max(1)
-        # Every triangle can occlude: each point once, so shared corners project to
-        # bit-identical values; edges split at every world vertex lying on them.
+        count = world.triangle_count
+        (self.points, self.tri_points, self.normals, self.offsets, self.groups,
+         self.piece_start, self.piece_end, self.piece_a, self.piece_b,
+         self.partner) = occluder_mesh(world.vertices, world.triangles, world.normals)
         corners = world.corners
-        self.points, index = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
-        self.tri_points = index.reshape(-1, 3)
-        tri, a, b = split_edges(self.points, self.tri_points)
-        self.piece_a, self.piece_b, self.piece_tri = a, b, tri
-        ids = np.arange(world.triangle_count)
-        self.piece_start = np.searchsorted(tri, ids, "left")
-        self.piece_end = np.searchsorted(tri, ids, "right")
-        # Planes by exact value: a group's members share one plane equation bit for bit.
-        self.offsets = np.einsum("ij,ij->i", world.normals, corners[:, 0])
-        key = np.column_stack([world.normals, self.offsets])
-        _, group = np.unique(key, axis=0, return_inverse=True)
-        self.groups = group.ravel()
-        self.cross, self.abs_cross, self.edge_a, self.edge_b = triangle_cross(corners)
+        # Candidate lists: each node's largest triangles (children before parents).
+        order = np.arange(tree.node_count - 1, -1, -1, dtype=np.int64)
+        self.lists = node_candidates(order, tree.first_child, tree.child_count, tree.ref_start,
+                                     tree.ref_end, tree.tri_refs, world.areas, self.candidates)
+        self.areas = np.ascontiguousarray(world.areas, dtype=np.float64)
+        self.centroids = np.ascontiguousarray(world.centroids, dtype=np.float64)
+        self.v0 = np.ascontiguousarray(corners[:, 0])
+        self.radius = np.linalg.norm(corners - self.centroids[:, None], axis=2).max(1)
+        cross, abs_cross, edge_a, edge_b = triangle_cross(corners)
+        # Flipped (negated cross product): certainly back-facing = this one certainly faces.
+        self.flipped = np.column_stack([-cross, abs_cross, corners[:, 0], edge_a, edge_b])
+        self.vertices = np.ascontiguousarray(world.vertices, dtype=np.float64)
+        self.triangles_ = np.ascontiguousarray(world.triangles, dtype=np.int64)
         self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
+        # Scratch, allocated once: frames reuse it.
+        pixels = self.width * self.height
+        tw, th = self.tile
+        self.tiles = ((self.width + tw - 1) // tw) * ((self.height + th - 1) // th)
+        self.depth = np.full(pixels, np.inf)
+        self.mask = np.zeros(pixels, dtype=np.uint8)
+        self.tile_max = np.full(self.tiles, np.inf)
+        self.tile_any = np.zeros(self.tiles, dtype=np.bool_)
+        self.stamp = np.full(count, -1, dtype=np.int64)
+        self.seen = np.full(count, -1, dtype=np.int64)
+        self._stack = np.empty(tree.node_count + 64, dtype=np.int64)
+        self._out = np.empty(tree.node_count + 64, dtype=np.int64)
+        self._cands = np.empty(self.lists.size + self.occluders, dtype=np.int64)
 
     def facing(self, ids, eye) -> np.ndarray:
         """(n,) bool: triangle certainly faces the eye, also as the device rounds it, and is not
@@ -128,34 +193,53 @@ class DepthBufferOcclusion:
 
         Errs toward False (not an occluder) by the device rounding bound delta per coordinate.
         ids : (n,) int64 world triangle ids;  eye : (3,) float64"""
-        world = self.tree.world
+        ids = np.ascontiguousarray(ids, dtype=np.int64)
         delta = DEVICE_RELATIVE * max(self.magnitude, float(np.abs(eye).max())) + DEVICE_ABSOLUTE
-        # The flipped triangle (negated cross product) certainly faces away = this one faces.
-        v0 = world.corners[ids, 0]
-        sure = certainly_backfacing(-self.cross[ids], self.abs_cross[ids], self.edge_a[ids],
-                                    self.edge_b[ids], v0, eye, delta)
-        d = world.centroids[ids] - eye
-        towards = -np.einsum("ij,ij->i", world.normals[ids], v0 - eye)
+        sure = backfacing(ids, self.flipped, np.asarray(eye, dtype=np.float64), delta, GAMMA_8)
+        d = self.centroids[ids] - eye
+        towards = -np.einsum("ij,ij->i", self.normals[ids], self.v0[ids] - eye)
         return sure & (towards > GRAZING * np.sqrt(np.einsum("ij,ij->i", d, d)))
 
-    def select(self, camera) -> np.ndarray:
-        """(K,) int64 world ids of this frame's large occluders, best first."""
-        eye, pool, centroids = camera.eye, self.pool, self.pool_centroids
-        d = centroids - eye
-        dist2 = np.einsum("ij,ij->i", d, d)
-        facing = -np.einsum("ij,ij->i", self.pool_normals, self.pool_v0 - eye)
-        planes = camera.frustum_planes()
-        # Bounding spheres (centroid, farthest corner): loose is fine, only picks candidates.
-        in_frustum = ((centroids @ planes[:, :3].T + planes[:, 3])
-                      >= -self.pool_radius[:, None]).all(axis=1)
-        usable = (facing > GRAZING * np.sqrt(dist2)) & in_frustum
-        score = np.where(usable, self.pool_areas * facing / np.maximum(dist2 ** 1.5, 1e-300),
-                         0.0)
-        good = np.flatnonzero(usable)
-        if len(good) > self.occluders:
-            good = good[np.argpartition(-score[good], self.occluders - 1)[:self.occluders]]
-        good = good[np.argsort(-score[good], kind="stable")]
-        return pool[good[self.facing(pool[good], eye)]]
+    def best(self, ids, eye, planes, count) -> np.ndarray:
+        """(<= count,) int64 of ids with the largest positive estimated solid angle, best first."""
+        score = score_candidates(ids, self.normals, self.v0, self.centroids, self.radius,
+                                 self.areas, planes, eye, GRAZING)
+        good = np.flatnonzero(score > 0)
+        if len(good) > count:
+            good = good[np.argpartition(-score[good], count - 1)[:count]]
+        return ids[good[np.argsort(-score[good], kind="stable")]]
+
+    def select(self, state: CullState) -> np.ndarray:
+        """(K,) int64 world ids of this frame's occluders, sorted by plane group."""
+        tree, camera = self.tree, state.camera
+        eye = np.asarray(camera.eye, dtype=np.float64)
+        self._frame += 1
+        roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
+        if len(roots) + tree.node_count > len(self._stack):
+            self._stack = np.empty(len(roots) + tree.node_count, dtype=np.int64)
+        need = self.lists.size + len(self.history)
+        if need > len(self._cands):
+            self._cands = np.empty(need, dtype=np.int64)
+        found, visited = gather_candidates(tree.lo, tree.hi, tree.first_child, tree.child_count,
+                                           tree.nonempty, roots, state.planes, tree.tol, eye,
+                                           self.detail, self.lists, self.history, self.seen,
+                                           self._frame, self._cands, self._stack)
+        state.count(f"{self.name}.candidates", found)
+        state.count(f"{self.name}.candidate_nodes", visited)
+        chosen = self.best(self._cands[:found], eye, state.planes, self.occluders)
+        chosen = chosen[self.facing(chosen, eye)]
+        return chosen[np.argsort(self.groups[chosen], kind="stable")]
+
+    def observe(self, result: CullResult) -> None:
+        """Keeps the best `occluders` of the frame's sent triangles (ranked from this frame's
+        eye) as next frame's extra candidates: cost follows what was sent."""
+        camera = getattr(self, "_camera", None)
+        if camera is None or not len(result.triangles):
+            self.history = np.zeros(0, dtype=np.int64)
+            return
+        ids = np.ascontiguousarray(result.triangles, dtype=np.int64)
+        self.history = self.best(ids, np.asarray(camera.eye, dtype=np.float64), self._planes,
+                                 self.occluders).copy()
 
     def move(self, camera) -> float:
         """m: per-coordinate move of any point relative to the eye on the device (its own
@@ -174,6 +258,8 @@ class DepthBufferOcclusion:
     def shift(self, camera, move: float) -> float:
         """Largest screen shift (x / z units) of a rasterised occluder point moved by `move` per
         coordinate: sqrt(3) move / z (1 + |x| / z) at z >= self.nearest; inf when too near."""
+        if self.nearest == np.inf:
+            return 0.0  # nothing rasterised: nothing to shift
         reach = np.sqrt(3.0) * move
         z = self.nearest - reach
         if not z > 0:
@@ -182,127 +268,101 @@ class DepthBufferOcclusion:
         tangent = max(ty, ty * camera.aspect) * self.nearest / z + reach / z
         return reach / z * (1.0 + tangent)
 
-    def rasterise(self, camera, chosen) -> np.ndarray:
-        """(H, W) union depth buffer (geometry/raster.py) of world triangles `chosen` (K,) int64,
-        which must certainly face the eye."""
-        chosen = np.asarray(chosen, dtype=np.int64)
-        if not len(chosen):
-            return np.full((self.height, self.width), np.inf)
+    def _view(self, camera) -> tuple:
         right, up, forward = camera.basis()
-        rotation = np.stack([right, up, forward])
-        pieces = gather_ranges(np.arange(len(self.piece_tri)), self.piece_start[chosen],
-                               self.piece_end[chosen])
-        local = np.full(self.tree.world.triangle_count, -1, dtype=np.int64)
-        local[chosen] = np.arange(len(chosen))
-        # Split points may be other triangles' corners: project them too.
-        used = np.unique(np.concatenate([self.tri_points[chosen].ravel(), self.piece_a[pieces],
-                                         self.piece_b[pieces]]))
-        where = np.full(len(self.points), -1, dtype=np.int64)
-        where[used] = np.arange(len(used))
-        points = to_camera(self.points[used], camera.eye, rotation)
-        clip = self.near_clip(camera)
-        self.nearest = min(self.nearest, max(clip, float(points[:, 2].min())))
-        # Camera-space planes n.x = d, d > 0 (n away from the eye), from the exact world planes.
-        normals = self.tree.world.normals[chosen]
-        n = -normals @ rotation.T
-        d = normals @ camera.eye - self.offsets[chosen]
+        rotation = np.ascontiguousarray(np.stack([right, up, forward]), dtype=np.float64)
         ty = np.tan(np.radians(camera.fov) / 2.0)
-        return union_depth(points, where[self.tri_points[chosen]],
-                           (local[self.piece_tri[pieces]], where[self.piece_a[pieces]],
-                            where[self.piece_b[pieces]]),
-                           self.groups[chosen], np.column_stack([n, d]), clip,
-                           ty * camera.aspect, ty, self.width, self.height)
+        return np.asarray(camera.eye, dtype=np.float64), rotation, ty * camera.aspect, ty
 
-    def depth_buffer(self, camera) -> tuple:
-        """(H, W) large-occluder depth buffer for the camera, and the number of occluders."""
-        chosen = self.select(camera)
-        return self.rasterise(camera, chosen), len(chosen)
+    def rasterise(self, camera, chosen) -> int:
+        """Adds world triangles `chosen` (K,) int64 (sorted by group; they must certainly face
+        the eye) to the depth buffer and rebuilds the tiles; returns pixels newly covered."""
+        eye, rotation, tx, ty = self._view(camera)
+        self._frame += 1
+        nearest, written = rasterise(
+            np.ascontiguousarray(chosen, dtype=np.int64), self.groups, self.tri_points,
+            self.points, self.normals, self.offsets, self.piece_start, self.piece_end,
+            self.piece_a, self.piece_b, self.partner, self.stamp, self._frame, eye, rotation,
+            self.near_clip(camera), tx, ty, self.width, self.height, self.depth, self.mask)
+        self.nearest = min(self.nearest, nearest)
+        build_tiles(self.depth, self.width, self.height, *self.tile, self.tile_max,
+                    self.tile_any)
+        return written
+
+    def depth_buffer(self, camera) -> np.ndarray:
+        """(H, W) view of the current depth bound buffer (row 0 at the bottom; inf: uncovered)."""
+        return self.depth.reshape(self.height, self.width)
 
     def apply(self, state: CullState) -> None:
         tree, camera = self.tree, state.camera
+        self._camera, self._planes = camera, np.ascontiguousarray(state.planes)
         self.nearest = np.inf
-        buffer, drawn = self.depth_buffer(camera)
-        self.last_buffer = buffer
-        covered = np.isfinite(buffer)
-        state.count(f"{self.name}.occluders", drawn)
-        state.count(f"{self.name}.pixels_covered", covered.sum())
-        right, up, forward = camera.basis()
-        rotation = np.stack([right, up, forward])
-        ty = np.tan(np.radians(camera.fov) / 2.0)
-        tx = ty * camera.aspect
+        self.depth.fill(np.inf)
+        chosen = self.select(state)
+        written = self.rasterise(camera, chosen) if len(chosen) else 0
+        if not len(chosen):
+            self.tile_max.fill(np.inf)
+            self.tile_any.fill(False)
+        state.count(f"{self.name}.occluders", len(chosen))
+        state.count(f"{self.name}.pixels_covered", written)
+        eye, rotation, tx, ty = self._view(camera)
         margin = ZBUFFER_MARGIN / camera.near
         move = self.move(camera)
         recede = np.sqrt(3.0) * move  # an occluder point moves this much farther at most
-        table = max_table(buffer) if covered.any() else None
-        if table is not None:
-            area = np.zeros((self.height + 1, self.width + 1), dtype=np.int64)
-            area[1:, 1:] = covered.cumsum(axis=0).cumsum(axis=1)
-            active = state.nodes
-            kept, visited, hidden_count = [], 0, 0
-            while len(active):
-                x0, x1, y0, y1, zmin, testable = box_rects(
-                    tree.node_bounds[active], camera.eye, rotation, camera.near, tx, ty,
-                    self.width, self.height, move, self.shift(camera, move))
-                far = rect_max(table, x0, x1, y0, y1)
-                hidden = testable & (zmin > far + margin * far * far + recede)
-                touches = ~testable | (area[y1 + 1, x1 + 1] - area[y0, x1 + 1]
-                                       - area[y1 + 1, x0] + area[y0, x0] > 0)
-                visited += len(active)
-                hidden_count += int(hidden.sum())
-                grow = ~hidden & touches & (tree.child_count[active] > 0)
-                kept.append(active[~hidden & ~grow])
-                kids, _ = tree.children(active[grow])
-                active = kids[tree.nonempty[kids]]
-            state.nodes = np.concatenate(kept) if kept else np.zeros(0, dtype=np.int64)
+        if written:
+            roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
+            if len(roots) + tree.node_count > len(self._out):
+                self._out = np.empty(len(roots) + tree.node_count, dtype=np.int64)
+            kept, visited, culled = cull_nodes(
+                tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots, eye,
+                rotation, camera.near, tx, ty, self.width, self.height, move,
+                self.shift(camera, move), margin, recede, self.depth, self.tile_max,
+                self.tile_any, *self.tile, self._out, self._stack)
+            state.nodes = self._out[:kept].copy()
             state.count("nodes_visited", visited)
             state.count(f"{self.name}.nodes_tested", visited)
-            state.count(f"{self.name}.nodes_culled", hidden_count)
-        if self.triangles and (table is not None or self.self_occluders or self.screen):
-            hidden = self._hidden_triangles(state, buffer, table, rotation, tx, ty, margin, move)
-            state.filters.append(lambda ids: ~hidden[ids])
+            state.count(f"{self.name}.nodes_culled", culled)
+        if self.triangles and (written or self.self_occluders or self.screen):
+            def keep_of(ids):
+                return ~self._hidden_triangles(state, ids, move, margin, recede, written > 0)
+            state.filters.append(keep_of)
 
-    def _hidden_triangles(self, state, buffer, table, rotation, tx, ty, margin,
-                          move) -> np.ndarray:
-        """(T,) bool over the world: surviving triangles hidden by the large occluders' buffer,
-        or by a second buffer that adds the survivors certainly facing the eye, nearest first,
-        or (with `screen`) covering no pixel centre. A triangle is hidden by a buffer when in
-        front of the near plane and either off screen or behind the buffer's maximum over its
-        rectangle (each grown by the device's moves, as for nodes)."""
-        world, camera = self.tree.world, state.camera
-        ids = np.unique(self.tree.refs(state.nodes))
-        cam = to_camera(world.vertices[world.triangles[ids]], camera.eye, rotation)
-        recede = np.sqrt(3.0) * move
+    def _test(self, camera, ids, move, margin, recede, use_buffer, screen) -> tuple:
+        eye, rotation, tx, ty = self._view(camera)
+        n = len(ids)
+        hidden, subpixel = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
+        zmin = np.empty(n)
+        sw, sh = screen if screen is not None else (0, 0)
+        delta = DEVICE_RELATIVE * max(self.magnitude, float(np.abs(camera.eye).max()))
+        hidden_triangles(ids, self.vertices, self.triangles_, eye, rotation, camera.near, tx, ty,
+                         self.width, self.height, move, self.shift(camera, move), margin, recede,
+                         self.depth, self.tile_max, *self.tile, use_buffer, sw, sh,
+                         max(delta + DEVICE_ABSOLUTE, move), hidden, subpixel, zmin)
+        return hidden, subpixel, zmin
 
-        def rects():
-            return point_rects(cam, camera.near, tx, ty, self.width, self.height, move,
-                               self.shift(camera, move))
-
-        x0, x1, y0, y1, zmin, testable, onscreen = rects()
-
-        def behind(table_):
-            far = rect_max(table_, x0, x1, y0, y1)
-            return testable & (~onscreen | (zmin > far + margin * far * far + recede))
-
-        hidden = behind(table) if table is not None else testable & ~onscreen
+    def _hidden_triangles(self, state, ids, move, margin, recede, use_buffer) -> np.ndarray:
+        """(n,) bool over the gathered ids: hidden by the buffer, or (with `screen`) covering no
+        pixel centre, or hidden once the survivors certainly facing the eye, nearest first, are
+        rasterised too (`self_occluders`)."""
+        camera = state.camera
+        ids = np.ascontiguousarray(ids, dtype=np.int64)
+        hidden, subpixel, zmin = self._test(camera, ids, move, margin, recede, use_buffer,
+                                            self.screen)
         state.count("triangles_tested", len(ids))
-        if self.screen is not None:
-            delta = DEVICE_RELATIVE * max(self.magnitude, float(np.abs(camera.eye).max()))
-            empty = ~hidden & covers_no_sample(cam, camera.near, tx, ty, *self.screen,
-                                               move=max(delta + DEVICE_ABSOLUTE, move))
-            state.count(f"{self.name}.subpixel_culled", empty.sum())
-            hidden |= empty
+        state.count(f"{self.name}.triangles_tested", len(ids))
+        state.count(f"{self.name}.subpixel_culled", subpixel.sum())
         if self.self_occluders:
-            live = np.flatnonzero(~hidden & testable & onscreen)
+            live = np.flatnonzero(~hidden & ~subpixel & np.isfinite(zmin))
             live = live[self.facing(ids[live], camera.eye)]
             if len(live) > self.self_occluders:  # nearest first: they hide the most
                 live = live[np.argpartition(zmin[live], self.self_occluders - 1)
                             [:self.self_occluders]]
             state.count(f"{self.name}.self_occluders", len(live))
             if len(live):
-                extra = self.rasterise(camera, ids[live])  # may lower self.nearest
-                x0, x1, y0, y1, zmin, testable, onscreen = rects()
-                hidden |= behind(max_table(np.minimum(buffer, extra)))
+                extra = ids[live]
+                extra = extra[np.argsort(self.groups[extra], kind="stable")]
+                if self.rasterise(camera, extra):  # may lower self.nearest
+                    again, _, _ = self._test(camera, ids, move, margin, recede, True, None)
+                    hidden |= again
         state.count(f"{self.name}.triangles_culled", hidden.sum())
-        mask = np.zeros(world.triangle_count, dtype=bool)
-        mask[ids[hidden]] = True
-        return mask
+        return hidden | subpixel

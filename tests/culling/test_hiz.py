@@ -1,0 +1,213 @@
+"""The tiled depth buffer's rasteriser contract (culling/hiz.py): a covered pixel (and so a
+covered tile) never holds a depth nearer than the nearest occluder anywhere over it, coverage is
+shrunk to whole pixels, quads and T-junctions fuse without cracks, holes stay open, and the part
+of an occluder nearer than the clip depth covers nothing."""
+import numpy as np
+import pytest
+
+from vismobile.culling.hiz import build_tiles, covers_no_sample, rasterise, screen_rect
+from vismobile.culling.occlusion import occluder_mesh
+
+W, H, TX, TY = 24, 32, 0.4, 0.5
+TILE = (8, 4)
+
+
+def quad_at(z, u0, u1, v0, v1):
+    """Two camera-space triangles (shared diagonal) covering NDC [u0,u1] x [v0,v1] at depth z,
+    wound counter-clockwise as seen from the eye at the origin (facing it)."""
+    c = np.array([[u0 * z * TX, v0 * z * TY, z], [u1 * z * TX, v0 * z * TY, z],
+                  [u1 * z * TX, v1 * z * TY, z], [u0 * z * TX, v1 * z * TY, z]])
+    return np.stack([c[[0, 2, 1]], c[[0, 3, 2]]])
+
+
+def raster(tris, clip=0.1):
+    """(H, W) depth bound buffer, tile maxima (rows, cols) and tile coverage of camera-space
+    triangles (K, 3, 3) facing the eye at the origin (rotation: identity, forward +z)."""
+    tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
+    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    assert np.all(np.einsum("ij,ij->i", n, -tris[:, 0]) > 0), "triangles must face the eye"
+    mesh = occluder_mesh(tris.reshape(-1, 3), np.arange(3 * len(tris)).reshape(-1, 3), n)
+    points, tri_points, normals, offsets, groups, start, end, a, b, partner = mesh
+    ids = np.argsort(groups, kind="stable").astype(np.int64)
+    depth = np.full(W * H, np.inf)
+    mask = np.zeros(W * H, dtype=np.uint8)
+    stamp = np.full(len(tris), -1, dtype=np.int64)
+    rasterise(ids, groups, tri_points, points, normals, offsets, start, end, a, b, partner,
+              stamp, 1, np.zeros(3), np.eye(3), clip, TX, TY, W, H, depth, mask)
+    assert not mask.any()  # scratch handed back clear
+    rows, cols = (H + TILE[1] - 1) // TILE[1], (W + TILE[0] - 1) // TILE[0]
+    tmax, tany = np.empty(rows * cols), np.empty(rows * cols, dtype=bool)
+    build_tiles(depth, W, H, *TILE, tmax, tany)
+    return depth.reshape(H, W), tmax.reshape(rows, cols), tany.reshape(rows, cols)
+
+
+def pixel_centres():
+    us = -1 + 2 * (np.arange(W) + 0.5) / W
+    vs = -1 + 2 * (np.arange(H) + 0.5) / H
+    return us, vs
+
+
+def nearest_hit(tris, u, v, clip):
+    """(n,) depth of the nearest triangle part at depth >= clip on each ray (u TX, v TY, 1)."""
+    d = np.stack([u * TX, v * TY, np.ones_like(u)], axis=1)
+    best = np.full(len(u), np.inf)
+    for p0, p1, p2 in tris:
+        e1, e2 = p1 - p0, p2 - p0
+        h = np.cross(d, e2)
+        det = h @ e1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = 1.0 / det
+            s = -p0
+            a = f * (h @ s)
+            q = np.cross(s, e1)
+            b = f * (d @ q)
+            t = f * (q @ e2)
+            eps = 1e-9  # closed triangles: points on a shared edge hit both
+            hit = (a >= -eps) & (b >= -eps) & (a + b <= 1 + eps) & (t >= clip)
+        best = np.where(hit, np.minimum(best, t), best)
+    return best
+
+
+def check_contract(tris, clip=0.1, samples=7):
+    """Every covered pixel: every sample point over it (corners and inside) hits an occluder
+    at depth >= clip no farther than the pixel's bound; every tile bounds its pixels."""
+    depth, tmax, tany = raster(tris, clip)
+    rows, cols = np.nonzero(np.isfinite(depth))
+    s = np.linspace(0.0, 1.0, samples)
+    su, sv = np.meshgrid(s, s)
+    for j, i in zip(rows, cols):
+        u = -1 + 2 * (i + su.ravel()) / W
+        v = -1 + 2 * (j + sv.ravel()) / H
+        hits = nearest_hit(tris, u, v, clip)
+        assert np.all(hits <= depth[j, i]), (j, i, hits.max(), depth[j, i])
+    for ty in range(tmax.shape[0]):
+        for tx in range(tmax.shape[1]):
+            block = depth[ty * TILE[1]:(ty + 1) * TILE[1], tx * TILE[0]:(tx + 1) * TILE[0]]
+            assert tmax[ty, tx] == block.max()
+            assert tany[ty, tx] == np.isfinite(block).any()
+    return depth
+
+
+def test_quad_has_no_crack_along_its_diagonal():
+    depth = check_contract(quad_at(5.0, -1.0, 1.0, -1.0, 1.0))
+    inner = (slice(1, -1), slice(1, -1))  # the outer ring touches the quad's own edges
+    assert np.isfinite(depth[inner]).all()
+    assert np.allclose(depth[inner], 5.0, rtol=1e-6) and np.all(depth[inner] >= 5.0)
+
+
+def test_coverage_is_shrunk_to_whole_pixels():
+    depth = check_contract(quad_at(2.0, -0.47, 0.53, -0.47, 0.53))  # edges off the pixel grid
+    us, vs = pixel_centres()
+    half_u, half_v = 1.0 / W, 1.0 / H
+    inside = ((us[None, :] - half_u >= -0.47) & (us[None, :] + half_u <= 0.53)
+              & (vs[:, None] - half_v >= -0.47) & (vs[:, None] + half_v <= 0.53))
+    assert np.array_equal(np.isfinite(depth), inside)
+
+
+def test_t_junctions_fuse_without_cracks_and_the_hole_stays_open():
+    # A frame around a hole: 4 quads whose corners make T-junctions on their neighbours' edges.
+    parts = [quad_at(4.0, -1, 1, -1, -0.3), quad_at(4.0, -1, 1, 0.3, 1),
+             quad_at(4.0, -1, -0.3, -0.3, 0.3), quad_at(4.0, 0.3, 1, -0.3, 0.3)]
+    depth = check_contract(np.concatenate(parts))
+    us, vs = pixel_centres()
+    near_hole = (np.abs(us)[None, :] - 1.0 / W < 0.3) & (np.abs(vs)[:, None] - 1.0 / H < 0.3)
+    assert not np.isfinite(depth[near_hole]).any()
+    ring = np.zeros((H, W), bool)
+    ring[1:-1, 1:-1] = True
+    hole_ring = (np.abs(us)[None, :] - 3.0 / W < 0.3) & (np.abs(vs)[:, None] - 3.0 / H < 0.3)
+    assert np.isfinite(depth[ring & ~hole_ring]).all()  # no crack along the T-junctions
+
+
+def test_tilted_and_overlapping_occluders_bound_the_nearest_surface():
+    # A slanted wall (depth 2..6 across the screen) partly in front of a far quad, and a quad
+    # behind both: every covered pixel's bound is at least the nearest surface over the pixel.
+    slant = np.array([[[-3.0, -4, 2], [1.2, 4, 6], [1.2, -4, 6]],
+                      [[-3.0, -4, 2], [-3.0, 4, 2], [1.2, 4, 6]]])
+    depth = check_contract(np.concatenate([slant, quad_at(5.0, -0.6, 0.9, -0.8, 0.7),
+                                           quad_at(9.0, -1, 1, -1, 1)]))
+    assert np.isfinite(depth).mean() > 0.8
+    assert depth[np.isfinite(depth)].min() >= 2.0
+
+
+@pytest.mark.parametrize("clip", [0.5, 2.0, 3.9])
+def test_occluders_cut_by_the_clip_depth_cover_only_their_part_beyond_it(clip):
+    # A floor-like quad running from depth 0.2 to 4 under the eye, and a wall crossing the
+    # clip depth: pixels are covered only by the parts at depth >= clip.
+    floor = np.array([[[-2.0, -1, 0.2], [2.0, -1, 4.0], [2.0, -1, 0.2]],
+                      [[-2.0, -1, 0.2], [-2.0, -1, 4.0], [2.0, -1, 4.0]]])
+    wall = np.array([[[-1.0, -2, 0.3], [1.0, 2, 4.0], [1.0, -2, 4.0]]])
+    tris = np.concatenate([floor, wall])
+    depth = check_contract(tris, clip=clip)
+    assert np.all(depth[np.isfinite(depth)] >= clip)
+
+
+def test_random_occluders_keep_the_contract():
+    rng = np.random.default_rng(11)
+    for _ in range(6):
+        tris = []
+        for _ in range(8):
+            z = rng.uniform(0.05, 6.0, 3)
+            uv = rng.uniform(-1.5, 1.5, (3, 2))
+            t = np.column_stack([uv[:, 0] * z * TX, uv[:, 1] * z * TY, z])
+            n = np.cross(t[1] - t[0], t[2] - t[0])
+            if abs(n @ -t[0]) < 1e-3:
+                continue
+            tris.append(t if n @ -t[0] > 0 else t[[0, 2, 1]])
+        check_contract(np.array(tris), clip=0.3, samples=5)
+
+
+# ---- the sample test (`screen` option): no pixel centre covered ------------------------------
+
+def camera_triangle(px_points, z, width, height, tx=TX, ty=TY):
+    """(3, 3) camera-space triangle at depth z whose window coordinates are px_points (3, 2)."""
+    p = np.asarray(px_points, dtype=float)
+    u = p[:, 0] / (0.5 * width) - 1.0
+    v = p[:, 1] / (0.5 * height) - 1.0
+    return np.column_stack([u * tx * z, v * ty * z, np.full(3, z)])
+
+
+def test_a_triangle_between_pixel_centres_covers_no_sample():
+    tri = camera_triangle([[3.6, 4.6], [4.4, 4.6], [4.0, 5.4]], 3.0, W, H)  # inside pixel (4, 4)'s
+    assert covers_no_sample(tri[None], 0.1, TX, TY, W, H)[0]                # corner-free middle
+    around = camera_triangle([[3.9, 4.4], [5.2, 4.4], [4.5, 5.6]], 3.0, W, H)  # holds (4.5, 4.5)
+    assert not covers_no_sample(around[None], 0.1, TX, TY, W, H)[0]
+
+
+def test_a_thin_sliver_passing_a_centre_closely_is_kept():
+    tri = camera_triangle([[2.0, 4.5 + 1e-4], [9.0, 4.5 + 1e-4], [9.0, 4.6]], 3.0, W, H)
+    assert not covers_no_sample(tri[None], 0.1, TX, TY, W, H)[0]  # 1e-4 px above the centres
+    far_off = camera_triangle([[2.0, 4.6], [9.0, 4.6], [9.0, 4.9]], 3.0, W, H)
+    assert covers_no_sample(far_off[None], 0.1, TX, TY, W, H)[0]
+
+
+def test_sample_test_keeps_triangles_near_or_behind_the_near_plane_and_large_ones():
+    tri = camera_triangle([[3.6, 4.6], [4.4, 4.6], [4.0, 5.4]], 3.0, W, H)
+    behind = tri.copy()
+    behind[0, 2] = 0.05
+    big = camera_triangle([[0.2, 0.2], [20.0, 0.3], [10.0, 30.0]], 3.0, W, H)
+    assert not covers_no_sample(np.stack([behind, big]), 0.1, TX, TY, W, H, max_samples=8).any()
+    assert covers_no_sample(np.zeros((0, 3, 3)), 0.1, TX, TY, W, H).shape == (0,)
+
+
+def test_sample_test_never_flags_a_triangle_holding_a_centre():
+    # Random small triangles; exact rational check of every on-screen centre near each flagged
+    # one (centres off the screen are never sampled).
+    from fractions import Fraction
+
+    rng = np.random.default_rng(7)
+    base = rng.uniform(0, [W, H], (600, 1, 2))
+    px = base + rng.normal(scale=rng.uniform(0.05, 1.5, (600, 1, 1)), size=(600, 3, 2))
+    tris = np.stack([camera_triangle(p, z, W, H) for p, z in zip(px, rng.uniform(0.5, 20, 600))])
+    flagged = covers_no_sample(tris, 0.1, TX, TY, W, H, move=0.0)
+    assert 50 < flagged.sum() < 550  # both verdicts occur
+    for t in tris[flagged]:
+        x = (t[:, 0] / (t[:, 2] * TX) + 1) * 0.5 * W
+        y = (t[:, 1] / (t[:, 2] * TY) + 1) * 0.5 * H
+        q = [(Fraction(float(a)), Fraction(float(b))) for a, b in zip(x, y)]
+        for i in range(max(int(np.floor(x.min())) - 1, 0), min(int(np.ceil(x.max())) + 1, W)):
+            for j in range(max(int(np.floor(y.min())) - 1, 0), min(int(np.ceil(y.max())) + 1, H)):
+                s = (Fraction(2 * i + 1, 2), Fraction(2 * j + 1, 2))
+                e = [(q[(k + 1) % 3][0] - q[k][0]) * (s[1] - q[k][1])
+                     - (q[(k + 1) % 3][1] - q[k][1]) * (s[0] - q[k][0]) for k in range(3)]
+                assert not (all(v >= 0 for v in e) or all(v <= 0 for v in e)), (t, i, j)

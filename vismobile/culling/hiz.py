@@ -1,0 +1,597 @@
+"""Compiled kernels of the `occlusion` stage: a conservative hierarchical (tiled) depth buffer in
+the style of Masked Occlusion Culling (Hasselgren, Andersson, Akenine-Moller 2016) and the
+hierarchical Z-buffer (Greene 1993), numba, cached on disk.
+
+Screen. Camera space: x right, y up, z depth along the view direction (positive in front);
+pixel coordinates px = (x / (z tx) + 1) W / 2, py = (y / (z ty) + 1) H / 2, pixel (i, j) is
+[i, i+1] x [j, j+1]. The buffer holds per pixel a depth bound D: every point of the pixel is
+covered by an occluder whose depth there is <= D (inf: no such bound). Tiles of tw x th pixels
+hold the maximum (farthest) D of their pixels and whether any pixel is covered; a tested
+rectangle is first compared with its tiles' maxima and only partly covered tiles, whose maximum
+fails, are read pixel by pixel (the exact maximum over the rectangle).
+
+Rasteriser (conservative: a pixel counts only when wholly covered; depth is the farthest).
+Occluders are world triangles that certainly face the eye, clipped to depth >= clip (the part
+nearer than the GPU's near plane is not drawn and hides nothing), grouped by exact plane. Within
+a group a pixel lies inside the union of the group's (clipped) triangles when its centre is in
+one of them and no piece of the union's boundary meets it. The boundary lies on the edge pieces
+without a reverse partner among the group's chosen triangles (edges split at T-junctions
+beforehand, so partners match by vertex index) and on the near-plane cuts; a pixel covered by
+the group gets the group plane's farthest depth over its four corner rays (1/z is affine over a
+pixel). Groups are merged by the pointwise minimum (each bounds the nearest surface there).
+
+Tests. A box (8 corners) or triangle (3 corners), each corner moved by up to `move` per
+coordinate (device rounding), gives a pixel rectangle grown by SLACK_PX plus `shift` and a
+nearest depth zmin; it is hidden when every corner is beyond `near` and the rectangle is off
+screen or zmin > D + margin D^2 + recede for the largest D over the rectangle.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
+DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
+SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
+
+
+@njit(cache=True, nogil=True)
+def _to_camera(p, eye, rot, out):
+    x, y, z = p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]
+    for r in range(3):
+        out[r] = rot[r, 0] * x + rot[r, 1] * y + rot[r, 2] * z
+
+
+@njit(cache=True, nogil=True)
+def _clip_triangle(tri, clip, poly, cut):
+    """Sutherland-Hodgman clip of a (3, 3) camera-space triangle to z >= clip into poly (4, 3);
+    cut[k] is True for points made by the cut. Returns the point count (0 or 3..4)."""
+    n = 0
+    for k in range(3):
+        a, b = tri[k], tri[(k + 1) % 3]
+        ina, inb = a[2] >= clip, b[2] >= clip
+        if ina:
+            poly[n, 0], poly[n, 1], poly[n, 2] = a[0], a[1], a[2]
+            cut[n] = False
+            n += 1
+        if ina != inb:
+            t = (clip - a[2]) / (b[2] - a[2])
+            poly[n, 0] = a[0] + t * (b[0] - a[0])
+            poly[n, 1] = a[1] + t * (b[1] - a[1])
+            poly[n, 2] = clip
+            cut[n] = True
+            n += 1
+    return n if n >= 3 else 0
+
+
+@njit(cache=True, nogil=True)
+def _clear_segment(ax, ay, bx, by, width, height, mask):
+    """Sets mask to 0 on every pixel a -> b (pixel coordinates) passes within SLACK_PX of,
+    clipped to the buffer (errs toward more pixels)."""
+    steep = abs(by - ay) > abs(bx - ax)
+    if steep:
+        ax, ay, bx, by = ay, ax, by, bx
+        major, minor = height, width
+    else:
+        major, minor = width, height
+    if ax > bx:
+        ax, ay, bx, by = bx, by, ax, ay
+    c0 = max(np.floor(ax - SLACK_PX), 0.0)
+    c1 = min(np.floor(bx + SLACK_PX), major - 1.0)
+    if not c0 <= c1:
+        return
+    dx = bx - ax
+    slope = (by - ay) / dx if dx > 0 else 0.0
+    for c in range(int(c0), int(c1) + 1):
+        lo = max(c - SLACK_PX, ax)
+        hi = min(c + 1 + SLACK_PX, bx)
+        ylo = ay + (lo - ax) * slope
+        yhi = ay + (hi - ax) * slope
+        r0 = max(np.floor(min(ylo, yhi) - SLACK_PX), 0.0)
+        r1 = min(np.floor(max(ylo, yhi) + SLACK_PX), minor - 1.0)
+        if not r0 <= r1:
+            continue
+        for r in range(int(r0), int(r1) + 1):
+            if steep:
+                mask[c * width + r] = 0
+            else:
+                mask[r * width + c] = 0
+
+
+@njit(cache=True, nogil=True)
+def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, piece_end,
+              piece_a, piece_b, partner, stamp, frame, eye, rot, clip, tx, ty, width, height,
+              depth, mask):
+    """Rasterise occluder triangles `ids` (sorted by group) into depth (H * W,) float64 by the
+    pointwise minimum; returns (nearest rasterised depth (inf if none), pixels written).
+
+    Contract: errs toward "not covered" and "farther": a pixel is written only when wholly inside
+    the union of one plane group's triangles clipped to depth >= clip, with a depth >= every
+    point of that union over the pixel (x (1 + DEPTH_SLACK)).
+    groups     : (T,) int64 exact-plane label;  tri_points : (T, 3) int64 into points (P, 3)
+    normals    : (T, 3), offsets (T,) float64 exact planes n.x = offset; ids must face the eye
+    piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (split at T-junctions)
+    partner    : (S,) int64 triangle holding the reverse piece in the same group, or -1
+    stamp      : (T,) int64 scratch; stamp[t] == frame marks this call's triangles (set here)
+    eye (3,), rot (3, 3) rows right, up, forward;  mask : (H * W,) uint8 scratch, zero on entry
+    and on return
+    """
+    for k in range(len(ids)):
+        stamp[ids[k]] = frame
+    tri = np.empty((3, 3))
+    poly = np.empty((4, 3))
+    cut = np.empty(4, dtype=np.bool_)
+    pa = np.empty(3)
+    pb = np.empty(3)
+    xs = np.empty(4)
+    ys = np.empty(4)
+    cn = np.empty(3)
+    sx, sy = 0.5 * width / tx, 0.5 * height / ty
+    nearest = np.inf
+    written = 0
+    start = 0
+    while start < len(ids):
+        g = groups[ids[start]]
+        stop = start
+        while stop < len(ids) and groups[ids[stop]] == g:
+            stop += 1
+        gx0, gx1, gy0, gy1 = width, -1, height, -1
+        # 1. Pixel centres inside any triangle of the group.
+        for k in range(start, stop):
+            t = ids[k]
+            for c in range(3):
+                _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
+            n = _clip_triangle(tri, clip, poly, cut)
+            if n == 0:
+                continue
+            for c in range(n):
+                nearest = min(nearest, poly[c, 2])
+                xs[c] = poly[c, 0] / poly[c, 2] * sx + 0.5 * width
+                ys[c] = poly[c, 1] / poly[c, 2] * sy + 0.5 * height
+            r0 = max(np.ceil(ys[:n].min() - 0.5), 0.0)
+            r1 = min(np.floor(ys[:n].max() - 0.5), height - 1.0)
+            if not r0 <= r1:
+                continue
+            for rr in range(int(r0), int(r1) + 1):
+                yc = rr + 0.5
+                xl, xr = np.inf, -np.inf
+                for c in range(n):
+                    ya, yb = ys[c], ys[(c + 1) % n]
+                    xa, xb = xs[c], xs[(c + 1) % n]
+                    if (ya <= yc <= yb) or (yb <= yc <= ya):
+                        if ya == yb:
+                            xl, xr = min(xl, xa, xb), max(xr, xa, xb)
+                        else:
+                            x = xa + (yc - ya) * (xb - xa) / (yb - ya)
+                            xl, xr = min(xl, x), max(xr, x)
+                c0 = max(np.ceil(xl - 0.5), 0.0)
+                c1 = min(np.floor(xr - 0.5), width - 1.0)
+                if not c0 <= c1:
+                    continue
+                i0, i1 = int(c0), int(c1)
+                for i in range(i0, i1 + 1):
+                    mask[rr * width + i] = 1
+                gx0, gx1 = min(gx0, i0), max(gx1, i1)
+                gy0, gy1 = min(gy0, rr), max(gy1, rr)
+        if gx1 < 0:
+            start = stop
+            continue
+        # 2. Pixels any boundary piece or near-plane cut passes near are not covered.
+        for k in range(start, stop):
+            t = ids[k]
+            for s in range(piece_start[t], piece_end[t]):
+                q = partner[s]
+                if q >= 0 and stamp[q] == frame:
+                    continue  # the reverse piece's triangle is on the other side
+                _to_camera(points[piece_a[s]], eye, rot, pa)
+                _to_camera(points[piece_b[s]], eye, rot, pb)
+                if pa[2] < clip and pb[2] < clip:
+                    continue
+                if pa[2] < clip or pb[2] < clip:
+                    u = (clip - pa[2]) / (pb[2] - pa[2])
+                    cx = pa[0] + u * (pb[0] - pa[0])
+                    cy = pa[1] + u * (pb[1] - pa[1])
+                    if pa[2] < clip:
+                        pa[0], pa[1], pa[2] = cx, cy, clip
+                    else:
+                        pb[0], pb[1], pb[2] = cx, cy, clip
+                _clear_segment(pa[0] / pa[2] * sx + 0.5 * width,
+                               pa[1] / pa[2] * sy + 0.5 * height,
+                               pb[0] / pb[2] * sx + 0.5 * width,
+                               pb[1] / pb[2] * sy + 0.5 * height, width, height, mask)
+            for c in range(3):
+                _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
+            n = _clip_triangle(tri, clip, poly, cut)
+            for c in range(n):
+                d = (c + 1) % n
+                if cut[c] and cut[d]:  # the near-plane side of a cut triangle
+                    _clear_segment(poly[c, 0] / clip * sx + 0.5 * width,
+                                   poly[c, 1] / clip * sy + 0.5 * height,
+                                   poly[d, 0] / clip * sx + 0.5 * width,
+                                   poly[d, 1] / clip * sy + 0.5 * height, width, height, mask)
+        # 3. The group's plane, farthest over each covered pixel's corners; scratch cleared.
+        t = ids[start]
+        nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
+        for r in range(3):  # camera-space n away from the eye, d > 0: n.x = d on the plane
+            cn[r] = -(rot[r, 0] * nx + rot[r, 1] * ny + rot[r, 2] * nz)
+        dd = nx * eye[0] + ny * eye[1] + nz * eye[2] - offsets[t]
+        a = b = c0_ = low = 0.0
+        if dd > 0:
+            a = cn[0] * tx * 2.0 / width / dd
+            b = cn[1] * ty * 2.0 / height / dd
+            c0_ = (cn[2] - cn[0] * tx - cn[1] * ty) / dd
+            low = min(a, 0.0) + min(b, 0.0)
+        for rr in range(gy0, gy1 + 1):
+            for i in range(gx0, gx1 + 1):
+                p = rr * width + i
+                if mask[p] and dd > 0:
+                    inv = a * i + b * rr + c0_ + low
+                    if inv > 0:
+                        z = (1.0 + DEPTH_SLACK) / inv
+                        if z < depth[p]:
+                            if depth[p] == np.inf:
+                                written += 1
+                            depth[p] = z
+                mask[p] = 0
+        start = stop
+    return nearest, written
+
+
+@njit(cache=True, nogil=True)
+def build_tiles(depth, width, height, tw, th, tile_max, tile_any):
+    """Per tile of tw x th pixels: tile_max the largest depth bound (inf when any pixel is not
+    covered), tile_any whether any pixel is covered. Exact (a maximum)."""
+    cols = (width + tw - 1) // tw
+    rows = (height + th - 1) // th
+    for ty_ in range(rows):
+        for tx_ in range(cols):
+            m, any_ = -np.inf, False
+            for r in range(ty_ * th, min((ty_ + 1) * th, height)):
+                for c in range(tx_ * tw, min((tx_ + 1) * tw, width)):
+                    v = depth[r * width + c]
+                    m = max(m, v)
+                    any_ = any_ or v < np.inf
+            tile_max[ty_ * cols + tx_] = m
+            tile_any[ty_ * cols + tx_] = any_
+
+
+@njit(cache=True, nogil=True)
+def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
+    """Conservative pixel rectangle of the first m camera-space points of cam (m, 3), each moved
+    by up to `move` per coordinate: out = (x0, x1, y0, y1, zmin, testable, onscreen), errs large
+    (grown by SLACK_PX plus `shift` tangents; zmin lowered by sqrt(3) move and DEPTH_SLACK)."""
+    reach = np.sqrt(3.0) * move
+    zmin = np.inf
+    for k in range(m):
+        zmin = min(zmin, cam[k, 2] - reach)
+    testable = zmin >= near
+    out[4], out[5], out[6] = zmin * (1.0 - DEPTH_SLACK), 1.0 if testable else 0.0, 0.0
+    if not testable:
+        out[0], out[1], out[2], out[3] = 0.0, width - 1.0, 0.0, height - 1.0
+        return
+    umin, umax, vmin, vmax, grow = np.inf, -np.inf, np.inf, -np.inf, 0.0
+    for k in range(m):
+        z = cam[k, 2] - reach
+        u, v = cam[k, 0] / (z * tx), cam[k, 1] / (z * ty)
+        umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
+        lateral = max(abs(cam[k, 0]), abs(cam[k, 1])) + reach
+        grow = max(grow, reach / z * (1.0 + lateral / z))
+    grow += shift
+    if not grow < np.inf:  # an unbounded shift (nan or inf): the whole screen, on screen
+        out[0], out[1], out[2], out[3], out[6] = 0.0, width - 1.0, 0.0, height - 1.0, 1.0
+        return
+    gu, gv = grow / tx, grow / ty
+    x0 = np.floor((umin - gu + 1.0) * 0.5 * width - SLACK_PX)
+    x1 = np.floor((umax + gu + 1.0) * 0.5 * width + SLACK_PX)
+    y0 = np.floor((vmin - gv + 1.0) * 0.5 * height - SLACK_PX)
+    y1 = np.floor((vmax + gv + 1.0) * 0.5 * height + SLACK_PX)
+    offscreen = x1 < 0 or x0 > width - 1 or y1 < 0 or y0 > height - 1  # False on nan
+    out[6] = 0.0 if offscreen else 1.0
+    out[0], out[1] = min(max(x0, 0.0), width - 1.0), min(max(x1, 0.0), width - 1.0)
+    out[2], out[3] = min(max(y0, 0.0), height - 1.0), min(max(y1, 0.0), height - 1.0)
+
+
+@njit(cache=True, nogil=True)
+def _behind(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, recede):
+    """True when zmin > D + margin D^2 + recede for the largest D over the inclusive pixel
+    rectangle (tiles first, pixels of partly covered tiles only when their maximum fails)."""
+    for ty_ in range(y0 // th, y1 // th + 1):
+        for tx_ in range(x0 // tw, x1 // tw + 1):
+            d = tile_max[ty_ * cols + tx_]
+            if zmin > d + margin * d * d + recede:
+                continue
+            r0, r1 = max(y0, ty_ * th), min(y1, ty_ * th + th - 1)
+            c0, c1 = max(x0, tx_ * tw), min(x1, tx_ * tw + tw - 1)
+            if r0 == ty_ * th and r1 == ty_ * th + th - 1 and c0 == tx_ * tw \
+                    and c1 == tx_ * tw + tw - 1:
+                return False  # the tile lies wholly in the rectangle: its maximum is exact
+            for r in range(r0, r1 + 1):
+                for c in range(c0, c1 + 1):
+                    d = depth[r * width + c]
+                    if not zmin > d + margin * d * d + recede:
+                        return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _touches(x0, x1, y0, y1, tile_any, cols, tw, th):
+    for ty_ in range(y0 // th, y1 // th + 1):
+        for tx_ in range(x0 // tw, x1 // tw + 1):
+            if tile_any[ty_ * cols + tx_]:
+                return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def cull_nodes(lo, hi, first_child, child_count, nonempty, roots, eye, rot, near, tx, ty,
+               width, height, move, shift, margin, recede, depth, tile_max, tile_any, tw, th,
+               out, stack):
+    """Occlusion walk from `roots`: a node hidden by the buffer (module docstring) is dropped, a
+    visible inner node whose rectangle meets a covered tile (or that is not testable) is
+    replaced by its non-empty children, others are kept in out. Errs toward keeping.
+    lo, hi : (N, 3) box corners;  out, stack : (>= N + len(roots),) int64 scratch
+    returns (kept count, nodes visited, nodes culled)"""
+    cols = (width + tw - 1) // tw
+    cam = np.empty((8, 3))
+    corner = np.empty(3)
+    r = np.empty(7)
+    top = 0
+    for k in range(len(roots) - 1, -1, -1):
+        stack[top] = roots[k]
+        top += 1
+    count = visited = culled = 0
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if not nonempty[node]:
+            continue
+        visited += 1
+        for k in range(8):
+            corner[0] = hi[node, 0] if k & 1 else lo[node, 0]
+            corner[1] = hi[node, 1] if k & 2 else lo[node, 1]
+            corner[2] = hi[node, 2] if k & 4 else lo[node, 2]
+            _to_camera(corner, eye, rot, cam[k])
+        _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
+        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
+        testable = r[5] > 0
+        if testable and (r[6] == 0 or _behind(x0, x1, y0, y1, r[4], depth, width, tile_max,
+                                              cols, tw, th, margin, recede)):
+            culled += 1
+            continue
+        n = child_count[node]
+        if n > 0 and (not testable or _touches(x0, x1, y0, y1, tile_any, cols, tw, th)):
+            first = first_child[node]
+            for c in range(n - 1, -1, -1):
+                stack[top] = first + c
+                top += 1
+            continue
+        out[count] = node
+        count += 1
+    return count, visited, culled
+
+
+@njit(cache=True, nogil=True)
+def _no_sample(px, py, err, sw, sh, max_samples):
+    """True when no pixel centre of an sw x sh screen lies within the triangle (window coords
+    px, py (3,)) grown by err pixels; False when unsure or more than max_samples centres lie in
+    the grown box. Errs toward False."""
+    x0, x1 = min(px[0], px[1], px[2]) - err, max(px[0], px[1], px[2]) + err
+    y0, y1 = min(py[0], py[1], py[2]) - err, max(py[0], py[1], py[2]) + err
+    big = 4.0 * (sw + sh)
+    i0 = int(min(max(np.ceil(min(max(x0, -big), big) - 0.5), 0.0), sw))
+    i1 = int(min(max(np.floor(min(max(x1, -big), big) - 0.5), -1.0), sw - 1.0))
+    j0 = int(min(max(np.ceil(min(max(y0, -big), big) - 0.5), 0.0), sh))
+    j1 = int(min(max(np.floor(min(max(y1, -big), big) - 0.5), -1.0), sh - 1.0))
+    nx, ny = max(i1 - i0 + 1, 0), max(j1 - j0 + 1, 0)
+    if nx * ny == 0:
+        return True
+    if nx * ny > max_samples:
+        return False
+    for j in range(j0, j1 + 1):
+        for i in range(i0, i1 + 1):
+            sxc, syc = i + 0.5, j + 0.5
+            pos = neg = True
+            for k in range(3):
+                ax, ay = px[k], py[k]
+                ex, ey = px[(k + 1) % 3] - ax, py[(k + 1) % 3] - ay
+                rx, ry = sxc - ax, syc - ay
+                e = ex * ry - ey * rx
+                # Moving both ends by <= err changes e by <= err (2 |s - p| + |q - p|) + 2 err^2.
+                tol = (err * (2.0 * np.hypot(rx, ry) + np.hypot(ex, ey)) + 2.0 * err * err) \
+                    * (1.0 + 1e-9) + 1e-9
+                pos = pos and e >= -tol
+                neg = neg and e <= tol
+            if pos or neg:
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, height, move,
+                     shift, margin, recede, depth, tile_max, tw, th, use_buffer, sw, sh,
+                     sample_move, hidden, subpixel, zmin):
+    """Per triangle id: hidden[k] when in front of `near` (corners moved) and off screen or behind
+    the buffer (use_buffer); else, with a screen (sw > 0), subpixel[k] when it certainly covers
+    no pixel centre of that sw x sh screen (corners moved by sample_move, SAMPLE_SLACK_PX);
+    zmin[k] its nearest depth (-inf when not testable). Errs toward keeping."""
+    cols = (width + tw - 1) // tw
+    cam = np.empty((3, 3))
+    r = np.empty(7)
+    px = np.empty(3)
+    py = np.empty(3)
+    for k in range(len(ids)):
+        t = ids[k]
+        for c in range(3):
+            _to_camera(vertices[triangles[t, c]], eye, rot, cam[c])
+        _rect(cam, 3, near, tx, ty, width, height, move, shift, r)
+        hidden[k] = False
+        subpixel[k] = False
+        zmin[k] = r[4] if r[5] > 0 else -np.inf
+        if r[5] == 0:
+            continue
+        if r[6] == 0 or (use_buffer and _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]),
+                                                 r[4], depth, width, tile_max, cols, tw, th,
+                                                 margin, recede)):
+            hidden[k] = True
+            continue
+        if sw > 0:
+            subpixel[k] = _covers_no_sample(cam, near, tx, ty, sw, sh, sample_move, 16, px, py)
+
+
+@njit(cache=True, nogil=True)
+def _covers_no_sample(cam, near, tx, ty, sw, sh, move, max_samples, px, py):
+    """True when the camera-space triangle cam (3, 3), drawn on an sw x sh screen sampled at
+    pixel centres (no multisampling), certainly covers no sample: every vertex in front of near
+    and no centre within the triangle grown by its vertices' worst screen error (SAMPLE_SLACK_PX
+    plus the projection of a move of up to `move` per coordinate). Errs toward False; False too
+    when more than max_samples centres lie in the grown box. px, py : (3,) scratch."""
+    if min(cam[0, 2], cam[1, 2], cam[2, 2]) < near:
+        return False
+    ssx, ssy = 0.5 * sw / tx, 0.5 * sh / ty
+    err = 0.0
+    for c in range(3):
+        z = cam[c, 2]
+        px[c] = cam[c, 0] / z * ssx + 0.5 * sw
+        py[c] = cam[c, 1] / z * ssy + 0.5 * sh
+        lateral = max(abs(cam[c, 0]), abs(cam[c, 1]))
+        reach = np.sqrt(3.0) * move / z * (1.0 + lateral / z)
+        err = max(err, SAMPLE_SLACK_PX + max(ssx, ssy) * reach)
+    return _no_sample(px, py, err, sw, sh, max_samples)
+
+
+@njit(cache=True, nogil=True)
+def covers_no_sample(points, near, tx, ty, width, height, move=0.0, max_samples=16):
+    """(B,) bool: each camera-space triangle of points (B, 3, 3), drawn on a width x height
+    screen sampled at pixel centres, certainly covers no sample (_covers_no_sample); errs
+    toward False."""
+    out = np.zeros(len(points), dtype=np.bool_)
+    px = np.empty(3)
+    py = np.empty(3)
+    for k in range(len(points)):
+        out[k] = _covers_no_sample(points[k], near, tx, ty, width, height, move, max_samples,
+                                   px, py)
+    return out
+
+
+def screen_rect(points, near, tx, ty, width, height, move=0.0, shift=0.0) -> tuple:
+    """The tests' conservative pixel rectangle of camera-space points (m, 3) (hiz._rect):
+    (x0, x1, y0, y1 int inclusive, zmin, testable, onscreen); errs large."""
+    out = np.empty(7)
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    _rect(pts, len(pts), near, tx, ty, width, height, float(move), float(shift), out)
+    return (int(out[0]), int(out[1]), int(out[2]), int(out[3]), float(out[4]), out[5] > 0,
+            out[6] > 0)
+
+
+@njit(cache=True, nogil=True)
+def node_candidates(order, first_child, child_count, ref_start, ref_end, tri_refs, areas, k):
+    """(N, k) int64 per node the ids of the k largest triangles (by area, > 0) of its subtree,
+    -1 padded. order : (N,) int64 nodes, every child before its parent."""
+    n = len(first_child)
+    out = np.full((n, k), -1, dtype=np.int64)
+    buf = np.empty(k * 64 + 64, dtype=np.int64)
+    for node in order:
+        m = 0
+        if child_count[node] == 0:
+            for r in range(ref_start[node], ref_end[node]):
+                t = np.int64(tri_refs[r])
+                if areas[t] > 0:
+                    if m == len(buf):
+                        buf = np.concatenate((buf, np.empty(len(buf), dtype=np.int64)))
+                    buf[m] = t
+                    m += 1
+        else:
+            for c in range(first_child[node], first_child[node] + child_count[node]):
+                for j in range(k):
+                    if out[c, j] >= 0:
+                        if m == len(buf):
+                            buf = np.concatenate((buf, np.empty(len(buf), dtype=np.int64)))
+                        buf[m] = out[c, j]
+                        m += 1
+        ids = np.unique(buf[:m])
+        best = ids[np.argsort(-areas[ids], kind="mergesort")][:k]
+        out[node, :len(best)] = best
+    return out
+
+
+@njit(cache=True, nogil=True)
+def gather_candidates(lo, hi, first_child, child_count, nonempty, roots, planes, tol, eye,
+                      detail, lists, history, seen, mark, out, stack):
+    """Occluder candidates around the eye: a frustum walk from roots that takes a node's list of
+    largest triangles (lists (N, k)) once the node is a leaf or small as seen from the eye
+    (diagonal < detail x distance to the box), plus the `history` ids; each id once (seen (T,)
+    int64 scratch, stamped with mark). Returns (count in out, nodes visited)."""
+    count = 0
+    for k in range(len(history)):
+        t = history[k]
+        if seen[t] != mark:
+            seen[t] = mark
+            out[count] = t
+            count += 1
+    top = 0
+    for k in range(len(roots) - 1, -1, -1):
+        stack[top] = roots[k]
+        top += 1
+    visited = 0
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if not nonempty[node]:
+            continue
+        visited += 1
+        outside = False
+        dist2 = 0.0
+        diag2 = 0.0
+        for a in range(3):
+            diag2 += (hi[node, a] - lo[node, a]) ** 2
+            gap = max(lo[node, a] - eye[a], eye[a] - hi[node, a], 0.0)
+            dist2 += gap * gap
+        for p in range(len(planes)):
+            nx, ny, nz, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
+            px = hi[node, 0] if nx >= 0 else lo[node, 0]
+            py = hi[node, 1] if ny >= 0 else lo[node, 1]
+            pz = hi[node, 2] if nz >= 0 else lo[node, 2]
+            if nx * px + ny * py + nz * pz + d < -tol:
+                outside = True
+                break
+        if outside:
+            continue
+        n = child_count[node]
+        if n == 0 or diag2 < detail * detail * dist2:
+            for j in range(lists.shape[1]):
+                t = lists[node, j]
+                if t >= 0 and seen[t] != mark:
+                    seen[t] = mark
+                    out[count] = t
+                    count += 1
+            continue
+        first = first_child[node]
+        for c in range(n - 1, -1, -1):
+            stack[top] = first + c
+            top += 1
+    return count, visited
+
+
+@njit(cache=True, nogil=True)
+def score_candidates(ids, normals, v0, centroids, radius, areas, planes, eye, grazing):
+    """(n,) float64 estimated solid angle A |n.d| / |d|^3 of each candidate (d eye to centroid);
+    0 when it faces away, is seen more edge-on than `grazing` or its bounding sphere is outside
+    a frustum plane (only ranks candidates: the facing test that matters comes after)."""
+    out = np.zeros(len(ids))
+    for k in range(len(ids)):
+        t = ids[k]
+        dx, dy, dz = centroids[t, 0] - eye[0], centroids[t, 1] - eye[1], centroids[t, 2] - eye[2]
+        dist2 = dx * dx + dy * dy + dz * dz
+        towards = (normals[t, 0] * (eye[0] - v0[t, 0]) + normals[t, 1] * (eye[1] - v0[t, 1])
+                   + normals[t, 2] * (eye[2] - v0[t, 2]))
+        if not towards > grazing * np.sqrt(dist2):
+            continue
+        inside = True
+        for p in range(len(planes)):
+            if (planes[p, 0] * centroids[t, 0] + planes[p, 1] * centroids[t, 1]
+                    + planes[p, 2] * centroids[t, 2] + planes[p, 3]) < -radius[t]:
+                inside = False
+                break
+        if inside:
+            out[k] = areas[t] * towards / max(dist2 ** 1.5, 1e-300)
+    return out
