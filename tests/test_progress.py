@@ -1,7 +1,8 @@
-"""The progress bar: silent off a terminal, few redraws on one, always its final state."""
+"""Progress and status lines: nothing for short work, one redrawn line on a terminal, plain
+lines (no carriage return) in a log, always the final state once anything was shown."""
 import io
 
-from vismobile.progress import Progress
+from vismobile.progress import LOG_INTERVAL, QUIET_SECONDS, Progress, Status
 
 
 class Terminal(io.StringIO):
@@ -9,19 +10,41 @@ class Terminal(io.StringIO):
         return True
 
 
-def test_redirected_stream_gets_nothing():
-    stream = io.StringIO()
-    bar = Progress("compare", stream=stream, total=500)
-    for _ in range(500):
+class Clock:
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+def test_short_work_prints_nothing_anywhere():
+    for stream in (io.StringIO(), Terminal()):
+        bar = Progress("compare", stream=stream, total=500)
+        for _ in range(500):
+            bar.step()
+        bar.close()
+        assert stream.getvalue() == ""
+
+
+def test_a_log_gets_plain_lines_after_the_quiet_time_and_the_end():
+    stream, clock = io.StringIO(), Clock()
+    bar = Progress("compare", stream=stream, total=100, clock=clock)
+    for i in range(100):
+        clock.now = i * 0.5  # 50 s in all
         bar.step()
     bar.close()
-    assert stream.getvalue() == ""
+    lines = stream.getvalue().splitlines()
+    assert "\r" not in stream.getvalue() and stream.getvalue().endswith("\n")
+    assert lines[0].startswith("compare: 5% (5 of 100), 2.0s")
+    assert 4 <= len(lines) <= 2 + 50 / LOG_INTERVAL and lines[-1].startswith("compare: 100%")
 
 
 def test_terminal_gets_few_redraws_and_the_end():
-    stream = Terminal()
-    bar = Progress("compare", stream=stream, total=500)
-    for _ in range(500):
+    stream, clock = Terminal(), Clock()
+    bar = Progress("compare", stream=stream, total=500, clock=clock)
+    for i in range(500):
+        clock.now = QUIET_SECONDS + i * 0.001
         bar.step()
     bar.close()
     draws = stream.getvalue().split("\r")[1:]
@@ -29,9 +52,36 @@ def test_terminal_gets_few_redraws_and_the_end():
 
 
 def test_disabled_bar_never_draws_even_on_a_terminal():
-    stream = Terminal()
-    bar = Progress("octree", stream=stream, enabled=False)
+    stream, clock = Terminal(), Clock()
+    bar = Progress("octree", stream=stream, enabled=False, clock=clock)
+    clock.now = 100.0
     bar(1, 2)
     bar(2, 2)
     bar.close()
     assert stream.getvalue() == ""
+
+
+def test_status_waits_for_the_quiet_time_then_writes_plain_lines_in_a_log():
+    stream, clock = io.StringIO(), Clock()
+    status = Status("tune w1", stream=stream, clock=clock, ticker=False)
+    status("loading the world")
+    assert stream.getvalue() == ""
+    clock.now = 3.0
+    status("probing")
+    clock.now = 5.0
+    status("probing")  # the same step again before the interval: not repeated
+    clock.now = 3.0 + LOG_INTERVAL
+    status("probing")  # still running after the interval: shown again
+    status.done()
+    assert stream.getvalue() == "tune w1: probing, 3 s\ntune w1: probing, 13 s\n"
+
+
+def test_status_ticker_shows_a_long_step_without_a_call():
+    import time
+
+    stream = io.StringIO()
+    with Status("info w2", stream=stream, quiet=0.3) as status:
+        status("loading the world")
+        time.sleep(0.8)
+    assert stream.getvalue().startswith("info w2: loading the world, ")
+    assert stream.getvalue().count("\n") == 1

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 import warnings
 from importlib import import_module
 
@@ -31,7 +32,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    from . import progress
+
+    started = time.perf_counter()
     args = build_parser().parse_args(argv)
+    progress.COMMAND_START = started
+    try:
+        return _run(args)
+    finally:
+        progress.COMMAND_START = None
+
+
+def _run(args) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.formatwarning = lambda message, *rest: f"warning: {message}\n"

@@ -70,13 +70,20 @@ def run(args) -> int:
           f"{len(specs) - reused} to run", flush=True)
     records = run_matrix(specs, context, args.jobs, progress=not args.quiet,
                          scheduler=args.scheduler)
+    from ..progress import Status
+
     checks = []
-    for world in parse_worlds(args.worlds) if args.agreement > 0 else []:
-        checks += agreement(world, context, specs[0].profile, args.agreement,
-                            (trajectories or {}).get(world))
-    if checks:
-        atomic_write_bytes(args.out / "agreement.json", json.dumps(checks, indent=1).encode())
-    report = write_report(records, args.report or args.out / "report.html", agreement=checks)
+    with Status("compare", enabled=not args.quiet) as status:
+        for world in parse_worlds(args.worlds) if args.agreement > 0 else []:
+            status(f"raster/ray-cast agreement on {world}")
+            checks += agreement(world, context, specs[0].profile, args.agreement,
+                                (trajectories or {}).get(world))
+        if checks:
+            atomic_write_bytes(args.out / "agreement.json",
+                               json.dumps(checks, indent=1).encode())
+        status("writing the report")
+        report = write_report(records, args.report or args.out / "report.html",
+                              agreement=checks)
     failed = sum("error" in r for r in records)
     print(f"wrote {args.out / 'runs.csv'}, {args.out / 'runs.json'} and {report}"
           + (f"; {failed} runs failed (listed in the report)" if failed else ""))

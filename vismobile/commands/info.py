@@ -17,14 +17,22 @@ def add_parser(sub):
 
 def run(args) -> int:
     from ..atomic import check_destination
+    from ..progress import Status
     from ..scenes.lookup import world_file
     from ..winding import check_winding, fixed_world
     from ..world import World
 
     if args.out:
         check_destination(args.out)
-    path = world_file(args.world)
-    world = World.from_file(path)
+    with Status(f"info {args.world}") as status:
+        status("loading the world")
+        path = world_file(args.world)
+        world = World.from_file(path)
+        status("checking the winding")
+        report = check_winding(world)
+        if args.fix_winding:
+            fixed, _ = fixed_world(world, report)
+            after = check_winding(fixed)
     low, high = world.extent
     print(f"file       {path}")
     print(f"triangles  {world.triangle_count:,}")
@@ -33,11 +41,10 @@ def run(args) -> int:
     print(f"bounds     min ({low[0]:.4g}, {low[1]:.4g}, {low[2]:.4g})"
           f"  max ({high[0]:.4g}, {high[1]:.4g}, {high[2]:.4g})")
     print(f"file size  {path.stat().st_size / 1024:,.1f} KB")
-    report = check_winding(world)
     _print_winding("winding", report.lines())
     if args.fix_winding:
-        world, report = fixed_world(world, report)
-        _print_winding("fixed", check_winding(world).lines())
+        world = fixed
+        _print_winding("fixed", after.lines())
     elif report.to_fix:
         print("           (reverse them with --fix-winding here or on partition, play, tune)")
     if args.out:

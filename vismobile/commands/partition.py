@@ -67,8 +67,12 @@ def run(args) -> int:
     if Path(args.world).is_dir():
         args.world = Path(args.world)
         return run_out_of_core(args)
-    args.world = world_file(args.world)
-    world = fix_winding(World.from_file(args.world), args.fix_winding)
+    from ..progress import Status
+
+    with Status(f"partition {args.world}") as status:
+        status("loading the world")
+        args.world = world_file(args.world)
+        world = fix_winding(World.from_file(args.world), args.fix_winding)
     try:
         kind, params = parse_spec(args.structure)
         if kind is None:

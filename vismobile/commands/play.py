@@ -46,8 +46,12 @@ def run(args) -> int:
         raise VisMobileError(f"--limit must be at least 1, got {args.limit}")
     profile = get_profile(args.profile, args.vertex_format)
     trajectory = Trajectory.load(args.trajectory, limit=args.limit)
-    scene = load_scene(args.world, args.structure, progress=not args.quiet,
-                       fix_winding=args.fix_winding)
+    from ..progress import Status
+
+    with Status(f"play {args.world}", enabled=not args.quiet) as status:
+        status("loading the world")
+        scene = load_scene(args.world, args.structure, progress=not args.quiet,
+                           fix_winding=args.fix_winding)
     result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.images,
                   gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,
                   adaptive=args.adaptive, frames=args.frames)

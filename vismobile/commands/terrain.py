@@ -38,22 +38,29 @@ def run(args) -> int:
 
     if args.size is not None and sources.grid_exponent(args.size) is None:
         raise WorldError(args.out, f"--size must be 2^n+1 (e.g. 1025), got {args.size}")
-    if args.source in sources.DEMS:
-        heightmap = sources.dem(args.source, args.size)
-    elif args.source == sources.SYNTHETIC:
-        heightmap = sources.diamond_square(args.size or 1025, args.seed, args.roughness,
-                                           spacing=args.spacing)
-    else:
-        heightmap = sources.load_file(args.source, args.size, args.spacing, args.vertical)
-    placement = (place_objects(heightmap, args.objects, args.seed, args.object_height)
-                 if args.objects > 0 else Placement.empty())
-    store.save(args.out, heightmap, placement)
+    from ..progress import Status
+
+    with Status(f"terrain build {args.source}") as status:
+        status("making the heightmap")
+        if args.source in sources.DEMS:
+            heightmap = sources.dem(args.source, args.size)
+        elif args.source == sources.SYNTHETIC:
+            heightmap = sources.diamond_square(args.size or 1025, args.seed, args.roughness,
+                                               spacing=args.spacing)
+        else:
+            heightmap = sources.load_file(args.source, args.size, args.spacing, args.vertical)
+        status("placing objects and writing")
+        placement = (place_objects(heightmap, args.objects, args.seed, args.object_height)
+                     if args.objects > 0 else Placement.empty())
+        store.save(args.out, heightmap, placement)
     print(f"wrote {args.out}: {heightmap.size}^2 samples, spacing {heightmap.spacing:.4g}, "
           f"heights {heightmap.bounds()[0, 1]:.4g}..{heightmap.bounds()[1, 1]:.4g}, "
           f"{len(placement)} objects, {args.out.stat().st_size / 1024:,.0f} KB")
     if args.obj is not None:
-        world = terrain_world(heightmap, placement, args.obj_stride)
-        world.to_obj(args.obj)
+        with Status(f"terrain build {args.source}") as status:
+            status("exporting the OBJ")
+            world = terrain_world(heightmap, placement, args.obj_stride)
+            world.to_obj(args.obj)
         print(f"wrote {args.obj}: {world.triangle_count:,} triangles")
     return 0
 

@@ -55,18 +55,20 @@ def run(args) -> int:
         if value is not None and not value > 0:
             raise VisMobileError(f"{name} must be a positive number, got {value}")
     profile = get_profile(args.profile)
-    status = Status(f"trajectory {args.world}", enabled=not args.quiet)
-    status("loading the world")
-    world = fix_winding(open_world(args.world), args.fix_winding)
-    status(f"{world.triangle_count:,} triangles; free space at eye height")
-    poses, kind, space = walk(world, args.length, args.seed, args.eye_height, args.clearance)
-    out = args.out or Path(f"{world.name}-{kind.replace('-', '')}.csv")
-    check_destination(out)
-    trajectory = Trajectory(poses)
-    status(f"{kind} of {len(trajectory)} frames; counting what each frame sees")
-    in_frustum, frames, visible = counts(world, trajectory, profile)
-    trajectory.waypoints = waypoints(in_frustum, frames, visible)
-    status.done()
+    if args.out:
+        check_destination(args.out)
+    with Status(f"trajectory {args.world}", enabled=not args.quiet) as status:
+        status("loading the world")
+        world = fix_winding(open_world(args.world), args.fix_winding)
+        status(f"{world.triangle_count:,} triangles; free space at eye height")
+        poses, kind, space = walk(world, args.length, args.seed, args.eye_height,
+                                  args.clearance)
+        out = args.out or Path(f"{world.name}-{kind.replace('-', '')}.csv")
+        check_destination(out)
+        trajectory = Trajectory(poses)
+        status(f"{kind} of {len(trajectory)} frames; counting what each frame sees")
+        in_frustum, frames, visible = counts(world, trajectory, profile)
+        trajectory.waypoints = waypoints(in_frustum, frames, visible)
     trajectory.save(out)
     steps = np.linalg.norm(np.diff(poses[:, :3], axis=0), axis=1) if len(poses) > 1 else [0]
     where = (f"at eye height y = {space.eye:.3g} (free space on a {space.cell:.3g}-unit grid)"

@@ -64,18 +64,17 @@ def run(args) -> int:
 
     from ..progress import Status
 
-    status = Status(f"tune {args.world}", enabled=not args.quiet)
-    status("loading the world")
-    world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS else args.world,
-                              args.worlds_dir or default_cache_dir())
-    world = fix_winding(world, args.fix_winding)
-    trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
-    status(f"{world.triangle_count:,} triangles; ground truth of {args.probe} probe frames "
-           "plus the waypoints")
-    result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,
-                  structures=args.structures, cache_dir=args.cache, cost=args.cost,
-                  progress=lambda done, _: status(f"{done} structure(s) probed"))
-    status.done()
+    with Status(f"tune {args.world}", enabled=not args.quiet) as status:
+        status("loading the world")
+        world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS
+                                  else args.world, args.worlds_dir or default_cache_dir())
+        world = fix_winding(world, args.fix_winding)
+        trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
+        status(f"{world.triangle_count:,} triangles; ground truth of {args.probe} probe frames "
+               "plus the waypoints")
+        result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,
+                      structures=args.structures, cache_dir=args.cache, cost=args.cost,
+                      progress=lambda done, _: status(f"{done} structure(s) probed"))
     print(result.report())
     if args.out:
         atomic_write_bytes(args.out, json.dumps(result.to_dict(), indent=1).encode())

@@ -27,8 +27,12 @@ def run(args) -> int:
     print(f"{'world':6}{'triangles':>11}{'target':>9}{'dev %':>8}{'objects':>9}"
           f"{'OBJ KB':>9}{'thesis KB':>11}{'seconds':>9}")
     total, rows = 0.0, []
+    from ..progress import Status
+
     for name in names:  # one row as each world is built: W2 alone takes a while
-        row = build_all(args.out, (name,))[0]
+        with Status("worlds build") as status:
+            status(f"building {name}")
+            row = build_all(args.out, (name,))[0]
         rows.append(row)
         total += row["seconds"]
         print(f"{row['name']:6}{row['triangles']:>11,}{row['target']:>9,}"
