@@ -1,9 +1,10 @@
-"""Terrain LOD benchmark (issue 15): LOD+cull time and triangles of the tile quadtree (seed 002)
-and Röttger CLOD (seed 000) along Pires's paths on a large map, and image error against the
-full-resolution render for a sweep of the pixel knob on a smaller one.
+"""Terrain LOD benchmark (issue 15): LOD+cull time and triangles of the tile quadtree (seed 002),
+Röttger CLOD (seed 000) and ROAM (seed 003) along Pires's paths on a large map, and image error
+against the full-resolution render for a sweep of the pixel knob on a smaller one.
 
     .venv/bin/python tools/bench_terrain.py [--size 4097] [--frames 60] [--render-size 1025]
-        [--taus 0.25,0.5,0.7,1,2,4,8] [--error-frames 4] [--out runs/bench_terrain.md]
+        [--taus 0.25,0.5,0.7,1,2,4,8] [--error-frames 4] [--methods tiles,roettger,roam]
+        [--out runs/bench_terrain.md]
 
 Heightmaps are deterministic diamond-square maps (seed 1, roughness 0.5, relief 0.12 of the
 width, unit spacing), cached as out/terrain/fractal-N.vmt. Times are medians over consecutive
@@ -24,9 +25,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.profile import get_profile  # noqa: E402
-from vismobile.study.terrain import RoettgerMethod, TileMethod, measure  # noqa: E402
+from vismobile.study.terrain import RoamMethod, RoettgerMethod, TileMethod, measure  # noqa: E402
 from vismobile.terrain import sources, store  # noqa: E402
 from vismobile.terrain.paths import path_cameras  # noqa: E402
+from vismobile.terrain.roam import Roam  # noqa: E402
 from vismobile.terrain.roettger import Roettger  # noqa: E402
 from vismobile.terrain.tiles import TilePyramid  # noqa: E402
 
@@ -43,16 +45,31 @@ def heightmap(size: int):
     return hm
 
 
-def speed(hm, frames, tau, profile, patch, C, eye_height) -> list:
-    """Per path and method: median/p95 LOD ms, median/max triangles, chunk churn."""
-    start = time.perf_counter()
-    pyramid = TilePyramid.build(hm, patch)
-    tile_build = time.perf_counter() - start
-    roettger = Roettger(hm, C=C)
+def build_methods(hm, names, patch, C) -> tuple:
+    """The named methods on one heightmap and their pre-processing seconds."""
+    methods, builds = [], {}
+    for name in names:
+        start = time.perf_counter()
+        if name == "tiles":
+            methods.append(TileMethod(TilePyramid.build(hm, patch)))
+        elif name == "roettger":
+            methods.append(RoettgerMethod(Roettger(hm, C=C)))
+        elif name == "roam":
+            methods.append(RoamMethod(Roam(hm)))
+        else:
+            raise SystemExit(f"unknown method {name!r} (tiles, roettger, roam)")
+        builds[name] = time.perf_counter() - start
+    return methods, builds
+
+
+def speed(hm, frames, tau, profile, patch, C, eye_height, names) -> list:
+    """Per path and method: median/p95 LOD ms, median/max triangles, chunk churn (Röttger),
+    splits/merges (ROAM)."""
+    methods, builds = build_methods(hm, names, patch, C)
     rows = []
     for kind, pace in PATHS:
         cameras = path_cameras(hm, kind, pace, frames=frames, eye_height=eye_height)
-        for method in (TileMethod(pyramid), RoettgerMethod(roettger)):
+        for method in methods:
             ms, cpu, tris, changed, reused = [], [], [], [], []
             for camera in cameras:
                 result, lod_ms, triangles = method.frame(camera, profile.resolution, tau)
@@ -62,6 +79,9 @@ def speed(hm, frames, tau, profile, patch, C, eye_height) -> list:
                 if method.name == "roettger":
                     changed.append(result.chunks_changed)
                     reused.append(result.chunks_reused)
+                elif method.name == "roam":  # splits / merges in the churn columns
+                    changed.append(result.splits)
+                    reused.append(result.merges)
             warm = slice(2, None)  # first frames: JIT cache load, first refinement
             rows.append({"path": f"{kind} {pace}", "method": method.name, "tau": tau,
                          "lod_ms_median": float(np.median(ms[warm])),
@@ -71,17 +91,16 @@ def speed(hm, frames, tau, profile, patch, C, eye_height) -> list:
                          "triangles_median": int(np.median(tris)), "triangles_max": int(max(tris)),
                          "chunks_changed_mean": float(np.mean(changed[1:])) if changed else None,
                          "chunks_reused_mean": float(np.mean(reused[1:])) if reused else None})
-    return rows, tile_build, roettger.build_seconds
+    return rows, builds
 
 
-def errors(hm, taus, frames, profile, patch, C, eye_height, exact) -> list:
-    pyramid = TilePyramid.build(hm, patch)
+def errors(hm, taus, frames, profile, patch, C, eye_height, exact, names) -> list:
     cameras = path_cameras(hm, "lemniscate", "fast", frames=frames, every=900 // max(frames, 1),
                            eye_height=eye_height)
-    methods = [TileMethod(pyramid), RoettgerMethod(Roettger(hm, C=C))]
+    methods, _ = build_methods(hm, names, patch, C)
     rows = measure(methods, hm, cameras, taus, profile, exact_vertices=exact)
     summary = []
-    for method in ("tiles", "roettger"):
+    for method in [m.name for m in methods]:
         for tau in taus:
             r = [x for x in rows if x["method"] == method and x["tau"] == tau]
             summary.append({
@@ -161,21 +180,23 @@ def main(argv=None) -> int:
     parser.add_argument("--skip-horizon", action="store_true")
     parser.add_argument("--objects", type=int, default=200)
     parser.add_argument("--horizon-frames", type=int, default=12)
+    parser.add_argument("--methods", default="tiles,roettger,roam")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_terrain.md")
     args = parser.parse_args(argv)
     profile = get_profile("ipaq-hx2490b")
     lines, record = [], {}
     if not args.skip_speed:
         hm = heightmap(args.size)
-        rows, tile_build, r_build = speed(hm, args.frames, args.tau, profile, args.patch, args.C,
-                                          args.eye_height)
+        rows, builds = speed(hm, args.frames, args.tau, profile, args.patch, args.C,
+                             args.eye_height, args.methods.split(","))
         record["speed"] = rows
         lines += [f"## LOD + cull per frame, {args.size}^2, tau = {args.tau} px, "
                   f"{args.frames} consecutive frames per path (eye {args.eye_height} above ground)",
-                  "", f"Pre-processing: tile errors {tile_build:.1f} s (patch {args.patch}), "
-                  f"Röttger d2 {r_build:.1f} s (C = {args.C:g}).", "",
+                  "", "Pre-processing: " + ", ".join(f"{k} {v:.1f} s" for k, v in builds.items())
+                  + f" (patch {args.patch}, C = {args.C:g}).", "",
                   "| path | method | LOD ms median | p95 | min | CPU ms median | triangles median "
-                  "| max | chunks changed / reused |", "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+                  "| max | chunks changed / reused (roam: splits / merges) |",
+                  "|---|---|---:|---:|---:|---:|---:|---:|---|"]
         for r in rows:
             churn = (f"{r['chunks_changed_mean']:.1f} / {r['chunks_reused_mean']:.1f}"
                      if r["chunks_changed_mean"] is not None else "")
@@ -189,7 +210,7 @@ def main(argv=None) -> int:
         taus = [float(t) for t in args.taus.split(",")]
         hm = heightmap(args.render_size)
         summary = errors(hm, taus, args.error_frames, profile, args.patch, args.C,
-                         args.eye_height, args.exact)
+                         args.eye_height, args.exact, args.methods.split(","))
         record["errors"] = summary
         table = [f"## Image error against the full render, {args.render_size}^2, "
                  f"{args.error_frames} frames of the fast lemniscate, 240x320", "",

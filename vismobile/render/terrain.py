@@ -48,8 +48,11 @@ def height_colors(heights, low: float, high: float) -> np.ndarray:
     return table[np.clip((t * 255).astype(np.int64), 0, 255)]
 
 
-def terrain_vertices(heightmap, rows, cols) -> np.ndarray:
-    """(K*V,) records (position 3f, normal 3f, colour 4u1) of the samples rows/cols (K, V)."""
+def terrain_vertices(heightmap, rows, cols, heights=None) -> np.ndarray:
+    """(K*V,) records (position 3f, normal 3f, colour 4u1) of the samples rows/cols (K, V).
+
+    heights: (N, N) drawn heights to place the vertices at instead of the samples (a
+    geomorphing LOD); normals and colours stay the samples'."""
     h = heightmap.heights
     n = heightmap.size - 1
     r, c = rows.ravel(), cols.ravel()
@@ -63,7 +66,8 @@ def terrain_vertices(heightmap, rows, cols) -> np.ndarray:
     dtype = np.dtype([("position", np.float32, 3), ("normal", np.float32, 3),
                       ("color", np.uint8, 4)])
     records = np.empty(len(r), dtype=dtype)
-    records["position"] = np.stack([c * heightmap.spacing, h[r, c], r * heightmap.spacing], 1)
+    y = h[r, c] if heights is None else heights[r, c]
+    records["position"] = np.stack([c * heightmap.spacing, y, r * heightmap.spacing], 1)
     records["normal"] = normal
     low, high = heightmap.bounds()[:, 1]
     records["color"] = height_colors(h[r, c], low, high)
@@ -99,9 +103,11 @@ class TerrainRenderer:
 
         return self._render(batches, camera, kind, clear)
 
-    def draw_samples(self, triangles, camera, kind="shaded", clear=True) -> DrawStats:
+    def draw_samples(self, triangles, camera, kind="shaded", clear=True,
+                     heights=None) -> DrawStats:
         """Draw (T, 3) triangles given as sample ids (row * N + col), three corners each, in
-        batches of 21,845 triangles (65,535 vertices)."""
+        batches of 21,845 triangles (65,535 vertices); heights: (N, N) drawn vertex heights
+        instead of the samples (geomorphing)."""
         triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
         step = MAX_INDEX_VERTICES // 3
 
@@ -111,7 +117,7 @@ class TerrainRenderer:
                 rows, cols = np.divmod(part, self.heightmap.size)
                 yield rows, cols, np.arange(len(part)).reshape(-1, 3)
 
-        return self._render(batches, camera, kind, clear)
+        return self._render(batches, camera, kind, clear, heights)
 
     def draw_mesh_items(self, vertices, triangles, camera, first_id: int) -> DrawStats:
         """Add a triangle mesh (vertices (V, 3), triangles (T, 3)) to the current item buffer
@@ -142,7 +148,7 @@ class TerrainRenderer:
         ctx.finish()
         return DrawStats((time.perf_counter() - start) * 1000.0, count, len(triangles))
 
-    def _render(self, batches, camera, kind, clear) -> DrawStats:
+    def _render(self, batches, camera, kind, clear, heights=None) -> DrawStats:
         ctx = gl_context()
         target = render_target(self.profile.resolution, "rgb" if kind == "shaded" else "ids")
         ctx.finish()
@@ -163,7 +169,7 @@ class TerrainRenderer:
             _set_lights(prog)
         count, drawn, first_id = 0, 0, 0
         for rows, cols, indices in batches():
-            records = terrain_vertices(self.heightmap, rows, cols)
+            records = terrain_vertices(self.heightmap, rows, cols, heights)
             indices = indices.astype(np.uint16)
             vbo = ctx.buffer(records.tobytes())
             ibo = ctx.buffer(indices.tobytes())

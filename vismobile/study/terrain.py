@@ -163,6 +163,66 @@ class RoettgerMethod:
                                 result.triangles)
 
 
+class RoamMethod:
+    """Seed 003's ROAM as a measurable method (the mesh persists from frame to frame).
+
+    budget: a triangle cap (ROAM's budget mode). With a geomorphing Roam the drawn and
+    measured surface is the morphed one.
+    """
+
+    alternating = True  # the finest bintree triangles form the same 4-8 mesh as Röttger's
+
+    def __init__(self, roam, budget=None):
+        self.roam = roam
+        self.budget = budget
+        self.name = "roam" if budget is None else f"roam/{budget}"
+
+    def reference(self, renderer, camera):
+        """Draw the finest bintree mesh (frustum-culled by triangle boxes)."""
+        from ..geometry.planes import classify_boxes
+        from ..terrain.roam import full_mesh
+
+        hm = self.roam.heightmap
+        triangles = full_mesh(hm)
+        r, c = np.divmod(triangles, hm.size)
+        y = hm.heights.ravel()[triangles]
+        boxes = np.stack([np.stack([c.min(1) * hm.spacing, y.min(1), r.min(1) * hm.spacing], -1),
+                          np.stack([c.max(1) * hm.spacing, y.max(1), r.max(1) * hm.spacing], -1)],
+                         axis=1)
+        keep = ~classify_boxes(boxes, camera.frustum_planes())[0]
+        renderer.draw_samples(triangles[keep], camera)
+        return int(keep.sum())
+
+    def frame(self, camera, resolution, tau) -> tuple:
+        cpu = time.thread_time()
+        result = self.roam.update(camera, resolution, tau, budget=self.budget)
+        self.cpu_ms = (time.thread_time() - cpu) * 1000.0
+        return result, result.lod_ms, len(result.triangles)
+
+    def _drawn_heights(self, result):
+        ids, values = result.morph
+        if not len(ids):
+            return None
+        heights = self.roam.heightmap.heights.astype(np.float64).copy()
+        heights.ravel()[ids] = values
+        return heights
+
+    def draw(self, renderer, result, camera):
+        return renderer.draw_samples(result.triangles, camera,
+                                     heights=self._drawn_heights(result))
+
+    def heights(self, result) -> np.ndarray:
+        """Drawn height at every sample (NaN where nothing is drawn), morphs included: the
+        error of a morphing vertex is measured against where it is drawn."""
+        from ..terrain.raster import triangle_heights
+
+        drawn = self._drawn_heights(result)
+        if drawn is None:
+            drawn = self.roam.heightmap.heights.astype(np.float64)
+        out = triangle_heights(drawn, result.triangles)
+        return out
+
+
 def measure(methods, heightmap, cameras, taus, profile, exact_vertices: bool = False,
             render: bool = True) -> list:
     """One row per (method, tau, camera) against the full render of the heightmap.
