@@ -123,6 +123,12 @@ def test_cli_generates_a_plain_csv_that_plays(tmp_path):
                       "-o", "again.csv", "--quiet", cwd=tmp_path)
     assert again.returncode == 0 and again.stderr == ""
     assert (tmp_path / "walk.csv").read_bytes() == (tmp_path / "again.csv").read_bytes()
+    from vismobile import generate_trajectory
+
+    same = generate_trajectory(World.from_file(tmp_path / "rooms.obj"), 120, seed=2)
+    written = Trajectory.load(tmp_path / "walk.csv")
+    assert np.allclose(same.poses, written.poses, atol=1e-3)
+    assert same.waypoints == written.waypoints
     table = np.genfromtxt(tmp_path / "walk.csv", delimiter=",", names=True, dtype=None,
                           encoding="ascii")
     assert len(table) == 120 and set(table["waypoint"]) - {""} == {

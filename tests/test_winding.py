@@ -166,6 +166,16 @@ def test_cli_info_reports_and_fixes_the_winding(tmp_path):
                         cwd=tmp_path)
     assert refused.returncode == 2
     assert refused.stderr.count("\n") == 1 and "--fix-winding applies to a mesh" in refused.stderr
+    tuned = vismobile("tune", "room.stl", "--trajectory", "walk.csv", "--probe", "3",
+                      "--structures", "octree:1", "--quiet", cwd=tmp_path)
+    assert tuned.returncode == 0, tuned.stderr
+    assert "WARNING: back-face culling removes" in tuned.stdout
+    choice = next(line for line in tuned.stdout.splitlines() if line.startswith("choice:"))
+    assert not any(stage in choice.split("--cull")[1] for stage in ("bfc", "cone"))
+    fixed_tune = vismobile("tune", "room.stl", "--fix-winding", "--trajectory", "walk.csv",
+                           "--probe", "3", "--structures", "octree:1", "--quiet", cwd=tmp_path)
+    assert fixed_tune.returncode == 0 and "WARNING" not in fixed_tune.stdout
+    assert "reversed 12 of 12 triangles" in fixed_tune.stderr
     missing = vismobile("info", "nothing.stl", "--fix-winding", cwd=tmp_path)
     assert missing.returncode == 2 and missing.stderr.count("\n") == 1
     assert "nothing.stl" in missing.stderr and "Traceback" not in missing.stderr

@@ -38,6 +38,9 @@ _EXPORTS = {
     "Scene": "vismobile.playback",
     "parse_spec": "vismobile.partition.spec",
     "format_spec": "vismobile.partition.spec",
+    "check_winding": "vismobile.winding",
+    "fixed_world": "vismobile.winding",
+    "generate_trajectory": "vismobile.walk",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -334,3 +334,18 @@ def waypoints(in_frustum, frames, visible) -> dict:
                 taken.add(int(where[i]))
                 break
     return out
+
+
+def generate_trajectory(world, frames=600, seed=0, profile="ipaq-hx2490b", eye_height=None,
+                        clearance=None):
+    """Trajectory of `frames` poses through a world (walk() then the waypoints from counts());
+    what `vismobile trajectory generate` writes. profile: name or Profile whose screen counts
+    the visible triangles."""
+    from .profile import Profile, get_profile
+    from .trajectory import Trajectory
+
+    profile = profile if isinstance(profile, Profile) else get_profile(profile)
+    poses, _, _ = walk(world, frames, seed, eye_height, clearance)
+    trajectory = Trajectory(poses)
+    trajectory.waypoints = waypoints(*counts(world, trajectory, profile))
+    return trajectory

@@ -1,12 +1,14 @@
 """`vismobile view WORLD ...`: fly through a world with the thesis's HUD, toggles and recorder."""
 from pathlib import Path
 
+from . import FIX_WINDING_HELP, WORLD_HELP
+
 
 def add_parser(sub):
     parser = sub.add_parser(
         "view", help="open a window and fly through a world (joystick keys, stage toggles, "
                      "HUD, god view, trajectory recorder); F1 in the window lists the keys")
-    parser.add_argument("world", help="OBJ world, partition file (.vmp) or thesis world w1..w6")
+    parser.add_argument("world", help=WORLD_HELP + ", or a partition file (.vmp)")
     parser.add_argument("--structure", default="octree:4",
                         help="partition to start with (Tab cycles): none, octree:5, grid, "
                              "portal:1, bsp, ... (default octree:4)")
@@ -22,6 +24,7 @@ def add_parser(sub):
                         help="where V saves the recorded trajectory (default recorded.csv)")
     parser.add_argument("--scale", type=int, default=2,
                         help="whole-number zoom of the device screen (default 2)")
+    parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP)
     parser.add_argument("--script", help=argparse_suppress(), default=None)
     parser.add_argument("--screenshot", type=Path, help=argparse_suppress(), default=None)
     return parser
@@ -47,7 +50,8 @@ def run(args) -> int:
     if args.screenshot is not None and script is None:
         raise VisMobileError("--screenshot needs --script")
     session = Session.open(args.world, args.structure, args.cull, args.profile,
-                           args.trajectory, record_path=args.record_to)
+                           args.trajectory, fix_winding=args.fix_winding,
+                           record_path=args.record_to)
     from ..viewer.window import run as run_window
 
     frames = run_window(session, args.scale, script, args.screenshot)

@@ -100,9 +100,11 @@ class Session:
 
     @classmethod
     def open(cls, world, structure="none", stages=(), profile="ipaq-hx2490b", trajectory=None,
-             **options) -> "Session":
-        """Session of a world path (OBJ, .vmp or thesis name w1..w6) partitioned by structure."""
-        return cls(load_scene(world, structure), stages, profile, trajectory, **options)
+             fix_winding=False, **options) -> "Session":
+        """Session of a world (mesh file, .vmp or thesis name w1..w6) partitioned by structure;
+        fix_winding reverses triangles first (winding.fixed_world, meshes only)."""
+        return cls(load_scene(world, structure, fix_winding=fix_winding), stages, profile,
+                   trajectory, **options)
 
     # ---- structures and stages -------------------------------------------------------------
     @staticmethod
