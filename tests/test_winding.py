@@ -71,6 +71,16 @@ def test_a_solid_in_the_room_faces_out_and_the_room_in():
     assert part.volume > 0
 
 
+def test_eyes_outside_a_lone_closed_mesh_make_it_a_solid():
+    world = World.from_trimesh(room_mesh(), "crate")
+    outside = [[20.0, 1.5, 0.0], [0.0, 1.5, 30.0]]
+    report = check_winding(world, eyes=outside)
+    assert report.rooms == 0 and report.solids == 1 and report.to_fix == 0
+    assert check_winding(world, eyes=[[0.0, 1.5, 0.0]]).room_faces_outward == 12
+    fixed, _ = fixed_world(world, eyes=outside)
+    assert fixed is world
+
+
 def test_open_and_non_manifold_edges_are_counted():
     box = room_mesh()
     open_box = World(box.vertices, box.faces[2:])  # one side missing: a four-edge hole

@@ -83,10 +83,11 @@ def parse_structure(text) -> tuple:
         raise VisMobileError(f"--structure {text}: {error}") from None
 
 
-def load_scene(path, structure="none", progress=False, fix_winding=False) -> Scene:
+def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=None) -> Scene:
     """World (a mesh file, or a thesis world name w1..w6) partitioned by structure, or a .vmp file.
 
     fix_winding : reverse triangles first (winding.fixed_world); meshes only, not .vmp files
+    eyes        : the camera positions fix_winding tells rooms from solids by (optional)
 
     Raises VisMobileError (WorldError, PartitionError, ...) naming the file or the bad setting.
     """
@@ -106,7 +107,7 @@ def load_scene(path, structure="none", progress=False, fix_winding=False) -> Sce
     if fix_winding:
         from .winding import fixed_world
 
-        world = fixed_world(world)[0]
+        world = fixed_world(world, eyes=eyes)[0]
     kind, params = parse_structure(structure)
     if kind is None:
         return Scene(world, None, "none")

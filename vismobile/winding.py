@@ -12,7 +12,9 @@ manifold edges form components; each is oriented consistently by a union-find wi
 (numba; trimesh.repair.fix_winding would need networkx), keeping the orientation most of its
 triangles already have. A closed component (no open or non-manifold edge) has an inside: one
 whose box spans the whole world's box is taken for a room seen from inside and turned to face
-its interior; any other closed component is a solid seen from outside and turned to face out.
+its interior (when eye positions are given, only if most of them lie in its box: a lone closed
+object looked at from outside stays a solid); any other closed component is a solid seen from
+outside and turned to face out.
 Open components keep the orientation most of their triangles have (they have no inside).
 """
 from __future__ import annotations
@@ -138,9 +140,13 @@ def _merged(world) -> np.ndarray:
     return inverse.reshape(-1)[world.triangles].astype(np.int64)
 
 
-def check_winding(world) -> WindingReport:
+def check_winding(world, eyes=None) -> WindingReport:
     """Measure a world's winding (see the module docstring); vectorised but for the
-    union-find, which is one compiled pass over the manifold edges."""
+    union-find, which is one compiled pass over the manifold edges.
+
+    eyes : optional (N, 3) camera positions (a trajectory's); a closed component spanning the
+           world is a room only if most of them lie in its box
+    """
     t = _merged(world)
     count = len(t)
     degenerate = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 2] == t[:, 0])
@@ -187,6 +193,11 @@ def check_winding(world) -> WindingReport:
     box_high = np.maximum.reduceat(world.bounds[by, 1], first, axis=0) if count else box_low
     tol = max(float((high - low).max()), 1e-300) * SPAN_RELATIVE
     spans = (box_low <= low + tol).all(axis=1) & (box_high >= high - tol).all(axis=1)
+    if eyes is not None and len(eyes):
+        eyes = np.asarray(eyes, dtype=np.float64).reshape(-1, 3)
+        within = ((eyes[None] >= box_low[:, None] - tol) & (eyes[None] <= box_high[:, None] + tol)
+                  ).all(axis=2).mean(axis=1)
+        spans &= within >= 0.5
     room = closed & spans
     solid = closed & ~spans
     invert = (room & (signed > 0)) | (solid & (signed < 0))
@@ -201,11 +212,12 @@ def check_winding(world) -> WindingReport:
         solid_faces_inward=int((flip & in_solid).sum()), flip=flip)
 
 
-def fixed_world(world, report: WindingReport | None = None):
-    """(World with the triangles check_winding flags reversed, the report of the input)."""
+def fixed_world(world, report: WindingReport | None = None, eyes=None):
+    """(World with the triangles check_winding flags reversed, the report of the input);
+    eyes as in check_winding."""
     from .world import World
 
-    report = check_winding(world) if report is None else report
+    report = check_winding(world, eyes) if report is None else report
     if not report.to_fix:
         return world, report
     triangles = world.triangles.copy()

@@ -51,7 +51,7 @@ def run(args) -> int:
     with Status(f"play {args.world}", enabled=not args.quiet) as status:
         status("loading the world")
         scene = load_scene(args.world, args.structure, progress=not args.quiet,
-                           fix_winding=args.fix_winding)
+                           fix_winding=args.fix_winding, eyes=trajectory.poses[:, :3])
     result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.images,
                   gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,
                   adaptive=args.adaptive, frames=args.frames)

@@ -68,8 +68,8 @@ def run(args) -> int:
         status("loading the world")
         world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS
                                   else args.world, args.worlds_dir or default_cache_dir())
-        world = fix_winding(world, args.fix_winding)
         trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
+        world = fix_winding(world, args.fix_winding, trajectory.poses[:, :3])
         status(f"{world.triangle_count:,} triangles; ground truth of {args.probe} probe frames "
                "plus the waypoints")
         result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,

@@ -103,8 +103,11 @@ class Session:
              fix_winding=False, **options) -> "Session":
         """Session of a world (mesh file, .vmp or thesis name w1..w6) partitioned by structure;
         fix_winding reverses triangles first (winding.fixed_world, meshes only)."""
-        return cls(load_scene(world, structure, fix_winding=fix_winding), stages, profile,
-                   trajectory, **options)
+        eyes = None
+        if fix_winding and trajectory is not None:
+            eyes = Trajectory.load(trajectory).poses[:, :3]
+        return cls(load_scene(world, structure, fix_winding=fix_winding, eyes=eyes), stages,
+                   profile, trajectory, **options)
 
     # ---- structures and stages -------------------------------------------------------------
     @staticmethod
