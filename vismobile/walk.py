@@ -187,12 +187,13 @@ def _clear_line(space, free, a, b) -> bool:
 
 
 def _straighten(space, free, points) -> np.ndarray:
-    """Greedy string pulling: from each kept point jump to the farthest one in clear sight."""
+    """Greedy string pulling: from each kept point go on while the next point is in clear
+    sight (about one sight test per point)."""
     kept, i = [points[0]], 0
     while i < len(points) - 1:
-        j = len(points) - 1
-        while j > i + 1 and not _clear_line(space, free, points[i], points[j]):
-            j -= 1
+        j = i + 1
+        while j + 1 < len(points) and _clear_line(space, free, points[i], points[j + 1]):
+            j += 1
         kept.append(points[j])
         i = j
     return np.array(kept)
