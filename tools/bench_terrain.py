@@ -25,11 +25,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.profile import get_profile  # noqa: E402
-from vismobile.study.terrain import RoamMethod, RoettgerMethod, TileMethod, measure  # noqa: E402
+from vismobile.study.terrain import TileMethod, build_method, measure  # noqa: E402
 from vismobile.terrain import sources, store  # noqa: E402
 from vismobile.terrain.paths import path_cameras  # noqa: E402
-from vismobile.terrain.roam import Roam  # noqa: E402
-from vismobile.terrain.roettger import Roettger  # noqa: E402
 from vismobile.terrain.tiles import TilePyramid  # noqa: E402
 
 PATHS = [("circle", "slow"), ("circle", "fast"), ("lemniscate", "slow"), ("lemniscate", "fast"),
@@ -50,14 +48,10 @@ def build_methods(hm, names, patch, C) -> tuple:
     methods, builds = [], {}
     for name in names:
         start = time.perf_counter()
-        if name == "tiles":
-            methods.append(TileMethod(TilePyramid.build(hm, patch)))
-        elif name == "roettger":
-            methods.append(RoettgerMethod(Roettger(hm, C=C)))
-        elif name == "roam":
-            methods.append(RoamMethod(Roam(hm)))
-        else:
-            raise SystemExit(f"unknown method {name!r} (tiles, roettger, roam)")
+        try:
+            methods.append(build_method(name, hm, patch, C))
+        except ValueError as error:
+            raise SystemExit(str(error)) from None
         builds[name] = time.perf_counter() - start
     return methods, builds
 

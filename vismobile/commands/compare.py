@@ -9,7 +9,9 @@ def add_parser(sub):
         "compare", help="run the comparison matrix (parallel, resumable) and write a report",
         description="Example: vismobile compare --worlds w1,w2 --structures "
                     "grid,octree:3-6,portal:1-3,bsp --cull all --profiles "
-                    "ipaq-hx2490b,nokia-n82")
+                    "ipaq-hx2490b,nokia-n82. With --terrain FILE.vmt: the terrain methods' "
+                    "pixel-knob sweep along camera paths instead (vismobile compare --terrain "
+                    "t.vmt --methods tiles,roettger,roam --taus 0.5,1,4 --frames sample:3)")
     parser.add_argument("--worlds", default="all",
                         help="comma-separated thesis worlds w1..w6, all, or mesh file paths "
                              "(a file needs --trajectory) (default all)")
@@ -25,7 +27,9 @@ def add_parser(sub):
     parser.add_argument("--profiles", default="ipaq-hx2490b,nokia-n82",
                         help="comma-separated device profiles: " + ", ".join(PROFILE_NAMES)
                              + " (default ipaq-hx2490b,nokia-n82)")
-    parser.add_argument("--frames", default="all", help=FRAMES_HELP + " (default all)")
+    parser.add_argument("--frames", default=None,
+                        help=FRAMES_HELP + " (default all; with --terrain: of one lap of each "
+                             "path, default sample:4)")
     parser.add_argument("-o", "--out", type=Path, default=Path("out/compare"),
                         help="results folder (runs/<key>.json, runs.csv, runs.json)")
     parser.add_argument("--report", type=Path, default=None,
@@ -44,10 +48,27 @@ def add_parser(sub):
     parser.add_argument("--agreement", type=int, default=2,
                         help="frames per world for the raster/ray-cast check (0: skip)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    terrain = parser.add_argument_group("terrain sweep (--terrain)")
+    terrain.add_argument("--terrain", type=Path, default=None,
+                         help="a .vmt terrain (vismobile terrain build): sweep the pixel knob "
+                              "of the terrain methods instead of the matrix")
+    terrain.add_argument("--methods", default="tiles,roettger,roam",
+                         help="comma-separated terrain methods: tiles, roettger, roam, "
+                              "roam/BUDGET (default tiles,roettger,roam)")
+    terrain.add_argument("--taus", default="0.25,0.5,0.7,1,2,4,8",
+                         help="pixel tolerances (default 0.25,0.5,0.7,1,2,4,8)")
+    terrain.add_argument("--paths", default="circle:fast,lemniscate:fast",
+                         help="comma-separated KIND:SPEED, kinds circle, lemniscate, valley, "
+                              "speeds slow, fast (default circle:fast,lemniscate:fast)")
+    terrain.add_argument("--peers", action="store_true",
+                         help="also pymartini and pydelatin at equal triangles and equal error "
+                              "(optional extra vismobile[peers]; missing ones are skipped)")
     return parser
 
 
 def run(args) -> int:
+    if args.terrain is not None:
+        return run_terrain(args)
     import json
 
     from ..atomic import check_destination
@@ -59,7 +80,7 @@ def run(args) -> int:
 
     trajectories = ({w: str(args.trajectory.resolve()) for w in parse_worlds(args.worlds)
                      if w not in WORLDS} if args.trajectory else None)
-    specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames,
+    specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames or "all",
                    trajectories)
     for path in (args.out / "runs.csv", args.out / "runs" / "x.json",
                  args.report or args.out / "report.html"):
@@ -88,3 +109,90 @@ def run(args) -> int:
     print(f"wrote {args.out / 'runs.csv'}, {args.out / 'runs.json'} and {report}"
           + (f"; {failed} runs failed (listed in the report)" if failed else ""))
     return 1 if failed else 0
+
+
+def _terrain_options(args) -> tuple:
+    """(methods, taus, paths, frames, profile) checked, or WorldError naming the bad option."""
+    from ..errors import WorldError
+    from ..profile import get_profile
+    from ..study.terrain import METHODS
+
+    def bad(option, message):
+        return WorldError(args.terrain, f"{option}: {message}")
+
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    for m in methods:
+        budget = m.split("/", 1)[1] if m.startswith("roam/") else None
+        if m not in METHODS and not (budget and budget.isdigit() and int(budget) >= 2):
+            raise bad("--methods", f"unknown method {m!r} (tiles, roettger, roam, roam/BUDGET)")
+    try:
+        taus = [float(t) for t in args.taus.split(",")]
+    except ValueError:
+        raise bad("--taus", f"not a list of numbers: {args.taus!r}") from None
+    if not taus or not all(t > 0 and t < float("inf") for t in taus):
+        raise bad("--taus", "tolerances must be finite and > 0")
+    paths = []
+    for item in args.paths.split(","):
+        kind, _, speed = item.strip().partition(":")
+        if kind not in ("circle", "lemniscate", "valley") or speed not in ("slow", "fast"):
+            raise bad("--paths", f"{item!r} is not KIND:SPEED (circle, lemniscate, valley; "
+                                 "slow, fast)")
+        paths.append((kind, speed))
+    frames = args.frames or "sample:4"
+    mode, _, value = frames.partition(":")
+    if not (frames == "all" or (mode in ("stride", "sample") and value.isdigit()
+                                and int(value) >= 1)):
+        raise bad("--frames", f"all, stride:N or sample:N, got {frames!r}")
+    profile = get_profile(args.profiles.split(",")[0])  # ProfileError: exit 2, one line
+    return methods, taus, paths, frames, profile
+
+
+def run_terrain(args) -> int:
+    """The terrain sweep: runs the methods along the paths for each tau, writes
+    OUT/terrain.csv, OUT/terrain.json and the report."""
+    import csv
+    import io
+    import json
+
+    from ..atomic import check_destination
+    from ..progress import Status
+    from ..study.report import write_terrain_report
+    from ..study.terrain import SWEEP_KEYS, sweep
+    from ..terrain import store
+    from ..world import atomic_write_bytes
+
+    methods, taus, paths, frames, profile = _terrain_options(args)
+    report_path = args.report or args.out / "report.html"
+    for path in (args.out / "terrain.csv", args.out / "terrain.json", report_path):
+        check_destination(path)
+    heightmap, _ = store.load(args.terrain)
+    with Status("compare --terrain", enabled=not args.quiet) as status:
+        rows = sweep(heightmap, methods, paths, taus, profile, frames, progress=status)
+        peers = None
+        if args.peers:
+            from ..study.peers import PEERS, compare, missing
+            from ..study.terrain import build_method, path_frames
+
+            for name in PEERS:
+                if missing(name):
+                    print(f"compare: skipping {name}: {missing(name)}", flush=True)
+            status("peers on the first path")
+            cameras = path_frames(heightmap, *paths[0], frames)
+            peers = compare([build_method(m, heightmap) for m in methods], heightmap, cameras,
+                            taus, profile)
+        status("writing the report")
+        buffer = io.StringIO()
+        writer = csv.DictWriter(buffer, fieldnames=SWEEP_KEYS)
+        writer.writeheader()
+        writer.writerows(rows)
+        atomic_write_bytes(args.out / "terrain.csv", buffer.getvalue().encode())
+        atomic_write_bytes(args.out / "terrain.json", json.dumps(
+            {"terrain": str(args.terrain), "profile": profile.name, "frames": frames,
+             "rows": rows, "peers": peers}, indent=1).encode())
+        report = write_terrain_report(
+            rows, report_path, title=f"vismobile terrain comparison: {heightmap.name}",
+            notes=f"{args.terrain}: {heightmap.size}^2 samples; {profile.name} "
+                  f"({profile.resolution[0]}x{profile.resolution[1]}); frames {frames} of each "
+                  "path.", peers=peers)
+    print(f"wrote {args.out / 'terrain.csv'}, {args.out / 'terrain.json'} and {report}")
+    return 0

@@ -16,6 +16,8 @@ import time
 
 import numpy as np
 
+METHODS = ("tiles", "roettger", "roam")  # the engine's terrain methods, in the sweep's order
+
 
 def project(points, camera, resolution) -> tuple:
     """Pixel coordinates (..., 2) float64 of world points and (...,) bool in front of the eye."""
@@ -54,6 +56,19 @@ def vertex_errors(heightmap, drawn, camera, resolution) -> np.ndarray:
     gap = vertical_gap_pixels(x, drawn[i, j], heightmap.heights[i, j].astype(np.float64), z,
                               camera, resolution)
     return gap[np.isfinite(gap)]
+
+
+def world_error(heightmap, drawn, camera) -> float:
+    """Largest vertical gap (world units) between a drawn surface (N, N; NaN = not drawn) and
+    the samples, over the samples inside the frustum (0 when none)."""
+    from ..geometry.planes import points_inside
+
+    i, j = np.nonzero(np.isfinite(drawn))
+    points = np.stack([j * heightmap.spacing, heightmap.heights[i, j], i * heightmap.spacing], -1)
+    inside = points_inside(points, camera.frustum_planes())
+    if not inside.any():
+        return 0.0
+    return float(np.abs(drawn[i, j] - heightmap.heights[i, j])[inside].max())
 
 
 def pixel_height_errors(depth, camera, heightmap, resolution, alternating=False) -> np.ndarray:
@@ -231,7 +246,8 @@ def measure(methods, heightmap, cameras, taus, profile, exact_vertices: bool = F
     mesh of finest fans for Röttger). Cameras run in order for each (method, tau), so
     frame-to-frame methods see a path. Row keys: method, tau, frame, triangles,
     full_triangles, lod_ms, render_ms, psnr, differing, pixel_height_max, pixel_height_p99
-    (vertex_error_max with exact_vertices; render=False skips renders and image errors).
+    (with exact_vertices also vertex_error_max in pixels and vertical_error_max in world
+    units, over the samples in the frustum; render=False skips renders and image errors).
     """
     from ..render.terrain import TerrainRenderer
 
@@ -260,7 +276,92 @@ def measure(methods, heightmap, cameras, taus, profile, exact_vertices: bool = F
                                pixel_height_max=float(gaps.max()) if len(gaps) else 0.0,
                                pixel_height_p99=float(np.percentile(gaps, 99)) if len(gaps) else 0.0)
                 if exact_vertices:
-                    errors = vertex_errors(heightmap, method.heights(result), camera, resolution)
+                    drawn = method.heights(result)
+                    errors = vertex_errors(heightmap, drawn, camera, resolution)
                     row["vertex_error_max"] = float(errors.max()) if len(errors) else 0.0
+                    row["vertical_error_max"] = world_error(heightmap, drawn, camera)
                 rows.append(row)
+    return rows
+
+
+def build_method(name: str, heightmap, patch: int = 16, C: float = 8.0):
+    """A measurable method by name: tiles, roettger, roam (or roam/BUDGET: budget mode), or a
+    PyPI peer (martini, delatin; study.peers, static meshes at a world-unit error)."""
+    if name == "tiles":
+        from ..terrain.tiles import TilePyramid
+
+        return TileMethod(TilePyramid.build(heightmap, patch))
+    if name == "roettger":
+        from ..terrain.roettger import Roettger
+
+        return RoettgerMethod(Roettger(heightmap, C=C))
+    if name == "roam" or name.startswith("roam/"):
+        from ..terrain.roam import Roam
+
+        budget = None
+        if "/" in name:
+            try:
+                budget = int(name.split("/", 1)[1])
+            except ValueError:
+                raise ValueError(f"roam budget must be an integer: {name!r}") from None
+        return RoamMethod(Roam(heightmap), budget)
+    raise ValueError(f"unknown terrain method {name!r} (tiles, roettger, roam, roam/BUDGET)")
+
+
+def path_frames(heightmap, kind: str, speed: str, frames: str) -> list:
+    """Cameras of one lap of a path for a frames spec: all, stride:N or sample:N."""
+    from ..terrain.paths import lap_frames, path_cameras
+
+    lap = lap_frames(heightmap, kind, speed)
+    mode, _, value = frames.partition(":")
+    if mode == "all" and not value:
+        return path_cameras(heightmap, kind, speed, frames=lap)
+    try:
+        count = int(value)
+    except ValueError:
+        count = 0
+    if mode not in ("stride", "sample") or count < 1:
+        raise ValueError(f"frames must be all, stride:N or sample:N (N >= 1), got {frames!r}")
+    if mode == "stride":
+        return path_cameras(heightmap, kind, speed, frames=-(-lap // count), every=count)
+    every = max(1, lap // count)
+    return path_cameras(heightmap, kind, speed, frames=min(count, lap), every=every)
+
+
+SWEEP_KEYS = ("method", "path", "tau", "frames", "triangles", "full_triangles", "lod_ms",
+              "render_ms", "psnr_min", "psnr_median", "differing_median", "pixel_height_max",
+              "pixel_height_p99", "sample_error_max", "vertical_error_max")
+
+
+def sweep(heightmap, names, paths, taus, profile, frames: str = "sample:4", patch: int = 16,
+          C: float = 8.0, progress=None) -> list:
+    """The pixel-knob sweep: one summary row per (method, path, tau) over the path's frames
+    (keys SWEEP_KEYS; medians unless the key says min/max). paths: [(kind, speed)]."""
+    rows = []
+    for name in names:
+        method = build_method(name, heightmap, patch, C)
+        for kind, speed in paths:
+            if progress:
+                progress(f"{name} on the {speed} {kind}")
+            if hasattr(method, "roam"):
+                method.roam.reset()
+            cameras = path_frames(heightmap, kind, speed, frames)
+            measured = measure([method], heightmap, cameras, taus, profile, exact_vertices=True)
+            for tau in taus:
+                r = [x for x in measured if x["tau"] == tau]
+                rows.append({
+                    "method": method.name, "path": f"{kind} {speed}", "tau": float(tau),
+                    "frames": len(r),
+                    "triangles": float(np.median([x["triangles"] for x in r])),
+                    "full_triangles": float(np.median([x["full_triangles"] for x in r])),
+                    "lod_ms": float(np.median([x["lod_ms"] for x in r])),
+                    "render_ms": float(np.median([x["render_ms"] for x in r])),
+                    "psnr_min": float(min(x["psnr"] for x in r)),
+                    "psnr_median": float(np.median([x["psnr"] for x in r])),
+                    "differing_median": float(np.median([x["differing"] for x in r])),
+                    "pixel_height_max": float(max(x["pixel_height_max"] for x in r)),
+                    "pixel_height_p99": float(np.median([x["pixel_height_p99"] for x in r])),
+                    "sample_error_max": float(max(x["vertex_error_max"] for x in r)),
+                    "vertical_error_max": float(max(x["vertical_error_max"] for x in r)),
+                })
     return rows

@@ -44,6 +44,23 @@ def valley_polyline(heightmap, points: int = 64) -> np.ndarray:
     return np.stack([cols * scale, rows * scale], axis=1)
 
 
+def lap_frames(heightmap, kind: str = "circle", speed: str = "fast") -> int:
+    """Frames of one lap of the path (the valley path: there and back)."""
+    if (kind, speed) not in SPEEDS:
+        raise ValueError(f"unknown path {kind}/{speed}; kinds circle, lemniscate, valley; "
+                         "speeds slow, fast")
+    width = heightmap.extent
+    step = SPEEDS[(kind, speed)] * (heightmap.size - 1) / REFERENCE_WIDTH * heightmap.spacing
+    if kind == "circle":
+        length = 2 * np.pi * 0.4 * width
+    elif kind == "lemniscate":
+        length = 5.244 * 0.45 * width
+    else:
+        line = valley_polyline(heightmap)
+        length = 2 * float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
+    return max(1, int(round(length / step)))
+
+
 def path_cameras(heightmap, kind: str = "circle", speed: str = "fast", frames: int = 100,
                  start: int = 0, eye_height: float = 1.0, pitch: float = -10.0,
                  fov: float | None = None, aspect: float = 240 / 320, far: float | None = None,

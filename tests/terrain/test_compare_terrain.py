@@ -1,0 +1,42 @@
+"""`vismobile compare --terrain`: the pixel-knob sweep along paths, CSV, JSON and report."""
+import csv
+
+from vismobile.cli import main
+
+
+def test_sweep_writes_csv_json_and_report(tmp_path, capsys):
+    terrain = tmp_path / "t.vmt"
+    assert main(["terrain", "build", "fractal", "--size", "129", "--seed", "4", "-o",
+                 str(terrain)]) == 0
+    out = tmp_path / "sweep"
+    assert main(["compare", "--terrain", str(terrain), "--methods", "tiles,roam,roam/2000",
+                 "--taus", "1,4", "--paths", "circle:fast", "--frames", "sample:2", "--out",
+                 str(out), "--quiet"]) == 0
+    with open(out / "terrain.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["method"], float(r["tau"])) for r in rows] == [
+        ("tiles", 1.0), ("tiles", 4.0), ("roam", 1.0), ("roam", 4.0), ("roam/2000", 1.0),
+        ("roam/2000", 4.0)]
+    for r in rows:
+        assert r["frames"] == "2" and float(r["triangles"]) > 0
+        if r["method"] in ("tiles", "roam"):
+            assert float(r["sample_error_max"]) <= float(r["tau"])
+    assert float(rows[2]["triangles"]) > float(rows[3]["triangles"])
+    assert float(rows[4]["triangles"]) <= 2000
+    page = (out / "report.html").read_text()
+    assert "pixel knob" in page and "roam/2000" in page and "data:image/png" in page
+    assert (out / "terrain.json").stat().st_size > 0
+
+
+def test_bad_sweep_options_exit_2_with_one_line(tmp_path, capsys):
+    terrain = tmp_path / "t.vmt"
+    assert main(["terrain", "build", "fractal", "--size", "65", "-o", str(terrain)]) == 0
+    capsys.readouterr()
+    for option, value in (("--methods", "tiles,lod"), ("--taus", "1,-2"), ("--paths", "spiral:fast"),
+                          ("--frames", "every:3"), ("--methods", "roam/x")):
+        assert main(["compare", "--terrain", str(terrain), option, value, "--out",
+                     str(tmp_path / "o"), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("vismobile: error:") and option in err and err.count("\n") == 1
+    assert main(["compare", "--terrain", str(tmp_path / "missing.vmt"), "--out",
+                 str(tmp_path / "o"), "--quiet"]) == 2
