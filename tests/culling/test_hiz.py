@@ -28,14 +28,16 @@ def raster(tris, clip=0.1):
     n /= np.linalg.norm(n, axis=1)[:, None]
     assert np.all(np.einsum("ij,ij->i", n, -tris[:, 0]) > 0), "triangles must face the eye"
     mesh = occluder_mesh(tris.reshape(-1, 3), np.arange(3 * len(tris)).reshape(-1, 3), n)
-    points, tri_points, normals, offsets, groups, start, end, a, b, partner = mesh
+    points, tri_points, normals, offsets, groups, start, end, a, b, partner, anyp = mesh
     ids = np.argsort(groups, kind="stable").astype(np.int64)
     depth = np.full(W * H, np.inf)
-    mask = np.zeros(W * H, dtype=np.uint8)
+    mask, centre = np.zeros(W * H, dtype=np.uint8), np.zeros(W * H, dtype=np.uint8)
+    crease = np.zeros(W * H)
     stamp = np.full(len(tris), -1, dtype=np.int64)
     rasterise(ids, groups, tri_points, points, normals, offsets, start, end, a, b, partner,
-              stamp, 1, np.zeros(3), np.eye(3), clip, TX, TY, W, H, depth, mask)
-    assert not mask.any()  # scratch handed back clear
+              anyp, stamp, 1, np.zeros(3), np.eye(3), clip, TX, TY, W, H, depth, mask, centre,
+              crease)
+    assert not mask.any() and not centre.any() and not crease.any()  # scratch handed back
     rows, cols = (H + TILE[1] - 1) // TILE[1], (W + TILE[0] - 1) // TILE[0]
     tmax, tany = np.empty(rows * cols), np.empty(rows * cols, dtype=bool)
     build_tiles(depth, W, H, *TILE, tmax, tany)
@@ -117,6 +119,31 @@ def test_t_junctions_fuse_without_cracks_and_the_hole_stays_open():
     ring[1:-1, 1:-1] = True
     hole_ring = (np.abs(us)[None, :] - 3.0 / W < 0.3) & (np.abs(vs)[:, None] - 3.0 / H < 0.3)
     assert np.isfinite(depth[ring & ~hole_ring]).all()  # no crack along the T-junctions
+
+
+def test_crease_between_two_planes_is_covered_with_a_safe_depth():
+    # A floor (y = -1) meeting a wall (z = 6) at a crease, seen from above the floor: the crease
+    # row is covered by the two groups together, with the farther plane's depth.
+    wall = np.array([[[-9.0, -1, 6], [9, 9, 6], [9, -1, 6]], [[-9.0, -1, 6], [-9, 9, 6], [9, 9, 6]]])
+    floor = np.array([[[-9.0, -1, 0.5], [-9, -1, 6], [9, -1, 6]],
+                      [[-9.0, -1, 0.5], [9, -1, 6], [9, -1, 0.5]]])
+    depth = check_contract(np.concatenate([wall, floor]))
+    assert np.isfinite(depth).all()  # the whole screen, crease included
+    crease = int(np.floor((-1 / (6 * TY) + 1) * H / 2))
+    assert np.all(depth[crease] >= 6.0)
+    wall_only = check_contract(wall)
+    assert not np.isfinite(wall_only[crease]).all()
+
+
+def test_a_crease_with_a_gap_beside_it_stays_open():
+    # The floor stops short of the wall's right half: the crease covers only where both meet.
+    wall = np.array([[[-9.0, -1, 6], [9, 9, 6], [9, -1, 6]], [[-9.0, -1, 6], [-9, 9, 6], [9, 9, 6]]])
+    floor = np.array([[[-9.0, -1, 0.5], [-9, -1, 6], [0, -1, 6]],
+                      [[-9.0, -1, 0.5], [0, -1, 6], [0, -1, 0.5]]])
+    depth = check_contract(np.concatenate([wall, floor]))
+    crease = int(np.floor((-1 / (6 * TY) + 1) * H / 2))
+    assert np.isfinite(depth[crease, :W // 2 - 2]).all()
+    assert not np.isfinite(depth[crease, W // 2 + 2:]).any()
 
 
 def test_tilted_and_overlapping_occluders_bound_the_nearest_surface():

@@ -65,8 +65,8 @@ def _clip_triangle(tri, clip, poly, cut):
 
 
 @njit(cache=True, nogil=True)
-def _clear_segment(ax, ay, bx, by, width, height, mask):
-    """Sets mask to 0 on every pixel a -> b (pixel coordinates) passes within SLACK_PX of,
+def _mark_segment(ax, ay, bx, by, width, height, mask, bit):
+    """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of,
     clipped to the buffer (errs toward more pixels)."""
     steep = abs(by - ay) > abs(bx - ax)
     if steep:
@@ -93,28 +93,40 @@ def _clear_segment(ax, ay, bx, by, width, height, mask):
             continue
         for r in range(int(r0), int(r1) + 1):
             if steep:
-                mask[c * width + r] = 0
+                mask[c * width + r] |= bit
             else:
-                mask[r * width + c] = 0
+                mask[r * width + c] |= bit
+
+
+# Group scratch bits per pixel: centre inside a triangle of the group, met by a boundary piece
+# (no reverse partner among this call's triangles) or a near-plane cut, met by a crease piece
+# (reverse partner in another group of this call).
+_CENTRE, _BOUNDARY, _CREASE = 1, 2, 4
 
 
 @njit(cache=True, nogil=True)
 def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, piece_end,
-              piece_a, piece_b, partner, stamp, frame, eye, rot, clip, tx, ty, width, height,
-              depth, mask):
+              piece_a, piece_b, partner, partner_any, stamp, frame, eye, rot, clip, tx, ty,
+              width, height, depth, mask, centre, crease_far):
     """Rasterise occluder triangles `ids` (sorted by group) into depth (H * W,) float64 by the
     pointwise minimum; returns (nearest rasterised depth (inf if none), pixels written).
 
     Contract: errs toward "not covered" and "farther": a pixel is written only when wholly inside
-    the union of one plane group's triangles clipped to depth >= clip, with a depth >= every
-    point of that union over the pixel (x (1 + DEPTH_SLACK)).
+    the union of the triangles clipped to depth >= clip, with a depth >= every point of that
+    union over the pixel (x (1 + DEPTH_SLACK)). Either one plane group covers it (its centre in
+    a triangle of the group, no unpaired piece of the group near it: that plane's farthest
+    depth), or its centre is in some triangle and only crease pieces (paired across groups) come
+    near it: the largest of the farthest depths of the groups whose pieces come near.
     groups     : (T,) int64 exact-plane label;  tri_points : (T, 3) int64 into points (P, 3)
     normals    : (T, 3), offsets (T,) float64 exact planes n.x = offset; ids must face the eye
     piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (split at T-junctions)
     partner    : (S,) int64 triangle holding the reverse piece in the same group, or -1
+    partner_any: (S,) int64 triangle holding the reverse piece in any group, or -1
     stamp      : (T,) int64 scratch; stamp[t] == frame marks this call's triangles (set here)
-    eye (3,), rot (3, 3) rows right, up, forward;  mask : (H * W,) uint8 scratch, zero on entry
-    and on return
+    eye (3,), rot (3, 3) rows right, up, forward
+    mask, centre : (H * W,) uint8 scratch, zero on entry and on return
+    crease_far : (H * W,) float64 scratch, 0 on entry and on return (inf: a crease pixel with
+                 no bound; -1: met by a boundary)
     """
     for k in range(len(ids)):
         stamp[ids[k]] = frame
@@ -129,13 +141,15 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     sx, sy = 0.5 * width / tx, 0.5 * height / ty
     nearest = np.inf
     written = 0
+    creases = False
     start = 0
     while start < len(ids):
         g = groups[ids[start]]
         stop = start
         while stop < len(ids) and groups[ids[stop]] == g:
             stop += 1
-        gx0, gx1, gy0, gy1 = width, -1, height, -1
+        # Box of everything the group marks: its projected points, one pixel wider.
+        bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf
         # 1. Pixel centres inside any triangle of the group.
         for k in range(start, stop):
             t = ids[k]
@@ -148,6 +162,8 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 nearest = min(nearest, poly[c, 2])
                 xs[c] = poly[c, 0] / poly[c, 2] * sx + 0.5 * width
                 ys[c] = poly[c, 1] / poly[c, 2] * sy + 0.5 * height
+                bx0, bx1 = min(bx0, xs[c]), max(bx1, xs[c])
+                by0, by1 = min(by0, ys[c]), max(by1, ys[c])
             r0 = max(np.ceil(ys[:n].min() - 0.5), 0.0)
             r1 = min(np.floor(ys[:n].max() - 0.5), height - 1.0)
             if not r0 <= r1:
@@ -168,21 +184,24 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 c1 = min(np.floor(xr - 0.5), width - 1.0)
                 if not c0 <= c1:
                     continue
-                i0, i1 = int(c0), int(c1)
-                for i in range(i0, i1 + 1):
-                    mask[rr * width + i] = 1
-                gx0, gx1 = min(gx0, i0), max(gx1, i1)
-                gy0, gy1 = min(gy0, rr), max(gy1, rr)
-        if gx1 < 0:
+                for i in range(int(c0), int(c1) + 1):
+                    mask[rr * width + i] |= _CENTRE
+        gx0 = int(max(np.floor(bx0) - 1.0, 0.0)) if bx0 < np.inf else width
+        gx1 = int(min(np.floor(bx1) + 1.0, width - 1.0)) if bx1 > -np.inf else -1
+        gy0 = int(max(np.floor(by0) - 1.0, 0.0)) if by0 < np.inf else height
+        gy1 = int(min(np.floor(by1) + 1.0, height - 1.0)) if by1 > -np.inf else -1
+        if gx1 < gx0 or gy1 < gy0:
             start = stop
             continue
-        # 2. Pixels any boundary piece or near-plane cut passes near are not covered.
+        # 2. Pixels unpaired pieces, crease pieces or near-plane cuts pass near.
         for k in range(start, stop):
             t = ids[k]
             for s in range(piece_start[t], piece_end[t]):
                 q = partner[s]
                 if q >= 0 and stamp[q] == frame:
                     continue  # the reverse piece's triangle is on the other side
+                q = partner_any[s]
+                bit = _CREASE if q >= 0 and stamp[q] == frame else _BOUNDARY
                 _to_camera(points[piece_a[s]], eye, rot, pa)
                 _to_camera(points[piece_b[s]], eye, rot, pb)
                 if pa[2] < clip and pb[2] < clip:
@@ -195,21 +214,23 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                         pa[0], pa[1], pa[2] = cx, cy, clip
                     else:
                         pb[0], pb[1], pb[2] = cx, cy, clip
-                _clear_segment(pa[0] / pa[2] * sx + 0.5 * width,
-                               pa[1] / pa[2] * sy + 0.5 * height,
-                               pb[0] / pb[2] * sx + 0.5 * width,
-                               pb[1] / pb[2] * sy + 0.5 * height, width, height, mask)
+                _mark_segment(pa[0] / pa[2] * sx + 0.5 * width,
+                              pa[1] / pa[2] * sy + 0.5 * height,
+                              pb[0] / pb[2] * sx + 0.5 * width,
+                              pb[1] / pb[2] * sy + 0.5 * height, width, height, mask, bit)
             for c in range(3):
                 _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
             n = _clip_triangle(tri, clip, poly, cut)
             for c in range(n):
                 d = (c + 1) % n
                 if cut[c] and cut[d]:  # the near-plane side of a cut triangle
-                    _clear_segment(poly[c, 0] / clip * sx + 0.5 * width,
-                                   poly[c, 1] / clip * sy + 0.5 * height,
-                                   poly[d, 0] / clip * sx + 0.5 * width,
-                                   poly[d, 1] / clip * sy + 0.5 * height, width, height, mask)
-        # 3. The group's plane, farthest over each covered pixel's corners; scratch cleared.
+                    _mark_segment(poly[c, 0] / clip * sx + 0.5 * width,
+                                  poly[c, 1] / clip * sy + 0.5 * height,
+                                  poly[d, 0] / clip * sx + 0.5 * width,
+                                  poly[d, 1] / clip * sy + 0.5 * height, width, height, mask,
+                                  _BOUNDARY)
+        # 3. The group's plane, farthest over each pixel's corners: covered pixels take it,
+        # crease pixels keep the largest over groups; scratch cleared.
         t = ids[start]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
         for r in range(3):  # camera-space n away from the eye, d > 0: n.x = d on the plane
@@ -224,16 +245,39 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
         for rr in range(gy0, gy1 + 1):
             for i in range(gx0, gx1 + 1):
                 p = rr * width + i
-                if mask[p] and dd > 0:
+                m = mask[p]
+                if m == 0:
+                    continue
+                mask[p] = 0
+                if m & _CENTRE:
+                    centre[p] = 1
+                if m & _BOUNDARY:
+                    crease_far[p] = -1.0
+                    continue
+                z = np.inf
+                if dd > 0:
                     inv = a * i + b * rr + c0_ + low
                     if inv > 0:
                         z = (1.0 + DEPTH_SLACK) / inv
-                        if z < depth[p]:
-                            if depth[p] == np.inf:
-                                written += 1
-                            depth[p] = z
-                mask[p] = 0
+                if m & _CREASE:
+                    creases = True
+                    if crease_far[p] >= 0:
+                        crease_far[p] = max(crease_far[p], z)
+                elif z < depth[p]:
+                    if depth[p] == np.inf:
+                        written += 1
+                    depth[p] = z
         start = stop
+    # 4. Crease pixels: centre in some triangle, met by no boundary, every group near bounded.
+    if creases:
+        for p in range(width * height):
+            f = crease_far[p]
+            if f > 0 and f < depth[p] and centre[p]:
+                if depth[p] == np.inf:
+                    written += 1
+                depth[p] = f
+    centre[:] = 0
+    crease_far[:] = 0.0
     return nearest, written
 
 

@@ -88,7 +88,8 @@ def occluder_mesh(vertices, triangles, normals) -> tuple:
     """The rasteriser's tables (hiz.rasterise) for triangles (T, 3) int64 over vertices (V, 3)
     with unit normals (T, 3): (points (P, 3) each value once, tri_points (T, 3), normals,
     offsets (T,), groups (T,) exact-plane labels, piece_start, piece_end (T,), piece_a,
-    piece_b (S,) edge pieces split at T-junctions, partner (S,) reverse piece's triangle or -1).
+    piece_b (S,) edge pieces split at T-junctions, partner (S,) reverse piece's triangle in the
+    same group or -1, partner_any (S,) the same in any group).
     Each point once, so shared corners project to bit-identical values."""
     points, index = np.unique(np.asarray(vertices, dtype=np.float64), axis=0,
                               return_inverse=True)
@@ -102,7 +103,8 @@ def occluder_mesh(vertices, triangles, normals) -> tuple:
     start = np.searchsorted(tri, ids, "left").astype(np.int64)
     end = np.searchsorted(tri, ids, "right").astype(np.int64)
     return (points, tri_points, normals, offsets, groups, start, end, a.astype(np.int64),
-            b.astype(np.int64), piece_partners(tri, a, b, groups))
+            b.astype(np.int64), piece_partners(tri, a, b, groups),
+            piece_partners(tri, a, b, np.zeros_like(groups)))
 
 
 class DepthBufferOcclusion:
@@ -156,8 +158,8 @@ class DepthBufferOcclusion:
         world = tree.world
         count = world.triangle_count
         (self.points, self.tri_points, self.normals, self.offsets, self.groups,
-         self.piece_start, self.piece_end, self.piece_a, self.piece_b,
-         self.partner) = occluder_mesh(world.vertices, world.triangles, world.normals)
+         self.piece_start, self.piece_end, self.piece_a, self.piece_b, self.partner,
+         self.partner_any) = occluder_mesh(world.vertices, world.triangles, world.normals)
         corners = world.corners
         # Candidate lists: each node's largest triangles (children before parents).
         order = np.arange(tree.node_count - 1, -1, -1, dtype=np.int64)
@@ -179,6 +181,8 @@ class DepthBufferOcclusion:
         self.tiles = ((self.width + tw - 1) // tw) * ((self.height + th - 1) // th)
         self.depth = np.full(pixels, np.inf)
         self.mask = np.zeros(pixels, dtype=np.uint8)
+        self.centre = np.zeros(pixels, dtype=np.uint8)
+        self.crease_far = np.zeros(pixels)
         self.tile_max = np.full(self.tiles, np.inf)
         self.tile_any = np.zeros(self.tiles, dtype=np.bool_)
         self.stamp = np.full(count, -1, dtype=np.int64)
@@ -282,8 +286,9 @@ class DepthBufferOcclusion:
         nearest, written = rasterise(
             np.ascontiguousarray(chosen, dtype=np.int64), self.groups, self.tri_points,
             self.points, self.normals, self.offsets, self.piece_start, self.piece_end,
-            self.piece_a, self.piece_b, self.partner, self.stamp, self._frame, eye, rotation,
-            self.near_clip(camera), tx, ty, self.width, self.height, self.depth, self.mask)
+            self.piece_a, self.piece_b, self.partner, self.partner_any, self.stamp, self._frame,
+            eye, rotation, self.near_clip(camera), tx, ty, self.width, self.height, self.depth,
+            self.mask, self.centre, self.crease_far)
         self.nearest = min(self.nearest, nearest)
         build_tiles(self.depth, self.width, self.height, *self.tile, self.tile_max,
                     self.tile_any)
