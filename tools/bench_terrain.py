@@ -112,7 +112,7 @@ def errors(hm, taus, frames, profile, patch, C, eye_height, exact, names) -> lis
     return summary
 
 
-def horizon(hm, frames, profile, patch, eye_height, objects) -> dict:
+def horizon(hm, frames, profile, patch, eye_height, objects, arithmetic="float64") -> dict:
     """Objects the horizon hides on the valley path, checked against the item buffer, and the
     tile triangles it removes."""
     from vismobile.geometry.planes import classify_boxes
@@ -130,7 +130,7 @@ def horizon(hm, frames, profile, patch, eye_height, objects) -> dict:
     vertices = np.concatenate([v for v, _ in meshes])
     triangles = np.concatenate([t + o for (_, t), o in zip(meshes, offsets[:-1])])
     pyramid = TilePyramid.build(hm, patch)
-    caster = HorizonCaster(hm, bands=120, step=0.01)
+    caster = HorizonCaster(hm, bands=120, step=0.01, arithmetic=arithmetic)
     renderer = TerrainRenderer(hm, profile)
     base = 1 << 28
     rows = []
@@ -175,6 +175,8 @@ def main(argv=None) -> int:
     parser.add_argument("--objects", type=int, default=200)
     parser.add_argument("--horizon-frames", type=int, default=12)
     parser.add_argument("--methods", default="tiles,roettger,roam")
+    parser.add_argument("--arithmetic", default="float64", choices=("float64", "fixed16.16"),
+                        help="the horizon's arithmetic (fixed16.16: a fixed-point profile's)")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_terrain.md")
     args = parser.parse_args(argv)
     profile = get_profile("ipaq-hx2490b")
@@ -221,12 +223,13 @@ def main(argv=None) -> int:
         lines += table
     if not args.skip_horizon:
         hm = heightmap(args.render_size)
-        rows = horizon(hm, args.horizon_frames, profile, args.patch, 2.0, args.objects)
+        rows = horizon(hm, args.horizon_frames, profile, args.patch, 2.0, args.objects,
+                       args.arithmetic)
         record["horizon"] = rows
         in_view = sum(r["in_view"] for r in rows)
         hidden = sum(r["hidden"] for r in rows)
-        table = [f"## Horizon on the valley path, {args.render_size}^2, {args.objects} objects, "
-                 f"{len(rows)} frames, eye 2 above ground", "",
+        table = [f"## Horizon ({args.arithmetic}) on the valley path, {args.render_size}^2, "
+                 f"{args.objects} objects, {len(rows)} frames, eye 2 above ground", "",
                  "| frame | objects in view | hidden | visible (item buffer) | hidden but visible "
                  "| cast CPU ms | tile triangles | with horizon | tiles+horizon CPU ms |",
                  "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]

@@ -1,5 +1,6 @@
 """Horizon occlusion (seed 001) is conservative against the real item buffer."""
 import numpy as np
+import pytest
 
 from vismobile.profile import get_profile
 from vismobile.render import SENTINEL
@@ -99,3 +100,49 @@ def test_tiles_behind_the_horizon_change_no_pixel(pyramid257):
         assert np.array_equal(images[0], images[1])
         dropped += selection.triangles - kept.triangles
     assert dropped > 0
+
+
+def test_fixed_point_horizon_never_hides_a_visible_box(pyramid257):
+    """The 16.16 cast and test (fixed16.16 profiles): over low paths, no box it hides shows in
+    the item buffer of the full terrain plus the boxes; it hides about as much as float64 and
+    never a box float64 keeps... within its safety margin (counted, not asserted)."""
+    from vismobile.geometry.planes import classify_boxes
+
+    hm = pyramid257.heightmap
+    boxes = ground_boxes(hm, 300, seed=6)
+    vertices, triangles = box_mesh(boxes)
+    fixed_profile = get_profile("ipaq-hx2490b", "fixed16.16")
+    fixed = HorizonCaster.for_profile(hm, fixed_profile, bands=60, step=0.02)
+    exact = HorizonCaster(hm, bands=60, step=0.02)
+    assert fixed.arithmetic == "fixed16.16" and exact.arithmetic == "float64"
+    renderer = TerrainRenderer(hm, PROFILE)
+    hidden_total = exact_total = in_view_total = 0
+    cameras = (path_cameras(hm, "valley", "fast", frames=3, every=150, eye_height=1.5)
+               + path_cameras(hm, "lemniscate", "fast", frames=3, every=170, eye_height=1.0))
+    for camera in cameras:
+        hidden = fixed.cast(camera).hidden(boxes)
+        renderer.draw(*selection_mesh(pyramid257, full_selection(pyramid257, camera)), camera,
+                      kind="item")
+        renderer.draw_mesh_items(vertices, triangles, camera, BASE)
+        ids = renderer.read_ids()
+        seen = np.unique((ids[(ids != SENTINEL) & (ids >= BASE)] - BASE) // 12)
+        assert not hidden[seen].any()
+        in_view = ~classify_boxes(boxes, camera.frustum_planes())[0]
+        hidden_total += int((hidden & in_view).sum())
+        exact_total += int((exact.cast(camera).hidden(boxes) & in_view).sum())
+        in_view_total += int(in_view.sum())
+    assert hidden_total >= 0.2 * in_view_total > 0
+    assert hidden_total >= 0.9 * exact_total
+
+
+def test_fixed_point_horizon_refuses_maps_beyond_its_range():
+    from vismobile.errors import ProfileError
+    from vismobile.terrain.heightmap import Heightmap
+
+    wide = Heightmap(np.zeros((65, 65), np.uint16), spacing=1000.0)
+    with pytest.raises(ProfileError):
+        HorizonCaster(wide, arithmetic="fixed16.16")
+    odd = Heightmap(np.zeros((65, 65), np.uint16), spacing=0.1)
+    camera = path_cameras(odd, "circle", "fast", frames=1, eye_height=2)[0]
+    with pytest.raises(ProfileError):
+        HorizonCaster(odd, arithmetic="fixed16.16").cast(camera)
