@@ -3,28 +3,37 @@ profile's arithmetic mode, keeps every triangle that the item buffer shows when 
 in the profile's own vertex format (float32 or fixed16.16 vertices, float32 transform), and
 every triangle the exact (eye-relative) item buffer shows, on the stress base world offset by
 1e5 and scaled by 1e-3 and 1e3, from pitched (+-89 deg), near-wall (1e-3 from a wall, near
-1e-4), narrow (1 deg) and wide (170 deg) cameras."""
+1e-4), narrow (1 deg) and wide (170 deg) cameras, on every structure; and the same on W1 and
+a real mesh (the cow) moved and scaled, from the camera classes of scenes/hard_cameras.py."""
 import numpy as np
 import pytest
 
 from vismobile.camera import Camera
-from vismobile.culling import CONSERVATIVE, Culler, device_options, parse_stages, precision
-from vismobile.geometry import arithmetic
+from vismobile.culling import CONSERVATIVE, Culler, device_options, parse_stages
 from vismobile.partition import partition
 from vismobile.profile import get_profile
-from vismobile.render import SENTINEL, item_buffer
+from vismobile.render.device_view import device_buffers, shown_ids
+from vismobile.scenes.hard_cameras import CLASSES, hard_cameras, moved
+from vismobile.scenes.objects import model_world
 from vismobile.scenes.stress import ROOM_SIZE, base_world
 from vismobile.world import World
 
-# (vertex format, scale, offset): fixed16.16 cannot hold 1e5 (its range is +-32767).
+# (vertex format, scale, offset): fixed16.16 cannot hold 1e5 (its range is +-32767): 1e4.
 CASES = {"float32-offset-1e5": ("float32", 1.0, 1e5),
+         "fixed-offset-1e4": ("fixed16.16", 1.0, 1e4),
          "float32-scale-1e-3": ("float32", 1e-3, 0.0),
          "float32-scale-1e3": ("float32", 1e3, 0.0),
          "fixed-scale-1e-3": ("fixed16.16", 1e-3, 0.0),
          "fixed-scale-1e3": ("fixed16.16", 1e3, 0.0)}
-# Each conservative stage alone (on the structure it needs), and all of them together.
-COMBOS = tuple(CONSERVATIVE) + ("vfc,occlusion,cbfc,cone,tbfc",
+# Each conservative stage alone, and all of them together; `portals` (plain vfc without a
+# portal structure) only on portal octrees.
+KINDS = {"octree": {"depth": 3}, "portal": {"depth": 1}, "bsp": {}, "grid": {}}
+COMBOS = tuple(CONSERVATIVE) + ("vfc,occlusion,occlusion_thesis,cbfc,cone,tbfc",
                                  "portals,occlusion,occlusion_thesis,cbfc,cone,tbfc")
+
+
+def combos_for(kind):
+    return [c for c in COMBOS if kind == "portal" or "portals" not in c]
 # Faces of the base world a near-wall camera sits next to: (axis, coordinate, low, high) with
 # the face's extent in base coordinates: the room shell, the dividing wall, crate and cabinet.
 WALLS = [(0, 0.0, (0, 0.2, 0.5), (0, 2.8, 11.5)), (0, 8.0, (8, 0.2, 0.5), (8, 2.8, 11.5)),
@@ -83,52 +92,74 @@ def cameras_for(scale, offset, aspect):
             for label, p, yaw, pitch, fov, near in base_cameras()]
 
 
-def eye_relative(world, camera, profile, back):
-    """ids the item buffer shows of world seen from camera, rendered relative to the eye
-    (float64 shift first, so the GPU's float32 adds no error of its own)."""
-    local = world.transformed(1.0, -camera.eye)
-    at_origin = camera.with_(position=(0.0, 0.0, 0.0))
-    return np.unique(item_buffer(local, None, at_origin, get_profile(profile, "float32"),
-                                 cull_back=back))
-
-
 def visible(world, camera, profile, back):
-    """ids shown by the device three ways: the GPU drawing the profile's vertex format (its
-    float32 transform), the world and camera rounded to the format (the rounding alone), and
-    the exact world (the geometry alone)."""
-    fmt = profile.vertex_format
-    device = item_buffer(world, None, camera, profile, cull_back=back)
-    eye = arithmetic.quantize(camera.eye, fmt)
-    rounded = eye_relative(precision.quantize_world(world, fmt), camera.with_(position=eye),
-                           profile, back)
-    exact = eye_relative(world, camera, profile, back)
-    ids = np.union1d(np.union1d(np.unique(device), rounded), exact)
-    return ids[ids != SENTINEL].astype(np.int64)
+    """ids shown by the device three ways (render/device_view.py): the GPU drawing the
+    profile's vertex format (its float32 transform), the world and camera rounded to the format
+    (the rounding alone), and the exact world (the geometry alone)."""
+    return shown_ids(device_buffers(world, camera, profile, back))
 
 
-@pytest.mark.parametrize("case", sorted(CASES))
-def test_conservative_stages_keep_what_the_device_shows(kit, case):
-    fmt, scale, offset = CASES[case]
-    profile = get_profile(kit.PROFILE, fmt)
-    world = world_for(scale, offset)
-    parts = {"octree": partition(world, "octree", depth=3),
-             "portal": partition(world, "portal", depth=1)}
+def check_keeps(parts, profile, cameras, kit):
+    """Failures (stage, camera, count) of every combo on every partition in `parts` {kind:
+    Partition}, each camera against what the device shows."""
     options = device_options(profile)
-    cullers = {combo: Culler(parts["portal" if "portals" in combo else "octree"], combo,
-                             **options) for combo in COMBOS}
-    truth, failures = {}, []
-    for label, cam in cameras_for(scale, offset, profile.aspect):
-        for combo, culler in cullers.items():
+    cullers = {(kind, combo): Culler(part, combo, **options)
+               for kind, part in parts.items() for combo in combos_for(kind)}
+    failures = []
+    for label, cam in cameras:
+        truth = {}
+        for (kind, combo), culler in cullers.items():
             back = bool(kit.BACKFACE_STAGES & set(parse_stages(combo)))
             if back not in truth:
-                truth[back] = visible(world, cam, profile, back)
+                truth[back] = visible(parts[kind].world, cam, profile, back)
             if "occlusion_thesis" in combo:
                 culler.cull(cam)  # its occluders are the previous frame's triangles
             missing = np.setdiff1d(truth[back], culler.cull(cam).triangles)
             if len(missing):
-                failures.append(f"{combo} / {label}: {len(missing)} e.g. {missing[:4]}")
-        truth.clear()
-    assert not failures, f"{case}: " + "; ".join(failures)
+                failures.append((combo, f"{combo} on {kind} / {label}: {len(missing)} e.g. "
+                                        f"{missing[:4]}"))
+    return failures
+
+
+def report(case, failures):
+    return f"{case}: " + "; ".join(text for _, text in failures)
+
+
+@pytest.mark.parametrize("kind", list(KINDS))
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_conservative_stages_keep_what_the_device_shows(kit, case, kind):
+    fmt, scale, offset = CASES[case]
+    profile = get_profile(kit.PROFILE, fmt)
+    world = world_for(scale, offset)
+    cameras = cameras_for(scale, offset, profile.aspect)
+    if kind != "octree":  # the octree takes all 24; the others a third, every class
+        cameras = cameras[list(KINDS).index(kind)::3]
+    failures = check_keeps({kind: partition(world, kind, **KINDS[kind])}, profile, cameras, kit)
+    assert not failures, report(case, failures)
+
+
+# W1 and the cow (5,804 triangles, 10 m long) moved and scaled, every structure, one camera of
+# each hard class (pitched, near-wall, narrow, wide, anywhere in the box) per world case.
+HARD_CASES = {"w1-offset-1e5-float32": ("w1", "float32", 1.0, 1e5),
+              "w1-scale-1e-3-fixed": ("w1", "fixed16.16", 1e-3, 0.0),
+              "cow-offset-1e5-float32": ("cow", "float32", 1.0, 1e5),
+              "cow-scale-1e-3-fixed": ("cow", "fixed16.16", 1e-3, 0.0)}
+# Regression: before `occlusion` took a zero screen shift when no occluder was rasterised
+# (cd2f3be), its NaN shift dropped 26 triangles of the cow at 1e5 from pitch_0.
+
+
+@pytest.mark.parametrize("case", sorted(HARD_CASES))
+def test_hard_cameras_on_a_thesis_world_and_a_real_mesh(kit, case):
+    name, fmt, scale, offset = HARD_CASES[case]
+    base = kit.world(name) if name == "w1" else model_world(name)
+    world = base.transformed(scale, (offset,) * 3)
+    profile = get_profile(kit.PROFILE, fmt)
+    cameras = [(label, moved(cam, scale, (offset,) * 3))
+               for label, cam in hard_cameras(base, 1, seed=sorted(HARD_CASES).index(case))]
+    assert {label.split("_")[0] for label, _ in cameras} == set(CLASSES)
+    parts = {kind: partition(world, kind, **params) for kind, params in KINDS.items()}
+    failures = check_keeps(parts, profile, cameras, kit)
+    assert not failures, report(case, failures)
 
 
 def test_the_stress_cameras_reach_the_hard_cases(kit):

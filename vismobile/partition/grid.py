@@ -65,14 +65,17 @@ def default_cell_count(world) -> int:
     return int(np.clip(world.triangle_count // 64, 8, 4096))
 
 
-def cell_pairs(world, edges, triangles=None):
+def cell_pairs(world, edges, triangles=None, slack: float = 0.0):
     """(cell, triangle) references of a grid, exact: SAT for triangles spanning several cells.
 
+    Errs toward keeping by `slack` (distance): a triangle within slack of a cell counts in it.
     edges   : three (n_a + 1,) float64 boundary arrays
     returns : cell (P,) int64 as (i * ny + j) * nz + k, tri (P,) int64, sorted by cell then tri
     """
     tris = np.arange(world.triangle_count) if triangles is None else np.asarray(triangles)
     tb = world.bounds[tris]
+    if slack > 0.0:
+        tb = tb + np.array([-slack, slack])[None, :, None]
     lo_idx, span = [], []
     for axis, e in enumerate(edges):
         n = len(e) - 1
@@ -96,7 +99,7 @@ def cell_pairs(world, edges, triangles=None):
         hi = np.stack([edges[0][i[multi] + 1], edges[1][j[multi] + 1], edges[2][k[multi] + 1]],
                       axis=1)
         corners = world.vertices[world.triangles[tris[owner[multi]]]]
-        keep[multi] = triangles_overlap_boxes(corners, lo, hi)
+        keep[multi] = triangles_overlap_boxes(corners, lo - slack, hi + slack)
     cell = ((i * ny + j) * nz + k)[keep]
     tri = tris[owner[keep]]
     order = np.lexsort((tri, cell))

@@ -48,13 +48,16 @@ def auto_edges(world, cells):
         pos = world.centroids[aligned, axis]
         keys, inverse = np.unique(np.round(pos, 6), return_inverse=True)
         area = np.bincount(inverse, weights=world.areas[aligned])
+        actual = np.empty(len(keys))
+        actual[inverse] = pos  # snap to a wall's own coordinate, not its 6-decimal key
+
         snapped = e.copy()
         for b in range(1, len(e) - 1):
             reach = 0.5 * min(e[b] - e[b - 1], e[b + 1] - e[b])
             near = np.flatnonzero(np.abs(keys - e[b]) < reach)
             near = near[(keys[near] > low[axis]) & (keys[near] < high[axis])]
             if len(near):
-                snapped[b] = keys[near[np.argmax(area[near])]]
+                snapped[b] = actual[near[np.argmax(area[near])]]
         snapped = np.unique(snapped)
         edges[axis] = snapped
     return edges
@@ -547,7 +550,9 @@ def build(world, depth=2, slabs=None, auto=False, cells=None, thickness=None,
         edges = grid.resolve_edges(world, slabs, auto, cells)
     size = float(np.ptp(world.extent, axis=0).max())
     thickness = THICKNESS * size if thickness is None else float(thickness)
-    cell, tri = grid.cell_pairs(world, edges)
+    # Triangles within `thickness` of a cell face lie in it (find_portals closes the face
+    # there): both cells hold them, whatever side rounding put them on.
+    cell, tri = grid.cell_pairs(world, edges, slack=thickness)
     boxes = grid.cell_boxes(edges)
     count = len(boxes)
     levels, (last_node, last_tri) = subdivide(world, boxes, cell, tri, depth)

@@ -161,3 +161,25 @@ def check_models(directory=None) -> None:
         if not path.is_file():
             raise WorldError(path, "model missing (set VISMOBILE_MODELS to a directory holding "
                              "it as .obj or .obj.gz)")
+
+
+# Model files by short name, for model_world (the full meshes, not decimated).
+MODEL_FILES = {"cow": "cow.obj", "teapot": "teapot.obj", "bunny": "stanford-bunny.obj",
+               "dragon": "dragon.obj", "beetle": "beetle.obj", "suzanne": "suzanne.obj",
+               "homer": "homer.obj", "cheburashka": "cheburashka.obj"}
+
+
+def model_world(name: str, size: float = 10.0, directory=None):
+    """A shipped model at full resolution (MODEL_FILES) as a World of one object: longest side
+    `size`, base centred on the origin, standing on y = 0. Raises WorldError naming a missing or
+    bad file; KeyError lists the names."""
+    from ..world import World
+
+    if name not in MODEL_FILES:
+        raise KeyError(f"unknown model {name!r}; valid: {', '.join(MODEL_FILES)}")
+    world = World.from_file(model_path(MODEL_FILES[name], directory))
+    low, high = world.extent
+    base = np.array([(low[0] + high[0]) / 2, low[1], (low[2] + high[2]) / 2])
+    world = world.transformed(1.0, -base).transformed(size / float((high - low).max()))
+    world.name = name
+    return world
