@@ -79,6 +79,14 @@ def frustum_walk(lo, hi, first_child, child_count, nonempty, roots, root_sets, p
     return count, visited, tests, culled
 
 
+# De Bruijn sequence for the index of a word's lowest set bit (no count-trailing-zeros in numba).
+_DEBRUIJN = np.uint64(0x03F79D71B4CB0A89)
+_BIT_INDEX = np.zeros(64, dtype=np.int64)
+_BIT_INDEX[((np.uint64(1) << np.arange(64, dtype=np.uint64)) * _DEBRUIJN) >> np.uint64(58)] = \
+    np.arange(64)
+_FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
+
+
 @njit(cache=True, nogil=True)
 def gather_distinct(tri_refs, ref_start, ref_end, nodes, bits, words, out):
     """Sorted distinct triangle ids referenced by the nodes' subtrees; returns their count.
@@ -87,7 +95,7 @@ def gather_distinct(tri_refs, ref_start, ref_end, nodes, bits, words, out):
     back (and cleared), so nothing of size T is cleared or scanned: the cost follows the
     references gathered.
     bits  : (T // 64 + 1,) uint64 scratch, all zero on entry and on return
-    words : (T // 64 + 1,) int64 scratch;  out : (T,) int64 receives the ids
+    words : (T // 64 + 1,) int64 scratch;  out : (>= distinct ids,) int64 receives the ids
     """
     touched = 0
     for k in range(len(nodes)):
@@ -106,14 +114,27 @@ def gather_distinct(tri_refs, ref_start, ref_end, nodes, bits, words, out):
         x = bits[w]
         bits[w] = 0
         base = w << 6
-        b = 0
+        if x == _FULL:  # dense runs are common: a node's refs are consecutive ids
+            for b in range(64):
+                out[count + b] = base + b
+            count += 64
+            continue
         while x:
-            if x & np.uint64(1):
-                out[count] = base + b
-                count += 1
-            x >>= np.uint64(1)
-            b += 1
+            low = x & (~x + np.uint64(1))
+            out[count] = base + _BIT_INDEX[(low * _DEBRUIJN) >> np.uint64(58)]
+            count += 1
+            x ^= low
     return count
+
+
+@njit(cache=True, nogil=True)
+def run_count(ids):
+    """Maximal runs of consecutive values in ids (draw batches of a sorted id list)."""
+    runs = 0
+    for k in range(len(ids)):
+        if k == 0 or ids[k] != ids[k - 1] + 1:
+            runs += 1
+    return runs
 
 
 @njit(cache=True, nogil=True)

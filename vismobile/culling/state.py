@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..camera import Camera
+from .kernels import run_count
 from .tree import Tree
 
 
@@ -53,6 +54,6 @@ class CullState:
         for keep_of in self.filters:
             ids = ids[keep_of(ids)]
         self.count("triangles_sent", len(ids))
-        self.count("draw_batches", 0 if not len(ids) else 1 + np.count_nonzero(np.diff(ids) != 1))
+        self.count("draw_batches", run_count(ids))
         self.count("nodes_drawn", len(self.nodes))
         return CullResult(ids, self.nodes, self.stats, self.cull_back)

@@ -46,7 +46,6 @@ class Tree:
         words = self.world.triangle_count // 64 + 1
         self._bits = np.zeros(words, dtype=np.uint64)
         self._words = np.empty(words, dtype=np.int64)
-        self._ids = np.empty(self.world.triangle_count, dtype=np.int64)
         self._stacks = self._stack_scratch(64)
 
     def _stack_scratch(self, roots: int) -> tuple:
@@ -69,10 +68,12 @@ class Tree:
     def distinct_refs(self, nodes) -> np.ndarray:
         """(S,) int64 sorted distinct triangle ids of the nodes' subtrees; cost follows the
         references gathered, not the world's triangle count (kernels.gather_distinct)."""
-        count = gather_distinct(self.tri_refs, self.ref_start, self.ref_end,
-                                np.ascontiguousarray(nodes, dtype=np.int64), self._bits,
-                                self._words, self._ids)
-        return self._ids[:count].copy()
+        nodes = np.ascontiguousarray(nodes, dtype=np.int64)
+        gathered = int((self.ref_end[nodes] - self.ref_start[nodes]).sum())
+        ids = np.empty(min(gathered, self.world.triangle_count), dtype=np.int64)
+        count = gather_distinct(self.tri_refs, self.ref_start, self.ref_end, nodes, self._bits,
+                                self._words, ids)
+        return ids[:count]
 
     def children(self, nodes) -> tuple:
         """(children (C,) int64, parent_index (C,) int64 index into nodes) of inner nodes."""
