@@ -57,9 +57,10 @@ def write_world_dir(path, parts, name="world", object_names=()) -> tuple:
 
 class MappedWorld:
     """A world whose arrays are memory maps: vertices (V, 3) float32, triangles (T, 3) int32,
-    object_ids (T,) int32. It offers what partitioning and frustum culling read (triangle
-    count, extent, chunks of corners); stages that need per-triangle normals or areas of the
-    whole world (cbfc, cone, occlusion, portals) need a World."""
+    object_ids (T,) int32. It offers what partitioning and culling read (triangle count,
+    extent, chunks of corners; `triangle_corners` for any ids); vfc, tbfc, cbfc and cone run on
+    it; stages that keep per-triangle areas or planes of the whole world (occlusion, portals)
+    need a World."""
 
     def __init__(self, vertices, triangles, object_ids, object_names=(), name="world",
                  extent=None, digest=None):
@@ -120,9 +121,7 @@ class MappedWorld:
 
     def chunks(self, size: int):
         """Yield (start, corners (c, 3, 3) float64) for consecutive triangle ranges of `size`."""
-        for start in range(0, self.triangle_count, size):
-            tris = np.asarray(self.triangles[start:start + size])
-            yield start, self.vertices[tris].astype(np.float64)
+        return corner_chunks(self, size)
 
     @property
     def extent(self) -> np.ndarray:
@@ -151,3 +150,17 @@ class MappedWorld:
         """The whole world in memory (small worlds: tests compare against in-memory builds)."""
         return World(np.asarray(self.vertices, dtype=np.float64), np.asarray(self.triangles),
                      np.asarray(self.object_ids), list(self.object_names), self.name)
+
+
+def triangle_corners(world, ids) -> np.ndarray:
+    """(n, 3, 3) float64 corners of the triangles `ids` (int array or slice) of a World or a
+    MappedWorld, read from its vertices and triangles: the same values as World.corners[ids]."""
+    tris = np.asarray(world.triangles[ids])
+    return np.asarray(world.vertices)[tris].astype(np.float64, copy=False)
+
+
+def corner_chunks(world, size: int):
+    """Yield (start, corners (c, 3, 3) float64) for consecutive triangle ranges of `size` of a
+    World or a MappedWorld: per-triangle tables of any world are built chunk by chunk."""
+    for start in range(0, world.triangle_count, size):
+        yield start, triangle_corners(world, slice(start, start + size))

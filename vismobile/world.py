@@ -48,13 +48,8 @@ class World:
     def _derive(self):
         corners = self.vertices[self.triangles]  # (T, 3, 3)
         self.corners = corners  # kept: stages read it every frame
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            # coordinates past ~1e154 overflow to infinite areas instead of raising
-            cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-            length = np.linalg.norm(cross, axis=1)
-            normals = cross / length[:, None]
+        self.normals, length = unit_normals(corners)
         self.areas = 0.5 * length
-        self.normals = np.where(length[:, None] > 0, normals, 0.0)
         self.bounds = np.stack([corners.min(axis=1), corners.max(axis=1)], axis=1)  # (T, 2, 3)
         self.centroids = corners.mean(axis=1)
 
@@ -200,6 +195,18 @@ class World:
             buffer.write(f"o {self.object_names[ids[start]]}\n")
             np.savetxt(buffer, self.triangles[order[start:end]] + 1, fmt="f %d %d %d")
         atomic_write_bytes(path, buffer.getvalue().encode("ascii"))
+
+
+def unit_normals(corners) -> tuple:
+    """(normals (T, 3) unit float64, zero for degenerate triangles; doubled areas (T,) float64)
+    of corners (T, 3, 3) float64: the World's own arithmetic, so a chunk of a world gets the
+    same bits as the whole."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        # coordinates past ~1e154 overflow to infinite areas instead of raising
+        cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        length = np.linalg.norm(cross, axis=1)
+        normals = cross / length[:, None]
+    return np.where(length[:, None] > 0, normals, 0.0), length
 
 
 def _repeated(triangles) -> np.ndarray:

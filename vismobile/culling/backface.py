@@ -27,10 +27,16 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.sphere_regions import caps_within, direction_regions, region_caps
-from ..geometry.tilt import tilt_coefficients, tilt_sine
-from .precision import device_move
+from ..mapped import corner_chunks
+from ..world import unit_normals
+from .facing import tilt_keep
+from .precision import device_move, world_scale
 from .state import CullState
 from .tree import Tree
+
+
+# Triangles per chunk when a stage builds its per-triangle table (bounds prepare's memory).
+CHUNK = 1 << 20
 
 
 def corner_rays(camera) -> np.ndarray:
@@ -69,7 +75,8 @@ class ConservativeBackface:
     pitch_bands : elevation bands of the normal (the 3D extension)
     Contract: never drops a triangle that faces the eye and has a point inside the frustum,
     also after the device moves its corners by device_move(arithmetic) (errs toward keeping).
-    Per frame: a (R,) table from 4 R dot products, then per candidate one lookup and its tilt.
+    Per frame: a (R,) table from 4 R dot products, then per candidate one lookup, and its tilt
+    (from its corners) when its region is droppable. Prepare keeps one byte per triangle.
     """
 
     name = "cbfc"
@@ -83,11 +90,20 @@ class ConservativeBackface:
             raise ValueError("cbfc needs yaw_regions >= 1 and pitch_bands >= 1")
 
     def prepare(self, tree: Tree) -> None:
+        # One small int per triangle (its normal's region), built in chunks of corners so a
+        # memory-mapped world is never held whole; the tilt coefficients are computed per frame
+        # for the candidates whose region is droppable (facing.tilt_keep), not stored.
         world = tree.world
-        self.regions = direction_regions(world.normals, self.yaw_regions, self.pitch_bands)
         self.centers, self.radii = region_caps(self.yaw_regions, self.pitch_bands)
-        self.k1, self.k2 = tilt_coefficients(world.corners)
-        self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
+        count = len(self.radii) + 1  # with the "no region" id
+        dtype = np.uint8 if count <= 256 else np.uint16 if count <= 65536 else np.int32
+        self.regions = np.empty(world.triangle_count, dtype=dtype)
+        for start, corners in corner_chunks(world, CHUNK):
+            normals, _ = unit_normals(corners)
+            self.regions[start:start + len(corners)] = direction_regions(
+                normals, self.yaw_regions, self.pitch_bands)
+        self.vertices, self.triangles = np.asarray(world.vertices), np.asarray(world.triangles)
+        self.magnitude = world_scale(self.vertices)
 
     def droppable(self, camera) -> np.ndarray:
         """(R + 1,) bool per region (last: degenerate normals, never dropped).
@@ -120,7 +136,8 @@ class ConservativeBackface:
         move = np.sqrt(3.0) * device_move(self.arithmetic, scale)  # Euclidean, per corner
 
         def keep_of(ids):
-            keep = ~(spare[regions[ids]] >= tilt_sine(self.k1[ids], self.k2[ids], move))
+            keep = tilt_keep(np.ascontiguousarray(ids, dtype=np.int64), regions, spare,
+                             self.vertices, self.triangles, move)
             state.count("triangles_tested", len(ids))
             state.count(f"{self.name}.refs_culled", len(ids) - np.count_nonzero(keep))
             return keep

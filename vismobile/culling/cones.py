@@ -10,12 +10,29 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.cones import cluster_cones, cone_rounding, cones_backfacing
+from ..mapped import triangle_corners
 from ..partition.base import gather_ranges
-from .precision import device_move
+from ..world import unit_normals
+from .facing import keep_unmarked
+from .precision import device_move, world_scale
 from .state import CullState
 from .tree import Tree
 
 GROUPS = {"leaf": 1, "octant": 8}
+# References per group of leaves when prepare builds the cones (bounds its memory).
+CHUNK = 1 << 19
+
+
+def leaf_groups(counts, size: int):
+    """Yield (lo, hi) ranges of consecutive leaves whose reference counts sum to about `size`
+    (a leaf with more stays alone in its group); together they cover every leaf once."""
+    ends = np.cumsum(counts)
+    lo = 0
+    while lo < len(counts):
+        base = ends[lo - 1] if lo else 0
+        hi = max(lo + 1, int(np.searchsorted(ends, base + size, side="right")))
+        yield lo, hi
+        lo = hi
 
 
 class NormalConeStage:
@@ -37,33 +54,48 @@ class NormalConeStage:
         self.clusters = clusters
 
     def prepare(self, tree: Tree) -> None:
+        # Built in groups of consecutive leaves of about CHUNK references: a cluster never spans
+        # leaves, so each group's cones are those of the whole, and only a group's corners and
+        # normals are in memory at once (a memory-mapped world is read group by group).
         self.tree = tree
         world = tree.world
-        k = GROUPS[self.clusters]
+        k = self.per_leaf = GROUPS[self.clusters]
         leaves = tree.leaf_order
         counts = tree.ref_end[leaves] - tree.ref_start[leaves]
-        positions = gather_ranges(np.arange(len(tree.tri_refs)), tree.ref_start[leaves],
-                                  tree.ref_end[leaves])
-        ids = tree.tri_refs[positions]
-        rank = np.repeat(np.arange(len(leaves)), counts)
-        if k == 8:
-            n = world.normals[ids]
-            octant = (n[:, 0] > 0) * 1 + (n[:, 1] > 0) * 2 + (n[:, 2] > 0) * 4
-        else:
-            octant = np.zeros(len(ids), dtype=np.int64)
-        key = rank * k + octant
-        order = np.argsort(key, kind="stable")
-        self.cluster_refs = ids[order]  # (R,) triangle ids grouped by (leaf rank, octant)
-        bounds = np.searchsorted(key[order], np.arange(len(leaves) * k + 1))
+        total = int(counts.sum())
+        wide = world.triangle_count > np.iinfo(np.int32).max
+        self.cluster_refs = np.empty(total, dtype=np.int64 if wide else np.int32)
+        bounds = np.zeros(len(leaves) * k + 1, dtype=np.int64)
+        self.apex, self.axis = np.zeros((len(leaves) * k, 3)), np.zeros((len(leaves) * k, 3))
+        self.cutoff, self.rounding = np.zeros(len(leaves) * k), np.zeros((len(leaves) * k, 5))
+        done = 0
+        for lo, hi in leaf_groups(counts, CHUNK):
+            group = leaves[lo:hi]
+            ids = gather_ranges(tree.tri_refs, tree.ref_start[group],
+                                tree.ref_end[group]).astype(np.int64)
+            corners = triangle_corners(world, ids)
+            normals, _ = unit_normals(corners)
+            rank = np.repeat(np.arange(hi - lo), counts[lo:hi])
+            if k == 8:
+                octant = (normals[:, 0] > 0) * 1 + (normals[:, 1] > 0) * 2 + (normals[:, 2] > 0) * 4
+            else:
+                octant = np.zeros(len(ids), dtype=np.int64)
+            key = rank * k + octant
+            order = np.argsort(key, kind="stable")
+            normals, corners = normals[order], corners[order]
+            local = np.searchsorted(key[order], np.arange((hi - lo) * k + 1))
+            starts, ends = local[:-1], local[1:]
+            apex, axis, cutoff = cluster_cones(normals, corners, starts, ends, scale=tree.scale)
+            rows = slice(lo * k, hi * k)
+            self.apex[rows], self.axis[rows], self.cutoff[rows] = apex, axis, cutoff
+            self.rounding[rows] = cone_rounding(normals, corners, apex, starts, ends)
+            self.cluster_refs[done:done + len(ids)] = ids[order]
+            bounds[lo * k + 1:hi * k + 1] = done + ends
+            done += len(ids)
+        # (R,) triangle ids grouped by (leaf rank, octant); cluster c is [starts[c], ends[c]).
         self.starts, self.ends = bounds[:-1], bounds[1:]
-        self.per_leaf = k
-        self.apex, self.axis, self.cutoff = cluster_cones(
-            world.normals[self.cluster_refs], world.corners[self.cluster_refs],
-            self.starts, self.ends, scale=tree.scale)
-        self.rounding = cone_rounding(world.normals[self.cluster_refs],
-                                      world.corners[self.cluster_refs], self.apex, self.starts,
-                                      self.ends)
-        self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
+        self.magnitude = world_scale(world.vertices)
+        self._bits = np.zeros(world.triangle_count // 64 + 1, dtype=np.uint64)
 
     def apply(self, state: CullState) -> None:
         tree, k = self.tree, self.per_leaf
@@ -85,6 +117,8 @@ class NormalConeStage:
         state.nodes = tree.leaf_order[kept]
         culled = clusters[back]
         if k > 1 and len(culled):
-            dropped = np.zeros(tree.world.triangle_count, dtype=bool)
-            dropped[gather_ranges(self.cluster_refs, self.starts[culled], self.ends[culled])] = True
-            state.filters.append(lambda ids: ~dropped[ids])
+            def keep_of(ids):
+                return keep_unmarked(np.ascontiguousarray(ids, dtype=np.int64), self.cluster_refs,
+                                     self.starts, self.ends, culled, self._bits)
+
+            state.filters.append(keep_of)

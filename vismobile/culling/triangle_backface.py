@@ -4,8 +4,10 @@ node stages (the test GL_CULL_FACE makes, done before sending instead of after).
 A triangle (v0, v1, v2), wound counter-clockwise seen from its front (OpenGL's default front
 face), faces the eye e when det = ((v1 - v0) x (v2 - v0)) . (e - v0) > 0; the sign is the
 orientation of its projection, so the driver culls it exactly when det < 0 (and edge-on ones,
-det = 0, cover no pixel). The cross product c = (v1 - v0) x (v2 - v0) is precomputed; per frame
-each candidate costs one subtraction and one dot product.
+det = 0, cover no pixel). Nothing is precomputed per triangle: each frame reads its candidates'
+corners from the world's vertices (in memory, or a memory-mapped file) and forms the cross
+product c = (v1 - v0) x (v2 - v0) and det (culling/facing.py), so memory does not grow with the
+world and a frame costs what it gathers.
 
 Why the tolerance. The device does not see these float64 vertices: it rounds them to float32 (or
 fixed16.16) and transforms them in float32. We keep every triangle that would face the eye after
@@ -27,7 +29,8 @@ import numpy as np
 # Device rounding covered (precision.py): each coordinate moves by up to DEVICE_RELATIVE x the
 # largest coordinate magnitude (16 float32 ulps) plus DEVICE_ABSOLUTE (2x the fixed16.16 step).
 from .precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE
-from .kernels import backfacing
+from .facing import backfacing
+from .precision import world_scale
 from .state import CullState
 from .tree import Tree
 
@@ -79,8 +82,8 @@ class TriangleBackface:
     truth is the back-face-culled item buffer (as for cbfc and cone).
     Contract: errs toward keeping by tol = the device-rounding move bound plus float64 rounding
     (module docstring): drops a triangle only when det < -tol.
-    Per frame: one subtraction and one dot product per distinct candidate, the bound only for
-    those with a negative product.
+    Per frame, per distinct candidate: its corners read from the world (in memory or mapped),
+    a cross and a dot product, the bound only for those with a negative product.
     """
 
     name = "tbfc"
@@ -92,11 +95,11 @@ class TriangleBackface:
             raise ValueError("tbfc needs relative >= 0 and absolute >= 0")
 
     def prepare(self, tree: Tree) -> None:
+        # Nothing per triangle: each frame reads its candidates' corners (facing.backfacing),
+        # so a memory-mapped world needs no (T, 11) table (1.76 GB at 20 M triangles).
         world = tree.world
-        cross, abs_cross, edge_a, edge_b = triangle_cross(world.corners)
-        # One row per triangle, so a frame gathers its candidates with one indexing.
-        self.packed = np.column_stack([cross, abs_cross, world.corners[:, 0], edge_a, edge_b])
-        self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
+        self.vertices, self.triangles = np.asarray(world.vertices), np.asarray(world.triangles)
+        self.magnitude = world_scale(self.vertices)
 
     def delta(self, eye) -> float:
         """Per-coordinate move allowed for device rounding, at this world's and eye's scale."""
@@ -108,8 +111,8 @@ class TriangleBackface:
         delta = self.delta(eye)
 
         def keep_of(ids):  # ids are distinct (CullState.finish)
-            drop = backfacing(np.ascontiguousarray(ids, dtype=np.int64), self.packed, eye, delta,
-                              GAMMA_8)
+            drop = backfacing(np.ascontiguousarray(ids, dtype=np.int64), self.vertices,
+                              self.triangles, eye, delta, GAMMA_8)
             state.count("triangles_tested", len(ids))
             state.count(f"{self.name}.triangles_tested", len(ids))
             state.count(f"{self.name}.triangles_culled", drop.sum())

@@ -1,0 +1,142 @@
+"""The back-face stages' per-candidate kernels against their numpy references (same bits), and
+tbfc, cbfc and cone on a memory-mapped world (streamed .vmp) against the same world in memory."""
+import numpy as np
+import pytest
+
+from vismobile.camera import Camera
+from vismobile.culling import Culler, backface, cones
+from vismobile.culling.facing import backfacing, keep_unmarked, tilt_keep, tilt_of
+from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
+from vismobile.geometry.tilt import tilt_coefficients, tilt_sine
+from vismobile.mapped import MappedWorld, write_world_dir
+from vismobile.partition import load_partition
+from vismobile.partition.external import build_octree_file
+from vismobile.partition.store import map_partition
+
+
+def random_mesh(count, seed, dtype=np.float64):
+    """(vertices (3 count, 3), triangles (count, 3) int32) with a few zero-area triangles."""
+    rng = np.random.default_rng(seed)
+    vertices = (rng.normal(size=(3 * count, 3)) * rng.uniform(0.01, 100.0, (3 * count, 1)))
+    vertices[3:6] = vertices[0]  # triangle 1 collapses to a point
+    vertices[8] = vertices[7]  # triangle 2 is a segment
+    triangles = np.arange(3 * count, dtype=np.int32).reshape(-1, 3)
+    return vertices.astype(dtype), triangles
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_backfacing_kernel_matches_the_numpy_bound(dtype):
+    vertices, triangles = random_mesh(600, 11, dtype)
+    corners = vertices.astype(np.float64)[triangles]
+    cross, abs_cross, ea, eb = triangle_cross(corners)
+    ids = np.arange(len(triangles), dtype=np.int64)
+    eye = np.array([0.5, -1.0, 2.0])
+    for delta in (0.0, 1e-3, 0.5):
+        expect = certainly_backfacing(cross, abs_cross, ea, eb, corners[:, 0], eye, delta)
+        got = backfacing(ids, vertices, triangles, eye, delta, GAMMA_8)
+        assert np.array_equal(got, expect) and 0 < got.sum() < len(ids)
+    assert len(backfacing(ids[:0], vertices, triangles, eye, 0.0, GAMMA_8)) == 0
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_tilt_kernel_gives_the_bits_of_tilt_coefficients(dtype):
+    vertices, triangles = random_mesh(600, 12, dtype)
+    with np.errstate(invalid="ignore"):
+        k1, k2 = tilt_coefficients(vertices.astype(np.float64)[triangles])
+    got = np.array([tilt_of(vertices, triangles, t) for t in range(len(triangles))])
+    assert not np.isfinite(k1[1:3]).any()  # the degenerate ones (a point gives nan: 0 * inf)
+    assert np.array_equal(got[:, 0], k1, equal_nan=True) and np.array_equal(got[:, 1], k2)
+    # cbfc's keep: spare per region against the tilt sine, for moves 0 (inf * 0) and positive
+    rng = np.random.default_rng(4)
+    regions = rng.integers(0, 5, len(triangles)).astype(np.uint8)
+    spare = np.array([-1.0, 0.0, 1e-6, 1e-3, 0.5])
+    ids = np.arange(len(triangles), dtype=np.int64)
+    for move in (0.0, 1e-7, 1e-3):
+        expect = ~(spare[regions] >= tilt_sine(k1, k2, move))
+        got = tilt_keep(ids, regions, spare, vertices, triangles, move)
+        assert np.array_equal(got, expect)
+    assert not tilt_keep(ids, regions, spare, vertices, triangles, 0.0).all()
+
+
+def test_keep_unmarked_drops_exactly_the_culled_clusters_and_clears_its_bitmap():
+    rng = np.random.default_rng(5)
+    refs = rng.integers(0, 700, 3000).astype(np.int32)
+    bounds = np.sort(rng.integers(0, 3000, 41))
+    bounds[0], bounds[-1] = 0, 3000
+    starts, ends = bounds[:-1].astype(np.int64), bounds[1:].astype(np.int64)
+    culled = np.array([3, 7, 8, 30], dtype=np.int64)
+    bits = np.zeros(700 // 64 + 1, dtype=np.uint64)
+    ids = np.arange(700, dtype=np.int64)
+    dropped = np.zeros(700, dtype=bool)
+    for c in culled:
+        dropped[refs[starts[c]:ends[c]]] = True
+    assert dropped.any()
+    assert np.array_equal(keep_unmarked(ids, refs, starts, ends, culled, bits), ~dropped)
+    assert not bits.any()
+    assert keep_unmarked(ids, refs, starts, ends, culled[:0], bits).all()
+
+
+@pytest.fixture(scope="module")
+def streamed(tmp_path_factory, w1):
+    """W1 as a world directory (float32 vertices, three pieces) and its streamed octree."""
+    path = tmp_path_factory.mktemp("w1dir")
+
+    def parts():
+        for ids in np.array_split(np.arange(w1.triangle_count), 3):
+            used, local = np.unique(w1.triangles[ids], return_inverse=True)
+            yield w1.vertices[used].astype(np.float32), local.reshape(-1, 3), w1.object_ids[ids]
+
+    write_world_dir(path, parts, "w1", w1.object_names)
+    out = path / "w1.vmp"
+    build_octree_file(MappedWorld.open(path), out, depth=4)
+    return out
+
+
+@pytest.mark.parametrize("arithmetic", ["float64", "fixed16.16"])
+def test_backface_stages_on_a_mapped_world_cull_as_in_memory(streamed, monkeypatch, arithmetic):
+    # Small chunks, so cbfc's regions and cone's leaf groups are built in many pieces.
+    monkeypatch.setattr(backface, "CHUNK", 1000)
+    monkeypatch.setattr(cones, "CHUNK", 700)
+    mapped, loaded = map_partition(streamed), load_partition(streamed)
+    assert isinstance(mapped.world, MappedWorld) and not isinstance(loaded.world, MappedWorld)
+    rng = np.random.default_rng(3)
+    low, high = loaded.world.extent
+    cameras = [Camera(rng.uniform(low, high), yaw=rng.uniform(-180, 180),
+                      pitch=rng.uniform(-50, 50), aspect=0.75) for _ in range(12)]
+    for stages, counter in (("vfc,tbfc", "tbfc.triangles_culled"),
+                            ("vfc,cbfc", "cbfc.refs_culled"),
+                            ("vfc,cone", "cone.clusters_culled"),
+                            ("vfc,cone,cbfc,tbfc", "triangles_tested")):
+        a = Culler(mapped, stages, arithmetic=arithmetic)
+        b = Culler(loaded, stages, arithmetic=arithmetic)
+        dropped = 0
+        for camera in cameras:
+            x, y = a.cull(camera), b.cull(camera)
+            assert np.array_equal(x.triangles, y.triangles), stages
+            assert np.array_equal(x.nodes, y.nodes) and x.stats == y.stats, stages
+            dropped += x.stats.get(counter, 0)
+        assert dropped > 0, stages  # the stage did cull something on these cameras
+    stage = Culler(mapped, "cbfc").stages[0]
+    assert stage.regions.dtype == np.uint8  # one byte per triangle
+    stage = Culler(mapped, "cone").stages[0]
+    assert stage.cluster_refs.dtype == np.int32
+
+
+def test_cone_groups_of_leaves_give_the_cones_of_the_whole(streamed, monkeypatch):
+    loaded = load_partition(streamed)
+    whole = Culler(loaded, "cone").stages[0]
+    monkeypatch.setattr(cones, "CHUNK", 300)
+    pieces = Culler(map_partition(streamed), "cone").stages[0]
+    for name in ("cluster_refs", "starts", "ends", "apex", "axis", "cutoff", "rounding"):
+        assert np.array_equal(getattr(pieces, name), getattr(whole, name)), name
+    counts = np.diff(np.append(whole.starts, whole.ends[-1]))
+    assert counts.sum() == len(whole.cluster_refs) and (counts > 0).sum() > 1
+
+
+def test_leaf_groups_cover_every_leaf_once():
+    counts = np.array([5, 0, 300, 2, 2, 0, 900, 1, 1])
+    groups = list(cones.leaf_groups(counts, 10))
+    assert groups[0][0] == 0 and groups[-1][1] == len(counts)
+    assert all(a[1] == b[0] for a, b in zip(groups, groups[1:]))
+    assert all(counts[lo:hi].sum() <= 10 or hi - lo == 1 for lo, hi in groups)
+    assert list(cones.leaf_groups(np.zeros(0, np.int64), 10)) == []

@@ -1,0 +1,131 @@
+"""Compiled per-triangle kernels of the back-face stages (numba, cached on disk) that read each
+candidate's corners straight from the world's vertices and triangles, so no table of the whole
+world is needed: a memory-mapped world (mapped.MappedWorld, float32 vertices) and an in-memory
+World (float64) take the same path, and a frame costs what it gathers.
+
+The arithmetic repeats numpy's, operation for operation (np.cross's products, norms summed
+x + y then + z, left-to-right products), so each kernel gives the bits its numpy reference
+gives (triangle_backface.triangle_cross, geometry.tilt.tilt_coefficients; tests compare them).
+Float32 vertices widen to float64 exactly.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# geometry/tilt.py's slack on the coefficients' own evaluation.
+from ..geometry.tilt import _SLACK as TILT_SLACK
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _corners(vertices, triangles, t):
+    """The nine float64 coordinates of triangle t's corners."""
+    i0, i1, i2 = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+    return (np.float64(vertices[i0, 0]), np.float64(vertices[i0, 1]), np.float64(vertices[i0, 2]),
+            np.float64(vertices[i1, 0]), np.float64(vertices[i1, 1]), np.float64(vertices[i1, 2]),
+            np.float64(vertices[i2, 0]), np.float64(vertices[i2, 1]), np.float64(vertices[i2, 2]))
+
+
+@njit(cache=True, nogil=True)
+def backfacing(ids, vertices, triangles, eye, delta, gamma8):
+    """(n,) bool: triangle ids certainly face away from the eye, also after any move of corners
+    and eye by up to delta per coordinate, and despite float64 rounding (triangle_backface's
+    bound, evaluated per triangle). Errs toward False by that bound; edge-on is never True.
+
+    ids : (n,) int64;  vertices : (V, 3) float32 or float64;  triangles : (T, 3) int32
+    eye : (3,) float64;  delta >= 0;  gamma8 : float64 rounding factor (GAMMA_8)
+    """
+    out = np.zeros(len(ids), dtype=np.bool_)
+    s3 = np.sqrt(3.0) * delta
+    cube = 48.0 * delta * delta * delta
+    for k in range(len(ids)):
+        x0, y0, z0, x1, y1, z1, x2, y2, z2 = _corners(vertices, triangles, ids[k])
+        ax, ay, az = x1 - x0, y1 - y0, z1 - z0
+        bx, by, bz = x2 - x0, y2 - y0, z2 - z0
+        cx = ay * bz - az * by
+        cy = az * bx - ax * bz
+        cz = ax * by - ay * bx
+        wx, wy, wz = eye[0] - x0, eye[1] - y0, eye[2] - z0
+        det = cx * wx + cy * wy + cz * wz
+        if not det < 0:
+            continue
+        ea = np.sqrt(ax * ax + ay * ay + az * az)
+        eb = np.sqrt(bx * bx + by * by + bz * bz)
+        lw = np.sqrt(wx * wx + wy * wy + wz * wz)
+        moved = s3 * (2.0 * lw * (ea + eb) + 2.0 * ea * eb) \
+            + 36.0 * delta * delta * (lw + ea + eb) + cube
+        abs_x = abs(ay) * abs(bz) + abs(az) * abs(by)
+        abs_y = abs(az) * abs(bx) + abs(ax) * abs(bz)
+        abs_z = abs(ax) * abs(by) + abs(ay) * abs(bx)
+        rounding = gamma8 * (abs_x * abs(wx) + abs_y * abs(wy) + abs_z * abs(wz))
+        out[k] = det < -(moved + rounding) * (1.0 + 2.0 ** -50)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def tilt_of(vertices, triangles, t):
+    """(k1, k2) of triangle t: geometry.tilt.tilt_coefficients for one triangle, same bits
+    (inf for zero-area triangles). Errs large by 2^-40 relative."""
+    x0, y0, z0, x1, y1, z1, x2, y2, z2 = _corners(vertices, triangles, t)
+    e0x, e0y, e0z = x1 - x0, y1 - y0, z1 - z0  # edges: corner i+1 - corner i
+    e1x, e1y, e1z = x2 - x1, y2 - y1, z2 - z1
+    e2x, e2y, e2z = x0 - x2, y0 - y2, z0 - z2
+    l0 = np.sqrt(e0x * e0x + e0y * e0y + e0z * e0z)
+    l1 = np.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
+    l2 = np.sqrt(e2x * e2x + e2y * e2y + e2z * e2z)
+    # The two shortest edges (their sum does not depend on their order).
+    if l0 >= l1 and l0 >= l2:
+        short = l1 + l2
+    elif l1 >= l2:
+        short = l0 + l2
+    else:
+        short = l0 + l1
+    bx, by, bz = -e2x, -e2y, -e2z
+    cx = e0y * bz - e0z * by
+    cy = e0z * bx - e0x * bz
+    cz = e0x * by - e0y * bx
+    cross = np.sqrt(cx * cx + cy * cy + cz * cz)
+    inv = 1.0 / cross if cross > 0 else np.inf
+    return 2.0 * short * inv * TILT_SLACK, 4.0 * inv * TILT_SLACK
+
+
+@njit(cache=True, nogil=True)
+def tilt_keep(ids, regions, spare, vertices, triangles, move):
+    """(n,) bool keep: cbfc's per-candidate test, ~(spare[region] >= tilt sine of the triangle
+    for corners moved by `move`), the tilt computed only where the region is droppable
+    (spare >= 0). Errs toward True (keeping) exactly as geometry.tilt.tilt_sine.
+
+    ids : (n,) int64;  regions : (T,) small ints (direction region per triangle)
+    spare : (R + 1,) float64 (ConservativeBackface.spare);  move >= 0 (Euclidean)
+    """
+    out = np.ones(len(ids), dtype=np.bool_)
+    for k in range(len(ids)):
+        t = ids[k]
+        room = spare[regions[t]]
+        if not room >= 0.0:
+            continue
+        k1, k2 = tilt_of(vertices, triangles, t)
+        tilt = k1 * move + k2 * (move * move)
+        if np.isnan(tilt):  # inf * 0 for zero-area triangles, move 0
+            tilt = np.inf
+        out[k] = not room >= tilt
+    return out
+
+
+@njit(cache=True, nogil=True)
+def keep_unmarked(ids, refs, starts, ends, clusters, bits):
+    """(n,) bool keep: ids (sorted or not) that no culled cluster holds, where cluster c holds
+    refs[starts[c]:ends[c]]. Exact. bits : (T // 64 + 1,) uint64 scratch, all zero on entry
+    and on return, so the cost follows the culled clusters' references and the ids."""
+    for c in clusters:
+        for r in range(starts[c], ends[c]):
+            t = refs[r]
+            bits[t >> 6] |= np.uint64(1) << np.uint64(t & 63)
+    out = np.empty(len(ids), dtype=np.bool_)
+    for k in range(len(ids)):
+        t = ids[k]
+        out[k] = ((bits[t >> 6] >> np.uint64(t & 63)) & np.uint64(1)) == 0
+    for c in clusters:
+        for r in range(starts[c], ends[c]):
+            bits[refs[r] >> 6] = 0
+    return out
