@@ -7,7 +7,7 @@ import pytest
 
 from vismobile.errors import TrajectoryError
 from vismobile.open3d_import import raycast_primitive_ids
-from vismobile.trajectory import Trajectory
+from vismobile.trajectory import Trajectory, pitch_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 INDOOR = ROOT / "trajectories" / "indoor.csv"
@@ -83,8 +83,32 @@ def test_committed_trajectories_match_their_generator(tmp_path):
     spec.loader.exec_module(module)
     module.indoor().save(tmp_path / "indoor.csv")
     module.outdoor().save(tmp_path / "outdoor.csv")
-    assert (tmp_path / "indoor.csv").read_bytes() == INDOOR.read_bytes()
-    assert (tmp_path / "outdoor.csv").read_bytes() == OUTDOOR.read_bytes()
+    module.indoor_pitched(module.indoor()).save(tmp_path / "indoor_pitched.csv")
+    pitch_sweep(module.outdoor()).save(tmp_path / "outdoor_pitched.csv")
+    for name in ("indoor", "outdoor", "indoor_pitched", "outdoor_pitched"):
+        assert (tmp_path / f"{name}.csv").read_bytes() == (INDOOR.parent
+                                                           / f"{name}.csv").read_bytes()
+
+
+def test_pitched_paths_look_up_and_down_from_the_same_places(w1):
+    level, pitched = Trajectory.load(INDOOR), Trajectory.load(INDOOR.parent / "indoor_pitched.csv")
+    inserted = len(pitched) - len(level)
+    assert inserted > 0 and pitched.waypoints["G"] == level.waypoints["G"] + inserted
+    top = 876  # the stairs segment follows the landing frame
+    same = np.concatenate([pitched.poses[:top + 1], pitched.poses[top + 1 + inserted:]])
+    assert np.allclose(same[:, :3], level.poses[:, :3])
+    assert same[:, 4].max() > 84.0 and same[:, 4].min() < -84.0
+    stairs = pitched.poses[top + 1:top + 1 + inserted]
+    assert stairs[:, 4].min() < -59.0 and stairs[:, 4].max() > 59.0  # down, then up the ramp
+    positions = pitched.poses[:, :3]
+    assert not segments_cross(positions[:-1], positions[1:], w1.corners).any()
+    outdoor = Trajectory.load(INDOOR.parent / "outdoor_pitched.csv")
+    assert np.allclose(outdoor.poses[:, :3], Trajectory.load(OUTDOOR).poses[:, :3])
+
+
+def test_pitch_sweep_refuses_a_vertical_amplitude():
+    with pytest.raises(ValueError, match="amplitude"):
+        pitch_sweep(Trajectory.load(OUTDOOR), amplitude=90.0)
 
 
 def test_paths_move_smoothly():

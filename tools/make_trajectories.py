@@ -1,5 +1,10 @@
 """Generate trajectories/indoor.csv and outdoor.csv from waypoint keyframes, and measure the views.
 
+Also their pitched variants indoor_pitched.csv and outdoor_pitched.csv (trajectory.pitch_sweep:
+the same path looking up and down, +-85 degrees every 150 frames, and around, a turn every 420
+frames); the indoor one also goes back down the ramp looking down at it and up again looking up
+the stairwell (stairs()), inserted where the path reaches the landing.
+
 Keyframes are (frame or None, x, z, yaw); frames left None are spread by path length and turn
 between the fixed ones. Position and unwrapped yaw are interpolated with monotone cubic
 (PCHIP) splines, so each coordinate stays between its neighbouring keyframes: a path whose
@@ -19,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.scenes import building, city  # noqa: E402
-from vismobile.trajectory import Trajectory  # noqa: E402
+from vismobile.trajectory import Trajectory, pitch_sweep  # noqa: E402
 
 EYE = 1.7
 
@@ -121,6 +126,41 @@ def outdoor() -> Trajectory:
     return Trajectory(poses, {"A": 330, "B": 428, "C": 719, "D": 1156})
 
 
+def stairs(inside: Trajectory, foot: int = 844, top: int = 876, frames: int = 90,
+           turn: int = 15) -> tuple:
+    """(poses (N, 5), N) of the stairs segment: from the landing (frame `top` of the indoor
+    path) back down the ramp to its foot (frame `foot`) facing down it, pitch -35 to -60, a turn
+    on the spot, and up again facing up it, pitch +35 to +60. Positions are resampled along the
+    path's own ramp climb (free space), so the segment can be inserted after frame `top`."""
+    climb = inside.poses[foot:top + 1, :3]
+    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(climb, axis=0), axis=1))])
+    t = np.linspace(0.0, 1.0, frames)
+    up_positions = np.column_stack([np.interp(t * along[-1], along, climb[:, k])
+                                    for k in range(3)])
+    down_positions = up_positions[::-1]
+    bump = np.sin(np.pi * t)
+    ahead = inside.poses[top, 3]  # facing up the ramp
+    back = ahead + 180.0
+    spin = np.linspace(back, back + 180.0, turn + 2)[1:-1]
+    parts = [np.column_stack([down_positions, np.full(frames, back), -35.0 - 25.0 * bump]),
+             np.column_stack([np.repeat(down_positions[-1:], turn, axis=0), spin,
+                              np.zeros(turn)]),
+             np.column_stack([up_positions, np.full(frames, ahead), 35.0 + 25.0 * bump])]
+    poses = np.concatenate(parts)
+    poses[:, 3] = np.mod(poses[:, 3] + 180.0, 360.0) - 180.0
+    return poses, len(poses)
+
+
+def indoor_pitched(inside: Trajectory, top: int = 876) -> Trajectory:
+    """The indoor path looking up and down and around (pitch_sweep), with the stairs segment
+    inserted after the landing frame `top`; waypoints after it move by the segment's length."""
+    swept = pitch_sweep(inside)
+    segment, count = stairs(inside, top=top)
+    poses = np.concatenate([swept.poses[:top + 1], segment, swept.poses[top + 1:]])
+    waypoints = {k: f + count if f > top else f for k, f in swept.waypoints.items()}
+    return Trajectory(poses, waypoints)
+
+
 def frustum_count(world, camera) -> int:
     """Triangles not wholly outside one frustum plane (a conservative in-frustum count)."""
     planes = camera.frustum_planes()
@@ -163,9 +203,13 @@ def main(argv=None) -> int:
     parser.add_argument("--measure", action="store_true", help="print waypoint view counts")
     args = parser.parse_args(argv)
     inside, outside = indoor(), outdoor()
-    inside.save(ROOT / "trajectories" / "indoor.csv")
-    outside.save(ROOT / "trajectories" / "outdoor.csv")
-    print(f"wrote trajectories/indoor.csv ({len(inside)} frames), outdoor.csv ({len(outside)} frames)")
+    folder = ROOT / "trajectories"
+    inside.save(folder / "indoor.csv")
+    outside.save(folder / "outdoor.csv")
+    indoor_pitched(inside).save(folder / "indoor_pitched.csv")
+    pitch_sweep(outside).save(folder / "outdoor_pitched.csv")
+    print(f"wrote trajectories/indoor.csv ({len(inside)} frames), outdoor.csv ({len(outside)} frames)"
+          " and their _pitched variants")
     if args.measure:
         from vismobile.scenes import build_world
 

@@ -109,6 +109,29 @@ class Trajectory:
         atomic_write_bytes(path, (HEADER + "\n" + text).encode("ascii"))
 
 
+PITCH_AMPLITUDE = 85.0  # degrees: the pitched paths look nearly straight up and down
+PITCH_PERIOD = 150  # frames per up-and-down sweep (5 s at 30 fps)
+TURN_PERIOD = 420  # frames per full turn of the head (never a multiple of the pitch period)
+
+
+def pitch_sweep(trajectory: Trajectory, amplitude: float = PITCH_AMPLITUDE,
+                period: int = PITCH_PERIOD, turn: int | None = TURN_PERIOD) -> Trajectory:
+    """The same path, the camera looking up and down and around: pitch = amplitude
+    sin(2 pi f / period), starting level, and (unless turn is None) yaw turned by 360 f / turn
+    degrees, so it looks down slopes and at objects' tops from every side. Positions,
+    waypoints and camera settings kept."""
+    if not 0.0 < amplitude < 90.0 or period < 2 or (turn is not None and turn < 2):
+        raise ValueError(f"need 0 < amplitude < 90, period >= 2 and turn >= 2 or None, got "
+                         f"{amplitude}, {period}, {turn}")
+    poses = trajectory.poses.copy()
+    frames = np.arange(len(poses))
+    poses[:, 4] = amplitude * np.sin(2.0 * np.pi * frames / period)
+    if turn is not None:
+        poses[:, 3] = np.mod(poses[:, 3] + 360.0 * frames / turn + 180.0, 360.0) - 180.0
+    return Trajectory(poses, dict(trajectory.waypoints), trajectory.fov, trajectory.aspect,
+                      trajectory.near, trajectory.far)
+
+
 def _read(path, handle, limit):
     """(waypoints, rows) of an open trajectory file, reading no further than `limit` frames."""
     waypoints, rows = {}, []

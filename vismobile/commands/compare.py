@@ -16,7 +16,10 @@ def add_parser(sub):
                         help="comma-separated thesis worlds w1..w6, all, or mesh file paths "
                              "(a file needs --trajectory) (default all)")
     parser.add_argument("--trajectory", type=Path, default=None,
-                        help="trajectory CSV for the worlds given as files")
+                        help="trajectory CSV for the worlds given as files, or pitched: the "
+                             "thesis's paths for w1..w6 with the camera looking up and down "
+                             "(+-85 degrees every 150 frames; trajectories/indoor_pitched.csv, "
+                             "outdoor_pitched.csv)")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
                         help="comma-separated grid, octree[:N or A-B], portal[:N or A-B], bsp "
                              "or all (default the thesis's: grid,octree:3-6,portal:1-3,bsp)")
@@ -73,13 +76,18 @@ def run(args) -> int:
 
     from ..atomic import check_destination
     from ..study.matrix import expand, parse_worlds
-    from ..study.thesis import WORLDS
+    from ..study.thesis import TRAJECTORY_VARIANTS, WORLDS, trajectory_for
     from ..study.report import write_report
     from ..study.runner import Context, agreement, reusable_runs, run_matrix
     from ..world import atomic_write_bytes
 
     trajectories = ({w: str(args.trajectory.resolve()) for w in parse_worlds(args.worlds)
                      if w not in WORLDS} if args.trajectory else None)
+    variant = str(args.trajectory) if args.trajectory is not None else ""
+    if variant in TRAJECTORY_VARIANTS and not args.trajectory.is_file():
+        # a variant of the thesis's paths for w1..w6; world files still need a CSV
+        trajectories = {w: trajectory_for(w, variant) for w in parse_worlds(args.worlds)
+                        if w in WORLDS}
     specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames or "all",
                    trajectories)
     for path in (args.out / "runs.csv", args.out / "runs" / "x.json",

@@ -156,7 +156,33 @@ def _error_text(rec) -> str:
     if s["conservative"]:
         return "0 (conservative)"
     return (f"{s['false_negatives_total']:,} visible triangles missed, "
-            f"{s['fn_pixels_mean']:.1f} px/frame")
+            f"{s['fn_pixels_mean']:.1f} px/frame{_visible_share(s)}")
+
+
+def _visible_share(summary) -> str:
+    """" (x% of visible pixels)" for a run's lost pixels; "" for results without the count."""
+    share = summary.get("fn_visible_fraction")
+    return "" if share is None else f" ({share:.1%} of visible pixels)"
+
+
+def _losses(world, runs) -> str:
+    """The lossy runs of a world: what each loses of the visible pixels along the path."""
+    lossy = [r for r in runs if not r["summary"]["conservative"]]
+    path = Path(runs[0]["spec"]["trajectory"]).name if runs else ""
+    if not lossy:
+        return (f"<p class='note'>Path {html.escape(path)}: no run lost a visible pixel.</p>")
+    rows = []
+    for r in sorted(lossy, key=lambda r: -r["summary"].get("fn_visible_fraction", 0.0)):
+        s = r["summary"]
+        share, worst = s.get("fn_visible_fraction"), s.get("fn_visible_fraction_max")
+        rows.append([_config(r["spec"]["structure"], r["spec"]["cull"]),
+                     f"{s['frames_with_fn']} of {s['frames']}",
+                     f"{s['false_negatives_total']:,}", _fmt(s["fn_pixels_mean"], 1),
+                     "n/a" if share is None else f"{share:.1%}",
+                     "n/a" if worst is None else f"{worst:.1%}"])
+    return (f"<h3>Lost visible pixels along {html.escape(path)}</h3>"
+            + _table(["configuration", "frames losing", "triangles missed", "px/frame",
+                      "of visible pixels", "worst frame"], rows))
 
 
 def answer_rows(records, world, tunes=None) -> tuple:
@@ -464,10 +490,13 @@ def runs_table(records, world) -> str:
                        _fmt(s["triangles_sent"]["mean"], 0),
                        _fmt(s["triangles_sent"]["mean"] / max(s["visible_mean"], 1.0), 2),
                        _fmt(s["correlation"], 2), str(s["false_negatives_total"]),
-                       _fmt(s["fn_pixels_mean"], 2)])
+                       _fmt(s["fn_pixels_mean"], 2),
+                       "n/a" if s.get("fn_visible_fraction") is None
+                       else f"{s['fn_visible_fraction']:.2%}"])
     header = (["configuration"] + [f"ms ({label(d)})" for d in DEVICES]
               + ["ms (measured here)", "cull ms (here)", "render ms (here)", "triangles",
-                 "sent / visible", "r(ms, tris) here", "false neg.", "FN px/frame"])
+                 "sent / visible", "r(ms, tris) here", "false neg.", "FN px/frame",
+                 "FN of visible px"])
     return _table(header, rows)
 
 
@@ -483,6 +512,7 @@ def world_section(records, world, tunes=None) -> str:
              _along_path(world, records, tunes, marks),
              _triangles_along(world, records, tunes, marks),
              _front(world, records),
+             _losses(world, runs),
              "<details><summary>the thesis's figures: per culling combination, octree depth "
              "and structure</summary>" + thesis_figures(records, world, tunes) + "</details>",
              "<details><summary>every run of this world</summary>" + runs_table(records, world)

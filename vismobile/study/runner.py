@@ -27,10 +27,10 @@ from .metrics import frame_errors, pearson
 
 FRAME_COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
                  "nodes_visited", "plane_tests", "triangles_tested", "visible",
-                 "false_negatives", "fn_pixels", "tightness")
+                 "false_negatives", "fn_pixels", "tightness", "visible_pixels")
 # Per frame, the modelled frame ms on each device (costmodel.frame_model_ms of the counters).
 MODEL_COLUMNS = tuple(f"model_ms:{device}" for device in DEVICES)
-RESULT_VERSION = "3"
+RESULT_VERSION = "4"  # 4: visible_pixels per frame
 RENDER_REPEATS = 2
 
 
@@ -159,6 +159,7 @@ def execute(spec: RunSpec, context: Context) -> dict:
             "nodes_visited": stats.get("nodes_visited", 0),
             "plane_tests": stats.get("plane_tests", 0),
             "triangles_tested": stats.get("triangles_tested", 0), **errors,
+            "visible_pixels": int(visible.pixels.sum()),
         }
         for name in FRAME_COLUMNS:
             table[name][row] = values[name]
@@ -187,6 +188,12 @@ def summarize_run(table, trajectory, frames, partition, profile, world, build_se
         "fn_pixels_mean": float(table["fn_pixels"].mean()),
         "fn_pixels_max": int(table["fn_pixels"].max(initial=0)),
         "fn_pixel_fraction": float(table["fn_pixels"].mean() / np.prod(profile.resolution)),
+        # of the pixels that show some triangle: over the whole path, and the worst frame
+        "fn_visible_fraction": float(table["fn_pixels"].sum()
+                                     / max(float(table["visible_pixels"].sum()), 1.0)),
+        "fn_visible_fraction_max": float((table["fn_pixels"]
+                                          / np.maximum(table["visible_pixels"], 1.0))
+                                         .max(initial=0.0)),
         "conservative": bool((table["false_negatives"] == 0).all()),
         "visible_mean": float(table["visible"].mean()),
         "world_triangles": int(world.triangle_count),

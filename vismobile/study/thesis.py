@@ -51,13 +51,24 @@ OUTDOOR_WAYPOINTS = {"A": 330, "B": 428, "C": 719, "D": 1156}
 WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6")
 
 
-def trajectory_for(world: str) -> str:
-    """The thesis's trajectory file for a world name (outdoor for w5, w6; indoor otherwise):
-    the absolute path of the copy shipped in the package, so it resolves from any directory."""
+# Variants of the thesis's paths shipped beside them: name -> file suffix. `pitched` is the
+# same path looking up and down (trajectory.pitch_sweep: +-85 degrees every 150 frames), where
+# level paths never show what cbfc_thesis's 2D rule loses.
+TRAJECTORY_VARIANTS = {"pitched": "_pitched"}
+
+
+def trajectory_for(world: str, variant: str | None = None) -> str:
+    """The thesis's trajectory file for a world name (outdoor for w5, w6; indoor otherwise), or
+    its variant (TRAJECTORY_VARIANTS): the absolute path of the copy shipped in the package, so
+    it resolves from any directory. ValueError names the variants on an unknown one."""
     from pathlib import Path
 
-    name = "outdoor.csv" if world in ("w5", "w6") else "indoor.csv"
-    return str(Path(__file__).resolve().parents[1] / "trajectories" / name)
+    if variant is not None and variant not in TRAJECTORY_VARIANTS:
+        raise ValueError(f"unknown trajectory variant {variant!r}; valid: "
+                         f"{', '.join(TRAJECTORY_VARIANTS)}")
+    stem = "outdoor" if world in ("w5", "w6") else "indoor"
+    suffix = TRAJECTORY_VARIANTS[variant] if variant else ""
+    return str(Path(__file__).resolve().parents[1] / "trajectories" / f"{stem}{suffix}.csv")
 
 # The device frame times the device model is fitted to (study/costmodel.fit_device): per
 # device, (world, structure, culling, mean ms per frame, where the number comes from).
