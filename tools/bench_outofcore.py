@@ -4,11 +4,13 @@ peak resident memory (RSS) of each phase.
 
 Usage: nice -n 19 .venv/bin/python tools/bench_outofcore.py --world out/big20m
        [--depth 5] [--jobs 2] [--chunk 524288] [--frames 60] [--out out/big20m.vmp]
-       [--skip-build]
+       [--skip-build] [--cull vfc vfc,tbfc vfc,cbfc vfc,cone] [--results DIR]
 Make the world first with tools/make_big_world.py. The build's peak RSS is reported for this
-process and for the largest worker; culling runs in a fresh process (`--cull-only`) so its peak
-is its own. Cameras: the W2 indoor path moved to the centre tile, --frames evenly spaced frames,
-profile iPaq (FOV 45, far plane 1000, 240 x 320).
+process and for the largest worker; each --cull stage list runs in a fresh process
+(`--cull-only`) so its peak RSS and its prepare time (Culler set-up: the stages' per-triangle
+and per-node tables) are its own. Cameras: the W2 indoor path moved to the centre tile,
+--frames evenly spaced frames, profile iPaq (FOV 45, far plane 1000, 240 x 320). Each run's
+figures are also written to DIR/<vmp name>.cull.<stages>.json (default DIR: beside the .vmp).
 """
 from __future__ import annotations
 
@@ -61,6 +63,7 @@ def cull(args) -> dict:
     from vismobile.profile import get_profile
     from vismobile.trajectory import Trajectory
 
+    import_rss_mb = peak_mb()  # the interpreter and its imports, before anything is mapped
     start = time.perf_counter()
     partition = map_partition(args.out)
     map_s = time.perf_counter() - start
@@ -74,9 +77,10 @@ def cull(args) -> dict:
     track = Trajectory(poses, track.waypoints)
     aspect = get_profile("ipaq-hx2490b").aspect
     frames = np.linspace(0, len(track) - 1, args.frames).round().astype(int)
-    start = time.perf_counter()
-    culler = Culler(partition, "vfc")
-    setup_s = time.perf_counter() - start
+    start, cpu0 = time.perf_counter(), time.process_time()
+    culler = Culler(partition, args.cull[0])
+    setup_s, setup_cpu_s = time.perf_counter() - start, time.process_time() - cpu0
+    setup_rss_mb = peak_mb()
     times, cpu, sent = [], [], []
     for f in frames:
         camera = track.camera(int(f), aspect)
@@ -85,7 +89,9 @@ def cull(args) -> dict:
         times.append((time.perf_counter() - t0) * 1e3)
         cpu.append((time.process_time() - c0) * 1e3)
         sent.append(len(result.triangles))
-    return {"map_s": map_s, "culler_setup_s": setup_s, "first_frame_ms": times[0],
+    return {"stages": args.cull[0], "import_rss_mb": import_rss_mb, "map_s": map_s,
+            "culler_setup_s": setup_s, "culler_setup_cpu_s": setup_cpu_s,
+            "setup_peak_rss_mb": setup_rss_mb, "first_frame_ms": times[0],
             "median_ms": statistics.median(times[1:] or times), "max_ms": max(times),
             "median_cpu_ms": statistics.median(cpu[1:] or cpu), "load": os.getloadavg()[0],
             "mean_sent": float(np.mean(sent)), "max_sent": int(max(sent)),
@@ -101,12 +107,26 @@ def main(argv=None) -> int:
     parser.add_argument("--chunk", type=int, default=CHUNK)
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--skip-build", action="store_true")
+    parser.add_argument("--cull", nargs="+", default=["vfc"], metavar="STAGES",
+                        help="stage lists to cull with, one fresh process each (vfc vfc,tbfc ...)")
+    parser.add_argument("--results", type=Path, default=None,
+                        help="folder for the per-run JSON (default: beside the .vmp)")
     parser.add_argument("--cull-only", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     args.out = args.out or args.world.with_suffix(".vmp")
+    from vismobile.culling import parse_stages
+
+    try:
+        for stages in args.cull:
+            parse_stages(stages)
+    except ValueError as error:
+        print(f"bench_outofcore: {error}", file=sys.stderr)
+        return 2
+    results = args.results or args.out.parent
     if args.cull_only:
         text = json.dumps(cull(args))
-        args.out.with_suffix(".cull.json").write_text(text + "\n")  # kept beside the .vmp
+        label = args.cull[0].replace(",", "+")
+        (results / f"{args.out.stem}.cull.{label}.json").write_text(text + "\n")
         print(text)
         return 0
     if not args.skip_build:
@@ -117,16 +137,21 @@ def main(argv=None) -> int:
               f"{stats['bytes'] / 2**20:.0f} MB file; peak RSS {stats['peak_rss_mb']:.0f} MB "
               f"(largest worker {stats['worker_peak_rss_mb']:.0f} MB)")
         print("  phases: " + ", ".join(f"{k} {v:.1f} s" for k, v in stats["seconds"].items()))
-    command = [sys.executable, __file__, "--cull-only", "--world", str(args.world), "--out",
-               str(args.out), "--frames", str(args.frames)]
-    result = json.loads(subprocess.run(command, check=True, capture_output=True,
-                                       text=True).stdout.splitlines()[-1])
-    print(f"cull (vfc, mapped): map + verify {result['map_s']:.1f} s, culler set-up "
-          f"{result['culler_setup_s']:.2f} s, first frame {result['first_frame_ms']:.1f} ms, "
-          f"median {result['median_ms']:.2f} ms, max {result['max_ms']:.1f} ms over "
-          f"{result['frames']} frames (median CPU {result['median_cpu_ms']:.2f} ms, load "
-          f"{result['load']:.1f}); mean sent {result['mean_sent']:,.0f} (max "
-          f"{result['max_sent']:,}); peak RSS {result['peak_rss_mb']:.0f} MB")
+    for stages in args.cull:
+        command = [sys.executable, __file__, "--cull-only", "--world", str(args.world), "--out",
+                   str(args.out), "--frames", str(args.frames), "--cull", stages,
+                   "--results", str(results)]
+        result = json.loads(subprocess.run(command, check=True, capture_output=True,
+                                           text=True).stdout.splitlines()[-1])
+        print(f"cull ({stages}, mapped): RSS after imports {result['import_rss_mb']:.0f} MB, "
+              f"map + verify {result['map_s']:.1f} s, culler set-up "
+              f"{result['culler_setup_s']:.2f} s ({result['culler_setup_cpu_s']:.2f} s CPU, peak "
+              f"RSS after it {result['setup_peak_rss_mb']:.0f} MB), first frame "
+              f"{result['first_frame_ms']:.1f} ms, median {result['median_ms']:.2f} ms, max "
+              f"{result['max_ms']:.1f} ms over {result['frames']} frames (median CPU "
+              f"{result['median_cpu_ms']:.2f} ms, load {result['load']:.1f}); mean sent "
+              f"{result['mean_sent']:,.0f} (max {result['max_sent']:,}); peak RSS "
+              f"{result['peak_rss_mb']:.0f} MB", flush=True)
     return 0
 
 

@@ -106,7 +106,8 @@ def test_backface_stages_on_a_mapped_world_cull_as_in_memory(streamed, monkeypat
     for stages, counter in (("vfc,tbfc", "tbfc.triangles_culled"),
                             ("vfc,cbfc", "cbfc.refs_culled"),
                             ("vfc,cone", "cone.clusters_culled"),
-                            ("vfc,cone,cbfc,tbfc", "triangles_tested")):
+                            ("vfc,cone,cbfc,tbfc", "triangles_tested"),
+                            ("vfc,cbfc_thesis", "cbfc_thesis.refs_culled")):
         a = Culler(mapped, stages, arithmetic=arithmetic)
         b = Culler(loaded, stages, arithmetic=arithmetic)
         dropped = 0

@@ -167,7 +167,12 @@ class ThesisBackface:
         count = self.yaw_regions or thesis_region_count(state.camera.fov)
         if not hasattr(self, "_count") or self._count != count:
             self._count = count
-            self.sectors = direction_regions(self.tree.world.normals * [1.0, 0.0, 1.0], count, 1)
+            world = self.tree.world  # in chunks: a memory-mapped world is never held whole
+            self.sectors = np.empty(world.triangle_count, dtype=np.int32)
+            for start, corners in corner_chunks(world, CHUNK):
+                normals, _ = unit_normals(corners)
+                self.sectors[start:start + len(corners)] = direction_regions(
+                    normals * [1.0, 0.0, 1.0], count, 1)
         view = direction_regions(state.camera.forward[None] * [1.0, 0.0, 1.0], count, 1)[0]
         if view == count:  # looking straight up or down: the 2D rule has no view sector
             return
