@@ -315,12 +315,11 @@ def _compact(alive, count, split):
     return m
 
 
-@njit(cache=True, inline="always")
-def _push_children(lo, hi, error, spacing, n, split, qs, stamp, x, eye, planes, lam, tau,
+@njit(cache=True)
+def _push_children(lo, hi, error, spacing, n, N, split, qs, stamp, x, eye, planes, lam, tau,
                    cull, every, sk, sv, ns, low, g):
     """Queue x's unsplit children for splitting, each once per frame; only those above tau
     unless every (budget mode). Returns the queue and the largest priority left out."""
-    N = int(np.sqrt(lo.shape[0]))
     h, sq = _geometry(x // N, x % N, n, g)
     if sq or h > 1:
         for k in range(2):
@@ -339,11 +338,10 @@ def _push_children(lo, hi, error, spacing, n, split, qs, stamp, x, eye, planes, 
 
 
 @njit(cache=True)
-def _merge(lo, hi, error, spacing, n, split, qs, qm, stamp, v, p, eye, planes, lam, tau, cull,
-           every, sk, sv, ns, mk, mv, nm, low, g, g2):
+def _merge(lo, hi, error, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau,
+           cull, every, sk, sv, ns, mk, mv, nm, low, g, g2):
     """Merge diamond v (priority p): it rejoins the split queue, its parents may become
     mergeable. Returns the queues, the largest left-out priority and the leaves removed."""
-    N = int(np.sqrt(lo.shape[0]))
     split[v] = 0
     if qs[v] != stamp:
         qs[v] = stamp
@@ -395,17 +393,36 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
         stats[i] = 0.0
     centre = (S // 2) * N + S // 2
     # Queues from last frame's mesh with this frame's priorities.
+    # (The children loop is written out here: a call per diamond costs as much again in
+    # reference counting of its array arguments.)
     for i in range(alive_count):
         v = alive[i]
-        if _mergeable(split, v, n, N, g):
+        h, sq = _geometry(v // N, v % N, n, g)
+        virtual = (not sq) and h == 1
+        mergeable = True
+        for k in range(2):
+            if g[k, 0] < 0:
+                continue
+            for e in range(2, 4):
+                if virtual:
+                    continue
+                m = ((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2
+                if split[m]:
+                    mergeable = False
+                elif qs[m] != stamp:
+                    q = _score(lo, hi, error, spacing, m, N, eye, planes, lam, cull)
+                    qs[m] = stamp
+                    if every or q > tau:
+                        sk, sv = _reserve(sk, sv, ns, 1)
+                        ns = _push(sk, sv, ns, -q, m)
+                    else:
+                        low = max(low, q)
+        if mergeable:
             q = _score(lo, hi, error, spacing, v, N, eye, planes, lam, cull)
             if every or q <= tau:
                 mk, mv = _reserve(mk, mv, nm, 1)
                 nm = _push(mk, mv, nm, q, v)
                 qm[v] = stamp
-        sk, sv = _reserve(sk, sv, ns, 4)
-        ns, low = _push_children(lo, hi, error, spacing, n, split, qs, stamp, v, eye,
-                                         planes, lam, tau, cull, every, sk, sv, ns, low, g)
     if split[centre] == 0:
         q = _score(lo, hi, error, spacing, centre, N, eye, planes, lam, cull)
         sk, sv = _reserve(sk, sv, ns, 1)
@@ -423,7 +440,7 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
         sk, sv = _reserve(sk, sv, ns, 1)
         mk, mv = _reserve(mk, mv, nm, 2)
         ns, nm, low, removed = _merge(
-            lo, hi, error, spacing, n, split, qs, qm, stamp, v, p, eye, planes, lam, tau, cull,
+            lo, hi, error, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau, cull,
             every, sk, sv, ns, mk, mv, nm, low, g, g2)
         leaves -= removed
         merges += 1
@@ -481,7 +498,7 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
                     sk, sv = _reserve(sk, sv, ns, 1)
                     mk, mv = _reserve(mk, mv, nm, 2)
                     ns, nm, low, removed = _merge(
-                        lo, hi, error, spacing, n, split, qs, qm, stamp, w, q, eye, planes, lam,
+                        lo, hi, error, spacing, n, N, split, qs, qm, stamp, w, q, eye, planes, lam,
                         tau, cull, every, sk, sv, ns, mk, mv, nm, low, g, g2)
                     leaves -= removed
                     merges += 1
@@ -504,7 +521,7 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
             if i < count - 1:
                 forced += 1
             sk, sv = _reserve(sk, sv, ns, 4)
-            ns, low = _push_children(lo, hi, error, spacing, n, split, qs, stamp, x, eye,
+            ns, low = _push_children(lo, hi, error, spacing, n, N, split, qs, stamp, x, eye,
                                      planes, lam, tau, cull, every, sk, sv, ns, low, g)
             if every and qm[x] != stamp:  # newly mergeable (for the budget exchange)
                 mk, mv = _reserve(mk, mv, nm, 1)
