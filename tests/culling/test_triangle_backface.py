@@ -113,3 +113,18 @@ def test_tbfc_on_a_thesis_world_keeps_every_visible_triangle(kit, w1_octree):
 def test_negative_tolerances_are_rejected(w1_octree):
     with pytest.raises(ValueError, match="tbfc needs"):
         Culler(w1_octree, "tbfc", tbfc={"relative": -1.0})
+
+
+def test_tbfc_margin_follows_the_arithmetic_mode(w1_octree):
+    # The fixed16.16 grid's step is part of the margin in fixed16.16 only; float modes keep
+    # the relative (16 float32 ulps) term alone.
+    from vismobile.culling.precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE
+
+    eye = np.array([3.0, 1.0, 2.0])
+    deltas = {mode: Culler(w1_octree, "tbfc", arithmetic=mode).stages[0].delta(eye)
+              for mode in ("float64", "float32", "fixed16.16")}
+    scale = float(np.abs(w1_octree.world.vertices).max())
+    assert deltas["fixed16.16"] == pytest.approx(DEVICE_RELATIVE * scale + DEVICE_ABSOLUTE)
+    assert deltas["float32"] == deltas["float64"] < DEVICE_RELATIVE * scale * (1 + 1e-9)
+    given = Culler(w1_octree, "tbfc", arithmetic="float32", tbfc={"absolute": 1e-3})
+    assert given.stages[0].delta(eye) == pytest.approx(DEVICE_RELATIVE * scale + 1e-3)

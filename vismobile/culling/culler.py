@@ -60,9 +60,10 @@ class Culler:
                 vfc, vfc_thesis, cone, occlusion_thesis, occlusion) refine the set of draw nodes,
                 triangle stages (cbfc, tbfc) then filter the gathered references, bfc sets a flag.
     arithmetic: the device's arithmetic mode (float64, float32, fixed16.16); frustum planes are
-                pushed out by its error bound, and stages with an `arithmetic` attribute (cbfc,
-                cone, occlusion, occlusion_thesis, portals) get it for their device-rounding margins
-                (precision.device_move), so every decision stays conservative in that mode
+                pushed out by its error bound, and stages with an `arithmetic` attribute
+                (cbfc, cone, tbfc, occlusion, occlusion_thesis, portals) get it for their
+                device-rounding margins (precision.device_move), so every decision stays
+                conservative in that mode
     options   : per-stage keyword dicts, e.g. occlusion={"occluders": 32}, cbfc={"pitch_bands": 8}
     """
 

@@ -42,7 +42,7 @@ from ..geometry.planes import planes_through_eye
 from ..geometry.raster import to_camera
 from ..geometry.ray import ray_triangle
 from .frustum import frustum_refine, frustum_traverse
-from .precision import device_move, margin
+from .precision import device_move, margin, world_scale
 from .state import CullState
 from .tree import Tree
 
@@ -125,7 +125,7 @@ class PortalStage:
             self.x = {key: np.asarray(extras[key]) for key in EXTRAS}
             world = tree.world
             self.corners, self.normals, self.bounds = world.corners, world.normals, world.bounds
-            self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
+            self.magnitude = world_scale(world.vertices)  # no abs copy of a mapped world
 
     def eye_in_free_space(self, eye, reach: float) -> bool:
         """True when no triangle's box comes within `reach` of the eye and each of the six axis

@@ -27,8 +27,9 @@ from __future__ import annotations
 import numpy as np
 
 # Device rounding covered (precision.py): each coordinate moves by up to DEVICE_RELATIVE x the
-# largest coordinate magnitude (16 float32 ulps) plus DEVICE_ABSOLUTE (2x the fixed16.16 step).
-from .precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE
+# largest coordinate magnitude (16 float32 ulps) plus, in fixed16.16, DEVICE_ABSOLUTE (2x the
+# grid's step): precision.device_move in the Culler's arithmetic mode.
+from .precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE, device_move  # noqa: F401 (re-exported)
 from .facing import backfacing
 from .precision import world_scale
 from .state import CullState
@@ -81,17 +82,21 @@ class TriangleBackface:
     A backface stage: it drops only what the driver's GL_CULL_FACE would discard, so its ground
     truth is the back-face-culled item buffer (as for cbfc and cone).
     Contract: errs toward keeping by tol = the device-rounding move bound plus float64 rounding
-    (module docstring): drops a triangle only when det < -tol.
+    (module docstring): drops a triangle only when det < -tol. The move follows the Culler's
+    arithmetic mode (precision.device_move: the fixed16.16 step only in fixed16.16) unless
+    `absolute` is given.
     Per frame, per distinct candidate: its corners read from the world (in memory or mapped),
     a cross and a dot product, the bound only for those with a negative product.
     """
 
     name = "tbfc"
     cost = 85
+    arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
-    def __init__(self, relative: float = DEVICE_RELATIVE, absolute: float = DEVICE_ABSOLUTE):
-        self.relative, self.absolute = float(relative), float(absolute)
-        if self.relative < 0 or self.absolute < 0:
+    def __init__(self, relative: float = DEVICE_RELATIVE, absolute: float | None = None):
+        self.relative = float(relative)
+        self.absolute = None if absolute is None else float(absolute)
+        if self.relative < 0 or (self.absolute is not None and self.absolute < 0):
             raise ValueError("tbfc needs relative >= 0 and absolute >= 0")
 
     def prepare(self, tree: Tree) -> None:
@@ -102,9 +107,11 @@ class TriangleBackface:
         self.magnitude = world_scale(self.vertices)
 
     def delta(self, eye) -> float:
-        """Per-coordinate move allowed for device rounding, at this world's and eye's scale."""
+        """Per-coordinate move allowed for device rounding, at this world's and eye's scale:
+        relative x scale plus `absolute`, or the mode's own absolute term (device_move)."""
         scale = max(self.magnitude, float(np.abs(eye).max()))
-        return self.relative * scale + self.absolute
+        absolute = device_move(self.arithmetic, 0.0) if self.absolute is None else self.absolute
+        return self.relative * scale + absolute
 
     def apply(self, state: CullState) -> None:
         eye = np.asarray(state.camera.eye, dtype=np.float64)
