@@ -36,7 +36,7 @@ from .tree import Tree
 
 
 # Triangles per chunk when a stage builds its per-triangle table (bounds prepare's memory).
-CHUNK = 1 << 20
+CHUNK = 1 << 18
 
 
 def corner_rays(camera) -> np.ndarray:

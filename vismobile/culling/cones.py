@@ -20,7 +20,7 @@ from .tree import Tree
 
 GROUPS = {"leaf": 1, "octant": 8}
 # References per group of leaves when prepare builds the cones (bounds its memory).
-CHUNK = 1 << 19
+CHUNK = 1 << 18
 
 
 def leaf_groups(counts, size: int):
