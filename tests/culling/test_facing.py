@@ -141,3 +141,8 @@ def test_leaf_groups_cover_every_leaf_once():
     assert all(a[1] == b[0] for a, b in zip(groups, groups[1:]))
     assert all(counts[lo:hi].sum() <= 10 or hi - lo == 1 for lo, hi in groups)
     assert list(cones.leaf_groups(np.zeros(0, np.int64), 10)) == []
+
+
+def test_a_stage_that_needs_an_in_memory_world_says_so_on_a_mapped_one(streamed):
+    with pytest.raises(ValueError, match="'occlusion_thesis' needs an in-memory World"):
+        Culler(map_partition(streamed), "vfc,occlusion_thesis")

@@ -5,6 +5,7 @@ import numpy as np
 
 from ..geometry.arithmetic import MODES
 from ..partition.base import Partition
+from ..world import World
 from .backface import BackfaceFlag, ConservativeBackface, ThesisBackface
 from .cones import NormalConeStage
 from .frustum import FrustumStage, ThesisFrustumStage
@@ -82,7 +83,16 @@ class Culler:
         for stage in self.stages:
             if hasattr(stage, "arithmetic"):  # stages with a device-rounding margin
                 stage.arithmetic = arithmetic
-            stage.prepare(self.tree)
+            try:
+                stage.prepare(self.tree)
+            except AttributeError as error:
+                # A memory-mapped world (mapped.MappedWorld) lacks the World's whole-world
+                # tables (normals, corners, areas) that some stages precompute from.
+                if isinstance(partition.world, World):
+                    raise
+                raise ValueError(f"culling stage {stage.name!r} needs an in-memory World "
+                                 f"({error}); load the partition with load_partition instead "
+                                 f"of map_partition") from None
 
     @property
     def cull_back(self) -> bool:
