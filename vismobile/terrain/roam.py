@@ -166,14 +166,15 @@ def wedgie_ranges(heights, error, n):
 
 
 @njit(cache=True, inline="always")
-def _box(lo, hi, v, N):
+def _box(wedge, v, N):
     """(x0, x1, z0, z1) in samples and (y0, y1) world of the box holding diamond v's wedgies:
     every diamond spans +-h samples around its vertex, h its lowest set coordinate bit."""
     S = N - 1
     r, c = v // N, v % N
     x = r | c
     h = x & -x
-    return max(c - h, 0), min(c + h, S), max(r - h, 0), min(r + h, S), lo[v], hi[v]
+    return (max(c - h, 0), min(c + h, S), max(r - h, 0), min(r + h, S), wedge[v, 0],
+            wedge[v, 1])
 
 
 @njit(cache=True)
@@ -192,13 +193,13 @@ def _flag(planes, x0, y0, z0, x1, y1, z1):
 
 
 @njit(cache=True, inline="always")
-def _score(lo, hi, error, spacing, v, N, eye, planes, lam, cull):
+def _score(wedge, spacing, v, N, eye, planes, lam, cull):
     """Priority in pixels of diamond v (0 when its box is outside the frustum and cull)."""
-    x0, x1, z0, z1, y0, y1 = _box(lo, hi, v, N)
+    x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
     x0, x1, z0, z1 = x0 * spacing, x1 * spacing, z0 * spacing, z1 * spacing
     if cull and _flag(planes, x0, y0, z0, x1, y1, z1) == OUT:
         return 0.0
-    e = error[v]
+    e = wedge[v, 2]
     if e <= 0.0:
         return 0.0
     dx = max(x0 - eye[0], 0.0, eye[0] - x1)
@@ -316,7 +317,7 @@ def _compact(alive, count, split):
 
 
 @njit(cache=True)
-def _push_children(lo, hi, error, spacing, n, N, split, qs, stamp, x, eye, planes, lam, tau,
+def _push_children(wedge, spacing, n, N, split, qs, stamp, x, eye, planes, lam, tau,
                    cull, every, sk, sv, ns, low, g):
     """Queue x's unsplit children for splitting, each once per frame; only those above tau
     unless every (budget mode). Returns the queue and the largest priority left out."""
@@ -328,7 +329,7 @@ def _push_children(lo, hi, error, spacing, n, N, split, qs, stamp, x, eye, plane
             for e in range(2, 4):
                 m = ((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2
                 if split[m] == 0 and qs[m] != stamp:
-                    q = _score(lo, hi, error, spacing, m, N, eye, planes, lam, cull)
+                    q = _score(wedge, spacing, m, N, eye, planes, lam, cull)
                     qs[m] = stamp
                     if every or q > tau:
                         ns = _push(sk, sv, ns, -q, m)
@@ -338,7 +339,7 @@ def _push_children(lo, hi, error, spacing, n, N, split, qs, stamp, x, eye, plane
 
 
 @njit(cache=True)
-def _merge(lo, hi, error, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau,
+def _merge(wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau,
            cull, every, sk, sv, ns, mk, mv, nm, low, g, g2):
     """Merge diamond v (priority p): it rejoins the split queue, its parents may become
     mergeable. Returns the queues, the largest left-out priority and the leaves removed."""
@@ -357,7 +358,7 @@ def _merge(lo, hi, error, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes
         removed += 1
         a = g[k, 0] * N + g[k, 1]
         if qm[a] != stamp and _mergeable(split, a, n, N, g2):
-            q = _score(lo, hi, error, spacing, a, N, eye, planes, lam, cull)
+            q = _score(wedge, spacing, a, N, eye, planes, lam, cull)
             if every or q <= tau:
                 nm = _push(mk, mv, nm, q, a)
                 qm[a] = stamp
@@ -365,7 +366,7 @@ def _merge(lo, hi, error, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes
 
 
 @njit(cache=True)
-def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
+def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
            eye, planes, lam, tau, budget, leaves, cull, born, stats):
     """One ROAM frame from last frame's mesh. Returns (alive_count, leaves, born_count).
 
@@ -375,7 +376,7 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
     full]. qs/qm/mark are stamps per sample; stamp is this call's number (> 0). When alive
     fills up, returns early with stats[6] = 1 (the mesh is consistent; grow alive, call
     again)."""
-    N = int(np.sqrt(lo.shape[0]))
+    N = int(np.sqrt(wedge.shape[0]))
     S = N - 1
     every = budget >= 0
     if not every:
@@ -410,7 +411,7 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
                 if split[m]:
                     mergeable = False
                 elif qs[m] != stamp:
-                    q = _score(lo, hi, error, spacing, m, N, eye, planes, lam, cull)
+                    q = _score(wedge, spacing, m, N, eye, planes, lam, cull)
                     qs[m] = stamp
                     if every or q > tau:
                         sk, sv = _reserve(sk, sv, ns, 1)
@@ -418,13 +419,13 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
                     else:
                         low = max(low, q)
         if mergeable:
-            q = _score(lo, hi, error, spacing, v, N, eye, planes, lam, cull)
+            q = _score(wedge, spacing, v, N, eye, planes, lam, cull)
             if every or q <= tau:
                 mk, mv = _reserve(mk, mv, nm, 1)
                 nm = _push(mk, mv, nm, q, v)
                 qm[v] = stamp
     if split[centre] == 0:
-        q = _score(lo, hi, error, spacing, centre, N, eye, planes, lam, cull)
+        q = _score(wedge, spacing, centre, N, eye, planes, lam, cull)
         sk, sv = _reserve(sk, sv, ns, 1)
         ns = _push(sk, sv, ns, -q, centre)
         qs[centre] = stamp
@@ -440,7 +441,7 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
         sk, sv = _reserve(sk, sv, ns, 1)
         mk, mv = _reserve(mk, mv, nm, 2)
         ns, nm, low, removed = _merge(
-            lo, hi, error, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau, cull,
+            wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau, cull,
             every, sk, sv, ns, mk, mv, nm, low, g, g2)
         leaves -= removed
         merges += 1
@@ -498,7 +499,7 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
                     sk, sv = _reserve(sk, sv, ns, 1)
                     mk, mv = _reserve(mk, mv, nm, 2)
                     ns, nm, low, removed = _merge(
-                        lo, hi, error, spacing, n, N, split, qs, qm, stamp, w, q, eye, planes, lam,
+                        wedge, spacing, n, N, split, qs, qm, stamp, w, q, eye, planes, lam,
                         tau, cull, every, sk, sv, ns, mk, mv, nm, low, g, g2)
                     leaves -= removed
                     merges += 1
@@ -521,11 +522,11 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
             if i < count - 1:
                 forced += 1
             sk, sv = _reserve(sk, sv, ns, 4)
-            ns, low = _push_children(lo, hi, error, spacing, n, N, split, qs, stamp, x, eye,
+            ns, low = _push_children(wedge, spacing, n, N, split, qs, stamp, x, eye,
                                      planes, lam, tau, cull, every, sk, sv, ns, low, g)
             if every and qm[x] != stamp:  # newly mergeable (for the budget exchange)
                 mk, mv = _reserve(mk, mv, nm, 1)
-                nm = _push(mk, mv, nm, _score(lo, hi, error, spacing, x, N, eye, planes,
+                nm = _push(mk, mv, nm, _score(wedge, spacing, x, N, eye, planes,
                                               lam, cull), x)
                 qm[x] = stamp
     # Largest priority left among leaf diamonds: the frame's screen-error bound (pixels).
@@ -542,11 +543,11 @@ def _frame(lo, hi, error, spacing, n, split, alive, alive_count, qs, qm, mark, s
 
 
 @njit(cache=True)
-def _emit(lo, hi, spacing, n, split, alive, alive_count, planes, cull, out):
+def _emit(wedge, spacing, n, split, alive, alive_count, planes, cull, out):
     """Leaf triangles (sample ids, counter-clockwise from +y) of the mesh, frustum-culled by
     diamond flags (IN: all, OUT: none, PARTIAL: per triangle). Returns the count (-1: out is
     too small)."""
-    N = int(np.sqrt(lo.shape[0]))
+    N = int(np.sqrt(wedge.shape[0]))
     S = N - 1
     g = np.empty((4, 2), np.int64)
     count = 0
@@ -560,7 +561,7 @@ def _emit(lo, hi, spacing, n, split, alive, alive_count, planes, cull, out):
     for i in range(alive_count):
         v = alive[i]
         r, c = v // N, v % N
-        x0, x1, z0, z1, y0, y1 = _box(lo, hi, v, N)
+        x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
         flag = IN
         if cull:
             flag = _flag(planes, x0 * spacing, y0, z0 * spacing, x1 * spacing, y1, z1 * spacing)
@@ -645,11 +646,14 @@ class Roam:
         N = heightmap.size
         self.heights = heightmap.heights.astype(np.float64)
         start = time.perf_counter()
-        self.error = wedgies(self.heights, self.n)
-        self.lo, self.hi = wedgie_ranges(self.heights, self.error, self.n)
-        # float32 copy rounded up for the per-frame priorities (half the memory traffic).
-        e32 = self.error.astype(np.float32)
-        self.error32 = np.where(e32 < self.error, np.nextafter(e32, np.float32(np.inf)), e32)
+        error = wedgies(self.heights, self.n)
+        lo, hi = wedgie_ranges(self.heights, error, self.n)
+        # Per diamond, one 16-byte row read by the per-frame priorities: the wedgie box's
+        # height range and e (float32 rounded up), so a priority costs one cache line.
+        e32 = error.astype(np.float32)
+        e32 = np.where(e32 < error, np.nextafter(e32, np.float32(np.inf)), e32)
+        self.wedge = np.stack([lo, hi, e32, np.zeros_like(e32)], axis=1)
+        del lo, hi, e32, error
         self.build_seconds = time.perf_counter() - start
         self.geomorph = int(geomorph)
         self.split = np.zeros(N * N, np.uint8)
@@ -698,7 +702,7 @@ class Roam:
         while True:
             born = np.zeros(len(self.alive) if self.geomorph else 0, np.int64)
             self.alive_count, self.leaves, born_count = _frame(
-                self.lo, self.hi, self.error32, self.heightmap.spacing, self.n, self.split,
+                self.wedge, self.heightmap.spacing, self.n, self.split,
                 self.alive, self.alive_count, self.qs, self.qm, self.mark, self.frame_number,
                 camera.eye, planes, lam, float(tau), limit, self.leaves, cull, born, stats)
             born_all.append(born[:born_count])
@@ -710,7 +714,7 @@ class Roam:
             self.alive = grown
             self.frame_number += 1
         while True:
-            count = _emit(self.lo, self.hi, self.heightmap.spacing, self.n, self.split,
+            count = _emit(self.wedge, self.heightmap.spacing, self.n, self.split,
                           self.alive, self.alive_count, planes, cull, self.out)
             if count >= 0:
                 break
