@@ -47,8 +47,9 @@ def backfacing(ids, vertices, triangles, eye, delta, gamma8):
         cz = ax * by - ay * bx
         wx, wy, wz = eye[0] - x0, eye[1] - y0, eye[2] - z0
         det = cx * wx + cy * wy + cz * wz
-        if not det < 0:
-            continue
+        # The bound for every candidate, without a branch on the sign of det: about half the
+        # candidates face away, and the unpredictable branch cost more than the bound (20 M
+        # world, one frame's 1.88 M candidates: 38 -> 34 ms).
         ea = np.sqrt(ax * ax + ay * ay + az * az)
         eb = np.sqrt(bx * bx + by * by + bz * bz)
         lw = np.sqrt(wx * wx + wy * wy + wz * wz)
@@ -58,7 +59,7 @@ def backfacing(ids, vertices, triangles, eye, delta, gamma8):
         abs_y = abs(az) * abs(bx) + abs(ax) * abs(bz)
         abs_z = abs(ax) * abs(by) + abs(ay) * abs(bx)
         rounding = gamma8 * (abs_x * abs(wx) + abs_y * abs(wy) + abs_z * abs(wz))
-        out[k] = det < -(moved + rounding) * (1.0 + 2.0 ** -50)
+        out[k] = (det < 0) & (det < -(moved + rounding) * (1.0 + 2.0 ** -50))
     return out
 
 
