@@ -171,3 +171,22 @@ def test_measured_against_its_full_render_with_and_without_geomorph(fractal257):
                        profile, exact_vertices=True)[0]
     assert morphing["triangles"] == low["triangles"]
     assert morphing["psnr"] < low["psnr"] and morphing["vertex_error_max"] > 0.5
+
+
+def test_culled_mesh_covers_the_frustum(pyramid257):
+    """Frustum culling (IN / OUT / PARTIAL diamonds) drops only triangles outside the view:
+    every sample inside the frustum is drawn, and fewer triangles go out than with culling
+    off."""
+    from vismobile.geometry.planes import points_inside
+
+    hm = pyramid257.heightmap
+    i, j = np.mgrid[0:hm.size, 0:hm.size]
+    points = np.stack([j * hm.spacing, hm.heights, i * hm.spacing], -1).reshape(-1, 3)
+    for camera in overview_cameras(hm):
+        r, everything = Roam(hm), Roam(hm)
+        frame = r.update(camera, RESOLUTION, 2.0)
+        drawn = np.isfinite(triangle_heights(hm.heights.astype(float), frame.triangles))
+        inside = points_inside(points, camera.frustum_planes()).reshape(i.shape)
+        assert drawn[inside].all()
+        uncut = everything.update(camera, RESOLUTION, 2.0, cull=False)
+        assert len(frame.triangles) < len(uncut.triangles)

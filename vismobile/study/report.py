@@ -615,7 +615,7 @@ def terrain_section(rows, peers=None, heading="Terrain: the pixel knob against i
             label_ = f"{method}, {path}"
             psnr = [min(x["psnr_min"], 90.0) for x in r]
             axes[0].plot([x["triangles"] for x in r], psnr, label=label_, **kw)
-            axes[1].plot([x["tau"] for x in r], [x["sample_error_max"] for x in r],
+            axes[1].plot([x["tau"] for x in r], [max(x["sample_error_max"], 0.01) for x in r],
                          label=label_, **kw)
     taus = sorted({r["tau"] for r in rows})
     axes[1].plot(taus, taus, c="k", lw=0.8, label="sample error = tau")
@@ -626,7 +626,7 @@ def terrain_section(rows, peers=None, heading="Terrain: the pixel knob against i
     log_axis(axes[1], "x")
     log_axis(axes[1], "y")
     axes[1].set_xlabel("tau, pixels (log)")
-    axes[1].set_ylabel("largest sample error, pixels (log)")
+    axes[1].set_ylabel("largest sample error, pixels (log; 0 shown at 0.01)")
     legend_outside(axes[1])
     parts.append(figure_png(fig, "terrain: triangles against PSNR, error against tau"))
     table = [[html.escape(r["method"]), html.escape(r["path"]), _fmt(r["tau"], 2),
