@@ -117,6 +117,13 @@ class Profile:
     def fixed(self) -> bool:
         return self.vertex_format == "fixed16.16"
 
+    @property
+    def measured_as(self) -> tuple:
+        """What a measurement on this machine depends on: screen, vertex format and batch size.
+        Profiles equal here (the iPaq and the N82) cull, render and err identically here; they
+        differ only in their device cost models, which every run prices for every device."""
+        return self.resolution, self.vertex_format, self.max_batch_vertices
+
     def with_(self, **changes) -> "Profile":
         """A copy with some fields replaced (e.g. vertex_format="fixed16.16")."""
         return replace(self, **changes)

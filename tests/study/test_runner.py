@@ -113,3 +113,27 @@ def test_the_report_answers_what_to_use_per_device_first(study, tmp_path):
     # The answer table comes before any figure; no missed pixels: a sentence, not a plot.
     assert text.index("ms per frame [95% interval]") < text.index("<img")
     assert "no missed-pixel plot" in text
+
+
+def test_profiles_measured_alike_run_once(tmp_path, world_file, trajectory_file, monkeypatch):
+    """The iPaq and the N82 share screen, vertex format and batch size: one execution serves
+    both (identical timings, which two executions would not give); desktop runs on its own."""
+    context = Context("/", tmp_path / "out", tmp_path / "worlds", tmp_path / "cache")
+    specs = [RunSpec(str(world_file), str(trajectory_file), "octree:2", "vfc", profile,
+                     "sample:4") for profile in ("ipaq-hx2490b", "nokia-n82", "desktop")]
+    assert runner.reusable_runs(specs, context) == (0, 2)
+    executed = []
+    real = runner.execute
+    monkeypatch.setattr(runner, "execute",
+                        lambda spec, ctx: executed.append(spec.profile) or real(spec, ctx))
+    ipaq, n82, desktop = run_matrix(specs, context, processes=1, progress=False)
+    assert executed == ["ipaq-hx2490b", "desktop"]
+    assert n82["spec"]["profile"] == "nokia-n82" and n82["measured_by"] == ipaq["key"]
+    assert n82["key"] != ipaq["key"] and n82["frames"]["cull_ms"] == ipaq["frames"]["cull_ms"]
+    assert "measured_by" not in desktop
+    assert desktop["frames"]["visible_pixels"] != ipaq["frames"]["visible_pixels"]  # 640x480
+    assert len(list((context.out / "runs").glob("*.json"))) == 3
+    assert runner.reusable_runs(specs, context) == (3, 0)
+    monkeypatch.setattr(runner, "execute", lambda *a: pytest.fail("a finished run ran again"))
+    again = run_matrix(specs, context, processes=1, progress=False)
+    assert [r["key"] for r in again] == [ipaq["key"], n82["key"], desktop["key"]]

@@ -94,9 +94,11 @@ def run(args) -> int:
                  args.report or args.out / "report.html"):
         check_destination(path)  # before hours of runs, not after
     context = Context(".", args.out, args.worlds_dir, args.cache)
-    reused = reusable_runs(specs, context)
-    print(f"{len(specs)} runs -> {args.out}/runs/: {reused} reused from earlier, "
-          f"{len(specs) - reused} to run", flush=True)
+    reused, executed = reusable_runs(specs, context)
+    shared = len(specs) - reused - executed
+    print(f"{len(specs)} runs -> {args.out}/runs/: {reused} reused from earlier, {executed} to "
+          f"run" + (f", {shared} shared with a profile measured alike (same screen and vertex "
+                    f"format: only the device models differ)" if shared else ""), flush=True)
     records = run_matrix(specs, context, args.jobs, progress=not args.quiet,
                          scheduler=args.scheduler)
     from ..progress import Status

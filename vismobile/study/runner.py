@@ -235,9 +235,35 @@ def _finished(specs, context: Context) -> tuple:
     return keyed, records
 
 
-def reusable_runs(specs, context: Context) -> int:
-    """How many of the specs have a finished result on disk that run_matrix will reuse."""
-    return len(_finished(list(dict.fromkeys(specs)), context)[1])
+def _measured_as(spec: RunSpec) -> tuple:
+    """A run's identity without its profile's name: the profile counts only as it is measured."""
+    from ..errors import ProfileError
+    from ..profile import get_profile
+
+    try:
+        measured = get_profile(spec.profile).measured_as
+    except ProfileError:  # runs alone, and its record says why it failed
+        measured = spec.profile
+    return spec.world, spec.trajectory, spec.structure, spec.cull, spec.frames, measured
+
+
+def _twin_record(record: dict, spec: RunSpec, key: str, context: Context) -> dict:
+    """The record of `spec` from the record of a run measured alike (written to its own result
+    file, so a resumed sweep finds it)."""
+    twin = {**record, "spec": spec.to_dict()}
+    if "error" in record:
+        return twin
+    twin.update(key=key, measured_by=record["key"])
+    atomic_write_bytes(result_path(context, key), json.dumps(twin).encode())
+    return twin
+
+
+def reusable_runs(specs, context: Context) -> tuple:
+    """(finished results on disk that run_matrix will reuse, runs it will execute: one per
+    group of the others that differ only in a profile measured alike)."""
+    keyed, records = _finished(list(dict.fromkeys(specs)), context)
+    todo = {_measured_as(spec) for spec, key in keyed.items() if key not in records}
+    return len(records), len(todo)
 
 
 def run_matrix(specs, context: Context, processes: int | None = None,
@@ -254,7 +280,11 @@ def run_matrix(specs, context: Context, processes: int | None = None,
     """
     specs = list(dict.fromkeys(specs))
     keyed, records = _finished(specs, context)
-    todo = [spec for spec, key in keyed.items() if key not in records]
+    # Runs that differ only in a profile measured alike are executed once and recorded for each.
+    twins = {}
+    for spec in (spec for spec, key in keyed.items() if key not in records):
+        twins.setdefault(_measured_as(spec), []).append(spec)
+    todo = [group[0] for group in twins.values()]
     processes = max(1, min(processes or os.cpu_count() or 1, len(todo) or 1))
     if todo:
         structures = list({(s.world, s.structure): s for s in todo}.values())
@@ -288,6 +318,9 @@ def run_matrix(specs, context: Context, processes: int | None = None,
                     records[key] = record
                     bar.step()
         bar.close()
+    for first, *rest in twins.values():
+        for spec in rest:
+            records[keyed[spec]] = _twin_record(records[keyed[first]], spec, keyed[spec], context)
     ordered = [records[keyed[spec]] for spec in specs]
     write_tables(ordered, context.out)
     return ordered
