@@ -4,7 +4,9 @@ from __future__ import annotations
 from ..errors import VisMobileError
 
 _CONTEXT = None
-_TARGETS = {}
+_TARGETS = {}  # (size, kind) -> framebuffer, most recently used last
+# Sizes kept per kind: a window resized through many sizes must not keep a target for each.
+TARGETS_KEPT = 4
 
 
 class RenderError(VisMobileError):
@@ -35,12 +37,14 @@ def gl_context():
 
 
 def render_target(size, kind):
-    """Cached framebuffer of size (width, height): kind "rgb" (RGBA8) or "ids" (R32UI), + depth.
+    """Cached framebuffer of size (width, height): kind "rgb" (RGBA8) or "ids" (R32UI), + depth;
+    the TARGETS_KEPT most recently used sizes of each kind are kept, older ones freed.
 
     Both kinds use the same 24-bit depth renderbuffer format, so they rasterise alike.
     """
     key = (tuple(size), kind)
-    if key not in _TARGETS:
+    target = _TARGETS.pop(key, None)
+    if target is None:
         ctx = gl_context()
         if kind == "rgb":
             color = ctx.renderbuffer(size, components=4, dtype="f1")
@@ -48,8 +52,12 @@ def render_target(size, kind):
             color = ctx.renderbuffer(size, components=1, dtype="u4")
         else:
             raise ValueError(f"unknown render target kind {kind!r}")
-        _TARGETS[key] = ctx.framebuffer([color], ctx.depth_renderbuffer(size))
-    return _TARGETS[key]
+        target = ctx.framebuffer([color], ctx.depth_renderbuffer(size))
+        same_kind = [k for k in _TARGETS if k[1] == kind]
+        for old in same_kind[:max(0, len(same_kind) - TARGETS_KEPT + 1)]:
+            del _TARGETS[old]  # least recently used; gc_mode "auto" frees its GL objects
+    _TARGETS[key] = target
+    return target
 
 
 
