@@ -168,7 +168,8 @@ class ThesisBackface:
         if not hasattr(self, "_count") or self._count != count:
             self._count = count
             world = self.tree.world  # in chunks: a memory-mapped world is never held whole
-            self.sectors = np.empty(world.triangle_count, dtype=np.int32)
+            small = np.uint8 if count < 256 else np.int32  # ids 0..count, one byte a triangle
+            self.sectors = np.empty(world.triangle_count, dtype=small)
             for start, corners in corner_chunks(world, CHUNK):
                 normals, _ = unit_normals(corners)
                 self.sectors[start:start + len(corners)] = direction_regions(
