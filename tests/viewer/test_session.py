@@ -168,3 +168,20 @@ def test_saving_nothing_or_loading_nothing_is_a_message_not_an_error(scene, tmp_
     bad = tmp_path / "bad.csv"
     bad.write_text("frame,x\n")
     assert not session.load_trajectory(bad) and str(bad) in session.message
+
+
+def test_structures_over_the_heap_are_skipped_and_worlds_refused(scene, tmp_path):
+    from vismobile.errors import ProfileError
+    from vismobile.profile import get_profile
+
+    ipaq = get_profile("ipaq-hx2490b")
+    fits = ipaq.estimate_memory(scene.world, scene.partition)["total"]
+    small = ipaq.with_(heap_bytes=fits)            # octree:3 fits exactly; octree:6 does not
+    session = Session(scene, ("vfc",), small, record_path=tmp_path / "r.csv",
+                      structures=("octree:3", "octree:6", "none"))
+    session.key_down("TAB")
+    assert session.structure == "none" and "octree 6" in session.message.replace(":", " ")
+    assert "over the" in session.message
+    assert not session.set_structure("octree:6") and session.structure == "none"
+    with pytest.raises(ProfileError, match="heap"):
+        Session(scene, (), ipaq.with_(heap_bytes=fits - 1), record_path=tmp_path / "r.csv")

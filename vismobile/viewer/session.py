@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import Camera
-from ..errors import VisMobileError
+from ..errors import ProfileError, VisMobileError
 from ..playback import Scene, load_scene, make_culler, parse_structure, _describe
 from ..profile import get_profile
 from ..trajectory import Trajectory
@@ -63,6 +63,7 @@ class Session:
         self.world = scene.world
         self.profile = get_profile(profile)
         self.profile.check_range(self.world.extent, f"world {self.world.name!r}")
+        self.profile.check_memory(self.world, scene.partition)  # refused, as `play` refuses
         self.partitions = {scene.structure: scene.partition}
         self.structures = list(dict.fromkeys(self._label(s) for s in structures))
         if scene.structure not in self.structures:
@@ -155,9 +156,14 @@ class Session:
         return False
 
     def set_structure(self, structure) -> bool:
-        """Switch structure keeping the stages that it can run (others are switched off)."""
+        """Switch structure keeping the stages that it can run (others are switched off);
+        False (and a message) when the world with it does not fit the profile's heap."""
         label = self._label(structure)
-        self._partition(label)
+        try:
+            self.profile.check_memory(self.world, self._partition(label))
+        except ProfileError as error:
+            self.message = f"structure {label} not switched to: {error}"
+            return False
         kept = self.stages
         try:
             self.culler = self._culler(label, kept)
@@ -177,8 +183,18 @@ class Session:
             return False
 
     def next_structure(self) -> None:
+        """The next structure of the Tab cycle that fits the heap (the message names any
+        skipped)."""
         index = self.structures.index(self.structure)
-        self.set_structure(self.structures[(index + 1) % len(self.structures)])
+        skipped = []
+        for step in range(1, len(self.structures)):
+            label = self.structures[(index + step) % len(self.structures)]
+            if self.set_structure(label):
+                break
+            skipped.append(label)
+        if skipped:
+            self.message += f"; over the {self.profile.heap_bytes >> 20} MB heap: " + \
+                ", ".join(skipped)
 
     # ---- input -----------------------------------------------------------------------------
     def key_down(self, name: str) -> None:
