@@ -40,7 +40,9 @@ def raster(tris, clip=0.1):
     assert not mask.any() and not centre.any() and not crease.any()  # scratch handed back
     rows, cols = (H + TILE[1] - 1) // TILE[1], (W + TILE[0] - 1) // TILE[0]
     tmax, tany = np.empty(rows * cols), np.empty(rows * cols, dtype=bool)
-    build_tiles(depth, W, H, *TILE, tmax, tany)
+    tmin = np.empty(rows * cols)
+    build_tiles(depth, W, H, *TILE, tmax, tany, tmin)
+    assert np.array_equal(tmin, depth.reshape(rows, TILE[1], cols, TILE[0]).min(axis=(1, 3)).ravel())
     return depth.reshape(H, W), tmax.reshape(rows, cols), tany.reshape(rows, cols)
 
 

@@ -282,21 +282,22 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
 
 
 @njit(cache=True, nogil=True)
-def build_tiles(depth, width, height, tw, th, tile_max, tile_any):
+def build_tiles(depth, width, height, tw, th, tile_max, tile_any, tile_min):
     """Per tile of tw x th pixels: tile_max the largest depth bound (inf when any pixel is not
-    covered), tile_any whether any pixel is covered. Exact (a maximum)."""
+    covered), tile_any whether any pixel is covered, tile_min the smallest bound. Exact."""
     cols = (width + tw - 1) // tw
     rows = (height + th - 1) // th
     for ty_ in range(rows):
         for tx_ in range(cols):
-            m, any_ = -np.inf, False
+            m, low = -np.inf, np.inf
             for r in range(ty_ * th, min((ty_ + 1) * th, height)):
                 for c in range(tx_ * tw, min((tx_ + 1) * tw, width)):
                     v = depth[r * width + c]
                     m = max(m, v)
-                    any_ = any_ or v < np.inf
+                    low = min(low, v)
             tile_max[ty_ * cols + tx_] = m
-            tile_any[ty_ * cols + tx_] = any_
+            tile_any[ty_ * cols + tx_] = low < np.inf
+            tile_min[ty_ * cols + tx_] = low
 
 
 @njit(cache=True, nogil=True)
@@ -367,26 +368,50 @@ def _touches(x0, x1, y0, y1, tile_any, cols, tw, th):
 
 
 @njit(cache=True, nogil=True)
-def cull_nodes(lo, hi, first_child, child_count, nonempty, roots, eye, rot, near, tx, ty,
-               width, height, move, shift, margin, recede, depth, tile_max, tile_any, tw, th,
-               out, stack):
-    """Occlusion walk from `roots`: a node hidden by the buffer (module docstring) is dropped, a
-    visible inner node whose rectangle meets a covered tile (or that is not testable) is
-    replaced by its non-empty children, others are kept in out. Errs toward keeping.
-    lo, hi : (N, 3) box corners;  out, stack : (>= N + len(roots),) int64 scratch
+def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_mark, up_mark,
+               frame, eye, rot, near, tx, ty, width, height, move, shift, margin, recede, depth,
+               tile_max, tile_any, tw, th, out, stack, below, nearest_far):
+    """Occlusion walk over the subtrees of `roots` (the frame's draw nodes), entered from the
+    tree's root so that hidden regions go at a coarse level: an ancestor of draw nodes that is
+    hidden by the buffer (module docstring) drops every draw node under it; a draw node (or a
+    node under one) that is hidden is dropped, a visible inner one whose rectangle meets a
+    covered tile (or that is not testable) is replaced by its non-empty children, others are
+    kept in out. Errs toward keeping; the result lies within the roots' subtrees.
+    lo, hi : (N, 3) box corners;  parent : (N,) int64 (-1 at the root)
+    draw_mark, up_mark : (N,) int64 scratch stamped with frame (draw nodes, their ancestors)
+    out, stack : (>= N + len(roots),) int64 scratch;  below : same size, uint8 scratch
+    nearest_far: a leaf whose nearest corner is not beyond this (the smallest covered depth
+                 bound D plus margin D^2 + recede) is kept without its rectangle
     returns (kept count, nodes visited, nodes culled)"""
     cols = (width + tw - 1) // tw
     cam = np.empty((8, 3))
     corner = np.empty(3)
     r = np.empty(7)
+    for k in range(len(roots)):
+        draw_mark[roots[k]] = frame
     top = 0
-    for k in range(len(roots) - 1, -1, -1):
-        stack[top] = roots[k]
+    for k in range(len(roots)):
+        p = parent[roots[k]]
+        while p >= 0 and up_mark[p] != frame:
+            up_mark[p] = frame
+            p = parent[p]
+        if parent[roots[k]] < 0:  # a root of the tree: entered directly
+            stack[top] = roots[k]
+            below[top] = 1
+            top += 1
+    if len(roots) and up_mark[0] == frame:
+        stack[top] = 0
+        below[top] = 0
         top += 1
     count = visited = culled = 0
     while top > 0:
         top -= 1
-        node = stack[top]
+        node, under = stack[top], below[top]
+        if not under:
+            if draw_mark[node] == frame:
+                under = 1
+            elif up_mark[node] != frame:
+                continue  # outside every draw node's subtree
         if not nonempty[node]:
             continue
         visited += 1
@@ -395,6 +420,14 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, roots, eye, rot, near
             corner[1] = hi[node, 1] if k & 2 else lo[node, 1]
             corner[2] = hi[node, 2] if k & 4 else lo[node, 2]
             _to_camera(corner, eye, rot, cam[k])
+        n = child_count[node]
+        zmin = np.inf
+        for k in range(8):
+            zmin = min(zmin, cam[k, 2])
+        if under and n == 0 and zmin <= nearest_far:
+            out[count] = node  # nearer than every covered pixel's bound: cannot be hidden
+            count += 1
+            continue
         _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
         x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
         testable = r[5] > 0
@@ -402,11 +435,12 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, roots, eye, rot, near
                                               cols, tw, th, margin, recede)):
             culled += 1
             continue
-        n = child_count[node]
-        if n > 0 and (not testable or _touches(x0, x1, y0, y1, tile_any, cols, tw, th)):
+        if not under or (n > 0 and (not testable
+                                    or _touches(x0, x1, y0, y1, tile_any, cols, tw, th))):
             first = first_child[node]
             for c in range(n - 1, -1, -1):
                 stack[top] = first + c
+                below[top] = under
                 top += 1
             continue
         out[count] = node
@@ -614,6 +648,40 @@ def gather_candidates(lo, hi, first_child, child_count, nonempty, roots, planes,
             stack[top] = first + c
             top += 1
     return count, visited
+
+
+@njit(cache=True, nogil=True)
+def lod_ancestors(nodes, parent, lo, hi, eye, detail, mark, frame, out):
+    """Each node replaced by its highest ancestor still small as seen from the eye (diagonal
+    < detail x distance to the box), each once; a climb stops where an earlier one passed
+    (mark (N,) int64 scratch stamped with frame). Returns the count written to out."""
+    count = 0
+    for k in range(len(nodes)):
+        node = nodes[k]
+        if mark[node] == frame:
+            continue
+        mark[node] = frame
+        while True:
+            p = parent[node]
+            if p >= 0:
+                dist2 = 0.0
+                diag2 = 0.0
+                for a in range(3):
+                    diag2 += (hi[p, a] - lo[p, a]) ** 2
+                    gap = max(lo[p, a] - eye[a], eye[a] - hi[p, a], 0.0)
+                    dist2 += gap * gap
+                small = diag2 < detail * detail * dist2
+            else:
+                small = False
+            if not small:
+                out[count] = node
+                count += 1
+                break
+            if mark[p] == frame:
+                break  # an earlier climb passed here and emitted the same ancestor
+            mark[p] = frame
+            node = p
+    return count
 
 
 @njit(cache=True, nogil=True)

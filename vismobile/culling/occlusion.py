@@ -4,22 +4,26 @@ Z-buffer (Greene 1993).
 
 OpenGL ES 1.1 has no occlusion queries and no depth readback, so all of this runs on the CPU.
 Each frame:
-1. Occluder candidates come from the frustum around the eye, never from a global pool: a walk
-   from the frame's nodes (after vfc or portals) takes each node's precomputed list of its
-   `candidates` largest triangles once the node is a leaf or small as seen from the eye
-   (diagonal < `detail` x distance), plus last frame's best sent triangles (`observe`). They are
-   ranked by estimated solid angle A |n.d| / |d|^3 and the best `occluders` that certainly face
-   the eye, also as the device rounds it (tbfc's bound), are rasterised. Any front-facing world
-   triangle is opaque in the final image (with or without GL_CULL_FACE).
+1. Occluder candidates come from the frustum around the eye, never from a global pool: the
+   frame's nodes (after vfc or portals), each replaced by its highest ancestor still small as
+   seen from the eye (diagonal < `detail` x distance: coarse far away), offer their
+   precomputed lists of their `candidates` largest triangles, plus last frame's best sent
+   triangles (`observe`). They are ranked by estimated solid angle A |n.d| / |d|^3 and the
+   best `occluders` that certainly face the eye, also as the device rounds it (tbfc's bound),
+   are rasterised. Any front-facing world triangle is opaque in the final image (with or
+   without GL_CULL_FACE).
 2. hiz.rasterise: per exact-plane group, a pixel counts only when wholly inside the union of the
-   group's triangles clipped slightly beyond the near plane (NEAR_RELATIVE plus device
-   rounding: only parts the GPU certainly draws occlude), with the plane's farthest depth over
-   it; edges are split at T-junctions beforehand, so shared edges leave no cracks. Tiles of
+   group's triangles (or, across a crease between groups, of both) clipped slightly beyond the
+   near plane (NEAR_RELATIVE plus device rounding: only parts the GPU certainly draws
+   occlude), with the plane's farthest depth over it; edges are split at T-junctions beforehand, so shared edges leave no cracks. Tiles of
    `tile` pixels keep the farthest depth of their pixels.
-3. Node boxes are tested (hiz.cull_nodes): hidden when the box's nearest depth is beyond the
-   largest depth over its screen rectangle (plus the 24-bit depth buffer's resolution there),
-   or the rectangle is off screen with the box in front. Visible inner nodes touching covered
-   tiles are expanded.
+3. Node boxes are tested (hiz.cull_nodes), entered from the tree's root through the
+   ancestors of the frame's nodes, so hidden regions go at a coarse level: hidden when the
+   box's nearest depth is beyond the largest depth over its screen rectangle (plus the 24-bit
+   depth buffer's resolution there), or the rectangle is off screen with the box in front.
+   Visible inner nodes touching covered tiles are expanded. With `rounds` > 1, the surviving
+   nodes (what is seen through doors and windows) offer occluders again, they are added to the
+   buffer and the nodes are tested again.
 4. Each triangle gathered from the surviving nodes gets the same test with its own vertices
    (hiz.hidden_triangles). Optionally (`self_occluders`) the survivors that certainly face the
    eye, nearest first, are rasterised too (objects hiding objects) and the test reruns;
@@ -40,8 +44,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.raster import split_edges
-from .hiz import (build_tiles, cull_nodes, gather_candidates, hidden_triangles, node_candidates,
-                  rasterise, score_candidates)
+from ..partition.base import gather_ranges
+from .hiz import (build_tiles, cull_nodes, gather_candidates, hidden_triangles, lod_ancestors,
+                  node_candidates, rasterise, score_candidates)
 from .kernels import backfacing
 from .precision import device_move
 from .state import CullResult, CullState
@@ -115,6 +120,8 @@ class DepthBufferOcclusion:
     occluders     : triangles rasterised per frame (the best candidates by solid angle)
     candidates    : largest triangles listed per node (the candidates a node offers)
     detail        : a node offers its list once its diagonal is below detail x its distance
+    rounds        : rasterise-then-cull rounds; each round after the first takes its occluders
+                    from the nodes the previous one left (what is seen through openings)
     triangles     : also test each surviving triangle (a filter after the node pass)
     self_occluders: up to this many of the frame's surviving candidates that certainly face the
                     eye (objects' near sides), nearest first, are rasterised too before the
@@ -130,12 +137,15 @@ class DepthBufferOcclusion:
     arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
-                 candidates: int = 4, detail: float = 0.5, triangles: bool = True,
-                 self_occluders: int = 0, screen=None):
+                 candidates: int = 4, detail: float = 0.125, rounds: int = 2,
+                 triangles: bool = True, self_occluders: int = 0, screen=None):
         self.width, self.height = int(width), int(height)
         self.tile = tuple(int(v) for v in tile)
         self.occluders, self.candidates = int(occluders), int(candidates)
         self.detail = float(detail)
+        self.rounds = int(rounds)
+        if self.rounds < 1:
+            raise ValueError("occlusion needs rounds >= 1")
         self.triangles = bool(triangles)
         self.self_occluders = int(self_occluders)
         if min(self.width, self.height, self.occluders, self.candidates) < 1:
@@ -185,9 +195,18 @@ class DepthBufferOcclusion:
         self.crease_far = np.zeros(pixels)
         self.tile_max = np.full(self.tiles, np.inf)
         self.tile_any = np.zeros(self.tiles, dtype=np.bool_)
+        self.tile_min = np.full(self.tiles, np.inf)
         self.stamp = np.full(count, -1, dtype=np.int64)
         self.seen = np.full(count, -1, dtype=np.int64)
         self._stack = np.empty(tree.node_count + 64, dtype=np.int64)
+        self._below = np.empty(tree.node_count + 64, dtype=np.uint8)
+        self.parent = np.full(tree.node_count, -1, dtype=np.int64)
+        inner = np.flatnonzero(tree.child_count > 0)
+        self.parent[gather_ranges(np.arange(tree.node_count), tree.first_child[inner],
+                                  tree.first_child[inner] + tree.child_count[inner])] = \
+            np.repeat(inner, tree.child_count[inner])
+        self.draw_mark = np.full(tree.node_count, -1, dtype=np.int64)
+        self.up_mark = np.full(tree.node_count, -1, dtype=np.int64)
         self._out = np.empty(tree.node_count + 64, dtype=np.int64)
         self._cands = np.empty(self.lists.size + self.occluders, dtype=np.int64)
 
@@ -213,20 +232,31 @@ class DepthBufferOcclusion:
             good = good[np.argpartition(-score[good], count - 1)[:count]]
         return ids[good[np.argsort(-score[good], kind="stable")]]
 
-    def select(self, state: CullState) -> np.ndarray:
-        """(K,) int64 world ids of this frame's occluders, sorted by plane group."""
+    def select(self, state: CullState, roots=None, history=None, skip=None) -> np.ndarray:
+        """(K,) int64 world ids of this frame's occluders, sorted by plane group: candidates of
+        the walk from `roots` (default: the tree's root, coarse far away) and `history`
+        (default: last frame's), not in `skip`."""
         tree, camera = self.tree, state.camera
         eye = np.asarray(camera.eye, dtype=np.float64)
         self._frame += 1
-        roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
+        if roots is None:  # the frame's nodes, coarsened far away
+            count = lod_ancestors(np.ascontiguousarray(state.nodes, dtype=np.int64),
+                                  self.parent, tree.lo, tree.hi, eye, self.detail,
+                                  self.up_mark, self._frame, self._out)
+            roots = self._out[:count].copy()
+        roots = np.ascontiguousarray(roots, dtype=np.int64)
+        history = self.history if history is None else history
         if len(roots) + tree.node_count > len(self._stack):
             self._stack = np.empty(len(roots) + tree.node_count, dtype=np.int64)
-        need = self.lists.size + len(self.history)
+            self._below = np.empty(len(roots) + tree.node_count, dtype=np.uint8)
+        if skip is not None:  # marked as seen: the walk passes them over
+            self.seen[skip] = self._frame
+        need = self.lists.size + len(history)
         if need > len(self._cands):
             self._cands = np.empty(need, dtype=np.int64)
         found, visited = gather_candidates(tree.lo, tree.hi, tree.first_child, tree.child_count,
                                            tree.nonempty, roots, state.planes, tree.tol, eye,
-                                           self.detail, self.lists, self.history, self.seen,
+                                           self.detail, self.lists, history, self.seen,
                                            self._frame, self._cands, self._stack)
         state.count(f"{self.name}.candidates", found)
         state.count(f"{self.name}.candidate_nodes", visited)
@@ -291,7 +321,7 @@ class DepthBufferOcclusion:
             self.mask, self.centre, self.crease_far)
         self.nearest = min(self.nearest, nearest)
         build_tiles(self.depth, self.width, self.height, *self.tile, self.tile_max,
-                    self.tile_any)
+                    self.tile_any, self.tile_min)
         return written
 
     def depth_buffer(self, camera) -> np.ndarray:
@@ -307,6 +337,7 @@ class DepthBufferOcclusion:
         written = self.rasterise(camera, chosen) if len(chosen) else 0
         if not len(chosen):
             self.tile_max.fill(np.inf)
+            self.tile_min.fill(np.inf)
             self.tile_any.fill(False)
         state.count(f"{self.name}.occluders", len(chosen))
         state.count(f"{self.name}.pixels_covered", written)
@@ -315,22 +346,51 @@ class DepthBufferOcclusion:
         move = self.move(camera)
         recede = np.sqrt(3.0) * move  # an occluder point moves this much farther at most
         if written:
-            roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
-            if len(roots) + tree.node_count > len(self._out):
-                self._out = np.empty(len(roots) + tree.node_count, dtype=np.int64)
-            kept, visited, culled = cull_nodes(
-                tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots, eye,
-                rotation, camera.near, tx, ty, self.width, self.height, move,
-                self.shift(camera, move), margin, recede, self.depth, self.tile_max,
-                self.tile_any, *self.tile, self._out, self._stack)
-            state.nodes = self._out[:kept].copy()
-            state.count("nodes_visited", visited)
-            state.count(f"{self.name}.nodes_tested", visited)
-            state.count(f"{self.name}.nodes_culled", culled)
+            self._node_pass(state, eye, rotation, tx, ty, move, margin, recede)
+            for _ in range(self.rounds - 1 if not np.isfinite(self.tile_max).all() else 0):
+                # Occluders seen through what is still open: the surviving nodes' largest
+                # triangles (far walls behind doors and windows), then the nodes again.
+                extra = self.select(state, history=np.zeros(0, np.int64), skip=chosen)
+                if not len(extra):
+                    break
+                chosen = np.concatenate([chosen, extra])
+                state.count(f"{self.name}.occluders", len(extra))
+                more = self.rasterise(camera, extra)
+                state.count(f"{self.name}.pixels_covered", more)
+                if not more:
+                    break
+                self._node_pass(state, eye, rotation, tx, ty, move, margin, recede)
         if self.triangles and (written or self.self_occluders or self.screen):
             def keep_of(ids):
                 return ~self._hidden_triangles(state, ids, move, margin, recede, written > 0)
             state.filters.append(keep_of)
+
+    def nearest_far(self, margin, recede) -> float:
+        """D + margin D^2 + recede for the smallest covered depth bound D: nothing nearer than
+        that can be hidden anywhere."""
+        d = float(self.tile_min.min()) if len(self.tile_min) else np.inf
+        return d + margin * d * d + recede
+
+    def _node_pass(self, state, eye, rotation, tx, ty, move, margin, recede) -> None:
+        """state.nodes refined by hiz.cull_nodes against the current buffer."""
+        tree, camera = self.tree, state.camera
+        roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
+        if len(roots) + tree.node_count > len(self._out):
+            self._out = np.empty(len(roots) + tree.node_count, dtype=np.int64)
+        if len(roots) + tree.node_count > len(self._stack):
+            self._stack = np.empty(len(roots) + tree.node_count, dtype=np.int64)
+            self._below = np.empty(len(roots) + tree.node_count, dtype=np.uint8)
+        self._frame += 1
+        kept, visited, culled = cull_nodes(
+            tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,
+            roots, self.draw_mark, self.up_mark, self._frame, eye, rotation, camera.near, tx, ty,
+            self.width, self.height, move, self.shift(camera, move), margin, recede, self.depth,
+            self.tile_max, self.tile_any, *self.tile, self._out, self._stack, self._below,
+            self.nearest_far(margin, recede))
+        state.nodes = self._out[:kept].copy()
+        state.count("nodes_visited", visited)
+        state.count(f"{self.name}.nodes_tested", visited)
+        state.count(f"{self.name}.nodes_culled", culled)
 
     def _test(self, camera, ids, move, margin, recede, use_buffer, screen) -> tuple:
         eye, rotation, tx, ty = self._view(camera)
