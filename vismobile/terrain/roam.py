@@ -300,19 +300,38 @@ def _triangles_of(v, n, N, g):
 
 
 @njit(cache=True)
-def _compact(alive, count, split):
-    """Keep split entries of alive[:count], sorted and unique; returns the new count."""
+def _compact(alive, count, split, head):
+    """Keep the split entries of alive[:count], sorted and unique; alive[:head] is already
+    sorted (last frame's list), so only the new tail is sorted and merged in (a full sort of
+    a sorted list with a short random tail degenerates: 6-9 ms for 49k entries). Returns the
+    new count."""
     k = 0
-    for i in range(count):
+    for i in range(head):
         if split[alive[i]]:
             alive[k] = alive[i]
             k += 1
-    alive[:k].sort()
-    m = 0
-    for i in range(k):
-        if m == 0 or alive[i] != alive[m - 1]:
-            alive[m] = alive[i]
+    tail = np.empty(count - head, np.int64)
+    t = 0
+    for i in range(head, count):
+        if split[alive[i]]:
+            tail[t] = alive[i]
+            t += 1
+    tail = np.sort(tail[:t])
+    merged = np.empty(k + t, np.int64)
+    i = j = m = 0
+    last = -1
+    while i < k or j < t:
+        if j >= t or (i < k and alive[i] <= tail[j]):
+            x = alive[i]
+            i += 1
+        else:
+            x = tail[j]
+            j += 1
+        if x != last:
+            merged[m] = x
             m += 1
+            last = x
+    alive[:m] = merged[:m]
     return m
 
 
@@ -393,6 +412,7 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
     for i in range(7):
         stats[i] = 0.0
     centre = (S // 2) * N + S // 2
+    head = alive_count  # alive[:head] is sorted (compacted at the end of the last call)
     # Queues from last frame's mesh with this frame's priorities.
     # (The children loop is written out here: a call per diamond costs as much again in
     # reference counting of its array arguments.)
@@ -458,7 +478,8 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
             qs[v] = 0
             continue
         if alive_count + 64 * (n + 2) > alive.shape[0]:
-            alive_count = _compact(alive, alive_count, split)
+            alive_count = _compact(alive, alive_count, split, head)
+            head = alive_count
             if alive_count + 64 * (n + 2) > alive.shape[0]:
                 stats[6] = 1.0
                 break
@@ -536,7 +557,7 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
             remaining = max(remaining, -sk[0])
             break
         ns = _pop(sk, sv, ns)
-    alive_count = _compact(alive, alive_count, split)
+    alive_count = _compact(alive, alive_count, split, head)
     stats[0], stats[1], stats[2] = splits, merges, forced
     stats[3], stats[4], stats[5] = remaining, exchanges, blocked
     return alive_count, leaves, born_count
