@@ -1,9 +1,11 @@
 """Culling benchmark: cull time of vfc+cbfc against brute-force per-triangle frustum culling in
 the same run, triangles sent with occlusion / portals against the item buffer's visible count,
-and per-stage counters for every stage, on a thesis world along a trajectory.
+per-stage counters for every stage, the exact visible set's other routes (the item buffer of the
+whole world rendered and read back, Open3D ray casting, brute force) against vfc,occlusion,tbfc,
+and the tiled W2 worlds (tools/tile_world.py) for scaling, on a thesis world along a trajectory.
 
     .venv/bin/python tools/bench_cull.py [--world w2] [--depth 5] [--frames 120]
-        [--trajectory trajectories/indoor.csv] [--out runs/bench_cull.md]
+        [--trajectory trajectories/indoor.csv] [--tiled 3,7] [--out runs/bench_cull.md]
 
 Prints a markdown report. Times are medians over the sampled frames (host-dependent); the
 counters and triangle counts are hardware-independent.
@@ -21,6 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.culling import BACKFACE_STAGES, Culler  # noqa: E402
+from vismobile.render.item_buffer import item_buffer_renderer  # noqa: E402
 from vismobile.culling.backface import thesis_region_count  # noqa: E402
 from vismobile.geometry.sphere_regions import direction_regions  # noqa: E402
 from vismobile.partition import partition  # noqa: E402
@@ -41,7 +44,7 @@ PORTAL_COMBOS = ("portals", "portals,occlusion", "portals,occlusion,tbfc",
 # Option presets: "screen" = occlusion also drops triangles that cover no pixel centre of the
 # profile's screen (safe at that resolution only); "self" = objects' near sides occlude too.
 PRESETS = {"screen": lambda profile: {"screen": profile.resolution},
-           "self": lambda profile: {"self_occluders": 32}}
+           "self": lambda profile: {"self_occluders": 512}}
 
 
 def combo_options(combo, profile) -> tuple:
@@ -70,6 +73,90 @@ def median_ms(fn, cameras, repeat=3):
             best = min(best, time.perf_counter() - t)
         times.append(best * 1e3)
     return float(np.median(times))
+
+
+def exact_routes(world, profile, cameras, truth, octree) -> list:
+    """Rows (route, median ms, mean ids, mean ids / mean visible) of the ways to the visible set
+    or a superset in the same run: vfc,occlusion,tbfc (with and without the screen option),
+    the item buffer of the whole world (draw + readback + distinct ids), Open3D ray casting
+    (one ray per pixel centre, scene built once), brute-force per-triangle frustum test."""
+    from vismobile.open3d_import import open3d
+    from vismobile.study.groundtruth import camera_rays
+
+    rows = []
+    shown = float(np.mean([len(truth[i, True]) for i in range(len(cameras))]))
+    for label, options in (("vfc,occlusion,tbfc", {}),
+                           ("vfc,occlusion,tbfc@screen",
+                            {"occlusion": {"screen": profile.resolution}})):
+        culler = Culler(octree, "vfc,occlusion,tbfc", **options)
+        sent = [len(culler.cull(c).triangles) for c in cameras]
+        rows.append((label, median_ms(culler.cull, cameras), float(np.mean(sent)),
+                     float(np.mean(sent)) / max(shown, 1)))
+    renderer = item_buffer_renderer(world, profile)
+    every = np.arange(world.triangle_count)
+    ids = [len(renderer.visible(every, c, cull_back=True)) for c in cameras]
+    rows.append(("item buffer, whole world (draw + readback + distinct ids)",
+                 median_ms(lambda c: renderer.visible(every, c, cull_back=True), cameras),
+                 float(np.mean(ids)), float(np.mean(ids)) / max(shown, 1)))
+    o3d = open3d()
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(world.vertices.astype(np.float32)),
+                        o3d.core.Tensor(world.triangles.astype(np.uint32)))
+
+    def cast(cam):
+        origins, directions = camera_rays(cam, profile.width, profile.height)
+        rays = np.concatenate([origins + cam.near * directions, directions], axis=1)
+        hit = scene.cast_rays(o3d.core.Tensor(rays.astype(np.float32)))
+        prim = hit["primitive_ids"].numpy()
+        return np.unique(prim[np.isfinite(hit["t_hit"].numpy())])
+
+    ids = [len(cast(c)) for c in cameras]
+    rows.append(("Open3D ray casting (Embree), one ray per pixel", median_ms(cast, cameras),
+                 float(np.mean(ids)), float(np.mean(ids)) / max(shown, 1)))
+    corners = world.corners
+    ids = [int(brute_force_frustum(corners, c.frustum_planes()).sum()) for c in cameras]
+    rows.append(("brute force: every triangle against the frustum (numpy)",
+                 median_ms(lambda c: np.flatnonzero(brute_force_frustum(corners,
+                                                                        c.frustum_planes())),
+                           cameras), float(np.mean(ids)), float(np.mean(ids)) / max(shown, 1)))
+    return rows
+
+
+def tiled_rows(sizes, base, traj, frames, profile, depth_of) -> list:
+    """Rows (world, triangles, depth, stages, median ms, mean sent, mean visible, sent / visible,
+    dropped, mean nodes visited) on W2 tiled n x n, the trajectory on the centre tile."""
+    from tile_world import centre_offset, tiled_w2
+
+    rows = []
+    for n in sizes:
+        world = tiled_w2(n, base)
+        shift = centre_offset(n)
+        cameras = [traj.camera(int(f), profile.aspect) for f in frames]
+        cameras = [c.with_(position=tuple(np.asarray(c.position) + shift)) for c in cameras]
+        depth = depth_of(n)
+        t = time.perf_counter()
+        tree = partition(world, "octree", depth=depth)
+        build_s = time.perf_counter() - t
+        renderer = item_buffer_renderer(world, profile)
+        for stages in ("vfc", "vfc,occlusion,tbfc"):
+            back = any(s in BACKFACE_STAGES for s in stages.split(","))
+            t = time.perf_counter()
+            culler = Culler(tree, stages)
+            prepare_s = time.perf_counter() - t
+            sent, shown, dropped, visited = [], [], 0, []
+            for cam in cameras:
+                result = culler.cull(cam)
+                seen = renderer.visible(np.arange(world.triangle_count), cam, cull_back=back)
+                sent.append(len(result.triangles))
+                shown.append(len(seen))
+                dropped += len(np.setdiff1d(seen, result.triangles))
+                visited.append(result.stats.get("nodes_visited", 0))
+            rows.append((world.name, world.triangle_count, depth, build_s, prepare_s, stages,
+                         median_ms(culler.cull, cameras), float(np.mean(sent)),
+                         float(np.mean(shown)), float(np.mean(sent) / max(np.mean(shown), 1)),
+                         dropped, float(np.mean(visited))))
+        del renderer, world, tree
+    return rows
 
 
 def visible(world, cam, profile, cull_back):
@@ -120,7 +207,19 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=120, help="frames sampled evenly")
     ap.add_argument("--profile", default="ipaq-hx2490b")
     ap.add_argument("--out", default=None, help="also write the report here")
+    ap.add_argument("--tiled", default="", help="W2 tiled n x n worlds to run, e.g. 3,7")
+    ap.add_argument("--tiled-frames", type=int, default=30, help="frames on tiled worlds")
+    ap.add_argument("--skip-combos", action="store_true", help="only the comparison and tiles")
+    ap.add_argument("--skip-routes", action="store_true", help="no item buffer / Open3D rows")
+    ap.add_argument("--combos", default=None,
+                    help="octree combos to run instead of the list, separated by ';'")
     args = ap.parse_args(argv)
+    try:
+        sizes = [int(v) for v in args.tiled.split(",") if v.strip()]
+    except ValueError:
+        print(f"bench_cull: --tiled must be comma-separated integers, got {args.tiled!r}",
+              file=sys.stderr)
+        return 2
 
     profile = get_profile(args.profile)
     world = build_world(args.world)
@@ -142,14 +241,23 @@ def main(argv=None) -> int:
     corners = world.corners
     culler = Culler(octree, "vfc,cbfc")
     fast = median_ms(culler.cull, cameras)
-    brute = median_ms(lambda cam: np.flatnonzero(brute_force_frustum(corners, cam.frustum_planes())),
-                      cameras)
-    in_frustum = float(np.mean([brute_force_frustum(corners, c.frustum_planes()).sum()
-                                for c in cameras]))
-    thesis_err = [thesis_cbfc_errors(world, c, corners) for c in cameras]
+    if args.skip_routes:  # the long check: no brute force either
+        brute, in_frustum, thesis_err = np.nan, np.nan, [(np.nan, np.nan)]
+    else:
+        brute = median_ms(lambda cam: np.flatnonzero(
+            brute_force_frustum(corners, cam.frustum_planes())), cameras)
+        in_frustum = float(np.mean([brute_force_frustum(corners, c.frustum_planes()).sum()
+                                    for c in cameras]))
+        thesis_err = [thesis_cbfc_errors(world, c, corners) for c in cameras]
 
-    rows = run_combos(octree, COMBOS, cameras, world, profile, truth)
-    rows += run_combos(portal, PORTAL_COMBOS, cameras, world, profile, truth)
+    combos = COMBOS if args.combos is None else [c for c in args.combos.split(";") if c]
+    rows = [] if args.skip_combos else run_combos(octree, combos, cameras, world, profile, truth)
+    if not args.skip_combos and args.combos is None:
+        rows += run_combos(portal, PORTAL_COMBOS, cameras, world, profile, truth)
+    routes = [] if args.skip_routes else exact_routes(world, profile, cameras, truth, octree)
+    tile_frames = np.unique(np.linspace(0, len(traj) - 1, args.tiled_frames).astype(int))
+    tiles = tiled_rows(sizes, world, traj, tile_frames, profile,
+                       lambda n: args.depth + int(np.ceil(np.log2(n)))) if sizes else []
 
     out = [f"# Culling benchmark: {args.world.upper()} ({world.triangle_count} triangles), "
            f"octree depth {args.depth} ({octree.node_count} nodes, built in {build_s:.2f} s), "
@@ -166,13 +274,34 @@ def main(argv=None) -> int:
            f" dropped) |", "",
            "Stages `@screen`: occlusion also drops triangles covering no pixel centre of the "
            f"{profile.width}x{profile.height} screen; `@self`: objects' near sides occlude too "
-           "(32 per frame). Visible = item buffer, back-face culled for bfc/cbfc/cone/tbfc.", "",
+           "(512 per frame). Visible = item buffer, back-face culled for bfc/cbfc/cone/tbfc.", "",
            "| structure | stages | median ms | mean sent | mean of sent / visible | "
            "mean sent / mean visible | visible dropped (all frames) |",
            "| --- | --- | --- | --- | --- | --- | --- |"]
     for kind, combo, ms, sent, ratio, ratio_of_means, missed, _ in rows:
         out.append(f"| {kind} | {combo} | {ms:.3f} | {sent:.0f} | {ratio:.2f} | "
                    f"{ratio_of_means:.2f} | {missed} |")
+    base_ms = routes[0][1] if routes else np.nan
+    out += [] if not routes else ["", "Routes to the visible set (octree depth "
+            f"{args.depth}; visible = back-face-culled item buffer, mean "
+            f"{np.mean([len(truth[i, True]) for i in range(len(cameras))]):.0f}); time ratio "
+            "against vfc,occlusion,tbfc in the same run:", "",
+            "| route | median ms | ratio to vfc,occlusion,tbfc | mean ids | mean ids / mean "
+            "visible |", "| --- | --- | --- | --- | --- |"]
+    for label, ms, ids, ratio in routes:
+        out.append(f"| {label} | {ms:.3f} | {ms / base_ms:.2f}x | {ids:.0f} | {ratio:.2f} |")
+    if tiles:
+        out += ["", f"Tiled W2 ({args.tiled_frames} frames of the trajectory on the centre tile; "
+                "octree depth 5 + ceil(log2 n); visible = item buffer, back-face culled for "
+                "tbfc):", "",
+                "| world | triangles | depth | build s | prepare s | stages | median ms | "
+                "mean sent | mean visible | sent / visible | dropped | nodes visited |",
+                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+        for name, tris, depth, build_s, prep_s, stages, ms, sent, shown, ratio, dropped, \
+                visited in tiles:
+            out.append(f"| {name} | {tris:,} | {depth} | {build_s:.1f} | {prep_s:.1f} | "
+                       f"{stages} | {ms:.3f} | {sent:.0f} | {shown:.0f} | {ratio:.2f} | "
+                       f"{dropped} | {visited:.0f} |")
     out += ["", "Mean per-frame counters:", "", "| structure | stages | counters |",
             "| --- | --- | --- |"]
     for kind, combo, *_, mean in rows:

@@ -1,13 +1,14 @@
 """Benchmark: a thesis world played along its trajectory at the iPaq profile, end to end.
 
 Usage: .venv/bin/python tools/bench_play.py [--world w1] [--trajectory trajectories/indoor.csv]
-       [--structure octree:4] [--cull vfc,bfc,cbfc] [--profile ipaq-hx2490b] [--out runs/bench_play]
-       [--fixed-check]
+       [--structure octree:4] [--cull vfc,bfc,cbfc [--cull ...]] [--profile ipaq-hx2490b]
+       [--out runs/bench_play] [--fixed-check]
 
 Prints the wall time of the whole run (world build + partition + playback), and from
 summary.json the mean/median/p95 ms per frame, fps, triangles sent and the Pearson
-correlation; then the same path with no culling and no partition in this process, as the
-baseline the thesis compares against ("culling saved N%"). --fixed-check renders waypoint
+correlation, for each --cull given; then the same path with no culling and no partition in this
+process (render-all), as the baseline the thesis compares against ("culling saved N%"), and
+each configuration's mean frame time as a speed-up over it. --fixed-check renders waypoint
 item buffers of all six worlds in fixed16.16 and float32 and reports how many pixels agree
 (or the ProfileError a world raises).
 """
@@ -87,7 +88,8 @@ def main(argv=None):
     parser.add_argument("--world", default="w1")
     parser.add_argument("--trajectory", type=Path, default=ROOT / "trajectories" / "indoor.csv")
     parser.add_argument("--structure", default="octree:4")
-    parser.add_argument("--cull", default="vfc,bfc,cbfc")
+    parser.add_argument("--cull", action="append", default=None,
+                        help="stages; repeat to compare several (default vfc,bfc,cbfc)")
     parser.add_argument("--profile", default="ipaq-hx2490b")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_play")
     parser.add_argument("--no-baseline", action="store_true")
@@ -97,20 +99,30 @@ def main(argv=None):
     trajectory = Trajectory.load(args.trajectory)
     profile = get_profile(args.profile)
     report = {}
-    wall, built, summary = run(args.world, trajectory, args.structure, args.cull, profile,
-                               args.out / "culled")
-    print(line(f"{args.world} {args.structure} {args.cull}", wall, built, summary))
-    report["culled"] = {"wall_s": wall, "build_s": built, **summary}
+    culls = args.cull or ["vfc,bfc,cbfc"]
+    runs = []
+    for cull in culls:
+        wall, built, summary = run(args.world, trajectory, args.structure, cull, profile,
+                                   args.out / ("culled" if len(culls) == 1 else
+                                               "culled_" + cull.replace(",", "+")))
+        print(line(f"{args.world} {args.structure} {cull}", wall, built, summary))
+        report["culled" if len(culls) == 1 else f"culled {cull}"] = {
+            "wall_s": wall, "build_s": built, **summary}
+        runs.append((cull, summary))
     if not args.no_baseline:
         wall0, built0, base = run(args.world, trajectory, "none", "none", profile,
                                   args.out / "none")
         print(line(f"{args.world} none (baseline)", wall0, built0, base))
-        saved = 1 - summary["frame_ms"]["mean"] / base["frame_ms"]["mean"]
-        sent = summary["triangles_sent"]["mean"] / base["triangles_sent"]["mean"]
-        print(f"culling saved {100 * saved:.0f}% of the mean frame time; sends "
-              f"{100 * sent:.1f}% of the triangles")
         report["baseline"] = {"wall_s": wall0, "build_s": built0, **base}
-        report["saved_fraction"] = saved
+        for cull, summary in runs:
+            saved = 1 - summary["frame_ms"]["mean"] / base["frame_ms"]["mean"]
+            sent = summary["triangles_sent"]["mean"] / base["triangles_sent"]["mean"]
+            speed = base["frame_ms"]["mean"] / summary["frame_ms"]["mean"]
+            print(f"{cull}: culling saved {100 * saved:.0f}% of the mean frame time "
+                  f"({speed:.2f}x render-all); sends {100 * sent:.1f}% of the triangles")
+            report.setdefault("speedup", {})[cull] = speed
+            if len(runs) == 1:
+                report["saved_fraction"] = saved
     print(f"end to end: {wall:.1f} s for {summary['frames']} frames at "
           f"{profile.width}x{profile.height} ({'under' if wall < 120 else 'OVER'} 2 minutes)")
     args.out.mkdir(parents=True, exist_ok=True)
