@@ -185,3 +185,23 @@ def test_structures_over_the_heap_are_skipped_and_worlds_refused(scene, tmp_path
     assert not session.set_structure("octree:6") and session.structure == "none"
     with pytest.raises(ProfileError, match="heap"):
         Session(scene, (), ipaq.with_(heap_bytes=fits - 1), record_path=tmp_path / "r.csv")
+
+
+def test_tab_builds_on_a_thread_while_frames_go_on(scene, tmp_path):
+    import time
+
+    session = Session(scene, ("vfc",), "ipaq-hx2490b", record_path=tmp_path / "r.csv",
+                      structures=("octree:3", "octree:5"))
+    session.background_builds = True
+    session.key_down("TAB")
+    assert session.structure == Session._label("octree:3") and "building" in session.message
+    session.key_down("TAB")                                   # one build at a time
+    assert "still building" in session.message
+    frames, start = 0, time.perf_counter()
+    while session.structure != Session._label("octree:5"):
+        assert time.perf_counter() - start < 120, "the build never finished"
+        session.update(0.05)
+        session.render()                                      # the view goes on meanwhile
+        frames += 1
+    assert frames >= 1 and session.stages == ("vfc",)
+    assert session.render().stats["nodes_visited"] > 0

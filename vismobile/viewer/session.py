@@ -86,6 +86,10 @@ class Session:
         self.show_help = False
         self.god_view = "top"
         self.message = ""
+        # Tab builds a structure not built yet on a thread while frames go on (the window sets
+        # this; scripted runs and tests switch at once, deterministically).
+        self.background_builds = False
+        self._pending = None  # (label, thread, {"partition" or "error"}) of a build under way
         self._god = GodView(self.world, god_size)
         self._renderer = None
         self._model = None
@@ -128,6 +132,33 @@ class Session:
             except ValueError as error:
                 raise VisMobileError(f"structure {label}: {error}") from None
         return self.partitions[label]
+
+    def _build_in_background(self, label) -> None:
+        import threading
+
+        outcome = {}
+
+        def build():
+            try:
+                outcome["partition"] = self._partition(label)
+            except VisMobileError as error:
+                outcome["error"] = str(error)
+
+        thread = threading.Thread(target=build, name=f"build {label}", daemon=True)
+        self._pending = (label, thread, outcome)
+        self.message = f"building {label} ..."
+        thread.start()
+
+    def _finish_build(self) -> None:
+        """Switch to the structure whose background build has ended (or say why not)."""
+        label, thread, outcome = self._pending
+        if thread.is_alive():
+            return
+        self._pending = None
+        if "error" in outcome:
+            self.message = outcome["error"]
+        else:
+            self.set_structure(label)
 
     def _culler(self, label, stages):
         key = (label, tuple(sorted(stages)))
@@ -184,11 +215,18 @@ class Session:
 
     def next_structure(self) -> None:
         """The next structure of the Tab cycle that fits the heap (the message names any
-        skipped)."""
+        skipped). With background_builds, one not built yet is built on a thread and switched
+        to when ready (update)."""
+        if self._pending is not None:
+            self.message = f"still building {self._pending[0]}"
+            return
         index = self.structures.index(self.structure)
         skipped = []
         for step in range(1, len(self.structures)):
             label = self.structures[(index + step) % len(self.structures)]
+            if self.background_builds and label not in self.partitions:
+                self._build_in_background(label)
+                break
             if self.set_structure(label):
                 break
             skipped.append(label)
@@ -303,6 +341,8 @@ class Session:
     def update(self, dt: float) -> None:
         """Move time on by dt seconds: the joystick moves the camera, or playback advances
         one frame (the trajectory has one pose per frame, as the thesis's did)."""
+        if self._pending is not None:
+            self._finish_build()
         if self.mode == "play":
             if self.player.finished:
                 self.player.paused = True

@@ -38,6 +38,7 @@ def run(session, scale=2, script=None, screenshot=None, frame_rate=60.0) -> int:
         raise VisMobileError(f"the viewer needs pyglet ({error}); pip install pyglet") from None
     pyglet.options["shadow_window"] = False  # one GL context fewer to create at start
     fill = session.profile.name == "desktop"
+    session.background_builds = script is None  # a person waits for no build; a script does
     size = window_size(session.profile.resolution, 1 if fill else int(scale))
     try:  # importing pyglet.gl already opens the display
         from pyglet import gl
