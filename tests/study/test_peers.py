@@ -28,7 +28,8 @@ def test_peer_mesh_covers_the_map_within_its_error(terrain, name):
         t = peer_mesh(terrain, name, e)
         n = terrain.size
         r, c = np.divmod(t, n)
-        cross = (r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0]) - (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0])
+        cross = ((r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0])
+                 - (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0]))
         assert (cross > 0).all() and cross.sum() == 2 * (n - 1) ** 2
         drawn = triangle_heights(terrain.heights.astype(float), t)
         slack = 1.0 if name == "delatin" else 2.0

@@ -32,8 +32,9 @@ def test_bad_sweep_options_exit_2_with_one_line(tmp_path, capsys):
     terrain = tmp_path / "t.vmt"
     assert main(["terrain", "build", "fractal", "--size", "65", "-o", str(terrain)]) == 0
     capsys.readouterr()
-    for option, value in (("--methods", "tiles,lod"), ("--taus", "1,-2"), ("--paths", "spiral:fast"),
-                          ("--frames", "every:3"), ("--methods", "roam/x")):
+    for option, value in (("--methods", "tiles,lod"), ("--taus", "1,-2"),
+                          ("--paths", "spiral:fast"), ("--frames", "every:3"),
+                          ("--methods", "roam/x")):
         assert main(["compare", "--terrain", str(terrain), option, value, "--out",
                      str(tmp_path / "o"), "--quiet"]) == 2
         err = capsys.readouterr().err

@@ -108,7 +108,6 @@ def _geometry(r, c, n, g):
 def wedgies(heights, n):
     """(N*N,) float64 nested wedgie thickness per split vertex (0 at the four corners)."""
     N = heights.shape[0]
-    S = N - 1
     error = np.zeros(N * N)
     g = np.empty((4, 2), np.int64)
     for s in range(n):
@@ -179,14 +178,17 @@ def _box(wedge, v, N):
 
 @njit(cache=True)
 def _flag(planes, x0, y0, z0, x1, y1, z1):
-    """OUT when the box is outside one plane, IN when inside all (exact for the box)."""
+    """OUT when the box is outside one plane, IN when inside all, else PARTIAL (exact for the
+    box, in float64; the box itself errs large)."""
     inside = True
     for p in range(planes.shape[0]):
         a, b, c_, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
-        hi = a * (x1 if a >= 0 else x0) + b * (y1 if b >= 0 else y0) + c_ * (z1 if c_ >= 0 else z0) + d
+        hi = (a * (x1 if a >= 0 else x0) + b * (y1 if b >= 0 else y0)
+              + c_ * (z1 if c_ >= 0 else z0) + d)
         if hi < 0:
             return OUT
-        lo = a * (x0 if a >= 0 else x1) + b * (y0 if b >= 0 else y1) + c_ * (z0 if c_ >= 0 else z1) + d
+        lo = (a * (x0 if a >= 0 else x1) + b * (y0 if b >= 0 else y1)
+              + c_ * (z0 if c_ >= 0 else z1) + d)
         if lo < 0:
             inside = False
     return IN if inside else PARTIAL
@@ -248,7 +250,8 @@ def _pop(keys, vals, size):
             break
         m = lft
         rgt = lft + 1
-        if rgt < size and (keys[rgt] < keys[lft] or (keys[rgt] == keys[lft] and vals[rgt] < vals[lft])):
+        if rgt < size and (keys[rgt] < keys[lft]
+                           or (keys[rgt] == keys[lft] and vals[rgt] < vals[lft])):
             m = rgt
         if keys[i] < keys[m] or (keys[i] == keys[m] and vals[i] <= vals[m]):
             break
