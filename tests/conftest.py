@@ -83,5 +83,21 @@ def w1(thesis_world):
 
 
 @pytest.fixture(scope="session")
+def w1_world_dir(tmp_path_factory, w1):
+    """W1 streamed into a world directory (vismobile.mapped) in three pieces, float32 vertices."""
+    from vismobile.mapped import write_world_dir
+
+    path = tmp_path_factory.mktemp("w1dir")
+
+    def parts():
+        for ids in np.array_split(np.arange(w1.triangle_count), 3):
+            used, local = np.unique(w1.triangles[ids], return_inverse=True)
+            yield w1.vertices[used].astype(np.float32), local.reshape(-1, 3), w1.object_ids[ids]
+
+    write_world_dir(path, parts, "w1", w1.object_names)
+    return path
+
+
+@pytest.fixture(scope="session")
 def w5(thesis_world):
     return thesis_world("w5")

@@ -8,7 +8,7 @@ from vismobile.culling import Culler, backface, cones
 from vismobile.culling.facing import backfacing, keep_unmarked, tilt_keep, tilt_of
 from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
 from vismobile.geometry.tilt import tilt_coefficients, tilt_sine
-from vismobile.mapped import MappedWorld, write_world_dir
+from vismobile.mapped import MappedWorld
 from vismobile.partition import load_partition
 from vismobile.partition.external import build_octree_file
 from vismobile.partition.store import map_partition
@@ -77,18 +77,10 @@ def test_keep_unmarked_drops_exactly_the_culled_clusters_and_clears_its_bitmap()
 
 
 @pytest.fixture(scope="module")
-def streamed(tmp_path_factory, w1):
-    """W1 as a world directory (float32 vertices, three pieces) and its streamed octree."""
-    path = tmp_path_factory.mktemp("w1dir")
-
-    def parts():
-        for ids in np.array_split(np.arange(w1.triangle_count), 3):
-            used, local = np.unique(w1.triangles[ids], return_inverse=True)
-            yield w1.vertices[used].astype(np.float32), local.reshape(-1, 3), w1.object_ids[ids]
-
-    write_world_dir(path, parts, "w1", w1.object_names)
-    out = path / "w1.vmp"
-    build_octree_file(MappedWorld.open(path), out, depth=4)
+def streamed(tmp_path_factory, w1_world_dir):
+    """W1's world directory (float32 vertices, three pieces) and its streamed octree."""
+    out = tmp_path_factory.mktemp("vmp") / "w1.vmp"
+    build_octree_file(MappedWorld.open(w1_world_dir), out, depth=4)
     return out
 
 

@@ -5,7 +5,7 @@ import pytest
 from vismobile.camera import Camera
 from vismobile.culling import Culler
 from vismobile.errors import PartitionError, WorldError
-from vismobile.mapped import MappedWorld, write_world_dir
+from vismobile.mapped import MappedWorld
 from vismobile.partition import load_partition, octree
 from vismobile.partition.external import build_octree_file
 from vismobile.partition.store import map_partition
@@ -16,17 +16,8 @@ FIELDS = ("node_bounds", "first_child", "child_count", "ref_start", "ref_end", "
 
 
 @pytest.fixture(scope="module")
-def world_dir(tmp_path_factory, w1):
-    """W1 streamed into a world directory in three pieces (float32 vertices)."""
-    path = tmp_path_factory.mktemp("w1dir")
-
-    def parts():
-        for ids in np.array_split(np.arange(w1.triangle_count), 3):
-            used, local = np.unique(w1.triangles[ids], return_inverse=True)
-            yield w1.vertices[used].astype(np.float32), local.reshape(-1, 3), w1.object_ids[ids]
-
-    write_world_dir(path, parts, "w1", w1.object_names)
-    return path
+def world_dir(w1_world_dir):
+    return w1_world_dir
 
 
 @pytest.fixture(scope="module")
