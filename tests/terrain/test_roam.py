@@ -190,3 +190,21 @@ def test_culled_mesh_covers_the_frustum(pyramid257):
         assert drawn[inside].all()
         uncut = everything.update(camera, RESOLUTION, 2.0, cull=False)
         assert len(frame.triangles) < len(uncut.triangles)
+
+
+def test_deferred_priorities_change_nothing_but_the_work(fractal257):
+    """Along consecutive frames of a slow path, candidates the eye's travel cannot have
+    brought above tau are not re-scored; the meshes are the ones full re-scoring gives, and
+    every frame keeps the exact error within tau."""
+    from vismobile.terrain.paths import path_cameras
+
+    lazy, eager = Roam(fractal257), Roam(fractal257, defer=False)
+    deferred = 0
+    for camera in path_cameras(fractal257, "circle", "slow", frames=12, every=3):
+        a, b = lazy.update(camera, RESOLUTION, 1.0), eager.update(camera, RESOLUTION, 1.0)
+        assert np.array_equal(a.triangles, b.triangles) and b.deferred == 0
+        deferred += a.deferred
+        drawn = triangle_heights(fractal257.heights.astype(np.float64), a.triangles)
+        assert vertex_errors(fractal257, drawn, camera, RESOLUTION).max() <= 1.0
+        assert a.bound_px <= 1.0
+    assert deferred > 1000

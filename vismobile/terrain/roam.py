@@ -37,7 +37,8 @@ of whose children is split); merge while the lowest merge priority is <= tau (or
 over the budget), then split the highest-priority leaf (with its forced splits) while its
 priority is > tau and the whole forced chain fits the budget. In budget mode, a blocked split
 first merges cheaper diamonds (ROAM's max(Qs) > min(Qm) exchange), within a bounded number of
-operations.
+operations. Without a budget, a split candidate scored <= tau is not re-scored until the eye
+has travelled d - lambda_b e / tau (the seed's deferred wait-lists, from distance alone).
 
 Geomorphing: a vertex created by a split moves from the midpoint of its hypotenuse to its
 height over `geomorph` frames (h_t = (1 - t) (h(v0) + h(v1)) / 2 + t h(v)). On each of its
@@ -211,6 +212,17 @@ def _score(wedge, spacing, v, N, eye, planes, lam, cull):
     if d <= 0.0:
         return np.inf
     return lam * e / d
+
+
+@njit(cache=True, inline="always")
+def _slack(wedge, spacing, v, N, eye, lam, tau):
+    """How far the eye may travel (any direction, any turn) before diamond v's priority can
+    exceed tau: d - lambda_b e / tau with d the distance to its wedgie box (errs short)."""
+    x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
+    dx = max(x0 * spacing - eye[0], 0.0, eye[0] - x1 * spacing)
+    dy = max(y0 - eye[1], 0.0, eye[1] - y1)
+    dz = max(z0 * spacing - eye[2], 0.0, eye[2] - z1 * spacing)
+    return np.sqrt(dx * dx + dy * dy + dz * dz) - lam * wedge[v, 2] / tau
 
 
 # Binary min-heaps on parallel arrays (keys float64, values int64); _reserve grows them.
@@ -389,15 +401,18 @@ def _merge(wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, t
 
 @njit(cache=True)
 def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
-           eye, planes, lam, tau, budget, leaves, cull, born, stats):
+           eye, planes, lam, tau, budget, leaves, cull, born, stats, until, travel):
     """One ROAM frame from last frame's mesh. Returns (alive_count, leaves, born_count).
 
     budget < 0: no budget (queues then hold only diamonds that can move: split candidates
     above tau, merge candidates at or below it). stats (float64): [splits, merges, forced,
     largest split priority left (an upper bound), exchanges, stopped by the budget, alive
-    full]. qs/qm/mark are stamps per sample; stamp is this call's number (> 0). When alive
+    full, candidates deferred]. qs/qm/mark are stamps per sample; stamp is this call's number (> 0). When alive
     fills up, returns early with stats[6] = 1 (the mesh is consistent; grow alive, call
-    again)."""
+    again). Deferred priorities (no budget only): travel is the eye's path length so far and
+    until[v] the travel up to which candidate v is known to stay <= tau (float32 rounded
+    down); such candidates are not re-scored (the seed's wait-lists, from distance alone,
+    so turning the camera needs no re-scoring either)."""
     N = int(np.sqrt(wedge.shape[0]))
     S = N - 1
     every = budget >= 0
@@ -412,10 +427,11 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
     ns = 0
     nm = 0
     low = 0.0
-    for i in range(7):
+    for i in range(8):
         stats[i] = 0.0
     centre = (S // 2) * N + S // 2
     head = alive_count  # alive[:head] is sorted (compacted at the end of the last call)
+    deferred = 0
     # Queues from last frame's mesh with this frame's priorities.
     # (The children loop is written out here: a call per diamond costs as much again in
     # reference counting of its array arguments.)
@@ -434,13 +450,21 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                 if split[m]:
                     mergeable = False
                 elif qs[m] != stamp:
-                    q = _score(wedge, spacing, m, N, eye, planes, lam, cull)
                     qs[m] = stamp
+                    if not every and travel < until[m]:
+                        deferred += 1  # the eye has not travelled far enough to matter
+                        continue
+                    q = _score(wedge, spacing, m, N, eye, planes, lam, cull)
                     if every or q > tau:
                         sk, sv = _reserve(sk, sv, ns, 1)
                         ns = _push(sk, sv, ns, -q, m)
                     else:
                         low = max(low, q)
+                        far = travel + _slack(wedge, spacing, m, N, eye, lam, tau)
+                        f32 = np.float32(far)
+                        if f32 > far:
+                            f32 = np.nextafter(f32, np.float32(-np.inf))
+                        until[m] = f32
         if mergeable:
             q = _score(wedge, spacing, v, N, eye, planes, lam, cull)
             if every or q <= tau:
@@ -562,7 +586,10 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
         ns = _pop(sk, sv, ns)
     alive_count = _compact(alive, alive_count, split, head)
     stats[0], stats[1], stats[2] = splits, merges, forced
+    if deferred:
+        remaining = max(remaining, tau)  # the deferred ones are known to be <= tau only
     stats[3], stats[4], stats[5] = remaining, exchanges, blocked
+    stats[7] = deferred
     return alive_count, leaves, born_count
 
 
@@ -642,6 +669,7 @@ class RoamFrame:
     bound_px   : the largest priority left among leaf diamonds (pixels): with no geomorph the
                  screen error of every sample in the frustum is at most this
     budget_hit : a split was refused because its forced chain would exceed the budget
+    deferred   : split candidates not re-scored (their priority is known to be <= tau)
     lod_ms     : queue rebuild + split/merge + emission wall time
     morph      : (ids (M,) int64, heights (M,) float64) drawn heights of morphing vertices
     """
@@ -653,6 +681,7 @@ class RoamFrame:
     forced: int
     bound_px: float
     budget_hit: bool
+    deferred: int
     lod_ms: float
     morph: tuple
 
@@ -661,10 +690,11 @@ class Roam:
     """Frame-coherent ROAM mesh of one heightmap with one pixel knob (and a triangle budget).
 
     geomorph: frames over which a new vertex rises from its hypotenuse midpoint to its height
-    (0: pop at once).
+    (0: pop at once). defer: skip re-scoring candidates that the eye's travel since they were
+    scored cannot have brought above tau (no budget only; the mesh is the same either way).
     """
 
-    def __init__(self, heightmap: Heightmap, geomorph: int = 0):
+    def __init__(self, heightmap: Heightmap, geomorph: int = 0, defer: bool = True):
         self.heightmap = heightmap
         self.n = heightmap.exponent
         N = heightmap.size
@@ -680,6 +710,7 @@ class Roam:
         del lo, hi, e32, error
         self.build_seconds = time.perf_counter() - start
         self.geomorph = int(geomorph)
+        self.defer = bool(defer)
         self.split = np.zeros(N * N, np.uint8)
         S = N - 1
         for v in (0, S, S * N, S * N + S):
@@ -690,6 +721,10 @@ class Roam:
         self.qs = np.zeros(N * N, np.int32)
         self.qm = np.zeros(N * N, np.int32)
         self.mark = np.zeros(N * N, np.int64)
+        self.until = np.zeros(N * N, np.float32)  # deferred priorities (see _frame)
+        self.travel = 0.0
+        self.last_eye = None
+        self.knob = None
         self.frame_number = 0  # stamps (may advance twice in one update)
         self.clock = 0  # updates (geomorph time)
         self.out = np.zeros((1 << 16, 3), np.int64)
@@ -706,6 +741,7 @@ class Roam:
         self.alive_count = 0
         self.leaves = 2
         self.morph_ids = self.morph_start = np.zeros(0, np.int64)
+        self.knob = None
 
     def update(self, camera, resolution, tau: float, cull: bool = True,
                budget: int | None = None) -> RoamFrame:
@@ -718,7 +754,15 @@ class Roam:
         self.frame_number += 1
         self.clock += 1
         start = time.perf_counter()
-        stats = np.zeros(7)
+        stats = np.zeros(8)
+        eye = camera.eye
+        if self.last_eye is not None:
+            self.travel += float(np.linalg.norm(eye - self.last_eye))
+        self.last_eye = eye
+        if self.knob != (lam, float(tau)) or not self.defer:  # one lambda and tau only
+            self.until[:] = 0.0
+            self.travel = 0.0
+            self.knob = (lam, float(tau))
         limit = -1 if budget is None else int(budget)
         if budget is not None and budget < 2:
             raise ValueError("budget must be at least 2 triangles")
@@ -728,7 +772,8 @@ class Roam:
             self.alive_count, self.leaves, born_count = _frame(
                 self.wedge, self.heightmap.spacing, self.n, self.split,
                 self.alive, self.alive_count, self.qs, self.qm, self.mark, self.frame_number,
-                camera.eye, planes, lam, float(tau), limit, self.leaves, cull, born, stats)
+                camera.eye, planes, lam, float(tau), limit, self.leaves, cull, born, stats,
+                self.until, self.travel)
             born_all.append(born[:born_count])
             if not stats[6]:
                 break
@@ -746,8 +791,8 @@ class Roam:
         morph = self._morph(np.concatenate(born_all))
         lod_ms = (time.perf_counter() - start) * 1000.0
         return RoamFrame(self.out[:count].copy(), int(self.leaves), int(stats[0]),
-                         int(stats[1]), int(stats[2]), float(stats[3]), bool(stats[5]), lod_ms,
-                         morph)
+                         int(stats[1]), int(stats[2]), float(stats[3]), bool(stats[5]),
+                         int(stats[7]), lod_ms, morph)
 
     def _morph(self, born) -> tuple:
         """Drawn heights of vertices still rising (ids, heights); empty without geomorph."""
