@@ -803,8 +803,8 @@ class Roam:
         t = (self.clock - starts + 1) / (self.geomorph + 1)
         keep = (t < 1) & (self.split[ids] == 1)
         ids, starts, t = ids[keep], starts[keep], t[keep]
-        ids, first = np.unique(ids, return_index=True)  # re-split vertices restart
-        starts, t = starts[first], t[first]
+        ids, first = np.unique(ids[::-1], return_index=True)  # re-split vertices restart
+        starts, t = starts[::-1][first], t[::-1][first]
         self.morph_ids, self.morph_start = ids, starts
         N = self.heightmap.size
         g = np.empty((4, 2), np.int64)
