@@ -1,5 +1,6 @@
 """Session fixtures shared by all tests: the thesis worlds (built once and cached in worlds/),
 tiny literal geometry and the box-clipping oracle."""
+import os
 import types
 
 import numpy as np
@@ -12,6 +13,11 @@ settings.load_profile("vismobile")
 
 from vismobile.scenes import build_world
 from vismobile.world import World
+
+# Status lines depend on how long a command runs (they start after 2 s): on a loaded machine a
+# bad-input run would print one before its error line. Tests of stderr see no status lines;
+# tests/test_progress.py draws them on its own streams.
+os.environ.setdefault("VISMOBILE_STATUS", "off")
 
 
 def clip_overlaps(tri, lo, hi, slack=0.0):
@@ -80,6 +86,23 @@ def thesis_world():
 @pytest.fixture(scope="session")
 def w1(thesis_world):
     return thesis_world("w1")
+
+
+@pytest.fixture(scope="session")
+def vismobile_cli():
+    """run(*args, cwd): the real entry point, `python -m vismobile ...` in a fresh process
+    (this checkout's package first on the path); returns the CompletedProcess (text)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+
+    def run(*args, cwd):
+        return subprocess.run([sys.executable, "-m", "vismobile", *map(str, args)], cwd=cwd,
+                              env=env, capture_output=True, text=True, timeout=300)
+    return run
 
 
 @pytest.fixture(scope="session")

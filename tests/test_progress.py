@@ -1,6 +1,7 @@
 """Progress and status lines: nothing for short work, one redrawn line on a terminal, plain
 lines (no carriage return) in a log, always the final state once anything was shown."""
 import io
+import sys
 
 from vismobile.progress import LOG_INTERVAL, QUIET_SECONDS, Progress, Status
 
@@ -85,3 +86,12 @@ def test_status_ticker_shows_a_long_step_without_a_call():
         time.sleep(0.8)
     assert stream.getvalue().startswith("info w2: loading the world, ")
     assert stream.getvalue().count("\n") == 1
+
+
+def test_vismobile_status_off_silences_stderr_only(monkeypatch, capsys):
+    monkeypatch.setenv("VISMOBILE_STATUS", "off")
+    assert not Progress("compare", total=3).enabled and not Status("tune w1").enabled
+    assert Status("tune w1", stream=io.StringIO()).enabled       # explicit streams still draw
+    monkeypatch.setenv("VISMOBILE_STATUS", "on")
+    bar = Progress("compare", total=3)
+    assert bar.enabled and bar.stream is sys.stderr

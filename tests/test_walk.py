@@ -1,9 +1,5 @@
 """`vismobile trajectory generate`: collision-free, inside the world, deterministic, and the
 camera sees something on most frames; the fly-over for a world without a ceiling."""
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +10,6 @@ from vismobile.profile import get_profile
 from vismobile.trajectory import Trajectory
 from vismobile.walk import counts, walk, waypoints
 from vismobile.world import World
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def box(extents, centre, inward=False):
@@ -106,20 +100,13 @@ def test_a_world_without_a_ceiling_gets_a_fly_over():
     assert (in_frustum > 0).all() and (visible > 0).all()
 
 
-def vismobile(*args, cwd):
-    """The real entry point: `python -m vismobile ...` in a fresh process."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "vismobile", *map(str, args)], cwd=cwd,
-                          env=env, capture_output=True, text=True, timeout=300)
-
-
-def test_cli_generates_a_plain_csv_that_plays(tmp_path):
+def test_cli_generates_a_plain_csv_that_plays(tmp_path, vismobile_cli):
     rooms().to_obj(tmp_path / "rooms.obj")
-    made = vismobile("trajectory", "generate", "rooms.obj", "--seed", "2", "--length", "120",
+    made = vismobile_cli("trajectory", "generate", "rooms.obj", "--seed", "2", "--length", "120",
                      "-o", "walk.csv", cwd=tmp_path)
     assert made.returncode == 0, made.stderr
     assert "wrote walk.csv: walk of 120 frames" in made.stdout
-    again = vismobile("trajectory", "generate", "rooms.obj", "--seed", "2", "--length", "120",
+    again = vismobile_cli("trajectory", "generate", "rooms.obj", "--seed", "2", "--length", "120",
                       "-o", "again.csv", "--quiet", cwd=tmp_path)
     assert again.returncode == 0 and again.stderr == ""
     assert (tmp_path / "walk.csv").read_bytes() == (tmp_path / "again.csv").read_bytes()
@@ -133,7 +120,7 @@ def test_cli_generates_a_plain_csv_that_plays(tmp_path):
                           encoding="ascii")
     assert len(table) == 120 and set(table["waypoint"]) - {""} == {
         "most_visible", "least_visible", "most_in_frustum", "least_in_frustum"}
-    played = vismobile("play", "rooms.obj", "--trajectory", "walk.csv", "--structure",
+    played = vismobile_cli("play", "rooms.obj", "--trajectory", "walk.csv", "--structure",
                        "octree:2", "--cull", "vfc", "-o", "run", "--quiet", cwd=tmp_path)
     assert played.returncode == 0, played.stderr
     assert "warning" not in played.stderr
@@ -144,8 +131,8 @@ def test_cli_generates_a_plain_csv_that_plays(tmp_path):
     (("rooms.obj", "--length", "1"), "--length"),
     (("rooms.obj", "--clearance", "-1"), "--clearance"),
 ])
-def test_cli_bad_input_is_one_line_exit_2(tmp_path, args, needle):
+def test_cli_bad_input_is_one_line_exit_2(tmp_path, args, needle, vismobile_cli):
     rooms().to_obj(tmp_path / "rooms.obj")
-    done = vismobile("trajectory", "generate", *args, "--quiet", cwd=tmp_path)
+    done = vismobile_cli("trajectory", "generate", *args, "--quiet", cwd=tmp_path)
     assert done.returncode == 2 and done.stderr.count("\n") == 1
     assert needle in done.stderr and "Traceback" not in done.stderr

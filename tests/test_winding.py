@@ -1,10 +1,5 @@
 """Winding: consistency across shared edges, closed rooms seen from inside, --fix-winding, and
 tune refusing to call back-face culling exact on a room whose walls face out (trimesh's box)."""
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 import trimesh
@@ -14,7 +9,6 @@ from vismobile.trajectory import Trajectory
 from vismobile.winding import check_winding, fixed_world
 from vismobile.world import World
 
-ROOT = Path(__file__).resolve().parents[1]
 CENTRE = np.array([0.0, 1.5, 0.0])
 
 
@@ -148,44 +142,37 @@ def test_tune_never_calls_backface_culling_exact_on_outward_walls():
     assert fixed.to_dict()["backface_exact"] is True
 
 
-def vismobile(*args, cwd):
-    """The real entry point: `python -m vismobile ...` in a fresh process."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "vismobile", *map(str, args)], cwd=cwd,
-                          env=env, capture_output=True, text=True, timeout=300)
-
-
-def test_cli_info_reports_and_fixes_the_winding(tmp_path):
+def test_cli_info_reports_and_fixes_the_winding(tmp_path, vismobile_cli):
     room_mesh().export(tmp_path / "room.stl")
-    shown = vismobile("info", "room.stl", cwd=tmp_path)
+    shown = vismobile_cli("info", "room.stl", cwd=tmp_path)
     assert shown.returncode == 0, shown.stderr
     assert "12 of 12 triangles face away from the interior" in shown.stdout
     assert "--fix-winding reverses 12 triangles" in shown.stdout
-    fixed = vismobile("info", "room.stl", "--fix-winding", "-o", "fixed.obj", cwd=tmp_path)
+    fixed = vismobile_cli("info", "room.stl", "--fix-winding", "-o", "fixed.obj", cwd=tmp_path)
     assert fixed.returncode == 0, fixed.stderr
     assert "0 of 12 triangles face away" in fixed.stdout
     assert facing_centre(World.from_file(tmp_path / "fixed.obj")).all()
-    built = vismobile("partition", "room.stl", "--fix-winding", "-s", "octree:1", "-o", "r.vmp",
+    built = vismobile_cli("partition", "room.stl", "--fix-winding", "-s", "octree:1", "-o", "r.vmp",
                       cwd=tmp_path)
     assert built.returncode == 0 and "reversed 12 of 12 triangles" in built.stderr
     from vismobile.partition import load_partition
 
     assert facing_centre(load_partition(tmp_path / "r.vmp").world).all()
     room_walk().save(tmp_path / "walk.csv")
-    refused = vismobile("play", "r.vmp", "--fix-winding", "--trajectory", "walk.csv", "-o", "p",
+    refused = vismobile_cli("play", "r.vmp", "--fix-winding", "--trajectory", "walk.csv", "-o", "p",
                         cwd=tmp_path)
     assert refused.returncode == 2
     assert refused.stderr.count("\n") == 1 and "--fix-winding applies to a mesh" in refused.stderr
-    tuned = vismobile("tune", "room.stl", "--trajectory", "walk.csv", "--probe", "3",
+    tuned = vismobile_cli("tune", "room.stl", "--trajectory", "walk.csv", "--probe", "3",
                       "--structures", "octree:1", "--quiet", cwd=tmp_path)
     assert tuned.returncode == 0, tuned.stderr
     assert "WARNING: back-face culling removes" in tuned.stdout
     choice = next(line for line in tuned.stdout.splitlines() if line.startswith("choice:"))
     assert not any(stage in choice.split("--cull")[1] for stage in ("bfc", "cone"))
-    fixed_tune = vismobile("tune", "room.stl", "--fix-winding", "--trajectory", "walk.csv",
+    fixed_tune = vismobile_cli("tune", "room.stl", "--fix-winding", "--trajectory", "walk.csv",
                            "--probe", "3", "--structures", "octree:1", "--quiet", cwd=tmp_path)
     assert fixed_tune.returncode == 0 and "WARNING" not in fixed_tune.stdout
     assert "reversed 12 of 12 triangles" in fixed_tune.stderr
-    missing = vismobile("info", "nothing.stl", "--fix-winding", cwd=tmp_path)
+    missing = vismobile_cli("info", "nothing.stl", "--fix-winding", cwd=tmp_path)
     assert missing.returncode == 2 and missing.stderr.count("\n") == 1
     assert "nothing.stl" in missing.stderr and "Traceback" not in missing.stderr

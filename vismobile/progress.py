@@ -1,9 +1,11 @@
 """Progress on stderr for long work (no dependency): a bar with a known total, status lines
 without one. On a terminal both redraw one line (carriage return); in a log (stderr not a
 terminal) they write plain lines: nothing for work under QUIET_SECONDS, then a line every
-LOG_INTERVAL seconds and the final state, so a redirected run still says what it is doing."""
+LOG_INTERVAL seconds and the final state, so a redirected run still says what it is doing.
+VISMOBILE_STATUS=off in the environment silences both on stderr (scripts that parse stderr)."""
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
@@ -18,6 +20,11 @@ LOG_INTERVAL = 10.0
 # quiet time counts from there, so a command whose steps are each short but add up to more
 # than QUIET_SECONDS still shows its later steps. None outside a command.
 COMMAND_START = None
+
+
+def _silenced(stream) -> bool:
+    """True when drawing would go to stderr and VISMOBILE_STATUS=off asks for silence."""
+    return stream is None and os.environ.get("VISMOBILE_STATUS", "").lower() == "off"
 
 
 def _running(start, now) -> float:
@@ -40,8 +47,8 @@ class Progress:
     def __init__(self, label: str, stream=None, enabled=None, width: int = 30, total: int = 0,
                  clock=time.perf_counter):
         self.label, self.width, self.total = label, width, int(total)
+        self.enabled = (True if enabled is None else bool(enabled)) and not _silenced(stream)
         self.stream = sys.stderr if stream is None else stream
-        self.enabled = True if enabled is None else bool(enabled)
         self.tty = _isatty(self.stream)
         self.clock = clock
         self.start = clock()
@@ -110,7 +117,7 @@ class Status:
 
     def __init__(self, label: str, enabled: bool = True, stream=None, quiet: float = QUIET_SECONDS,
                  interval: float = LOG_INTERVAL, clock=time.perf_counter, ticker: bool = True):
-        self.label, self.enabled = label, enabled
+        self.label, self.enabled = label, enabled and not _silenced(stream)
         self.stream = sys.stderr if stream is None else stream
         self.clock, self.quiet, self.interval = clock, quiet, interval
         self.start = clock()
@@ -119,7 +126,7 @@ class Status:
         self.lock = threading.Lock()
         self.stop = threading.Event()
         self.thread = None
-        if enabled and ticker:
+        if self.enabled and ticker:
             self.thread = threading.Thread(target=self._tick, daemon=True)
             self.thread.start()
 
