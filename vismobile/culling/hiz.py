@@ -15,10 +15,12 @@ Occluders are world triangles that certainly face the eye, clipped to depth >= c
 nearer than the GPU's near plane is not drawn and hides nothing), grouped by exact plane. Within
 a group a pixel lies inside the union of the group's (clipped) triangles when its centre is in
 one of them and no piece of the union's boundary meets it. The boundary lies on the edge pieces
-without a reverse partner among the group's chosen triangles (edges split at T-junctions
-beforehand, so partners match by vertex index) and on the near-plane cuts; a pixel covered by
-the group gets the group plane's farthest depth over its four corner rays (1/z is affine over a
-pixel). Groups are merged by the pointwise minimum (each bounds the nearest surface there).
+without a reverse partner among the group's chosen triangles (partners hold both corners of
+the edge: the GPU fills such shared edges without cracks, but not T-junctions, which stay
+boundaries) and on the near-plane cuts; a pixel covered by the group gets the group plane's
+farthest depth over its four corner rays (1/z is affine over a pixel). Groups are merged by
+the pointwise minimum (each bounds the nearest surface there); across a crease (an edge shared
+by two groups) a pixel takes the larger of the two groups' depths (rasterise).
 
 Tests. A box (8 corners) or triangle (3 corners), each corner moved by up to `move` per
 coordinate (device rounding), gives a pixel rectangle grown by SLACK_PX plus `shift` and a
@@ -119,7 +121,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     near it: the largest of the farthest depths of the groups whose pieces come near.
     groups     : (T,) int64 exact-plane label;  tri_points : (T, 3) int64 into points (P, 3)
     normals    : (T, 3), offsets (T,) float64 exact planes n.x = offset; ids must face the eye
-    piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (split at T-junctions)
+    piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (occlusion.occluder_mesh)
     partner    : (S,) int64 triangle holding the reverse piece in the same group, or -1
     partner_any: (S,) int64 triangle holding the reverse piece in any group, or -1
     stamp      : (T,) int64 scratch; stamp[t] == frame marks this call's triangles (set here)

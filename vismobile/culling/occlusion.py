@@ -15,7 +15,8 @@ Each frame:
 2. hiz.rasterise: per exact-plane group, a pixel counts only when wholly inside the union of the
    group's triangles (or, across a crease between groups, of both) clipped slightly beyond the
    near plane (NEAR_RELATIVE plus device rounding: only parts the GPU certainly draws
-   occlude), with the plane's farthest depth over it; edges are split at T-junctions beforehand, so shared edges leave no cracks. Tiles of
+   occlude), with the plane's farthest depth over it; shared edges (both corners shared) leave
+   no cracks, T-junctions stay boundaries (the GPU may leave a pixel open there). Tiles of
    `tile` pixels keep the farthest depth of their pixels.
 3. Node boxes are tested (hiz.cull_nodes), entered from the tree's root through the
    ancestors of the frame's nodes, so hidden regions go at a coarse level: hidden when the
@@ -36,14 +37,13 @@ lowered by sqrt(3) m); an occluder point at depth z >= z_occ (the nearest occlud
 least the clip depth) shifts on screen by at most sqrt(3) m / z_occ (1 + tan) and recedes by at
 most sqrt(3) m, so the rectangle grows by that shift too and the depth test gains sqrt(3) m.
 Contract: never drops a triangle that the full world's item buffer shows (any resolution; with
-`screen`, at that resolution), also when the device moves points by m (T-junction cracks of
-that width excepted).
+`screen`, at that resolution), also when the device moves points by m, and through the cracks
+the GPU may leave at T-junctions (never counted as closed).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.raster import split_edges
 from ..partition.base import gather_ranges
 from .hiz import (build_tiles, cull_nodes, gather_candidates, hidden_triangles, lod_ancestors,
                   node_candidates, rasterise, score_candidates)
@@ -93,9 +93,13 @@ def occluder_mesh(vertices, triangles, normals) -> tuple:
     """The rasteriser's tables (hiz.rasterise) for triangles (T, 3) int64 over vertices (V, 3)
     with unit normals (T, 3): (points (P, 3) each value once, tri_points (T, 3), normals,
     offsets (T,), groups (T,) exact-plane labels, piece_start, piece_end (T,), piece_a,
-    piece_b (S,) edge pieces split at T-junctions, partner (S,) reverse piece's triangle in the
-    same group or -1, partner_any (S,) the same in any group).
-    Each point once, so shared corners project to bit-identical values."""
+    piece_b (3T,) the directed edges, partner (3T,) the triangle holding the reverse edge in
+    the same group or -1, partner_any (3T,) the same in any group).
+
+    Edges pair only when both triangles hold both endpoints (the same two points): the GPU
+    fills such a shared edge without a crack, but not a T-junction (an edge passing through
+    another triangle's corner), where a pixel centre may fall between the two sides, so a
+    T-junction stays a boundary. Each point once, so shared corners match by index."""
     points, index = np.unique(np.asarray(vertices, dtype=np.float64), axis=0,
                               return_inverse=True)
     tri_points = np.ascontiguousarray(index.ravel()[np.asarray(triangles)], dtype=np.int64)
@@ -103,13 +107,13 @@ def occluder_mesh(vertices, triangles, normals) -> tuple:
     offsets = np.einsum("ij,ij->i", normals, points[tri_points[:, 0]])
     _, group = np.unique(np.column_stack([normals, offsets]), axis=0, return_inverse=True)
     groups = group.ravel().astype(np.int64)
-    tri, a, b = split_edges(points, tri_points)
-    ids = np.arange(len(tri_points))
-    start = np.searchsorted(tri, ids, "left").astype(np.int64)
-    end = np.searchsorted(tri, ids, "right").astype(np.int64)
-    return (points, tri_points, normals, offsets, groups, start, end, a.astype(np.int64),
-            b.astype(np.int64), piece_partners(tri, a, b, groups),
-            piece_partners(tri, a, b, np.zeros_like(groups)))
+    count = len(tri_points)
+    tri = np.repeat(np.arange(count, dtype=np.int64), 3)
+    a = tri_points.ravel().copy()
+    b = np.roll(tri_points, -1, axis=1).ravel()
+    start = 3 * np.arange(count, dtype=np.int64)
+    return (points, tri_points, normals, offsets, groups, start, start + 3, a, b,
+            piece_partners(tri, a, b, groups), piece_partners(tri, a, b, np.zeros_like(groups)))
 
 
 class DepthBufferOcclusion:
