@@ -4,6 +4,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from vismobile.camera import Camera
 from vismobile.culling import Culler
@@ -153,3 +155,36 @@ def test_portal_rectangles_hold_the_grown_polygon():
     _, near = portal_rects(square - [0, 0, 4.7], np.array([0, 4]), np.zeros(3), np.eye(3),
                            1.0, 1.0, 0.5)
     assert near.tolist() == [2]
+
+
+@settings(max_examples=60)
+@given(seed=st.integers(0, 2 ** 32 - 1), grow=st.floats(0.0, 2.0))
+def test_portal_rectangles_hold_every_point_near_any_polygon(seed, grow):
+    # Any quad anywhere around the eye, any view: each point within `grow` of it that lies in
+    # front of the eye projects into its rectangle (state 0), or the polygon is wholly behind
+    # (state 1, no such point), or it is left to the whole current rectangle (state 2).
+    from vismobile.culling.portals import portal_rects
+    from vismobile.geometry.raster import to_camera
+
+    rng = np.random.default_rng(seed)
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    u, v = np.linalg.qr(rng.normal(size=(3, 2)))[0].T
+    centre = rng.uniform(-6, 6, 3)
+    a, b = rng.uniform(0.1, 3.0, 2)
+    quad = centre + np.array([[-a, -b], [a, -b], [a, b], [-a, b]]) @ np.stack([u, v])
+    eye = rng.uniform(-1, 1, 3)
+    tx, ty = rng.uniform(0.05, 3.0, 2)
+    rects, state = portal_rects(quad, np.array([0, 4]), eye, rotation, tx, ty, grow)
+    s, t = rng.uniform(-1, 1, (2, 3000))
+    ball = rng.normal(size=(3000, 3))
+    ball *= grow * rng.uniform(0, 1, (3000, 1)) ** (1 / 3) / np.linalg.norm(ball, axis=1)[:, None]
+    points = centre + (s * a)[:, None] * u + (t * b)[:, None] * v + ball
+    cam = to_camera(points, eye, rotation)
+    front = cam[:, 2] > 0
+    if state[0] == 1:
+        assert not front.any()
+    elif state[0] == 0:
+        assert front.all()
+        pu, pv = cam[:, 0] / (cam[:, 2] * tx), cam[:, 1] / (cam[:, 2] * ty)
+        u0, u1, v0, v1 = rects[0]
+        assert np.all((u0 <= pu) & (pu <= u1) & (v0 <= pv) & (pv <= v1))
