@@ -142,3 +142,19 @@ def test_built_worlds_match_their_pinned_sha256(thesis_world, name):
     thesis_world(name)
     digest = hashlib.sha256((default_cache_dir() / f"{name}.obj").read_bytes()).hexdigest()
     assert digest == PINS[name]
+
+
+def test_quantized_keeps_ids_and_refuses_what_the_mode_cannot_hold():
+    from vismobile.errors import ProfileError
+    from vismobile.scenes.stress import base_world
+
+    world = base_world()
+    rounded = world.transformed(1.0, (1e3, 1e3, 1e3)).quantized("fixed16.16")
+    assert rounded.triangle_count == world.triangle_count
+    assert np.array_equal(rounded.vertices * 65536, np.rint(rounded.vertices * 65536))
+    with pytest.raises(ProfileError, match="range"):
+        world.transformed(1.0, (1e5, 0, 0)).quantized("fixed16.16")
+    with pytest.raises(ProfileError, match="cannot resolve"):
+        world.transformed(1.0, (1e7, 0, 0)).quantized("float32")
+    with pytest.raises(ProfileError, match="cannot resolve"):
+        world.transformed(1e-4).quantized("fixed16.16")

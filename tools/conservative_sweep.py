@@ -133,8 +133,7 @@ def sweep(worlds, cases, modes, structures, stages, count, seed, worlds_dir, log
                 label = f"{name} {case} {mode}"
                 profile = get_profile(PROFILE, mode)
                 try:
-                    from vismobile.culling.precision import quantize_world
-                    quantize_world(world, mode)
+                    world.quantized(mode)
                 except ProfileError as error:
                     refused.append(f"{label}: {str(error).splitlines()[0]}")
                     continue

@@ -95,7 +95,7 @@ def plane_errors(camera, world, ids, mode) -> tuple:
 def run_case(case, mode, cell, structures, stage_sets, repeats=3):
     """Fill cell with the results of one stress case in one mode."""
     try:
-        world_m = precision.quantize_world(case.world, mode)
+        world_m = case.world.quantized(mode)
     except ProfileError as error:
         cell.refused = str(error)
         return

@@ -95,6 +95,21 @@ class World:
         v = self.vertices * float(scale) + np.asarray(offset, dtype=np.float64)
         return World(v, self.triangles, self.object_ids, list(self.object_names), self.name)
 
+    def quantized(self, mode: str) -> "World":
+        """The world as a device in arithmetic `mode` (float64, float32, fixed16.16) stores it:
+        vertices rounded to the mode, triangle ids unchanged (zero-area triangles made by the
+        rounding are kept, so ids still match this world).
+
+        Raises ProfileError (arithmetic.check_resolution) when the mode cannot hold or resolve it.
+        """
+        from .geometry import arithmetic
+
+        what = f"world {self.name}"
+        arithmetic.check_resolution(self.vertices[np.unique(self.triangles)], mode, what)
+        vertices = arithmetic.quantize(self.vertices, mode, what)
+        return World(vertices, self.triangles, self.object_ids, list(self.object_names),
+                     self.name)
+
     @classmethod
     def concatenate(cls, parts, name="world") -> "World":
         """One world of several, object ids renumbered so names stay unique per part."""

@@ -1,4 +1,5 @@
-"""culling/precision.py: rounding worlds and cameras to a mode, and inflating the frustum."""
+"""culling/precision.py: rounding cameras to a mode, and inflating the frustum (rounding worlds:
+World.quantized, tests/test_world.py)."""
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -8,20 +9,6 @@ from vismobile.camera import Camera
 from vismobile.culling import precision
 from vismobile.errors import ProfileError
 from vismobile.geometry import arithmetic
-from vismobile.scenes.stress import base_world
-
-
-def test_quantize_world_keeps_ids_and_refuses_what_the_mode_cannot_hold():
-    world = base_world()
-    rounded = precision.quantize_world(world.transformed(1.0, (1e3, 1e3, 1e3)), "fixed16.16")
-    assert rounded.triangle_count == world.triangle_count
-    assert np.array_equal(rounded.vertices * 65536, np.rint(rounded.vertices * 65536))
-    with pytest.raises(ProfileError, match="range"):
-        precision.quantize_world(world.transformed(1.0, (1e5, 0, 0)), "fixed16.16")
-    with pytest.raises(ProfileError, match="cannot resolve"):
-        precision.quantize_world(world.transformed(1.0, (1e7, 0, 0)), "float32")
-    with pytest.raises(ProfileError, match="cannot resolve"):
-        precision.quantize_world(world.transformed(1e-4), "fixed16.16")
 
 
 def test_quantize_camera():

@@ -20,7 +20,6 @@ import numpy as np
 from ..camera import Camera
 from ..errors import ProfileError
 from ..geometry import arithmetic
-from ..world import World
 
 # A plane the mode cannot hold is replaced by this always-inside plane (dropping a plane only
 # grows the frustum, so it is conservative).
@@ -112,16 +111,3 @@ def conservative_camera(camera: Camera, mode: str, scale: float) -> Conservative
     mode's plane-test error plus the largest move of a rounded vertex (coordinates <= scale)."""
     return ConservativeCamera(camera.position, camera.yaw, camera.pitch, camera.fov,
                               camera.aspect, camera.near, camera.far, margin(mode, scale))
-
-
-def quantize_world(world: World, mode: str) -> World:
-    """The world as the device stores it: vertices rounded to the mode, triangle ids unchanged.
-
-    Raises ProfileError (arithmetic.check_resolution) when the mode cannot hold or resolve it.
-    Zero-area triangles made by the rounding are kept, so ids still match the float64 world.
-    """
-    arithmetic.check_resolution(world.vertices[np.unique(world.triangles)], mode,
-                                f"world {world.name}")
-    vertices = arithmetic.quantize(world.vertices, mode, f"world {world.name}")
-    return World(vertices, world.triangles, world.object_ids, list(world.object_names),
-                 world.name)

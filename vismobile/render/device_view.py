@@ -32,12 +32,10 @@ def eye_relative(world, camera, profile, cull_back: bool) -> np.ndarray:
 def device_buffers(world, camera, profile, cull_back: bool) -> dict:
     """{kind: (H, W) uint32 item buffer} for the KINDS above. Raises ProfileError when the
     profile's vertex format cannot hold or resolve the world or the eye."""
-    from ..culling.precision import quantize_world
-
     fmt = profile.vertex_format
     eye = arithmetic.quantize(camera.eye, fmt, "camera position")
     return {"device": item_buffer(world, None, camera, profile, cull_back=cull_back),
-            "rounded": eye_relative(quantize_world(world, fmt), camera.with_(position=eye),
+            "rounded": eye_relative(world.quantized(fmt), camera.with_(position=eye),
                                     profile, cull_back),
             "exact": eye_relative(world, camera, profile, cull_back)}
 
