@@ -21,8 +21,10 @@ class Clock:
 
 def test_short_work_prints_nothing_anywhere():
     for stream in (io.StringIO(), Terminal()):
-        bar = Progress("compare", stream=stream, total=500)
-        for _ in range(500):
+        clock = Clock()
+        bar = Progress("compare", stream=stream, total=500, clock=clock)
+        for i in range(500):
+            clock.now = i * 0.9 * QUIET_SECONDS / 500  # all of it inside the quiet time
             bar.step()
         bar.close()
         assert stream.getvalue() == ""
@@ -78,14 +80,19 @@ def test_status_waits_for_the_quiet_time_then_writes_plain_lines_in_a_log():
 
 
 def test_status_ticker_shows_a_long_step_without_a_call():
+    # The step's time comes from the fake clock; the real wait is only for the ticker thread
+    # to run once (it polls every 0.25 s), with room for a loaded machine.
     import time
 
-    stream = io.StringIO()
-    with Status("info w2", stream=stream, quiet=0.3) as status:
+    stream, clock = io.StringIO(), Clock()
+    with Status("info w2", stream=stream, clock=clock) as status:
         status("loading the world")
-        time.sleep(0.8)
-    assert stream.getvalue().startswith("info w2: loading the world, ")
-    assert stream.getvalue().count("\n") == 1
+        assert stream.getvalue() == ""
+        clock.now = QUIET_SECONDS + 1.0  # past the quiet time, with no further call
+        waited = time.perf_counter()
+        while not stream.getvalue() and time.perf_counter() - waited < 60.0:
+            time.sleep(0.05)
+    assert stream.getvalue() == f"info w2: loading the world, {QUIET_SECONDS + 1.0:.0f} s\n"
 
 
 def test_vismobile_status_off_silences_stderr_only(monkeypatch, capsys):
