@@ -37,6 +37,20 @@ def test_help_names_every_stage_and_profile():
     assert all(name in play_help for name in STAGE_NAMES + PROFILE_NAMES)
 
 
+def test_building_the_parser_imports_no_numpy():
+    # --help must stay light: every command module is imported to build the parser, so heavy
+    # imports belong inside run() (commands/__init__.py spells out valid values for this).
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = ("import sys; from vismobile.cli import build_parser; build_parser(); "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('numpy', 'numba')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=Path(__file__).resolve().parents[1], timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "[]", done.stdout + done.stderr
+
+
 def test_every_option_has_help():
     for name, sub in build_parser()._subparsers._group_actions[0].choices.items():
         for action in sub._actions:

@@ -41,6 +41,8 @@ def add_parser(sub):
 
 
 def run(args) -> int:
+    import numpy as np
+
     from ..atomic import check_destination
     from ..errors import VisMobileError
     from ..profile import get_profile
@@ -84,5 +86,3 @@ def run(args) -> int:
           f"visible on {np.mean(visible > 0):.0%} of {len(frames)} sampled frames")
     return 0
 
-
-import numpy as np  # noqa: E402  (after run's lazy imports: --help stays light either way)
