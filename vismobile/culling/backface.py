@@ -39,6 +39,23 @@ from .tree import Tree
 CHUNK = 1 << 18
 
 
+def normal_regions(world, yaw_regions: int, pitch_bands: int, horizontal: bool = False):
+    """(T,) direction region of each triangle's normal (sphere_regions.direction_regions: ids
+    0..R, R = yaw_regions x pitch_bands for degenerate normals) in the smallest unsigned type
+    that holds them, built CHUNK triangles at a time so a memory-mapped world is never held
+    whole. horizontal: the normals' y dropped first (the thesis's 2D sectors)."""
+    ids = yaw_regions * pitch_bands + 1
+    dtype = np.uint8 if ids <= 256 else np.uint16 if ids <= 65536 else np.int32
+    regions = np.empty(world.triangle_count, dtype=dtype)
+    for start, corners in corner_chunks(world, CHUNK):
+        normals, _ = unit_normals(corners)
+        if horizontal:
+            normals = normals * [1.0, 0.0, 1.0]
+        regions[start:start + len(corners)] = direction_regions(normals, yaw_regions,
+                                                                pitch_bands)
+    return regions
+
+
 def corner_rays(camera) -> np.ndarray:
     """(4, 3) float64 directions of the frustum's four corner rays (from the eye, unnormalised)."""
     right, up, forward = camera.basis()
@@ -90,18 +107,11 @@ class ConservativeBackface:
             raise ValueError("cbfc needs yaw_regions >= 1 and pitch_bands >= 1")
 
     def prepare(self, tree: Tree) -> None:
-        # One small int per triangle (its normal's region), built in chunks of corners so a
-        # memory-mapped world is never held whole; the tilt coefficients are computed per frame
-        # for the candidates whose region is droppable (facing.tilt_keep), not stored.
+        # One small int per triangle (its normal's region); the tilt coefficients are computed
+        # per frame for the candidates whose region is droppable (facing.tilt_keep), not stored.
         world = tree.world
         self.centers, self.radii = region_caps(self.yaw_regions, self.pitch_bands)
-        count = len(self.radii) + 1  # with the "no region" id
-        dtype = np.uint8 if count <= 256 else np.uint16 if count <= 65536 else np.int32
-        self.regions = np.empty(world.triangle_count, dtype=dtype)
-        for start, corners in corner_chunks(world, CHUNK):
-            normals, _ = unit_normals(corners)
-            self.regions[start:start + len(corners)] = direction_regions(
-                normals, self.yaw_regions, self.pitch_bands)
+        self.regions = normal_regions(world, self.yaw_regions, self.pitch_bands)
         self.vertices, self.triangles = np.asarray(world.vertices), np.asarray(world.triangles)
         self.magnitude = world_scale(self.vertices)
 
@@ -167,13 +177,7 @@ class ThesisBackface:
         count = self.yaw_regions or thesis_region_count(state.camera.fov)
         if not hasattr(self, "_count") or self._count != count:
             self._count = count
-            world = self.tree.world  # in chunks: a memory-mapped world is never held whole
-            small = np.uint8 if count < 256 else np.int32  # ids 0..count, one byte a triangle
-            self.sectors = np.empty(world.triangle_count, dtype=small)
-            for start, corners in corner_chunks(world, CHUNK):
-                normals, _ = unit_normals(corners)
-                self.sectors[start:start + len(corners)] = direction_regions(
-                    normals * [1.0, 0.0, 1.0], count, 1)
+            self.sectors = normal_regions(self.tree.world, count, 1, horizontal=True)
         view = direction_regions(state.camera.forward[None] * [1.0, 0.0, 1.0], count, 1)[0]
         if view == count:  # looking straight up or down: the 2D rule has no view sector
             return
