@@ -392,8 +392,10 @@ def seen_from_behind(world, cameras, visible_sets) -> tuple:
 
 
 def _facing_away(world, ids, camera) -> np.ndarray:
-    """(K,) bool: triangle ids whose front faces away from the eye, n.(p - e) > 0 (float64;
-    edge-on and degenerate triangles count as facing the eye)."""
+    """(K,) bool: triangle ids whose front faces away from the eye, n.(p - e) > 0 in float64
+    with no margin (edge-on and degenerate triangles count as facing the eye; one within
+    float64 rounding of edge-on may go either way, which only moves tune's judging, not a
+    cull)."""
     ids = np.asarray(ids, dtype=np.int64)
     return np.einsum("ij,ij->i", world.normals[ids], world.corners[ids, 0] - camera.eye) > 0
 
