@@ -127,8 +127,8 @@ def outdoor() -> Trajectory:
 
 
 def stairs(inside: Trajectory, foot: int = 844, top: int = 876, frames: int = 90,
-           turn: int = 15) -> tuple:
-    """(poses (N, 5), N) of the stairs segment: from the landing (frame `top` of the indoor
+           turn: int = 15) -> np.ndarray:
+    """(N, 5) poses of the stairs segment: from the landing (frame `top` of the indoor
     path) back down the ramp to its foot (frame `foot`) facing down it, pitch -35 to -60, a turn
     on the spot, and up again facing up it, pitch +35 to +60. Positions are resampled along the
     path's own ramp climb (free space), so the segment can be inserted after frame `top`."""
@@ -148,16 +148,16 @@ def stairs(inside: Trajectory, foot: int = 844, top: int = 876, frames: int = 90
              np.column_stack([up_positions, np.full(frames, ahead), 35.0 + 25.0 * bump])]
     poses = np.concatenate(parts)
     poses[:, 3] = np.mod(poses[:, 3] + 180.0, 360.0) - 180.0
-    return poses, len(poses)
+    return poses
 
 
 def indoor_pitched(inside: Trajectory, top: int = 876) -> Trajectory:
     """The indoor path looking up and down and around (pitch_sweep), with the stairs segment
     inserted after the landing frame `top`; waypoints after it move by the segment's length."""
     swept = pitch_sweep(inside)
-    segment, count = stairs(inside, top=top)
+    segment = stairs(inside, top=top)
     poses = np.concatenate([swept.poses[:top + 1], segment, swept.poses[top + 1:]])
-    waypoints = {k: f + count if f > top else f for k, f in swept.waypoints.items()}
+    waypoints = {k: f + len(segment) if f > top else f for k, f in swept.waypoints.items()}
     return Trajectory(poses, waypoints)
 
 

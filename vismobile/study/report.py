@@ -165,8 +165,8 @@ def _visible_share(summary) -> str:
     return "" if share is None else f" ({share:.1%} of visible pixels)"
 
 
-def _losses(world, runs) -> str:
-    """The lossy runs of a world: what each loses of the visible pixels along the path."""
+def _losses(runs) -> str:
+    """The lossy runs among one world's runs: what each loses of the visible pixels along the path."""
     lossy = [r for r in runs if not r["summary"]["conservative"]]
     path = Path(runs[0]["spec"]["trajectory"]).name if runs else ""
     if not lossy:
@@ -512,7 +512,7 @@ def world_section(records, world, tunes=None) -> str:
              _along_path(world, records, tunes, marks),
              _triangles_along(world, records, tunes, marks),
              _front(world, records),
-             _losses(world, runs),
+             _losses(runs),
              "<details><summary>the thesis's figures: per culling combination, octree depth "
              "and structure</summary>" + thesis_figures(records, world, tunes) + "</details>",
              "<details><summary>every run of this world</summary>" + runs_table(records, world)
