@@ -15,6 +15,7 @@ from numba import njit
 
 # geometry/tilt.py's slack on the coefficients' own evaluation.
 from ..geometry.tilt import _SLACK as TILT_SLACK
+from .kernels import backface_threshold
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -36,8 +37,6 @@ def backfacing(ids, vertices, triangles, eye, delta, gamma8):
     eye : (3,) float64;  delta >= 0;  gamma8 : float64 rounding factor (GAMMA_8)
     """
     out = np.zeros(len(ids), dtype=np.bool_)
-    s3 = np.sqrt(3.0) * delta
-    cube = 48.0 * delta * delta * delta
     for k in range(len(ids)):
         x0, y0, z0, x1, y1, z1, x2, y2, z2 = _corners(vertices, triangles, ids[k])
         ax, ay, az = x1 - x0, y1 - y0, z1 - z0
@@ -53,13 +52,11 @@ def backfacing(ids, vertices, triangles, eye, delta, gamma8):
         ea = np.sqrt(ax * ax + ay * ay + az * az)
         eb = np.sqrt(bx * bx + by * by + bz * bz)
         lw = np.sqrt(wx * wx + wy * wy + wz * wz)
-        moved = s3 * (2.0 * lw * (ea + eb) + 2.0 * ea * eb) \
-            + 36.0 * delta * delta * (lw + ea + eb) + cube
         abs_x = abs(ay) * abs(bz) + abs(az) * abs(by)
         abs_y = abs(az) * abs(bx) + abs(ax) * abs(bz)
         abs_z = abs(ax) * abs(by) + abs(ay) * abs(bx)
         rounding = gamma8 * (abs_x * abs(wx) + abs_y * abs(wy) + abs_z * abs(wz))
-        out[k] = (det < 0) & (det < -(moved + rounding) * (1.0 + 2.0 ** -50))
+        out[k] = (det < 0) & (det < -backface_threshold(delta, lw, ea, eb, rounding))
     return out
 
 
