@@ -372,7 +372,7 @@ def _touches(x0, x1, y0, y1, tile_any, cols, tw, th):
 @njit(cache=True, nogil=True)
 def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_mark, up_mark,
                frame, eye, rot, near, tx, ty, width, height, move, shift, margin, recede, depth,
-               tile_max, tile_any, tw, th, out, stack, below, nearest_far):
+               tile_max, tile_any, tw, th, out, stack, below, nearest_far, from_root):
     """Occlusion walk over the subtrees of `roots` (the frame's draw nodes), entered from the
     tree's root so that hidden regions go at a coarse level: an ancestor of draw nodes that is
     hidden by the buffer (module docstring) drops every draw node under it; a draw node (or a
@@ -384,6 +384,7 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
     out, stack : (>= N + len(roots),) int64 scratch;  below : same size, uint8 scratch
     nearest_far: a leaf whose nearest corner is not beyond this (the smallest covered depth
                  bound D plus margin D^2 + recede) is kept without its rectangle
+    from_root  : enter through the ancestors (else start at the roots themselves)
     returns (kept count, nodes visited, nodes culled)"""
     cols = (width + tw - 1) // tw
     cam = np.empty((8, 3))
@@ -397,11 +398,11 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
         while p >= 0 and up_mark[p] != frame:
             up_mark[p] = frame
             p = parent[p]
-        if parent[roots[k]] < 0:  # a root of the tree: entered directly
+        if parent[roots[k]] < 0 or not from_root:  # entered directly
             stack[top] = roots[k]
             below[top] = 1
             top += 1
-    if len(roots) and up_mark[0] == frame:
+    if from_root and len(roots) and up_mark[0] == frame:
         stack[top] = 0
         below[top] = 0
         top += 1

@@ -363,7 +363,7 @@ class DepthBufferOcclusion:
                 state.count(f"{self.name}.pixels_covered", more)
                 if not more:
                     break
-                self._node_pass(state, eye, rotation, tx, ty, move, margin, recede)
+                self._node_pass(state, eye, rotation, tx, ty, move, margin, recede, False)
         if self.triangles and (written or self.self_occluders or self.screen):
             def keep_of(ids):
                 return ~self._hidden_triangles(state, ids, move, margin, recede, written > 0)
@@ -375,8 +375,10 @@ class DepthBufferOcclusion:
         d = float(self.tile_min.min()) if len(self.tile_min) else np.inf
         return d + margin * d * d + recede
 
-    def _node_pass(self, state, eye, rotation, tx, ty, move, margin, recede) -> None:
-        """state.nodes refined by hiz.cull_nodes against the current buffer."""
+    def _node_pass(self, state, eye, rotation, tx, ty, move, margin, recede,
+                   from_root=True) -> None:
+        """state.nodes refined by hiz.cull_nodes against the current buffer (entered through
+        their ancestors, or, from_root False, at the nodes themselves)."""
         tree, camera = self.tree, state.camera
         roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
         if len(roots) + tree.node_count > len(self._out):
@@ -390,7 +392,7 @@ class DepthBufferOcclusion:
             roots, self.draw_mark, self.up_mark, self._frame, eye, rotation, camera.near, tx, ty,
             self.width, self.height, move, self.shift(camera, move), margin, recede, self.depth,
             self.tile_max, self.tile_any, *self.tile, self._out, self._stack, self._below,
-            self.nearest_far(margin, recede))
+            self.nearest_far(margin, recede), from_root)
         state.nodes = self._out[:kept].copy()
         state.count("nodes_visited", visited)
         state.count(f"{self.name}.nodes_tested", visited)
