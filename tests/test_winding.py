@@ -163,6 +163,10 @@ def test_cli_info_reports_and_fixes_the_winding(tmp_path, vismobile_cli):
                         cwd=tmp_path)
     assert refused.returncode == 2
     assert refused.stderr.count("\n") == 1 and "--fix-winding applies to a mesh" in refused.stderr
+    played = vismobile_cli("play", "room.stl", "--fix-winding", "--trajectory", "walk.csv",
+                           "--structure", "octree:1", "--cull", "vfc,bfc", "--frames", "sample:2",
+                           "-o", "p", "--quiet", cwd=tmp_path)
+    assert played.returncode == 0 and "reversed 12 of 12 triangles" in played.stderr, played.stderr
     tuned = vismobile_cli("tune", "room.stl", "--trajectory", "walk.csv", "--probe", "3",
                       "--structures", "octree:1", "--quiet", cwd=tmp_path)
     assert tuned.returncode == 0, tuned.stderr

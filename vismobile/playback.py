@@ -105,9 +105,9 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
 
     world = open_world(path_text)
     if fix_winding:
-        from .winding import fixed_world
+        from .winding import fixed_world_said
 
-        world = fixed_world(world, eyes=eyes)[0]
+        world = fixed_world_said(world, eyes)
     kind, params = parse_structure(structure)
     if kind is None:
         return Scene(world, None, "none")

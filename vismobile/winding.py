@@ -224,3 +224,14 @@ def fixed_world(world, report: WindingReport | None = None, eyes=None):
     triangles[report.flip] = triangles[report.flip][:, ::-1]
     return World(world.vertices, triangles, world.object_ids, list(world.object_names),
                  world.name), report
+
+
+def fixed_world_said(world, eyes=None, stream=None):
+    """fixed_world(world, eyes=eyes)[0], saying on stream (stderr) how many triangles it
+    reversed: what every command's --fix-winding prints."""
+    import sys
+
+    fixed, report = fixed_world(world, eyes=eyes)
+    print(f"--fix-winding: reversed {report.to_fix:,} of {report.triangles:,} triangles",
+          file=sys.stderr if stream is None else stream)
+    return fixed

@@ -21,15 +21,10 @@ FIX_WINDING_HELP = ("first reverse triangles so that triangles sharing an edge a
 
 
 def fix_winding(world, enabled: bool, eyes=None):
-    """world with its winding fixed (winding.fixed_world; eyes: the trajectory's camera
-    positions, if any) when enabled, saying so on stderr."""
+    """world with its winding fixed (winding.fixed_world_said; eyes: the trajectory's camera
+    positions, if any) when enabled."""
     if not enabled:
         return world
-    import sys
+    from ..winding import fixed_world_said
 
-    from ..winding import fixed_world
-
-    fixed, report = fixed_world(world, eyes=eyes)
-    print(f"--fix-winding: reversed {report.to_fix:,} of {report.triangles:,} triangles",
-          file=sys.stderr)
-    return fixed
+    return fixed_world_said(world, eyes)
