@@ -107,6 +107,8 @@ def design(rows, names) -> np.ndarray:
 #   occlusion.nodes_tested   : 150 float, 50 int (project 8 box corners, scan the depth rect)
 #   occlusion.occluders      : 60 float, 40 int  (project and set up one occluder triangle)
 #   occlusion.pixels_covered : 0 float, 12 int   (fixed-point depth raster, per pixel written)
+#   occlusion.candidate_nodes: 0 float, 40 int   (visit a node for its listed candidates)
+#   occlusion.candidates     : 25 float, 20 int  (score one: facing, distance, frustum sphere)
 #   portals.portals_tested   : 80 float, 40 int  (project 4 corners, clip the screen rect)
 #   portals.cells_visited    : 0 float, 40 int
 #   cone.clusters_tested     : 8 float, 10 int   (cone axis dot view vector, compare)
@@ -121,6 +123,8 @@ CULL_OPERATIONS = {
     "occlusion.nodes_tested": (150, 50),
     "occlusion.occluders": (60, 40),
     "occlusion.pixels_covered": (0, 12),
+    "occlusion.candidate_nodes": (0, 40),
+    "occlusion.candidates": (25, 20),
     "portals.portals_tested": (80, 40),
     "portals.cells_visited": (0, 40),
     "cone.clusters_tested": (8, 10),
