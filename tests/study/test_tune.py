@@ -137,3 +137,19 @@ def test_python_and_cli_default_probe_frames_agree():
     default = inspect.signature(tune).parameters["probe"].default
     parser = build_parser()._subparsers._group_actions[0].choices["tune"]
     assert default == command.PROBE_FRAMES == parser.get_default("probe") == 24
+
+
+def test_uncertainty_does_not_tie_a_candidate_with_one_catastrophic_frame():
+    """Equal on 22 of 23 frames and 20x slower on one: the paired interval reaches zero (most
+    resamples miss that frame), but its mean is outside the fastest's interval: not a tie."""
+    from vismobile.study.tune import TuneResult, uncertainty
+
+    base = np.random.default_rng(3).uniform(100, 120, 23)
+    fast = _candidate("octree:4", "vfc+cone+tbfc+occlusion", base)
+    spiky = base.copy()
+    spiky[11] *= 20
+    simple = _candidate("octree:3", "vfc+occlusion", spiky)
+    result = TuneResult("w", "p", list(range(23)), fast, [fast, simple], None, {}, 0.0)
+    uncertainty(result)
+    assert simple.frame_ms > fast.high_ms
+    assert result.choice is fast and result.tied == []

@@ -14,8 +14,8 @@ of two cost models:
 The choice is made among the candidates with zero false negatives on the probe frames (loose
 stages are never candidates), with the probe's uncertainty: a paired bootstrap over the probe
 frames gives each candidate a 95% interval of its mean frame time and of its difference from
-the fastest; every candidate the probe does not show to be more than 1% slower than the fastest
-is tied with it, and the simplest of the tied (fewest stages, then the simplest structure) is
+the fastest; every candidate whose mean lies inside the fastest's interval and which the probe
+does not show to be more than 1% slower than the fastest is tied with it, and the simplest of the tied (fewest stages, then the simplest structure) is
 the choice, so the pick does not flip with the probe size on differences the probe cannot
 resolve or that are too small to matter. For each stage the choice leaves out,
 `explain` prices it on the chosen structure: cull time it would add against render time it
@@ -547,9 +547,10 @@ def uncertainty(result: TuneResult, samples: int = BOOTSTRAP_SAMPLES, seed: int 
 
     Paired bootstrap over the probe frames: the same resampled frames price every fully
     probed safe candidate, giving each one's 95% interval of its mean and of its difference
-    from the fastest mean. A candidate is tied with the fastest unless its difference's
-    interval lies wholly above `margin` of the fastest's mean (the probe shows it slower by
-    more than that), and the simplest tied candidate (Candidate.simplicity) becomes
+    from the fastest mean. A candidate is tied with the fastest when its mean lies inside the
+    fastest's interval and its difference's interval does not lie wholly above `margin` of the
+    fastest's mean (the probe does not show it slower by more than that); the simplest tied
+    candidate (Candidate.simplicity) becomes
     result.choice; result.fastest is the fastest mean, result.tied the others tied by mean.
     """
     safe = [c for c in result.candidates
@@ -567,8 +568,11 @@ def uncertainty(result: TuneResult, samples: int = BOOTSTRAP_SAMPLES, seed: int 
     best = min(range(len(safe)), key=lambda i: safe[i].rank)
     fastest = safe[best]
     # Paired: frame-to-frame variation common to both candidates cancels in the difference.
+    # The mean must also lie inside the fastest's interval: one catastrophic frame among few
+    # leaves the paired interval reaching zero, yet that candidate is not a tie.
     slower_by = np.percentile(means - means[best], 2.5, axis=1)
-    tied = [c for c, lo in zip(safe, slower_by) if lo <= margin * fastest.frame_ms]
+    tied = [c for c, lo in zip(safe, slower_by)
+            if lo <= margin * fastest.frame_ms and c.frame_ms <= fastest.high_ms]
     choice = min(tied, key=lambda c: c.simplicity)
     result.fastest, result.choice = fastest, choice
     result.tied = sorted((c for c in tied if c is not choice), key=lambda c: c.rank)
