@@ -194,3 +194,29 @@ def test_w2_indoor_frames_keep_everything_the_item_buffer_shows(kit):
             assert not len(missing), (int(f), culler.stages[1].screen, missing[:5])
             culled += result.stats.get("occlusion.nodes_culled", 0)
     assert culled > 0  # the buffer did hide something
+
+
+def test_fused_walk_sends_what_the_two_passes_send_and_visits_fewer_nodes(kit):
+    # vfc,occlusion walk the frustum and the buffer in one pass (Culler._fuse) unless occlusion's
+    # fuse option is off or another node stage sits between them; same tests, same result.
+    from pathlib import Path
+
+    from vismobile.trajectory import Trajectory
+
+    world = kit.world("w2")
+    part = partition(world, "octree", depth=5)
+    fused = Culler(part, "vfc,occlusion,tbfc")
+    apart = Culler(part, "vfc,occlusion,tbfc", occlusion={"fuse": False})
+    assert fused.stages[0].deferred and not apart.stages[0].deferred
+    assert not Culler(part, "vfc,cone,occlusion").stages[0].deferred
+    assert not Culler(part, "vfc").stages[0].deferred
+    traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
+    visited = {True: 0, False: 0}
+    for f in np.linspace(0, len(traj) - 1, 8).astype(int):
+        cam = traj.camera(int(f), kit.ASPECT)
+        one, two = fused.cull(cam), apart.cull(cam)
+        assert np.array_equal(one.triangles, two.triangles), int(f)
+        visited[True] += one.stats["nodes_visited"]
+        visited[False] += two.stats["nodes_visited"]
+        assert one.stats["plane_tests"] < two.stats["plane_tests"]
+    assert visited[True] < visited[False]

@@ -93,6 +93,20 @@ class Culler:
                 raise ValueError(f"culling stage {stage.name!r} needs an in-memory World "
                                  f"({error}); load the partition with load_partition instead "
                                  f"of map_partition") from None
+        self._fuse()
+
+    def _fuse(self) -> None:
+        """When `vfc` and `occlusion` are the only node stages (no portals, cone or other node
+        stage between them) and occlusion's `fuse` option is on, vfc defers its frustum test to
+        occlusion, whose one walk rejects nodes outside the frustum or hidden behind the buffer
+        (hiz.frustum_cull_nodes): hidden subtrees are never entered. Same tests, same
+        conservativeness; fewer nodes visited."""
+        by_name = {stage.name: stage for stage in self.stages}
+        vfc, occlusion = by_name.get("vfc"), by_name.get("occlusion")
+        others = set(self.names) & {"portals", "vfc_thesis", "cone", "occlusion_thesis"}
+        if vfc is not None and occlusion is not None and not others \
+                and getattr(occlusion, "fuse", False):
+            vfc.deferred = True
 
     @property
     def cull_back(self) -> bool:
@@ -113,6 +127,8 @@ class Culler:
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})
         for stage in self.stages:
             stage.apply(state)
+        if state.frustum_pending:  # a deferred frustum test nobody took: a wiring error
+            raise RuntimeError("vfc deferred its frustum test but no stage took it")
         result = state.finish()
         for stage in self.stages:
             observe = getattr(stage, "observe", None)

@@ -46,15 +46,23 @@ def frustum_refine(tree: Tree, state: CullState, prefix: str) -> np.ndarray:
 
 
 class FrustumStage:
-    """`vfc`: hierarchical AABB frustum culling with plane masks; refines state.nodes."""
+    """`vfc`: hierarchical AABB frustum culling with plane masks; refines state.nodes.
+
+    deferred : set by the Culler when the next node stage (`occlusion`) tests the frustum in its
+               own walk (Culler._fuse): apply then only marks state.frustum_pending
+    """
 
     name = "vfc"
     cost = 10
+    deferred = False
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
 
     def apply(self, state: CullState) -> None:
+        if self.deferred:
+            state.frustum_pending = True
+            return
         state.nodes = frustum_refine(self.tree, state, self.name)
 
 

@@ -710,3 +710,92 @@ def score_candidates(ids, normals, v0, centroids, radius, areas, planes, eye, gr
         if inside:
             out[k] = areas[t] * towards / max(dist2 ** 1.5, 1e-300)
     return out
+
+
+@njit(cache=True, nogil=True)
+def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes, tol, eye, rot,
+                       near, tx, ty, width, height, move, shift, margin, recede, depth,
+                       tile_max, tile_any, tw, th, out, stack_node, stack_mask, nearest_far):
+    """One walk from `roots` that rejects a node outside the frustum or hidden by the buffer, so
+    neither kind of subtree is entered: the frustum test of kernels.frustum_walk (p/n-vertex
+    with plane masks; errs toward keeping by tol: rejects only a box more than tol behind a
+    plane) first, then cull_nodes' occlusion test (module docstring; errs toward keeping) on the
+    boxes it leaves. A visible inner node is replaced by its non-empty children when it
+    straddles a plane, is not testable or its rectangle meets a covered tile; others are kept
+    in out. A leaf whose nearest corner is not beyond nearest_far is kept without a rectangle.
+    planes : (P, 4) float64 inward (n, d), P <= 62;  stacks : (>= N + len(roots),) int64
+    returns (kept count, nodes visited, plane tests, outside the frustum, hidden, tested)"""
+    cols = (width + tw - 1) // tw
+    cam = np.empty((8, 3))
+    corner = np.empty(3)
+    r = np.empty(7)
+    planes_count = planes.shape[0]
+    full = (np.int64(1) << planes_count) - 1
+    top = 0
+    for k in range(len(roots) - 1, -1, -1):
+        stack_node[top] = roots[k]
+        stack_mask[top] = full
+        top += 1
+    count = visited = tests = outside_count = hidden = tested = 0
+    while top > 0:
+        top -= 1
+        node, mask = stack_node[top], stack_mask[top]
+        if not nonempty[node]:
+            continue
+        visited += 1
+        cx = 0.5 * (lo[node, 0] + hi[node, 0])
+        cy = 0.5 * (lo[node, 1] + hi[node, 1])
+        cz = 0.5 * (lo[node, 2] + hi[node, 2])
+        hx = 0.5 * (hi[node, 0] - lo[node, 0])
+        hy = 0.5 * (hi[node, 1] - lo[node, 1])
+        hz = 0.5 * (hi[node, 2] - lo[node, 2])
+        straddle = np.int64(0)
+        outside = False
+        for p in range(planes_count):
+            bit = np.int64(1) << p
+            if not (mask & bit):
+                continue
+            tests += 1
+            nx, ny, nz = planes[p, 0], planes[p, 1], planes[p, 2]
+            mid = cx * nx + cy * ny + cz * nz + planes[p, 3]
+            reach = hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
+            if mid + reach < -tol:
+                outside = True
+                break
+            if mid - reach < tol:
+                straddle |= bit
+        if outside:
+            outside_count += 1
+            continue
+        for k in range(8):
+            corner[0] = hi[node, 0] if k & 1 else lo[node, 0]
+            corner[1] = hi[node, 1] if k & 2 else lo[node, 1]
+            corner[2] = hi[node, 2] if k & 4 else lo[node, 2]
+            _to_camera(corner, eye, rot, cam[k])
+        n = child_count[node]
+        zmin = np.inf
+        for k in range(8):
+            zmin = min(zmin, cam[k, 2])
+        if n == 0 and zmin <= nearest_far:
+            out[count] = node  # nearer than every covered pixel's bound: cannot be hidden
+            count += 1
+            continue
+        tested += 1
+        _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
+        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
+        testable = r[5] > 0
+        if testable and (r[6] == 0 or _behind(x0, x1, y0, y1, r[4], depth, width, tile_max,
+                                              cols, tw, th, margin, recede)):
+            hidden += 1
+            continue
+        if n > 0 and (straddle != 0 or not testable
+                      or _touches(x0, x1, y0, y1, tile_any, cols, tw, th)):
+            first = first_child[node]
+            for c in range(n - 1, -1, -1):  # first child on top: depth-first in stored order
+                stack_node[top] = first + c
+                stack_mask[top] = straddle
+                top += 1
+            continue
+        out[count] = node
+        count += 1
+    return count, visited, tests, outside_count, hidden, tested

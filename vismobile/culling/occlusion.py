@@ -45,8 +45,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..partition.base import gather_ranges
-from .hiz import (build_tiles, cull_nodes, gather_candidates, hidden_triangles, lod_ancestors,
-                  node_candidates, rasterise, score_candidates)
+from .frustum import frustum_refine
+from .hiz import (build_tiles, cull_nodes, frustum_cull_nodes, gather_candidates,
+                  hidden_triangles, lod_ancestors, node_candidates, rasterise, score_candidates)
 from .kernels import backfacing
 from .precision import device_move
 from .state import CullResult, CullState
@@ -134,6 +135,10 @@ class DepthBufferOcclusion:
                     test also drops triangles that cover no pixel centre of that screen
                     (hiz._no_sample): safe only for that resolution, without multisampling
                     (the item buffer's), so it is off unless the caller says
+    fuse          : with `vfc` as the only other node stage, test the frustum in the first node
+                    pass (hiz.frustum_cull_nodes, one walk from the root: hidden subtrees are
+                    never entered); occluder candidates then come from the root's frustum walk
+                    (Culler._fuse). False: vfc walks first, the node pass re-enters its nodes
     """
 
     name = "occlusion"
@@ -142,7 +147,8 @@ class DepthBufferOcclusion:
 
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
                  candidates: int = 4, detail: float = 0.125, rounds: int = 2,
-                 triangles: bool = True, self_occluders: int = 0, screen=None):
+                 triangles: bool = True, self_occluders: int = 0, screen=None,
+                 fuse: bool = True):
         self.width, self.height = int(width), int(height)
         self.tile = tuple(int(v) for v in tile)
         self.occluders, self.candidates = int(occluders), int(candidates)
@@ -151,6 +157,7 @@ class DepthBufferOcclusion:
         if self.rounds < 1:
             raise ValueError("occlusion needs rounds >= 1")
         self.triangles = bool(triangles)
+        self.fuse = bool(fuse)
         self.self_occluders = int(self_occluders)
         if min(self.width, self.height, self.occluders, self.candidates) < 1:
             raise ValueError("occlusion needs positive width, height, occluders and candidates")
@@ -203,6 +210,7 @@ class DepthBufferOcclusion:
         self.stamp = np.full(count, -1, dtype=np.int64)
         self.seen = np.full(count, -1, dtype=np.int64)
         self._stack = np.empty(tree.node_count + 64, dtype=np.int64)
+        self._masks = np.empty(tree.node_count + 64, dtype=np.int64)
         self._below = np.empty(tree.node_count + 64, dtype=np.uint8)
         self.parent = np.full(tree.node_count, -1, dtype=np.int64)
         inner = np.flatnonzero(tree.child_count > 0)
@@ -334,6 +342,7 @@ class DepthBufferOcclusion:
 
     def apply(self, state: CullState) -> None:
         tree, camera = self.tree, state.camera
+        fused, state.frustum_pending = state.frustum_pending, False  # vfc deferred to this walk
         self._camera, self._planes = camera, np.ascontiguousarray(state.planes)
         self.nearest = np.inf
         self.depth.fill(np.inf)
@@ -349,8 +358,10 @@ class DepthBufferOcclusion:
         margin = ZBUFFER_MARGIN / camera.near
         move = self.move(camera)
         recede = np.sqrt(3.0) * move  # an occluder point moves this much farther at most
+        if not written and fused:  # nothing occludes: the frustum walk alone
+            state.nodes = frustum_refine(tree, state, "vfc")
         if written:
-            self._node_pass(state, eye, rotation, tx, ty, move, margin, recede)
+            self._node_pass(state, eye, rotation, tx, ty, move, margin, recede, fused=fused)
             for _ in range(self.rounds - 1 if not np.isfinite(self.tile_max).all() else 0):
                 # Occluders seen through what is still open: the surviving nodes' largest
                 # triangles (far walls behind doors and windows), then the nodes again.
@@ -376,9 +387,10 @@ class DepthBufferOcclusion:
         return d + margin * d * d + recede
 
     def _node_pass(self, state, eye, rotation, tx, ty, move, margin, recede,
-                   from_root=True) -> None:
+                   from_root=True, fused=False) -> None:
         """state.nodes refined by hiz.cull_nodes against the current buffer (entered through
-        their ancestors, or, from_root False, at the nodes themselves)."""
+        their ancestors, or, from_root False, at the nodes themselves); fused: by the frustum
+        and the buffer in one walk from them (hiz.frustum_cull_nodes, vfc's counters too)."""
         tree, camera = self.tree, state.camera
         roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
         if len(roots) + tree.node_count > len(self._out):
@@ -386,6 +398,22 @@ class DepthBufferOcclusion:
         if len(roots) + tree.node_count > len(self._stack):
             self._stack = np.empty(len(roots) + tree.node_count, dtype=np.int64)
             self._below = np.empty(len(roots) + tree.node_count, dtype=np.uint8)
+            self._masks = np.empty(len(roots) + tree.node_count, dtype=np.int64)
+        if fused:
+            kept, visited, tests, outside, culled, tested = frustum_cull_nodes(
+                tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots,
+                np.ascontiguousarray(state.planes, dtype=np.float64), tree.tol, eye, rotation,
+                camera.near, tx, ty, self.width, self.height, move, self.shift(camera, move),
+                margin, recede, self.depth, self.tile_max, self.tile_any, *self.tile, self._out,
+                self._stack, self._masks, self.nearest_far(margin, recede))
+            state.nodes = self._out[:kept].copy()
+            state.count("nodes_visited", visited)
+            state.count("plane_tests", tests)
+            state.count("vfc.nodes_culled", outside)
+            state.count("vfc.nodes_accepted", kept)
+            state.count(f"{self.name}.nodes_tested", tested)
+            state.count(f"{self.name}.nodes_culled", culled)
+            return
         self._frame += 1
         kept, visited, culled = cull_nodes(
             tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,

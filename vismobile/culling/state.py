@@ -32,6 +32,8 @@ class CullState:
 
     nodes   : (D,) int64 draw nodes; initially the root (everything)
     filters : list of functions (ids (n,) int64) -> (n,) bool keep, applied after gathering
+    frustum_pending : True when `vfc` left its frustum test to the next node stage (`occlusion`
+              walks frustum and buffer in one pass: Culler._fuse); that stage clears it
     """
 
     tree: Tree
@@ -41,6 +43,7 @@ class CullState:
     stats: dict = field(default_factory=dict)
     filters: list = field(default_factory=list)
     cull_back: bool = False
+    frustum_pending: bool = False
 
     def count(self, key: str, amount) -> None:
         self.stats[key] = self.stats.get(key, 0) + int(amount)
