@@ -40,6 +40,7 @@ def test_occlusion_never_drops_visible_triangles_from_many_cameras(kit):
     part = partition(world, "octree", depth=3)
     rng = np.random.default_rng(5)
     cullers = [Culler(part, s) for s in ("occlusion", "vfc,occlusion", "vfc,occlusion_thesis")]
+    cullers.append(Culler(part, "vfc,occlusion", occlusion={"first_reach": 2.0}))
     for _ in range(12):
         pos = rng.uniform([-4, -0.9, -4.9], [4, 3, 0.4])
         cam = Camera(pos, yaw=rng.uniform(-60, 60), pitch=rng.uniform(-30, 30),
@@ -183,7 +184,8 @@ def test_w2_indoor_frames_keep_everything_the_item_buffer_shows(kit):
     screen = tuple(kit.PROFILE.resolution)
     assert screen == (240, 320)
     cullers = [Culler(part, "vfc,occlusion,tbfc"),
-               Culler(part, "vfc,occlusion,tbfc", occlusion={"screen": screen})]
+               Culler(part, "vfc,occlusion,tbfc", occlusion={"screen": screen}),
+               Culler(part, "vfc,occlusion,tbfc", occlusion={"first_reach": 15.625})]
     culled = 0
     for f in frames:
         cam = traj.camera(int(f), kit.ASPECT)

@@ -139,6 +139,10 @@ class DepthBufferOcclusion:
                     pass (hiz.frustum_cull_nodes, one walk from the root: hidden subtrees are
                     never entered); occluder candidates then come from the root's frustum walk
                     (Culler._fuse). False: vfc walks first, the node pass re-enters its nodes
+    first_reach   : None, or a depth (world units): the first round takes its candidates only
+                    from nodes nearer than it (the rooms around the eye; what shows through
+                    their openings offers occluders in the second round). Off by default; on
+                    tiled W2 15.6 m made occlusion faster and tighter (docs/culling-performance)
     """
 
     name = "occlusion"
@@ -148,7 +152,7 @@ class DepthBufferOcclusion:
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
                  candidates: int = 4, detail: float = 0.125, rounds: int = 2,
                  triangles: bool = True, self_occluders: int = 0, screen=None,
-                 fuse: bool = True):
+                 fuse: bool = True, first_reach=None):
         self.width, self.height = int(width), int(height)
         self.tile = tuple(int(v) for v in tile)
         self.occluders, self.candidates = int(occluders), int(candidates)
@@ -158,6 +162,9 @@ class DepthBufferOcclusion:
             raise ValueError("occlusion needs rounds >= 1")
         self.triangles = bool(triangles)
         self.fuse = bool(fuse)
+        self.first_reach = None if first_reach is None else float(first_reach)
+        if self.first_reach is not None and not self.first_reach > 0:
+            raise ValueError("occlusion needs first_reach > 0 (or None)")
         self.self_occluders = int(self_occluders)
         if min(self.width, self.height, self.occluders, self.candidates) < 1:
             raise ValueError("occlusion needs positive width, height, occluders and candidates")
@@ -244,10 +251,12 @@ class DepthBufferOcclusion:
             good = good[np.argpartition(-score[good], count - 1)[:count]]
         return ids[good[np.argsort(-score[good], kind="stable")]]
 
-    def select(self, state: CullState, roots=None, history=None, skip=None) -> np.ndarray:
+    def select(self, state: CullState, roots=None, history=None, skip=None,
+               reach=None) -> np.ndarray:
         """(K,) int64 world ids of this frame's occluders, sorted by plane group: candidates of
         the walk from `roots` (default: the tree's root, coarse far away) and `history`
-        (default: last frame's), not in `skip`."""
+        (default: last frame's), not in `skip`; with `reach`, only nodes nearer than that depth
+        (the walk's far plane pulled in; which occluders are chosen never affects safety)."""
         tree, camera = self.tree, state.camera
         eye = np.asarray(camera.eye, dtype=np.float64)
         self._frame += 1
@@ -266,8 +275,11 @@ class DepthBufferOcclusion:
         need = self.lists.size + len(history)
         if need > len(self._cands):
             self._cands = np.empty(need, dtype=np.int64)
+        planes = np.array(state.planes, dtype=np.float64)
+        if reach is not None and reach < camera.far:  # planes[5] is the far plane (camera.py)
+            planes[5, 3] -= (camera.far - reach) * np.linalg.norm(planes[5, :3])
         found, visited = gather_candidates(tree.lo, tree.hi, tree.first_child, tree.child_count,
-                                           tree.nonempty, roots, state.planes, tree.tol, eye,
+                                           tree.nonempty, roots, planes, tree.tol, eye,
                                            self.detail, self.lists, history, self.seen,
                                            self._frame, self._cands, self._stack)
         state.count(f"{self.name}.candidates", found)
@@ -346,7 +358,7 @@ class DepthBufferOcclusion:
         self._camera, self._planes = camera, np.ascontiguousarray(state.planes)
         self.nearest = np.inf
         self.depth.fill(np.inf)
-        chosen = self.select(state)
+        chosen = self.select(state, reach=self.first_reach)
         written = self.rasterise(camera, chosen) if len(chosen) else 0
         if not len(chosen):
             self.tile_max.fill(np.inf)
