@@ -1,5 +1,4 @@
-"""pymartini and pydelatin against the engine's methods (run only where the extra is
-installed; skipped with the reason otherwise)."""
+"""pymartini and pydelatin against the engine's methods (both are in the test extra)."""
 import numpy as np
 import pytest
 
@@ -21,9 +20,7 @@ def terrain():
 def test_peer_mesh_covers_the_map_within_its_error(terrain, name):
     """A closed CCW cover of the square; Delatin keeps every sample within E, Martini's E is
     checked at its split midpoints only (measured here: up to 1.3 E at the other samples)."""
-    reason = missing(name)
-    if reason:
-        pytest.skip(reason)
+    assert missing(name) is None, missing(name)
     for e in (0.05, 0.5):
         t = peer_mesh(terrain, name, e)
         n = terrain.size
@@ -38,9 +35,8 @@ def test_peer_mesh_covers_the_map_within_its_error(terrain, name):
 
 
 def test_compare_matches_triangles_and_errors(terrain):
-    names = [n for n in PEERS if missing(n) is None]
-    if not names:
-        pytest.skip("; ".join(missing(n) for n in PEERS))
+    assert all(missing(n) is None for n in PEERS), [missing(n) for n in PEERS]
+    names = list(PEERS)
     profile = get_profile("ipaq-hx2490b")
     cameras = path_cameras(terrain, "lemniscate", "fast", frames=2, every=300)
     rows = compare([RoamMethod(Roam(terrain))], terrain, cameras, [1.0], profile, peers=names)
