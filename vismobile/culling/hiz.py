@@ -44,6 +44,19 @@ def _to_camera(p, eye, rot, out):
         out[r] = rot[r, 0] * x + rot[r, 1] * y + rot[r, 2] * z
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _box_to_camera(lo, hi, node, eye, rot, corner, cam):
+    """Node's 8 box corners into cam (8, 3) in camera space; returns their nearest depth."""
+    zmin = np.inf
+    for k in range(8):
+        corner[0] = hi[node, 0] if k & 1 else lo[node, 0]
+        corner[1] = hi[node, 1] if k & 2 else lo[node, 1]
+        corner[2] = hi[node, 2] if k & 4 else lo[node, 2]
+        _to_camera(corner, eye, rot, cam[k])
+        zmin = min(zmin, cam[k, 2])
+    return zmin
+
+
 @njit(cache=True, nogil=True)
 def _clip_triangle(tri, clip, poly, cut):
     """Sutherland-Hodgman clip of a (3, 3) camera-space triangle to z >= clip into poly (4, 3);
@@ -418,15 +431,8 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
         if not nonempty[node]:
             continue
         visited += 1
-        for k in range(8):
-            corner[0] = hi[node, 0] if k & 1 else lo[node, 0]
-            corner[1] = hi[node, 1] if k & 2 else lo[node, 1]
-            corner[2] = hi[node, 2] if k & 4 else lo[node, 2]
-            _to_camera(corner, eye, rot, cam[k])
+        zmin = _box_to_camera(lo, hi, node, eye, rot, corner, cam)
         n = child_count[node]
-        zmin = np.inf
-        for k in range(8):
-            zmin = min(zmin, cam[k, 2])
         if under and n == 0 and zmin <= nearest_far:
             out[count] = node  # nearer than every covered pixel's bound: cannot be hidden
             count += 1
@@ -767,15 +773,8 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
         if outside:
             outside_count += 1
             continue
-        for k in range(8):
-            corner[0] = hi[node, 0] if k & 1 else lo[node, 0]
-            corner[1] = hi[node, 1] if k & 2 else lo[node, 1]
-            corner[2] = hi[node, 2] if k & 4 else lo[node, 2]
-            _to_camera(corner, eye, rot, cam[k])
+        zmin = _box_to_camera(lo, hi, node, eye, rot, corner, cam)
         n = child_count[node]
-        zmin = np.inf
-        for k in range(8):
-            zmin = min(zmin, cam[k, 2])
         if n == 0 and zmin <= nearest_far:
             out[count] = node  # nearer than every covered pixel's bound: cannot be hidden
             count += 1
