@@ -54,6 +54,22 @@ def pack(mips) -> tuple:
     return np.concatenate([m.ravel() for m in mips]), offsets, sizes
 
 
+@njit(cache=True, inline="always")
+def _lowest_in(flat, offsets, sizes, i0, i1, j0, j1, start):
+    """Lowest height over map cells rows i0..i1, columns j0..j1 (all on the map): the min of
+    the at most 2 x 2 pyramid cells of the first level where the range spans that few, never
+    above the true minimum (each pyramid cell holds the min of the cells it covers)."""
+    level = 0
+    while (j1 >> level) - (j0 >> level) > 1 or (i1 >> level) - (i0 >> level) > 1:
+        level += 1
+    size = sizes[level]
+    low = start
+    for i in range(i0 >> level, (i1 >> level) + 1):
+        for j in range(j0 >> level, (j1 >> level) + 1):
+            low = min(low, flat[offsets[level] + i * size + j])
+    return low
+
+
 @njit(cache=True)
 def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon):
     """horizon[b, k]: running max over slices <= k of the lowest slope in band b, slice k."""
@@ -83,14 +99,7 @@ def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lowe
                 # Part of the piece is off the map, where there is no ground.
                 horizon[b, k] = best
                 continue
-            level = 0
-            while (j1 >> level) - (j0 >> level) > 1 or (i1 >> level) - (i0 >> level) > 1:
-                level += 1
-            size = sizes[level]
-            low = np.inf
-            for i in range(i0 >> level, (i1 >> level) + 1):
-                for j in range(j0 >> level, (j1 >> level) + 1):
-                    low = min(low, flat[offsets[level] + i * size + j])
+            low = _lowest_in(flat, offsets, sizes, i0, i1, j0, j1, np.inf)
             rise = low - lower - eye[1]
             # Lowest slope over the slice's depths: the far end when above the eye.
             slope = rise / z1 if rise > 0 else rise / z0
@@ -213,14 +222,7 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
             if j0 < 0 or i0 < 0 or j1 >= cells or i1 >= cells:
                 horizon[b, k] = best
                 continue
-            level = 0
-            while (j1 >> level) - (j0 >> level) > 1 or (i1 >> level) - (i0 >> level) > 1:
-                level += 1
-            size = sizes[level]
-            low = 1 << 60
-            for i in range(i0 >> level, (i1 >> level) + 1):
-                for j in range(j0 >> level, (j1 >> level) + 1):
-                    low = min(low, flat[offsets[level] + i * size + j])
+            low = _lowest_in(flat, offsets, sizes, i0, i1, j0, j1, 1 << 60)
             rise = low - lower - eye[1]
             slope = _fdiv_floor(rise, z1) if rise > 0 else _fdiv_floor(rise, z0)
             slope = min(max(slope, nothing), SLOPE_LIMIT)
