@@ -33,6 +33,15 @@ def ground_boxes(heightmap, count, seed):
     return np.stack([low, high], axis=1)
 
 
+def boxes_seen(renderer, pyramid, camera, vertices, triangles):
+    """Ids of the boxes (12 triangles each, box_mesh) the item buffer of the full-resolution
+    ground plus the boxes shows."""
+    renderer.draw(*selection_mesh(pyramid, full_selection(pyramid, camera)), camera, kind="item")
+    renderer.draw_mesh_items(vertices, triangles, camera, BASE)
+    ids = renderer.read_ids()
+    return np.unique((ids[(ids != SENTINEL) & (ids >= BASE)] - BASE) // 12)
+
+
 def test_min_mip_is_the_block_minimum(fractal129):
     h = fractal129.heights.astype(np.float64)
     mips = min_mip(h)
@@ -56,11 +65,7 @@ def test_hidden_boxes_are_never_seen(pyramid257):
     hidden_total = in_view_total = 0
     for camera in path_cameras(hm, "lemniscate", "fast", frames=4, every=200, eye_height=1.5):
         hidden = caster.cast(camera).hidden(boxes)
-        renderer.draw(*selection_mesh(pyramid257, full_selection(pyramid257, camera)), camera,
-                      kind="item")
-        renderer.draw_mesh_items(vertices, triangles, camera, BASE)
-        ids = renderer.read_ids()
-        seen = np.unique((ids[(ids != SENTINEL) & (ids >= BASE)] - BASE) // 12)
+        seen = boxes_seen(renderer, pyramid257, camera, vertices, triangles)
         assert not hidden[seen].any()
         in_view = ~classify_boxes(boxes, camera.frustum_planes())[0]
         hidden_total += int((hidden & in_view).sum())
@@ -121,11 +126,7 @@ def test_fixed_point_horizon_never_hides_a_visible_box(pyramid257):
                + path_cameras(hm, "lemniscate", "fast", frames=3, every=170, eye_height=1.0))
     for camera in cameras:
         hidden = fixed.cast(camera).hidden(boxes)
-        renderer.draw(*selection_mesh(pyramid257, full_selection(pyramid257, camera)), camera,
-                      kind="item")
-        renderer.draw_mesh_items(vertices, triangles, camera, BASE)
-        ids = renderer.read_ids()
-        seen = np.unique((ids[(ids != SENTINEL) & (ids >= BASE)] - BASE) // 12)
+        seen = boxes_seen(renderer, pyramid257, camera, vertices, triangles)
         assert not hidden[seen].any()
         in_view = ~classify_boxes(boxes, camera.frustum_planes())[0]
         hidden_total += int((hidden & in_view).sum())
