@@ -11,6 +11,8 @@ PROFILE_NAMES = ("ipaq-hx2490b", "nokia-n82", "desktop")
 CULL_HELP = ("culling stages joined by + or , (printed with +), or none; stages: "
              + ", ".join(STAGE_NAMES) + " (portals needs a portal structure)")
 PROFILE_HELP = "device profile: " + ", ".join(PROFILE_NAMES)
+WORLDS_DIR_HELP = ("where thesis worlds are built and kept (default: $VISMOBILE_WORLDS, worlds/ "
+                   "in a source checkout, else ~/.cache/vismobile/worlds)")
 STRUCTURE_HELP = ("none, grid[:N], octree[:N], portal[:N], bsp, or KIND:key=value,... "
                   "(N: octree depth 1..8, portal depth 1..3, grid slabs per axis)")
 FRAMES_HELP = ("frames to play: all, stride:N (every Nth) or sample:N (N evenly spaced plus "

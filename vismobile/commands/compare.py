@@ -1,7 +1,7 @@
 """`vismobile compare`: the thesis's chapter-5 matrix (SPEC §6) in one command, with a report."""
 from pathlib import Path
 
-from . import CULL_HELP, FRAMES_HELP, PROFILE_NAMES
+from . import CULL_HELP, FRAMES_HELP, PROFILE_NAMES, WORLDS_DIR_HELP
 
 
 def add_parser(sub):
@@ -38,8 +38,7 @@ def add_parser(sub):
     parser.add_argument("--report", type=Path, default=None,
                         help="HTML report path (default OUT/report.html)")
     parser.add_argument("--worlds-dir", type=Path, default=None,
-                        help="where thesis worlds are built and kept (default: $VISMOBILE_WORLDS, "
-                             "worlds/ in a source checkout, else ~/.cache/vismobile/worlds)")
+                        help=WORLDS_DIR_HELP)
     parser.add_argument("--cache", type=Path, default=Path("out/cache"),
                         help="partition and ground-truth cache")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: cores)")

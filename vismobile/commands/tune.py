@@ -5,7 +5,7 @@ profile's device model predicts on that device; `--measured` minimises this mach
 """
 from pathlib import Path
 
-from . import FIX_WINDING_HELP, PROFILE_HELP, WORLD_HELP, fix_winding
+from . import FIX_WINDING_HELP, PROFILE_HELP, WORLD_HELP, WORLDS_DIR_HELP, fix_winding
 
 # The same default as tune() (study/tune.py PROBE_FRAMES; tests/study/test_tune.py checks), kept
 # here so that `--help` needs no heavy import.
@@ -25,8 +25,7 @@ def add_parser(sub):
                         help="comma-separated candidates: grid, octree[:N or A-B], portal[:N or "
                              "A-B], bsp, all (default grid,octree:3-6,portal:1-3,bsp)")
     parser.add_argument("--worlds-dir", type=Path, default=None,
-                        help="where thesis worlds are built and kept (default: $VISMOBILE_WORLDS, "
-                             "worlds/ in a source checkout, else ~/.cache/vismobile/worlds)")
+                        help=WORLDS_DIR_HELP)
     parser.add_argument("--cache", type=Path, default=None,
                         help="folder to keep partition files and ground truths in (default: "
                              "none, build afresh)")
