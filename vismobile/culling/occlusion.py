@@ -348,10 +348,6 @@ class DepthBufferOcclusion:
                     self.tile_any, self.tile_min)
         return written
 
-    def depth_buffer(self, camera) -> np.ndarray:
-        """(H, W) view of the current depth bound buffer (row 0 at the bottom; inf: uncovered)."""
-        return self.depth.reshape(self.height, self.width)
-
     def apply(self, state: CullState) -> None:
         tree, camera = self.tree, state.camera
         fused, state.frustum_pending = state.frustum_pending, False  # vfc deferred to this walk
