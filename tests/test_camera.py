@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.camera import Camera, yaw_toward
 
 
 def test_yaw_zero_looks_down_negative_z():
@@ -78,3 +78,10 @@ def test_near_and_far_map_to_ndc_depth_bounds():
 def test_invalid_cameras_raise(kwargs):
     with pytest.raises(ValueError):
         Camera((0, 0, 0), **kwargs)
+
+
+def test_yaw_toward_looks_along_the_direction():
+    rng = np.random.default_rng(3)
+    for dx, dz in rng.normal(size=(20, 2)):
+        forward = Camera((0, 0, 0), yaw=float(yaw_toward(dx, dz))).forward
+        assert np.allclose(forward, np.array([dx, 0.0, dz]) / np.hypot(dx, dz))

@@ -8,6 +8,12 @@ import numpy as np
 PLANE_NAMES = ("left", "right", "bottom", "top", "near", "far")
 
 
+def yaw_toward(dx, dz):
+    """Camera yaw in degrees, in (-180, 180], that looks along (dx, dz) on the ground plane."""
+    return np.degrees(np.arctan2(-np.asarray(dx, dtype=np.float64),
+                                 -np.asarray(dz, dtype=np.float64)))
+
+
 @dataclass(frozen=True)
 class Camera:
     """A view: position (3,), yaw and pitch in degrees, vertical fov in degrees, aspect = w/h."""

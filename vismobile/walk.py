@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .camera import yaw_toward
 from .errors import WorldError
 
 GRID = 128          # cells along the longer horizontal side of the world
@@ -216,11 +217,11 @@ def _smooth_yaw(xz, window) -> np.ndarray:
     ahead = np.gradient(xz, axis=0)
     still = np.linalg.norm(ahead, axis=1) == 0
     ahead[still] = [0.0, -1.0]
-    yaw = np.unwrap(np.arctan2(-ahead[:, 0], -ahead[:, 1]))
+    yaw = np.unwrap(yaw_toward(ahead[:, 0], ahead[:, 1]), period=360.0)
     if window > 1 and len(yaw) > window:
         pad = np.r_[np.full(window, yaw[0]), yaw, np.full(window, yaw[-1])]
         yaw = np.convolve(pad, np.ones(window) / window, mode="same")[window:-window]
-    return np.degrees(yaw)
+    return yaw
 
 
 def walk(world, frames=600, seed=0, eye_height=None, clearance=None, targets=TARGETS):
@@ -292,7 +293,7 @@ def _fly_over(world, frames, seed) -> np.ndarray:
     z = centre[2] + 0.4 * size[2] * np.sin(angle)
     y = np.full(frames, high[1] + 0.15 * max(size[0], size[2], size[1], 1e-9))
     dx, dz = centre[0] - x, centre[2] - z
-    yaw = np.degrees(np.unwrap(np.arctan2(-dx, -dz)))
+    yaw = np.unwrap(yaw_toward(dx, dz), period=360.0)
     pitch = -np.degrees(np.arctan2(y - centre[1], np.hypot(dx, dz)))
     return np.column_stack([x, y, z, yaw, pitch])
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..camera import yaw_toward
+
 # Boundary samples per region edge when bounding a region by a cap.
 EDGE_SAMPLES = 129
 
@@ -23,7 +25,7 @@ def direction_regions(dirs, yaw_regions: int, pitch_bands: int) -> np.ndarray:
     length = np.linalg.norm(dirs, axis=1)
     ok = length > 0
     unit = dirs / np.where(ok, length, 1.0)[:, None]
-    yaw = np.degrees(np.arctan2(-unit[:, 0], -unit[:, 2])) % 360.0
+    yaw = yaw_toward(unit[:, 0], unit[:, 2]) % 360.0
     elev = np.degrees(np.arcsin(np.clip(unit[:, 1], -1.0, 1.0)))
     sector = np.minimum((yaw * yaw_regions / 360.0).astype(np.int64), yaw_regions - 1)
     band = np.clip(((elev + 90.0) * pitch_bands / 180.0).astype(np.int64), 0, pitch_bands - 1)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Camera
+from ..camera import Camera, yaw_toward
 
 CLASSES = ("box", "pitch", "wall", "narrow", "wide")
 ASPECTS = (9 / 16, 0.75, 1.0, 2.5)
@@ -28,7 +28,7 @@ def angles(direction) -> tuple:
     """(yaw, pitch) in degrees of a camera looking along `direction` (3,) (need not be unit)."""
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
-    return (float(np.degrees(np.arctan2(-d[0], -d[2]))),
+    return (float(yaw_toward(d[0], d[2])),
             float(np.degrees(np.arcsin(np.clip(d[1], -1.0, 1.0)))))
 
 

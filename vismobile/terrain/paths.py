@@ -8,17 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Camera
+from ..camera import Camera, yaw_toward
 
 SPEEDS = {("circle", "slow"): 0.1, ("circle", "fast"): 1.0,
           ("lemniscate", "slow"): 0.22, ("lemniscate", "fast"): 2.2,
           ("valley", "slow"): 0.1, ("valley", "fast"): 1.0}
 REFERENCE_WIDTH = 1024.0
-
-
-def _yaw(dx, dz) -> np.ndarray:
-    """Yaw in degrees that looks along (dx, dz) (camera yaw 0 looks toward -z)."""
-    return np.degrees(np.arctan2(-dx, -dz))
 
 
 def valley_polyline(heightmap, points: int = 64) -> np.ndarray:
@@ -93,13 +88,14 @@ def path_cameras(heightmap, kind: str = "circle", speed: str = "fast", frames: i
         ahead = np.clip(along + 0.02 * width, 0, lengths[-1])
         back = np.mod(index * step, 2 * lengths[-1]) > lengths[-1]
         ahead = np.where(back, np.clip(along - 0.02 * width, 0, lengths[-1]), ahead)
-        yaw = _yaw(np.interp(ahead, lengths, line[:, 0]) - x, np.interp(ahead, lengths, line[:, 1]) - z)
+        yaw = yaw_toward(np.interp(ahead, lengths, line[:, 0]) - x,
+                         np.interp(ahead, lengths, line[:, 1]) - z)
     elif kind == "circle":
         radius = 0.4 * width
         angle = index * step / radius
         x = centre[0] + radius * np.cos(angle)
         z = centre[1] + radius * np.sin(angle)
-        yaw = _yaw(centre[0] - x, centre[1] - z)
+        yaw = yaw_toward(centre[0] - x, centre[1] - z)
     else:
         a = 0.45 * width
         # Lemniscate of Bernoulli: a lap (t over 2 pi) is 5.244 a long, so the mean speed is
@@ -112,7 +108,7 @@ def path_cameras(heightmap, kind: str = "circle", speed: str = "fast", frames: i
         d2 = 1 + np.sin(t + dt) ** 2
         dx = centre[0] + a * np.cos(t + dt) / d2 - x
         dz = centre[1] + a * np.sin(t + dt) * np.cos(t + dt) / d2 - z
-        yaw = _yaw(dx, dz)
+        yaw = yaw_toward(dx, dz)
     y = heightmap.height_at(x, z) + eye_height * heightmap.spacing
     far = far if far is not None else 1.5 * width
     near = max(0.05 * heightmap.spacing, far * 1e-5)
