@@ -239,7 +239,7 @@ def test_adaptive_playback_switches_off_a_stage_that_removes_nothing(tmp_path):
 def test_play_warns_in_one_line_when_the_path_misses_the_world(tmp_path, vismobile_cli):
     """A path 20-40 units away from a small trimesh room: the camera is outside it and sends
     nothing; `vismobile play` (the real entry point) says so in one stderr line, exit 0; a path
-    inside the room gets no warning."""
+    inside the room, and one outside a box looking at it (a view of an object), get none."""
     import trimesh
 
     from vismobile.trajectory import Trajectory
@@ -253,17 +253,22 @@ def test_play_warns_in_one_line_when_the_path_misses_the_world(tmp_path, vismobi
     inside = np.column_stack([np.zeros(6), np.zeros(6), np.zeros(6), np.linspace(0, 300, 6),
                               np.zeros(6)])
     Trajectory(inside).save(tmp_path / "inside.csv")
+    trimesh.creation.box(extents=(4, 3, 4)).export(tmp_path / "object.stl")
+    angle = np.linspace(0, 300, 6)
+    orbit = np.column_stack([10 * np.sin(np.radians(angle)), np.zeros(6),
+                             10 * np.cos(np.radians(angle)), angle, np.zeros(6)])
+    Trajectory(orbit).save(tmp_path / "orbit.csv")
 
-    def play(path):
-        return vismobile_cli("play", "room.stl", "--trajectory", path, "-o", f"run-{path}",
+    def play(path, mesh="room.stl"):
+        return vismobile_cli("play", mesh, "--trajectory", path, "-o", f"run-{path}",
                              "--structure", "octree:1", "--cull", "vfc", "--quiet", cwd=tmp_path)
 
     done = play("far.csv")
     assert done.returncode == 0, done.stderr
     assert done.stderr.count("\n") == 1 and done.stderr.startswith("warning: ")
-    assert "outside the world's bounds on 6 of 6 frames" in done.stderr
+    assert "outside the world's bounds and sees nothing on 6 of 6 frames" in done.stderr
     assert "6 of 6 frames sent no triangles" in done.stderr
     summary = json.loads((tmp_path / "run-far.csv" / "summary.json").read_text())
     assert len(summary["warnings"]) == 2
-    quiet = play("inside.csv")
-    assert quiet.returncode == 0 and quiet.stderr == ""
+    for quiet in (play("inside.csv"), play("orbit.csv", "object.stl")):
+        assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr

@@ -310,7 +310,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
 def path_warnings(world, trajectory, played, sent) -> list:
     """What suggests the trajectory is not for this world: the eye outside the world's box
     (x or z beyond it, or y below its floor or more than one world size above its top; above
-    the top is allowed, for fly-overs; 1e-6 of the size of slack), and most frames sending no
+    the top is allowed, for fly-overs; 1e-6 of the size of slack) on frames that send nothing
+    (outside and seeing the world is a view of an object), and most frames sending no
     triangle. One clause each, for one warning line."""
     notes = []
     if not len(played):
@@ -319,16 +320,18 @@ def path_warnings(world, trajectory, played, sent) -> list:
     size = float((high - low).max())
     slack = 1e-6 * size
     eyes = trajectory.poses[np.asarray(played, dtype=np.int64), :3]
+    sent = np.asarray(sent)
     outside = ((eyes[:, [0, 2]] < low[[0, 2]] - slack) | (eyes[:, [0, 2]] > high[[0, 2]] + slack)
                ).any(axis=1) | (eyes[:, 1] < low[1] - slack) | (eyes[:, 1] > high[1] + size)
-    if outside.any():
-        first = int(np.argmax(outside))
+    lost = outside & (sent == 0)
+    if lost.any():
+        first = int(np.argmax(lost))
         x, y, z = eyes[first]
-        notes.append(f"the camera is outside the world's bounds on {int(outside.sum())} of "
-                     f"{len(played)} frames (first frame {played[first]} at ({x:.4g}, {y:.4g}, "
-                     f"{z:.4g}); the world spans ({low[0]:.4g}, {low[1]:.4g}, {low[2]:.4g}) to "
-                     f"({high[0]:.4g}, {high[1]:.4g}, {high[2]:.4g}))")
-    empty = int((np.asarray(sent) == 0).sum())
+        notes.append(f"the camera is outside the world's bounds and sees nothing on "
+                     f"{int(lost.sum())} of {len(played)} frames (first frame {played[first]} at "
+                     f"({x:.4g}, {y:.4g}, {z:.4g}); the world spans ({low[0]:.4g}, {low[1]:.4g}, "
+                     f"{low[2]:.4g}) to ({high[0]:.4g}, {high[1]:.4g}, {high[2]:.4g}))")
+    empty = int((sent == 0).sum())
     if 2 * empty > len(played):
         notes.append(f"{empty} of {len(played)} frames sent no triangles")
     if notes:
