@@ -85,3 +85,30 @@ def test_yaw_toward_looks_along_the_direction():
     for dx, dz in rng.normal(size=(20, 2)):
         forward = Camera((0, 0, 0), yaw=float(yaw_toward(dx, dz))).forward
         assert np.allclose(forward, np.array([dx, 0.0, dz]) / np.hypot(dx, dz))
+
+
+def array_planes(camera):
+    """The frustum planes written with numpy arrays (the formula frustum_planes computes in
+    scalars)."""
+    right, up, forward = camera.basis()
+    half_v = np.radians(camera.fov) / 2.0
+    half_h = np.arctan(np.tan(half_v) * camera.aspect)
+    normals = np.stack([np.cos(half_h) * right + np.sin(half_h) * forward,
+                        -np.cos(half_h) * right + np.sin(half_h) * forward,
+                        np.cos(half_v) * up + np.sin(half_v) * forward,
+                        -np.cos(half_v) * up + np.sin(half_v) * forward, forward, -forward])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    d = -normals @ camera.eye
+    d[4] -= camera.near
+    d[5] += camera.far
+    return np.column_stack([normals, d])
+
+
+def test_frustum_planes_have_the_bits_of_the_array_formula():
+    rng = np.random.default_rng(8)
+    for _ in range(300):
+        camera = Camera(rng.uniform(-500, 500, 3), yaw=rng.uniform(-720, 720),
+                        pitch=rng.uniform(-90, 90), fov=rng.uniform(1, 179),
+                        aspect=rng.uniform(0.2, 5), near=rng.uniform(1e-3, 1),
+                        far=rng.uniform(2, 1e4))
+        assert np.array_equal(camera.frustum_planes(), array_planes(camera))

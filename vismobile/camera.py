@@ -1,7 +1,9 @@
 """The pinhole camera: y up, yaw about +y (0 looks toward -z), pitch up positive, degrees."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -42,16 +44,20 @@ class Camera:
         """(3,) float64 eye position."""
         return np.array(self.position, dtype=np.float64)
 
-    def basis(self) -> tuple:
-        """(right, up, forward): three orthonormal (3,) float64 vectors in world space."""
-        yaw, pitch = np.radians(self.yaw), np.radians(self.pitch)
-        cy, sy, cp, sp = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch)
+    def axes(self) -> tuple:
+        """(right, up, forward) as three tuples of 3 floats: basis() without the arrays."""
+        yaw, pitch = math.radians(self.yaw), math.radians(self.pitch)
+        cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
         f = (-sy * cp, sp, -cy * cp)
         r = (cy, 0.0, -sy)
         # right x forward in scalars (np.cross costs more than the rest of a culled frame)
-        up = np.array([r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2],
-                       r[0] * f[1] - r[1] * f[0]])
-        return np.array(r), up, np.array(f)
+        up = (r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0])
+        return r, up, f
+
+    def basis(self) -> tuple:
+        """(right, up, forward): three orthonormal (3,) float64 vectors in world space."""
+        r, up, f = self.axes()
+        return np.array(r), np.array(up), np.array(f)
 
     @property
     def forward(self) -> np.ndarray:
@@ -87,23 +93,26 @@ class Camera:
         Built from the camera basis rather than the clip matrix, so the near and far planes
         keep full precision at far/near ratios of 1e7. Order: left, right, bottom, top, near, far.
         """
-        right, up, forward = self.basis()
-        half_v = np.radians(self.fov) / 2.0
-        half_h = np.arctan(np.tan(half_v) * self.aspect)
-        normals = np.stack([
-            np.cos(half_h) * right + np.sin(half_h) * forward,
-            -np.cos(half_h) * right + np.sin(half_h) * forward,
-            np.cos(half_v) * up + np.sin(half_v) * forward,
-            -np.cos(half_v) * up + np.sin(half_v) * forward,
-            forward,
-            -forward,
-        ])
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        eye = self.eye
-        d = -normals @ eye
+        (rx, ry, rz), (ux, uy, uz), (fx, fy, fz) = self.axes()
+        ch, sh, cv, sv = _half_angles(self.fov, self.aspect)
+        rows = ((ch * rx + sh * fx, ch * ry + sh * fy, ch * rz + sh * fz),
+                (-ch * rx + sh * fx, -ch * ry + sh * fy, -ch * rz + sh * fz),
+                (cv * ux + sv * fx, cv * uy + sv * fy, cv * uz + sv * fz),
+                (-cv * ux + sv * fx, -cv * uy + sv * fy, -cv * uz + sv * fz),
+                (fx, fy, fz), (-fx, -fy, -fz))
+        # Scalars: a frame's few small numpy calls cost more than this arithmetic. The offsets
+        # stay one matrix product (the BLAS's rounding, so the planes keep their bits).
+        units = []
+        for x, y, z in rows:
+            length = math.sqrt(x * x + y * y + z * z)
+            units.append((x / length, y / length, z / length))
+        planes = np.empty((6, 4))
+        planes[:, :3] = units
+        d = -planes[:, :3] @ self.eye
         d[4] -= self.near
         d[5] += self.far
-        return np.column_stack([normals, d])
+        planes[:, 3] = d
+        return planes
 
     def with_(self, **changes) -> "Camera":
         """A copy with some fields replaced."""
@@ -111,3 +120,12 @@ class Camera:
                       aspect=self.aspect, near=self.near, far=self.far)
         fields.update(changes)
         return Camera(**fields)
+
+
+@lru_cache(maxsize=64)  # every frame asks with the same fov and aspect
+def _half_angles(fov: float, aspect: float) -> tuple:
+    """(cos, sin) of the horizontal then the vertical half field of view, as Python floats."""
+    half_v = np.radians(fov) / 2.0
+    half_h = np.arctan(np.tan(half_v) * aspect)
+    return (float(np.cos(half_h)), float(np.sin(half_h)), float(np.cos(half_v)),
+            float(np.sin(half_v)))

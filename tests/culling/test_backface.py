@@ -3,7 +3,7 @@ import numpy as np
 
 from vismobile.camera import Camera
 from vismobile.culling import Culler
-from vismobile.culling.backface import corner_rays, thesis_region_count
+from vismobile.culling.backface import corner_rays, thesis_region_count, unit_corner_rays
 from vismobile.geometry.sphere_regions import direction_regions
 
 
@@ -65,3 +65,22 @@ def test_cbfc_thesis_stage_drops_a_tilted_floor_that_faces_the_eye(kit):
     cam = Camera((0.0, 1.6, 0.0), yaw=0.0, pitch=-30.0, aspect=0.75)
     assert len(Culler(part, "vfc,cbfc_thesis").cull(cam).triangles) == 0
     assert len(Culler(part, "vfc,cbfc").cull(cam).triangles) == 2
+
+
+def test_frame_table_gives_the_bits_of_droppable_and_spare(kit):
+    stage = Culler(kit.structure("w6", "octree"), "cbfc").stages[0]
+    rng = np.random.default_rng(9)
+    dropping = 0
+    for _ in range(300):
+        cam = Camera(rng.uniform(-5, 5, 3), yaw=rng.uniform(-360, 360),
+                     pitch=rng.uniform(-90, 90), fov=rng.uniform(10, 100),
+                     aspect=rng.uniform(0.3, 3))
+        rays = corner_rays(cam)
+        assert np.array_equal(unit_corner_rays(cam),
+                              rays / np.linalg.norm(rays, axis=1, keepdims=True))
+        table = stage.droppable(cam)
+        dropped, spare = stage.frame_table(cam)
+        assert dropped == table.sum()
+        assert np.array_equal(spare, stage.spare(cam, table))
+        dropping += dropped > 0
+    assert 0 < dropping < 300

@@ -24,6 +24,9 @@ test, i.e. asin(min_i m.c_i) - rho >= theta.
 """
 from __future__ import annotations
 
+import math
+from functools import lru_cache
+
 import numpy as np
 
 from ..geometry.sphere_regions import caps_within, direction_regions, region_caps
@@ -58,12 +61,33 @@ def normal_regions(world, yaw_regions: int, pitch_bands: int, horizontal: bool =
 
 def corner_rays(camera) -> np.ndarray:
     """(4, 3) float64 directions of the frustum's four corner rays (from the eye, unnormalised)."""
-    right, up, forward = camera.basis()
-    ty = np.tan(np.radians(camera.fov) / 2.0)
-    tx = ty * camera.aspect
-    sx = np.array([-1.0, 1.0, 1.0, -1.0])
-    sy = np.array([-1.0, -1.0, 1.0, 1.0])
-    return forward + (sx * tx)[:, None] * right + (sy * ty)[:, None] * up
+    return np.array(_corner_rays(camera))
+
+
+def unit_corner_rays(camera) -> np.ndarray:
+    """(4, 3) float64 corner_rays(camera) scaled to unit length (the same bits as dividing the
+    array by its row norms)."""
+    rays = []
+    for x, y, z in _corner_rays(camera):
+        length = math.sqrt(x * x + y * y + z * z)
+        rays.append((x / length, y / length, z / length))
+    return np.array(rays)
+
+
+def _corner_rays(camera) -> list:
+    """corner_rays as four tuples of floats (scalars: numpy's small-array calls cost more)."""
+    (rx, ry, rz), (ux, uy, uz), (fx, fy, fz) = camera.axes()
+    tx, ty = _half_tangents(camera.fov, camera.aspect)
+    return [(fx + a * rx + b * ux, fy + a * ry + b * uy, fz + a * rz + b * uz)
+            for a, b in ((-tx, -ty), (tx, -ty), (tx, ty), (-tx, ty))]
+
+
+@lru_cache(maxsize=64)  # every frame asks with the same fov and aspect
+def _half_tangents(fov: float, aspect: float) -> tuple:
+    """(tan of the horizontal, of the vertical half field of view) as the frustum's corners use
+    them: ty = tan(fov / 2), tx = ty x aspect."""
+    ty = np.tan(np.radians(fov) / 2.0)
+    return float(ty * aspect), float(ty)
 
 
 def thesis_region_count(fov: float = 45.0) -> int:
@@ -114,6 +138,13 @@ class ConservativeBackface:
         self.regions = normal_regions(world, self.yaw_regions, self.pitch_bands)
         self.vertices, self.triangles = np.asarray(world.vertices), np.asarray(world.triangles)
         self.magnitude = world_scale(self.vertices)
+        # Per-frame constants: caps_within's bound per region, and the all-kept spare table.
+        need = np.where(self.radii < np.pi / 2, np.sin(np.minimum(self.radii, np.pi / 2)), np.inf)
+        self._need = (need + 1e-12)[:, None]
+        self._none = np.full(len(self.radii) + 1, -1.0)
+        self._none.flags.writeable = False
+        self._dropped_key = f"{self.name}.regions_dropped"
+        self._culled_key = f"{self.name}.refs_culled"
 
     def droppable(self, camera) -> np.ndarray:
         """(R + 1,) bool per region (last: degenerate normals, never dropped).
@@ -135,21 +166,35 @@ class ConservativeBackface:
         out[:-1] = np.where(table[:-1], np.sin(room) - 1e-12, -1.0)
         return out
 
+    def frame_table(self, camera) -> tuple:
+        """(regions dropped, spare): droppable(camera).sum() and spare(camera, droppable(camera))
+        with the same bits, from one product of the caps' centres with the unit corner rays.
+        Errs as they do (toward keeping by 1e-12)."""
+        cosines = self.centers @ unit_corner_rays(camera).T  # (R, 4)
+        table = (cosines >= self._need).all(axis=1)
+        dropped = int(np.count_nonzero(table))
+        if not dropped:
+            return 0, self._none
+        low = np.minimum(np.maximum(cosines.min(axis=1), -1.0), 1.0)
+        room = np.minimum(np.maximum(np.arcsin(low) - self.radii, 0.0), np.pi / 2)
+        spare = np.full(len(table) + 1, -1.0)
+        spare[:-1] = np.where(table, np.sin(room) - 1e-12, -1.0)
+        return dropped, spare
+
     def apply(self, state: CullState) -> None:
-        table = self.droppable(state.camera)
-        state.count(f"{self.name}.regions_dropped", table.sum())
-        if not table.any():
+        dropped, spare = self.frame_table(state.camera)
+        state.count(self._dropped_key, dropped)
+        if not dropped:
             return
         regions = self.regions
-        spare = self.spare(state.camera, table)
-        scale = max(self.magnitude, float(np.abs(state.camera.eye).max()))
+        scale = max(self.magnitude, *map(abs, state.camera.position))
         move = np.sqrt(3.0) * device_move(self.arithmetic, scale)  # Euclidean, per corner
 
         def keep_of(ids):
             keep = tilt_keep(np.ascontiguousarray(ids, dtype=np.int64), regions, spare,
                              self.vertices, self.triangles, move)
             state.count("triangles_tested", len(ids))
-            state.count(f"{self.name}.refs_culled", len(ids) - np.count_nonzero(keep))
+            state.count(self._culled_key, len(ids) - np.count_nonzero(keep))
             return keep
 
         state.filters.append(keep_of)

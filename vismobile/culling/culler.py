@@ -120,10 +120,9 @@ class Culler:
         draw_batches (runs of consecutive triangle ids), nodes_drawn, and per stage
         "<stage>.<counter>" (nodes_culled, refs_culled, clusters_culled, occluders, ...).
         """
-        scale = max(self.world_scale, float(np.abs(camera.eye).max()))
+        scale = max(self.world_scale, *map(abs, camera.position))
         planes = conservative_planes(camera.frustum_planes(), self.arithmetic, scale)
-        state = CullState(self.tree, camera, planes,
-                          np.zeros(1, dtype=np.int64),
+        state = CullState(self.tree, camera, planes, np.zeros(1, dtype=np.int64),
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})
         for stage in self.stages:
             stage.apply(state)

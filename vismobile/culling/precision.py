@@ -69,10 +69,17 @@ def conservative_planes(planes, mode: str, scale: float) -> np.ndarray:
     planes : (K, 4) float64 unit-normal planes (n, d), inside where n.x + d >= 0
     """
     planes = np.array(planes, dtype=np.float64).reshape(-1, 4)
-    planes[:, 3] += margin(mode, scale)
-    limit = arithmetic.max_magnitude(mode)
-    planes[np.abs(planes[:, 3]) > limit] = _ALWAYS_INSIDE
+    offsets = planes[:, 3]
+    offsets += margin(mode, scale)
+    beyond = np.abs(offsets) > _max_magnitude(mode)
+    if beyond.any():
+        planes[beyond] = _ALWAYS_INSIDE
     return planes
+
+
+@lru_cache(maxsize=8)
+def _max_magnitude(mode: str) -> float:
+    return arithmetic.max_magnitude(mode)
 
 
 def quantize_camera(camera: Camera, mode: str) -> Camera:
