@@ -5,7 +5,8 @@ import pytest
 
 from vismobile.camera import Camera
 from vismobile.culling import Culler, backface, cones
-from vismobile.culling.facing import backfacing, keep_unmarked, tilt_keep, tilt_of
+from vismobile.culling.facing import (TILT_BIAS, TILT_EXACT, backfacing, keep_unmarked,
+                                      tilt_keep, tilt_of, tilt_scales)
 from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
 from vismobile.geometry.tilt import tilt_coefficients, tilt_sine
 from vismobile.mapped import MappedWorld
@@ -51,11 +52,51 @@ def test_tilt_kernel_gives_the_bits_of_tilt_coefficients(dtype):
     regions = rng.integers(0, 5, len(triangles)).astype(np.uint8)
     spare = np.array([-1.0, 0.0, 1e-6, 1e-3, 0.5])
     ids = np.arange(len(triangles), dtype=np.int64)
+    scales = np.empty(len(triangles), dtype=np.uint8)
+    tilt_scales(vertices, triangles, 0, scales)
+    exact = np.full_like(scales, TILT_EXACT)  # every tilt computed from the corners
     for move in (0.0, 1e-7, 1e-3):
         expect = ~(spare[regions] >= tilt_sine(k1, k2, move))
-        got = tilt_keep(ids, regions, spare, vertices, triangles, move)
-        assert np.array_equal(got, expect)
-    assert not tilt_keep(ids, regions, spare, vertices, triangles, 0.0).all()
+        for table in (scales, exact):
+            got = tilt_keep(ids, regions, table, spare, vertices, triangles, move)
+            assert np.array_equal(got, expect)
+    assert not tilt_keep(ids, regions, scales, spare, vertices, triangles, 0.0).all()
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_tilt_scales_bound_the_tilt_and_are_the_smallest_power_of_two(dtype):
+    vertices, triangles = random_mesh(600, 13, dtype)
+    vertices[30:33] *= 1e-60 if dtype == np.float64 else 1e-30  # a tiny triangle 10
+    with np.errstate(invalid="ignore"):
+        k1, k2 = tilt_coefficients(vertices.astype(np.float64)[triangles])
+    scales = np.empty(len(triangles) - 5, dtype=np.uint8)
+    tilt_scales(vertices, triangles, 5, scales)  # a chunk: triangles 5 onwards
+    k1, k2 = k1[5:], k2[5:]
+    finite = np.isfinite(k1) & np.isfinite(k2)
+    with np.errstate(invalid="ignore"):
+        beyond = np.maximum(np.frexp(k1)[1], (np.frexp(k2)[1] + 1) // 2) + TILT_BIAS > 254
+    assert np.array_equal(scales == TILT_EXACT, ~finite | beyond)
+    assert beyond[5] == (dtype == np.float64) and (~finite).sum() == 0  # 1 and 2 are skipped
+    ok = scales != TILT_EXACT
+    scale = np.ldexp(1.0, scales[ok].astype(int) - TILT_BIAS)
+    assert (scale >= k1[ok]).all() and (scale * scale >= k2[ok]).all()
+    assert ((scale / 2 < k1[ok]) | (scale * scale / 4 < k2[ok])).all()  # no smaller one fits
+    for move in (1e-9, 1e-4, 0.3, 10.0):
+        assert (scale * move + scale * scale * (move * move)
+                >= tilt_sine(k1[ok], k2[ok], move)).all()
+    # Spares on both sides of each triangle's tilt and of its bound (one region per triangle):
+    # tilt_keep still answers as the tilt does.
+    ids = np.arange(5, len(triangles), dtype=np.int64)
+    regions = np.arange(len(triangles), dtype=np.uint16)
+    rng = np.random.default_rng(6)
+    for move in (1e-6, 1e-3):
+        tilt = tilt_sine(k1, k2, move)
+        spare = np.append(np.zeros(5), np.where(np.isfinite(tilt), tilt, 1.0)
+                          * rng.uniform(0.5, 4.0, len(tilt)))
+        full = np.zeros(len(triangles), dtype=np.uint8)
+        full[5:] = scales
+        got = tilt_keep(ids, regions, full, spare, vertices, triangles, move)
+        assert np.array_equal(got, ~(spare[5:] >= tilt)) and 0 < got.sum() < len(ids)
 
 
 def test_keep_unmarked_drops_exactly_the_culled_clusters_and_clears_its_bitmap():

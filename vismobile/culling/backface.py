@@ -32,7 +32,7 @@ import numpy as np
 from ..geometry.sphere_regions import caps_within, direction_regions, region_caps
 from ..mapped import corner_chunks
 from ..world import unit_normals
-from .facing import tilt_keep
+from .facing import tilt_keep, tilt_scales
 from .precision import device_move, world_scale
 from .state import CullState
 from .tree import Tree
@@ -116,8 +116,9 @@ class ConservativeBackface:
     pitch_bands : elevation bands of the normal (the 3D extension)
     Contract: never drops a triangle that faces the eye and has a point inside the frustum,
     also after the device moves its corners by device_move(arithmetic) (errs toward keeping).
-    Per frame: a (R,) table from 4 R dot products, then per candidate one lookup, and its tilt
-    (from its corners) when its region is droppable. Prepare keeps one byte per triangle.
+    Per frame: a (R,) table from 4 R dot products, then per candidate one lookup, and when its
+    region is droppable a second lookup (its power-of-two tilt bound) and, only when that bound
+    does not fit, its tilt from its corners. Prepare keeps two bytes per triangle.
     """
 
     name = "cbfc"
@@ -132,11 +133,17 @@ class ConservativeBackface:
 
     def prepare(self, tree: Tree) -> None:
         # One small int per triangle (its normal's region); the tilt coefficients are computed
-        # per frame for the candidates whose region is droppable (facing.tilt_keep), not stored.
+        # per frame, only for droppable candidates whose scale byte below does not decide.
         world = tree.world
         self.centers, self.radii = region_caps(self.yaw_regions, self.pitch_bands)
         self.regions = normal_regions(world, self.yaw_regions, self.pitch_bands)
         self.vertices, self.triangles = np.asarray(world.vertices), np.asarray(world.triangles)
+        # One more byte per triangle: a power-of-two bound on its tilt (facing.tilt_scales), so
+        # a droppable candidate is decided without reading its corners when the bound fits.
+        self.scales = np.empty(world.triangle_count, dtype=np.uint8)
+        for start in range(0, world.triangle_count, CHUNK):
+            tilt_scales(self.vertices, self.triangles, start,
+                        self.scales[start:start + CHUNK])
         self.magnitude = world_scale(self.vertices)
         # Per-frame constants: caps_within's bound per region, and the all-kept spare table.
         need = np.where(self.radii < np.pi / 2, np.sin(np.minimum(self.radii, np.pi / 2)), np.inf)
@@ -191,8 +198,8 @@ class ConservativeBackface:
         move = np.sqrt(3.0) * device_move(self.arithmetic, scale)  # Euclidean, per corner
 
         def keep_of(ids):
-            keep = tilt_keep(np.ascontiguousarray(ids, dtype=np.int64), regions, spare,
-                             self.vertices, self.triangles, move)
+            keep = tilt_keep(np.ascontiguousarray(ids, dtype=np.int64), regions, self.scales,
+                             spare, self.vertices, self.triangles, move)
             state.count("triangles_tested", len(ids))
             state.count(self._culled_key, len(ids) - np.count_nonzero(keep))
             return keep

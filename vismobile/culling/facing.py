@@ -10,6 +10,8 @@ Float32 vertices widen to float64 exactly.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -87,23 +89,59 @@ def tilt_of(vertices, triangles, t):
     return 2.0 * short * inv * TILT_SLACK, 4.0 * inv * TILT_SLACK
 
 
+# A triangle's tilt scale byte e (tilt_scales): 2^(e - TILT_BIAS) bounds its k1 and the square
+# root of its k2; TILT_EXACT (zero-area triangles, scales out of range) means "compute the tilt".
+TILT_BIAS = 127
+TILT_EXACT = 255
+
+
 @njit(cache=True, nogil=True)
-def tilt_keep(ids, regions, spare, vertices, triangles, move):
+def tilt_scales(vertices, triangles, start, out):
+    """Fills out[k] for triangle start + k with the smallest byte e < TILT_EXACT such that
+    K = 2^(e - TILT_BIAS) >= k1 and K^2 >= k2 of tilt_of (so k1 m + k2 m^2 <= K m + K^2 m^2 for
+    every move m, also as float64 rounds them), or TILT_EXACT when k1 or k2 is not finite or
+    K would need e > 254. Errs large (a larger K only means computing the tilt more often)."""
+    for k in range(len(out)):
+        k1, k2 = tilt_of(vertices, triangles, start + k)
+        if not (k1 < np.inf and k2 < np.inf):
+            out[k] = TILT_EXACT
+            continue
+        e1 = math.frexp(k1)[1]  # k1 < 2^e1
+        e2 = (math.frexp(k2)[1] + 1) // 2  # k2 < 2^(2 e2)
+        e = max(e1, e2, -TILT_BIAS) + TILT_BIAS
+        out[k] = e if e < TILT_EXACT else TILT_EXACT
+
+
+@njit(cache=True, nogil=True)
+def tilt_keep(ids, regions, scales, spare, vertices, triangles, move):
     """(n,) bool keep: cbfc's per-candidate test, ~(spare[region] >= tilt sine of the triangle
     for corners moved by `move`), the tilt computed only where the region is droppable
-    (spare >= 0). Errs toward True (keeping) exactly as geometry.tilt.tilt_sine.
+    (spare >= 0) and the triangle's scale bound K m + K^2 m^2 (tilt_scales) does not already
+    fit in the spare. Errs toward True (keeping) exactly as geometry.tilt.tilt_sine: the bound
+    is never below the tilt, so the answer is the tilt's.
 
     ids : (n,) int64;  regions : (T,) small ints (direction region per triangle)
-    spare : (R + 1,) float64 (ConservativeBackface.spare);  move >= 0 (Euclidean)
+    scales : (T,) uint8 (tilt_scales);  spare : (R + 1,) float64 (ConservativeBackface.spare)
+    move >= 0 (Euclidean)
     """
+    bound = np.empty(TILT_EXACT)  # K m + K^2 m^2 per scale byte: powers of two scale exactly
+    square = move * move
+    scale = math.ldexp(1.0, -TILT_BIAS)
+    for e in range(TILT_EXACT):
+        bound[e] = scale * move + (scale * scale) * square
+        scale *= 2.0
     out = np.ones(len(ids), dtype=np.bool_)
     for k in range(len(ids)):
         t = ids[k]
         room = spare[regions[t]]
         if not room >= 0.0:
             continue
+        e = scales[t]
+        if e != TILT_EXACT and room >= bound[e]:
+            out[k] = False
+            continue
         k1, k2 = tilt_of(vertices, triangles, t)
-        tilt = k1 * move + k2 * (move * move)
+        tilt = k1 * move + k2 * square
         if np.isnan(tilt):  # inf * 0 for zero-area triangles, move 0
             tilt = np.inf
         out[k] = not room >= tilt
