@@ -58,9 +58,9 @@ def write_world_dir(path, parts, name="world", object_names=()) -> tuple:
 class MappedWorld:
     """A world whose arrays are memory maps: vertices (V, 3) float32, triangles (T, 3) int32,
     object_ids (T,) int32. It offers what partitioning and culling read (triangle count,
-    extent, chunks of corners; `triangle_corners` for any ids); vfc, tbfc, cbfc, cbfc_thesis
-    and cone run on it; stages that keep per-triangle areas or planes of the whole world
-    (occlusion, portals) need a World."""
+    extent, chunks of corners; `triangle_corners` for any ids); vfc, tbfc, cbfc, cbfc_thesis,
+    cone and occlusion run on it; stages that keep per-triangle areas or planes of the whole
+    world (occlusion_thesis, portals) need a World."""
 
     def __init__(self, vertices, triangles, object_ids, object_names=(), name="world",
                  extent=None, digest=None):

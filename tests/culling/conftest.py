@@ -76,6 +76,44 @@ def quad(x0, x1, y0, y1, z, facing=1.0):
     return v, t
 
 
+def streamed_octree(tmp_path_factory, world_, name, depth):
+    """world_ written into a world directory (float32 vertices, three pieces) and its octree
+    built streamed (partition/external.py): the path of the .vmp, for map_partition and
+    load_partition."""
+    from vismobile.mapped import MappedWorld, write_world_dir
+    from vismobile.partition.external import build_octree_file
+
+    folder = tmp_path_factory.mktemp(f"{name}dir")
+
+    def parts():
+        for ids in np.array_split(np.arange(world_.triangle_count), 3):
+            used, local = np.unique(world_.triangles[ids], return_inverse=True)
+            yield (world_.vertices[used].astype(np.float32), local.reshape(-1, 3),
+                   world_.object_ids[ids])
+
+    write_world_dir(folder / "world", parts, name, world_.object_names)
+    out = folder / f"{name}.vmp"
+    build_octree_file(MappedWorld.open(folder / "world"), out, depth=depth)
+    return out
+
+
+@pytest.fixture(scope="session")
+def w1_streamed(tmp_path_factory, w1_world_dir):
+    """W1's world directory (float32 vertices, three pieces) and its streamed octree."""
+    from vismobile.mapped import MappedWorld
+    from vismobile.partition.external import build_octree_file
+
+    out = tmp_path_factory.mktemp("vmp") / "w1.vmp"
+    build_octree_file(MappedWorld.open(w1_world_dir), out, depth=4)
+    return out
+
+
+@pytest.fixture(scope="session")
+def w2_streamed(tmp_path_factory):
+    """W2 (indoor: walls hide rooms) as a world directory and its streamed octree, depth 5."""
+    return streamed_octree(tmp_path_factory, world("w2"), "w2", 5)
+
+
 @pytest.fixture(scope="session")
 def w1_octree():
     return structure("w1", "octree")

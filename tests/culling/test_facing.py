@@ -5,13 +5,13 @@ import pytest
 
 from vismobile.camera import Camera
 from vismobile.culling import Culler, backface, cones
-from vismobile.culling.facing import (TILT_BIAS, TILT_EXACT, backfacing, keep_unmarked,
-                                      tilt_keep, tilt_of, tilt_scales)
+from vismobile.culling import kernels
+from vismobile.culling.facing import (TILT_BIAS, TILT_EXACT, backfacing, frontfacing,
+                                      keep_unmarked, tilt_keep, tilt_of, tilt_scales)
 from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
 from vismobile.geometry.tilt import tilt_coefficients, tilt_sine
 from vismobile.mapped import MappedWorld
 from vismobile.partition import load_partition
-from vismobile.partition.external import build_octree_file
 from vismobile.partition.store import map_partition
 
 
@@ -37,6 +37,24 @@ def test_backfacing_kernel_matches_the_numpy_bound(dtype):
         got = backfacing(ids, vertices, triangles, eye, delta, GAMMA_8)
         assert np.array_equal(got, expect) and 0 < got.sum() < len(ids)
     assert len(backfacing(ids[:0], vertices, triangles, eye, 0.0, GAMMA_8)) == 0
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_frontfacing_is_backfacing_of_the_reversed_triangle(dtype):
+    # occlusion's occluder test: the packed table of reversed cross products it kept before
+    # (kernels.backfacing over -cross) gives the same bits as the corners read per candidate.
+    vertices, triangles = random_mesh(600, 13, dtype)
+    corners = vertices.astype(np.float64)[triangles]
+    cross, abs_cross, ea, eb = triangle_cross(corners)
+    flipped = np.column_stack([-cross, abs_cross, corners[:, 0], ea, eb])
+    ids = np.arange(len(triangles), dtype=np.int64)
+    eye = np.array([0.5, -1.0, 2.0])
+    for delta in (0.0, 1e-3, 0.5):
+        expect = kernels.backfacing(ids, flipped, eye, delta, GAMMA_8)
+        got = frontfacing(ids, vertices, triangles, eye, delta, GAMMA_8)
+        assert np.array_equal(got, expect) and 0 < got.sum() < len(ids)
+        assert not (got & backfacing(ids, vertices, triangles, eye, delta, GAMMA_8)).any()
+    assert not frontfacing(ids[1:3], vertices, triangles, eye, 0.0, GAMMA_8).any()  # degenerate
 
 
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
@@ -118,11 +136,8 @@ def test_keep_unmarked_drops_exactly_the_culled_clusters_and_clears_its_bitmap()
 
 
 @pytest.fixture(scope="module")
-def streamed(tmp_path_factory, w1_world_dir):
-    """W1's world directory (float32 vertices, three pieces) and its streamed octree."""
-    out = tmp_path_factory.mktemp("vmp") / "w1.vmp"
-    build_octree_file(MappedWorld.open(w1_world_dir), out, depth=4)
-    return out
+def streamed(w1_streamed):
+    return w1_streamed
 
 
 @pytest.mark.parametrize("arithmetic", ["float64", "fixed16.16"])

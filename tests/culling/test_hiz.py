@@ -258,3 +258,36 @@ def test_sample_test_never_flags_a_triangle_holding_a_centre():
                 e = [(q[(k + 1) % 3][0] - q[k][0]) * (s[1] - q[k][1])
                      - (q[(k + 1) % 3][1] - q[k][1]) * (s[0] - q[k][0]) for k in range(3)]
                 assert not (all(v >= 0 for v in e) or all(v <= 0 for v in e)), (t, i, j)
+
+
+def test_candidates_are_taken_once_skips_left_out_and_the_bitmap_handed_back(w1_octree):
+    from vismobile.culling.hiz import gather_candidates
+    from vismobile.culling.tree import Tree
+
+    tree = Tree(w1_octree)
+    n, k = tree.node_count, 3
+    rng = np.random.default_rng(8)
+    lists = rng.integers(-1, 40, (n, k)).astype(np.int64)  # repeats across nodes on purpose
+    history = np.array([5, 7, 5, 60], dtype=np.int64)
+    bits = np.zeros(tree.world.triangle_count // 64 + 1, dtype=np.uint64)
+    out, stack = np.empty(lists.size + len(history), np.int64), np.empty(n + 8, np.int64)
+    planes = np.zeros((1, 4))
+    planes[0, 3] = 1.0  # every box inside
+    eye = tree.lo[0] - 1.0
+
+    def gather(skip):
+        count, visited = gather_candidates(tree.lo, tree.hi, tree.first_child, tree.child_count,
+                                           tree.nonempty, np.zeros(1, np.int64), planes,
+                                           tree.tol, eye, 1e-9, lists, history, skip, bits,
+                                           out, stack)
+        assert not bits.any() and visited > 0
+        return out[:count].copy()
+
+    every = gather(np.zeros(0, np.int64))
+    leaves = np.flatnonzero((tree.child_count == 0) & tree.nonempty)
+    expect = np.unique(np.concatenate([history, lists[leaves].ravel()]))
+    assert len(every) == len(np.unique(every))
+    assert np.array_equal(np.sort(every), expect[expect >= 0])
+    assert list(every[:3]) == [5, 7, 60]  # history first, in order
+    skip = every[1::3]
+    assert np.array_equal(gather(skip), every[~np.isin(every, skip)])

@@ -222,3 +222,79 @@ def test_fused_walk_sends_what_the_two_passes_send_and_visits_fewer_nodes(kit):
         visited[False] += two.stats["nodes_visited"]
         assert one.stats["plane_tests"] < two.stats["plane_tests"]
     assert visited[True] < visited[False]
+
+
+def test_the_mesh_of_a_few_occluders_pairs_their_edges_as_the_worlds_mesh_does(kit):
+    # A mapped world's frames build the rasteriser's tables for their occluders alone: same
+    # planes, the same order of plane groups, and the same pieces paired among them.
+    from vismobile.culling.occlusion import occluder_mesh
+    from vismobile.world import unit_normals
+
+    world = kit.world("w2")
+    whole = occluder_mesh(world.vertices, world.triangles, world.normals)
+    groups, offsets, partner, partner_any = whole[4], whole[3], whole[9], whole[10]
+    rng = np.random.default_rng(6)
+    paired = 0
+    for start in rng.integers(0, world.triangle_count - 400, 5):
+        ids = np.concatenate([np.arange(start, start + 300),  # neighbours share edges
+                              rng.integers(0, world.triangle_count, 100)])
+        ids = np.unique(ids)
+        corners = world.corners[ids]
+        local = occluder_mesh(corners.reshape(-1, 3), np.arange(3 * len(ids)).reshape(-1, 3),
+                              unit_normals(corners)[0])
+        assert np.array_equal(local[2], world.normals[ids])
+        assert np.array_equal(local[3], offsets[ids])
+        assert np.array_equal(np.argsort(local[4], kind="stable"),
+                              np.argsort(groups[ids], kind="stable"))
+        assert np.array_equal(np.unique(local[4], return_inverse=True)[1].ravel(),
+                              np.unique(groups[ids], return_inverse=True)[1].ravel())
+        pieces = (3 * ids[:, None] + np.arange(3)).ravel()  # piece e of triangle t: 3 t + e
+        for mine, worlds in ((local[9], partner), (local[10], partner_any)):
+            assert np.array_equal(mine >= 0, np.isin(worlds[pieces], ids))
+            paired += (mine >= 0).sum()
+    assert paired > 100
+
+
+def test_occlusion_on_a_mapped_world_culls_as_in_memory_and_drops_nothing_visible(
+        kit, w2_streamed):
+    # W2 streamed to a .vmp: mapped (per-frame rows and meshes, no world-sized table) and loaded
+    # (the World's tables) send the same triangles with the same counters; nothing the item
+    # buffer shows is dropped.
+    from pathlib import Path
+
+    from vismobile.mapped import MappedWorld
+    from vismobile.partition import load_partition
+    from vismobile.partition.store import map_partition
+    from vismobile.trajectory import Trajectory
+
+    mapped, loaded = map_partition(w2_streamed), load_partition(w2_streamed)
+    assert isinstance(mapped.world, MappedWorld)
+    traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
+    cameras = [traj.camera(int(f), kit.ASPECT) for f in np.linspace(0, len(traj) - 1, 6)]
+    cameras += kit.random_cameras(loaded, 4, 9)
+    screen = tuple(kit.PROFILE.resolution)
+    culled = 0
+    for stages, options, cull_back in (
+            ("vfc,occlusion", {}, False),
+            ("vfc,occlusion,tbfc", {"screen": screen, "self_occluders": 64}, True),
+            ("vfc,occlusion", {"fuse": False, "first_reach": 15.625}, False)):
+        a = Culler(mapped, stages, occlusion=options)
+        b = Culler(loaded, stages, occlusion=options)
+        stage, kept = (c.stages[c.names.index("occlusion")] for c in (a, b))
+        assert not stage.tables and kept.tables
+        for camera in cameras:
+            x, y = a.cull(camera), b.cull(camera)
+            assert np.array_equal(x.triangles, y.triangles), (stages, options)
+            assert np.array_equal(x.nodes, y.nodes) and x.stats == y.stats, (stages, options)
+            missing = np.setdiff1d(kit.visible_ids(loaded.world, camera, cull_back), x.triangles)
+            assert not len(missing), (stages, options, camera, missing[:5])
+            culled += x.stats.get("occlusion.nodes_culled", 0)
+        # Nothing per triangle but the 1-bit candidate map and views of the mapped file: the
+        # stage's own arrays follow the nodes.
+        world = mapped.world
+        for name, value in vars(stage).items():
+            if isinstance(value, np.ndarray) and name != "bits" and not any(
+                    np.shares_memory(value, w) for w in (world.vertices, world.triangles)):
+                assert value.size < world.triangle_count, name
+        assert stage.bits.nbytes <= mapped.world.triangle_count // 8 + 8
+    assert culled > 0

@@ -32,6 +32,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .occluder_rows import triangle_area
+
 SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
 DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
 SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
@@ -571,21 +573,29 @@ def screen_rect(points, near, tx, ty, width, height, move=0.0, shift=0.0) -> tup
 
 
 @njit(cache=True, nogil=True)
-def node_candidates(order, first_child, child_count, ref_start, ref_end, tri_refs, areas, k):
-    """(N, k) int64 per node the ids of the k largest triangles (by area, > 0) of its subtree,
-    -1 padded. order : (N,) int64 nodes, every child before its parent."""
+def node_candidates(order, first_child, child_count, ref_start, ref_end, tri_refs, vertices,
+                    triangles, k):
+    """(N, k) int64 per node the ids of the k largest triangles (by area, > 0; ties by smaller
+    id) of its subtree, -1 padded. order : (N,) int64 nodes, every child before its parent.
+    Areas are computed from the corners (occluder_rows.triangle_area: World.areas' bits), once
+    per reference of a leaf and once per child's listed id, so the tables stay (N, k)."""
     n = len(first_child)
     out = np.full((n, k), -1, dtype=np.int64)
+    out_area = np.zeros((n, k))
     buf = np.empty(k * 64 + 64, dtype=np.int64)
+    buf_area = np.empty(k * 64 + 64)
     for node in order:
         m = 0
         if child_count[node] == 0:
             for r in range(ref_start[node], ref_end[node]):
                 t = np.int64(tri_refs[r])
-                if areas[t] > 0:
+                area = triangle_area(vertices, triangles, t)
+                if area > 0:
                     if m == len(buf):
                         buf = np.concatenate((buf, np.empty(len(buf), dtype=np.int64)))
+                        buf_area = np.concatenate((buf_area, np.empty(len(buf_area))))
                     buf[m] = t
+                    buf_area[m] = area
                     m += 1
         else:
             for c in range(first_child[node], first_child[node] + child_count[node]):
@@ -593,26 +603,53 @@ def node_candidates(order, first_child, child_count, ref_start, ref_end, tri_ref
                     if out[c, j] >= 0:
                         if m == len(buf):
                             buf = np.concatenate((buf, np.empty(len(buf), dtype=np.int64)))
+                            buf_area = np.concatenate((buf_area, np.empty(len(buf_area))))
                         buf[m] = out[c, j]
+                        buf_area[m] = out_area[c, j]
                         m += 1
-        ids = np.unique(buf[:m])
-        best = ids[np.argsort(-areas[ids], kind="mergesort")][:k]
-        out[node, :len(best)] = best
+        # Distinct ids in increasing order, then the largest areas first (stable: ties keep
+        # the smaller id first).
+        by_id = np.argsort(buf[:m], kind="mergesort")
+        ids = np.empty(m, dtype=np.int64)
+        areas = np.empty(m)
+        u = 0
+        for j in range(m):
+            t = buf[by_id[j]]
+            if u == 0 or ids[u - 1] != t:
+                ids[u] = t
+                areas[u] = buf_area[by_id[j]]
+                u += 1
+        best = np.argsort(-areas[:u], kind="mergesort")[:k]
+        for j in range(len(best)):
+            out[node, j] = ids[best[j]]
+            out_area[node, j] = areas[best[j]]
     return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _take(t, bits):
+    """True the first time id t is taken since bits were cleared (sets its bit)."""
+    word, bit = t >> 6, np.uint64(1) << np.uint64(t & 63)
+    if bits[word] & bit:
+        return False
+    bits[word] |= bit
+    return True
 
 
 @njit(cache=True, nogil=True)
 def gather_candidates(lo, hi, first_child, child_count, nonempty, roots, planes, tol, eye,
-                      detail, lists, history, seen, mark, out, stack):
+                      detail, lists, history, skip, bits, out, stack):
     """Occluder candidates around the eye: a frustum walk from roots that takes a node's list of
     largest triangles (lists (N, k)) once the node is a leaf or small as seen from the eye
-    (diagonal < detail x distance to the box), plus the `history` ids; each id once (seen (T,)
-    int64 scratch, stamped with mark). Returns (count in out, nodes visited)."""
+    (diagonal < detail x distance to the box), plus the `history` ids; each id once and none of
+    `skip` (bits (T // 64 + 1,) uint64 scratch, zero on entry and on return, so the cost
+    follows the candidates, not the world). Returns (count in out, nodes visited)."""
+    for k in range(len(skip)):
+        _take(skip[k], bits)
     count = 0
     for k in range(len(history)):
         t = history[k]
-        if seen[t] != mark:
-            seen[t] = mark
+        if _take(t, bits):
             out[count] = t
             count += 1
     top = 0
@@ -647,8 +684,7 @@ def gather_candidates(lo, hi, first_child, child_count, nonempty, roots, planes,
         if n == 0 or diag2 < detail * detail * dist2:
             for j in range(lists.shape[1]):
                 t = lists[node, j]
-                if t >= 0 and seen[t] != mark:
-                    seen[t] = mark
+                if t >= 0 and _take(t, bits):
                     out[count] = t
                     count += 1
             continue
@@ -656,6 +692,10 @@ def gather_candidates(lo, hi, first_child, child_count, nonempty, roots, planes,
         for c in range(n - 1, -1, -1):
             stack[top] = first + c
             top += 1
+    for k in range(count):
+        bits[out[k] >> 6] = 0
+    for k in range(len(skip)):
+        bits[skip[k] >> 6] = 0
     return count, visited
 
 

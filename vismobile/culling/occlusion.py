@@ -36,6 +36,13 @@ or triangle is taken with all its moves (rectangle grown by the projection of m,
 lowered by sqrt(3) m); an occluder point at depth z >= z_occ (the nearest occluder point, at
 least the clip depth) shifts on screen by at most sqrt(3) m / z_occ (1 + tan) and recedes by at
 most sqrt(3) m, so the rectangle grows by that shift too and the depth test gains sqrt(3) m.
+Memory. On an in-memory World the stage slices whole-world tables (normals, areas, the
+rasteriser's mesh); on any other world (a memory-mapped .vmp, mapped.MappedWorld) it keeps
+nothing per triangle but a 1-bit candidate map: the node lists are built at prepare from each
+leaf's references and the corners (hiz.node_candidates), and each frame computes its
+candidates' rows (occluder_rows.triangle_rows) and its occluders' mesh (occluder_mesh of those
+triangles alone) with the same bits, so both send the same triangles (tests).
+
 Contract: never drops a triangle that the full world's item buffer shows (any resolution; with
 `screen`, at that resolution), also when the device moves points by m, and through the cracks
 the GPU may leave at T-junctions (never counted as closed).
@@ -44,15 +51,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mapped import triangle_corners
 from ..partition.base import gather_ranges
+from ..world import World, unit_normals
+from .facing import frontfacing
 from .frustum import frustum_refine
 from .hiz import (build_tiles, cull_nodes, frustum_cull_nodes, gather_candidates,
                   hidden_triangles, lod_ancestors, node_candidates, rasterise, score_candidates)
-from .kernels import backfacing
-from .precision import device_move
+from .occluder_rows import triangle_rows
+from .precision import device_move, world_scale
 from .state import CullResult, CullState
 from .tree import Tree
-from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE, GAMMA_8, triangle_cross
+from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE, GAMMA_8
 
 # Depth margin in units of z^2 / near: the GPU's 24-bit depth buffer resolves z^2 / near * 2^-24
 # (window depth 1 - near / z); 64x that keeps z-fighting pairs visible.
@@ -185,24 +195,29 @@ class DepthBufferOcclusion:
         self.tree = tree
         world = tree.world
         count = world.triangle_count
-        (self.points, self.tri_points, self.normals, self.offsets, self.groups,
-         self.piece_start, self.piece_end, self.piece_a, self.piece_b, self.partner,
-         self.partner_any) = occluder_mesh(world.vertices, world.triangles, world.normals)
-        corners = world.corners
-        # Candidate lists: each node's largest triangles (children before parents).
+        # Read per candidate from the world (float64 in memory, or a float32 mapped file).
+        self.vertices, self.triangles_ = np.asarray(world.vertices), np.asarray(world.triangles)
+        self.magnitude = world_scale(self.vertices)
+        # An in-memory World keeps whole-world tables (rows and the rasteriser's mesh are sliced
+        # per frame); any other world (mapped.MappedWorld) computes them per frame for the
+        # candidates and occluders only (occluder_rows, occluder_mesh): same bits, same result.
+        self.tables = isinstance(world, World)
+        if self.tables:
+            (self.points, self.tri_points, self.normals, self.offsets, self.groups,
+             self.piece_start, self.piece_end, self.piece_a, self.piece_b, self.partner,
+             self.partner_any) = occluder_mesh(world.vertices, world.triangles, world.normals)
+            self.areas = np.ascontiguousarray(world.areas, dtype=np.float64)
+            self.centroids = np.ascontiguousarray(world.centroids, dtype=np.float64)
+            corners = world.corners
+            self.v0 = np.ascontiguousarray(corners[:, 0])
+            self.radius = np.linalg.norm(corners - self.centroids[:, None], axis=2).max(1)
+            self.stamp = np.full(count, -1, dtype=np.int64)
+        # Candidate lists: each node's largest triangles (children before parents), areas from
+        # the corners of each leaf's references: (N, k), nothing per triangle kept.
         order = np.arange(tree.node_count - 1, -1, -1, dtype=np.int64)
         self.lists = node_candidates(order, tree.first_child, tree.child_count, tree.ref_start,
-                                     tree.ref_end, tree.tri_refs, world.areas, self.candidates)
-        self.areas = np.ascontiguousarray(world.areas, dtype=np.float64)
-        self.centroids = np.ascontiguousarray(world.centroids, dtype=np.float64)
-        self.v0 = np.ascontiguousarray(corners[:, 0])
-        self.radius = np.linalg.norm(corners - self.centroids[:, None], axis=2).max(1)
-        cross, abs_cross, edge_a, edge_b = triangle_cross(corners)
-        # Flipped (negated cross product): certainly back-facing = this one certainly faces.
-        self.flipped = np.column_stack([-cross, abs_cross, corners[:, 0], edge_a, edge_b])
-        self.vertices = np.ascontiguousarray(world.vertices, dtype=np.float64)
-        self.triangles_ = np.ascontiguousarray(world.triangles, dtype=np.int64)
-        self.magnitude = float(np.abs(world.vertices).max()) if world.vertices.size else 0.0
+                                     tree.ref_end, tree.tri_refs, self.vertices,
+                                     self.triangles_, self.candidates)
         # Scratch, allocated once: frames reuse it.
         pixels = self.width * self.height
         tw, th = self.tile
@@ -214,8 +229,7 @@ class DepthBufferOcclusion:
         self.tile_max = np.full(self.tiles, np.inf)
         self.tile_any = np.zeros(self.tiles, dtype=np.bool_)
         self.tile_min = np.full(self.tiles, np.inf)
-        self.stamp = np.full(count, -1, dtype=np.int64)
-        self.seen = np.full(count, -1, dtype=np.int64)
+        self.bits = np.zeros(count // 64 + 1, dtype=np.uint64)  # candidates' dedup, 1 bit each
         self._stack = np.empty(tree.node_count + 64, dtype=np.int64)
         self._masks = np.empty(tree.node_count + 64, dtype=np.int64)
         self._below = np.empty(tree.node_count + 64, dtype=np.uint8)
@@ -229,6 +243,15 @@ class DepthBufferOcclusion:
         self._out = np.empty(tree.node_count + 64, dtype=np.int64)
         self._cands = np.empty(self.lists.size + self.occluders, dtype=np.int64)
 
+    def rows(self, ids) -> tuple:
+        """(index (n,), normals, v0, centroids, radius, areas) for ids (n,) int64: the tables
+        and ids on an in-memory World, else the rows computed from the corners (occluder_rows)
+        and arange(n); row index[k] belongs to ids[k]."""
+        if self.tables:
+            return ids, self.normals, self.v0, self.centroids, self.radius, self.areas
+        return (np.arange(len(ids), dtype=np.int64),
+                *triangle_rows(ids, self.vertices, self.triangles_))
+
     def facing(self, ids, eye) -> np.ndarray:
         """(n,) bool: triangle certainly faces the eye, also as the device rounds it, and is not
         seen more edge-on than GRAZING (its projected winding is reliable).
@@ -236,16 +259,18 @@ class DepthBufferOcclusion:
         Errs toward False (not an occluder) by the device rounding bound delta per coordinate.
         ids : (n,) int64 world triangle ids;  eye : (3,) float64"""
         ids = np.ascontiguousarray(ids, dtype=np.int64)
+        eye = np.asarray(eye, dtype=np.float64)
         delta = DEVICE_RELATIVE * max(self.magnitude, float(np.abs(eye).max())) + DEVICE_ABSOLUTE
-        sure = backfacing(ids, self.flipped, np.asarray(eye, dtype=np.float64), delta, GAMMA_8)
-        d = self.centroids[ids] - eye
-        towards = -np.einsum("ij,ij->i", self.normals[ids], self.v0[ids] - eye)
+        sure = frontfacing(ids, self.vertices, self.triangles_, eye, delta, GAMMA_8)
+        index, normals, v0, centroids, _, _ = self.rows(ids)
+        d = centroids[index] - eye
+        towards = -np.einsum("ij,ij->i", normals[index], v0[index] - eye)
         return sure & (towards > GRAZING * np.sqrt(np.einsum("ij,ij->i", d, d)))
 
     def best(self, ids, eye, planes, count) -> np.ndarray:
         """(<= count,) int64 of ids with the largest positive estimated solid angle, best first."""
-        score = score_candidates(ids, self.normals, self.v0, self.centroids, self.radius,
-                                 self.areas, planes, eye, GRAZING)
+        ids = np.ascontiguousarray(ids, dtype=np.int64)
+        score = score_candidates(*self.rows(ids), planes, eye, GRAZING)
         good = np.flatnonzero(score > 0)
         if len(good) > count:
             good = good[np.argpartition(-score[good], count - 1)[:count]]
@@ -253,7 +278,7 @@ class DepthBufferOcclusion:
 
     def select(self, state: CullState, roots=None, history=None, skip=None,
                reach=None) -> np.ndarray:
-        """(K,) int64 world ids of this frame's occluders, sorted by plane group: candidates of
+        """(K,) int64 world ids of this frame's occluders, best first: candidates of
         the walk from `roots` (default: the tree's root, coarse far away) and `history`
         (default: last frame's), not in `skip`; with `reach`, only nodes nearer than that depth
         (the walk's far plane pulled in; which occluders are chosen never affects safety)."""
@@ -270,8 +295,7 @@ class DepthBufferOcclusion:
         if len(roots) + tree.node_count > len(self._stack):
             self._stack = np.empty(len(roots) + tree.node_count, dtype=np.int64)
             self._below = np.empty(len(roots) + tree.node_count, dtype=np.uint8)
-        if skip is not None:  # marked as seen: the walk passes them over
-            self.seen[skip] = self._frame
+        skip = np.zeros(0, np.int64) if skip is None else np.ascontiguousarray(skip, np.int64)
         need = self.lists.size + len(history)
         if need > len(self._cands):
             self._cands = np.empty(need, dtype=np.int64)
@@ -280,13 +304,12 @@ class DepthBufferOcclusion:
             planes[5, 3] -= (camera.far - reach) * np.linalg.norm(planes[5, :3])
         found, visited = gather_candidates(tree.lo, tree.hi, tree.first_child, tree.child_count,
                                            tree.nonempty, roots, planes, tree.tol, eye,
-                                           self.detail, self.lists, history, self.seen,
-                                           self._frame, self._cands, self._stack)
+                                           self.detail, self.lists, history, skip, self.bits,
+                                           self._cands, self._stack)
         state.count(f"{self.name}.candidates", found)
         state.count(f"{self.name}.candidate_nodes", visited)
         chosen = self.best(self._cands[:found], eye, state.planes, self.occluders)
-        chosen = chosen[self.facing(chosen, eye)]
-        return chosen[np.argsort(self.groups[chosen], kind="stable")]
+        return chosen[self.facing(chosen, eye)]
 
     def observe(self, result: CullResult) -> None:
         """Keeps the best `occluders` of the frame's sent triangles (ranked from this frame's
@@ -332,15 +355,33 @@ class DepthBufferOcclusion:
         ty = np.tan(np.radians(camera.fov) / 2.0)
         return np.asarray(camera.eye, dtype=np.float64), rotation, ty * camera.aspect, ty
 
+    def mesh(self, chosen) -> tuple:
+        """(order, the rasteriser's tables, stamp) for world triangles `chosen` (K,) int64:
+        order indexes the tables' triangles sorted by plane group (stable). On an in-memory
+        World the world's tables with order = chosen sorted; else occluder_mesh of the chosen
+        triangles alone (local ids 0..K-1): points, groups and pieces match by exact value as
+        in the world's, so the rasteriser sees the same triangles, planes and shared edges."""
+        if self.tables:
+            order = chosen[np.argsort(self.groups[chosen], kind="stable")]
+            return (order, self.groups, self.tri_points, self.points, self.normals, self.offsets,
+                    self.piece_start, self.piece_end, self.piece_a, self.piece_b, self.partner,
+                    self.partner_any, self.stamp)
+        corners = triangle_corners(self.tree.world, chosen)
+        normals, _ = unit_normals(corners)
+        local = np.arange(3 * len(chosen), dtype=np.int64).reshape(-1, 3)
+        (points, tri_points, normals, offsets, groups, piece_start, piece_end, piece_a, piece_b,
+         partner, partner_any) = occluder_mesh(corners.reshape(-1, 3), local, normals)
+        order = np.argsort(groups, kind="stable").astype(np.int64)
+        return (order, groups, tri_points, points, normals, offsets, piece_start, piece_end,
+                piece_a, piece_b, partner, partner_any, np.full(len(chosen), -1, np.int64))
+
     def rasterise(self, camera, chosen) -> int:
-        """Adds world triangles `chosen` (K,) int64 (sorted by group; they must certainly face
-        the eye) to the depth buffer and rebuilds the tiles; returns pixels newly covered."""
+        """Adds world triangles `chosen` (K,) int64 (they must certainly face the eye) to the
+        depth buffer and rebuilds the tiles; returns pixels newly covered."""
         eye, rotation, tx, ty = self._view(camera)
         self._frame += 1
         nearest, written = rasterise(
-            np.ascontiguousarray(chosen, dtype=np.int64), self.groups, self.tri_points,
-            self.points, self.normals, self.offsets, self.piece_start, self.piece_end,
-            self.piece_a, self.piece_b, self.partner, self.partner_any, self.stamp, self._frame,
+            *self.mesh(np.ascontiguousarray(chosen, dtype=np.int64)), self._frame,
             eye, rotation, self.near_clip(camera), tx, ty, self.width, self.height, self.depth,
             self.mask, self.centre, self.crease_far)
         self.nearest = min(self.nearest, nearest)
@@ -467,7 +508,6 @@ class DepthBufferOcclusion:
             state.count(f"{self.name}.self_occluders", len(live))
             if len(live):
                 extra = ids[live]
-                extra = extra[np.argsort(self.groups[extra], kind="stable")]
                 if self.rasterise(camera, extra):  # may lower self.nearest
                     again, _, _ = self._test(camera, ids, move, margin, recede, True, None)
                     hidden |= again

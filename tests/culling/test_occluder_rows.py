@@ -1,0 +1,54 @@
+"""occlusion's per-triangle rows computed from corners against the World's tables (same bits),
+and the node lists built from them against a numpy reference."""
+import numpy as np
+import pytest
+
+from vismobile.culling.hiz import node_candidates
+from vismobile.culling.occluder_rows import triangle_rows
+from vismobile.world import World
+
+
+def random_world(count, seed, dtype):
+    """A World of count random triangles (scales 0.01-100, two degenerate) and its vertices in
+    dtype (float32 values widen exactly)."""
+    rng = np.random.default_rng(seed)
+    vertices = rng.normal(size=(3 * count, 3)) * rng.uniform(0.01, 100.0, (3 * count, 1))
+    vertices[3:6] = vertices[0]  # triangle 1 collapses to a point
+    vertices[8] = vertices[7]  # triangle 2 is a segment
+    vertices = vertices.astype(dtype)
+    triangles = np.arange(3 * count, dtype=np.int32).reshape(-1, 3)
+    return World(vertices.astype(np.float64), triangles), vertices
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_rows_give_the_bits_of_the_world_tables(dtype):
+    world, vertices = random_world(700, 21, dtype)
+    ids = np.random.default_rng(2).permutation(world.triangle_count).astype(np.int64)
+    normals, v0, centroids, radius, areas = triangle_rows(ids, vertices, world.triangles)
+    corners = world.corners[ids]
+    assert np.array_equal(normals, world.normals[ids])
+    assert np.array_equal(v0, corners[:, 0])
+    assert np.array_equal(centroids, world.centroids[ids])
+    assert np.array_equal(areas, world.areas[ids])
+    expect = np.linalg.norm(world.corners - world.centroids[:, None], axis=2).max(1)[ids]
+    assert np.array_equal(radius, expect)
+    assert (areas == 0).sum() == 2 and not normals[areas == 0].any()
+    assert all(len(a) == 0 for a in triangle_rows(ids[:0], vertices, world.triangles))
+
+
+def test_node_lists_are_each_subtrees_largest_triangles(w1_octree):
+    part = w1_octree
+    world = part.world
+    order = np.arange(part.node_count - 1, -1, -1, dtype=np.int64)
+    k = 4
+    lists = node_candidates(order, part.first_child.astype(np.int64),
+                            part.child_count.astype(np.int64), part.ref_start.astype(np.int64),
+                            part.ref_end.astype(np.int64), part.tri_refs, world.vertices,
+                            world.triangles, k)
+    assert lists.shape == (part.node_count, k)
+    for node in range(part.node_count):
+        ids = np.unique(part.tri_refs[part.ref_start[node]:part.ref_end[node]])
+        ids = ids[world.areas[ids] > 0]
+        expect = ids[np.lexsort((ids, -world.areas[ids]))][:k]  # largest first, ties by id
+        got = lists[node]
+        assert np.array_equal(got[:len(expect)], expect) and (got[len(expect):] == -1).all()
