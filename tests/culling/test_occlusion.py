@@ -298,3 +298,17 @@ def test_occlusion_on_a_mapped_world_culls_as_in_memory_and_drops_nothing_visibl
                 assert value.size < world.triangle_count, name
         assert stage.bits.nbytes <= mapped.world.triangle_count // 8 + 8
     assert culled > 0
+
+
+def test_unique_rows_are_numpys_unique_rows():
+    from vismobile.culling.occlusion import unique_rows
+
+    rng = np.random.default_rng(2)
+    rows = rng.integers(-2, 3, (500, 3)).astype(np.float64) * 0.5
+    rows[7] = [0.0, -0.0, 1.0]
+    rows[8] = [-0.0, 0.0, 1.0]  # equal to row 7 by value
+    got, inverse = unique_rows(rows)
+    expect, expect_inverse = np.unique(rows, axis=0, return_inverse=True)
+    assert np.array_equal(got, expect) and np.array_equal(inverse, expect_inverse.ravel())
+    assert inverse[7] == inverse[8] and np.array_equal(got[inverse], rows)
+    assert unique_rows(np.zeros((0, 4)))[0].shape == (0, 4)

