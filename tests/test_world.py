@@ -158,3 +158,15 @@ def test_quantized_keeps_ids_and_refuses_what_the_mode_cannot_hold():
         world.transformed(1.0, (1e7, 0, 0)).quantized("float32")
     with pytest.raises(ProfileError, match="cannot resolve"):
         world.transformed(1e-4).quantized("fixed16.16")
+
+
+def test_to_obj_writes_coordinates_exactly(tmp_path):
+    """Far from the origin 6 significant digits would move vertices by up to 0.5 units."""
+    from vismobile.world import World
+
+    vertices = np.array([[1e5 + 0.123456789, 2.5, -3.0], [1e5 + 1.0, 2.5, -3.0],
+                         [1e5, 3.5, -2.0 / 3.0]])
+    World(vertices, np.array([[0, 1, 2]]), np.zeros(1, dtype=np.int32), ["tri"], "far").to_obj(
+        tmp_path / "far.obj")
+    back = World.from_obj(tmp_path / "far.obj")
+    assert np.array_equal(back.vertices, vertices)

@@ -197,11 +197,16 @@ class World:
                              if dropped else "no triangles")
         return world
 
-    def to_obj(self, path) -> None:
-        """Write a deterministic OBJ (one `o` record per object), atomically."""
+    def to_obj(self, path, digits=None) -> None:
+        """Write a deterministic OBJ (one `o` record per object), atomically. Coordinates with
+        `digits` significant digits; None: exact (6 when those read back to the same doubles,
+        else 17)."""
         buffer = io.StringIO()
         buffer.write(f"# vismobile world {self.name}: {self.triangle_count} triangles\n")
-        np.savetxt(buffer, self.vertices, fmt="v %.6g %.6g %.6g")
+        if digits is None:
+            short = np.char.mod("%.6g", self.vertices).astype(np.float64)
+            digits = 6 if np.array_equal(short, self.vertices) else 17
+        np.savetxt(buffer, self.vertices, fmt=f"v %.{digits}g %.{digits}g %.{digits}g")
         order = np.argsort(self.object_ids, kind="stable")
         ids = self.object_ids[order]
         starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else []

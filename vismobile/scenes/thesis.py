@@ -172,7 +172,7 @@ def build_world(name: str, cache_dir=None, rebuild: bool = False) -> World:
     if not fresh:
         if name not in ("w1", "w5"):
             objects.check_models()
-        generate(name).to_obj(path)
+        generate(name).to_obj(path, digits=6)  # the worlds' canonical files
         atomic_write_bytes(key_path, (key + "\n").encode())
     return World.from_obj(path)
 
