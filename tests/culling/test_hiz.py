@@ -291,3 +291,32 @@ def test_candidates_are_taken_once_skips_left_out_and_the_bitmap_handed_back(w1_
     assert list(every[:3]) == [5, 7, 60]  # history first, in order
     skip = every[1::3]
     assert np.array_equal(gather(skip), every[~np.isin(every, skip)])
+
+
+def test_facing_occluders_is_the_device_bound_and_the_grazing_test():
+    from vismobile.culling.facing import frontfacing
+    from vismobile.culling.hiz import facing_occluders
+    from vismobile.culling.triangle_backface import GAMMA_8
+
+    rng = np.random.default_rng(21)
+    vertices = rng.normal(size=(1500, 3)) * rng.uniform(0.01, 10.0, (1500, 1))
+    triangles = np.arange(1500, dtype=np.int32).reshape(-1, 3)
+    corners = vertices[triangles]
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals = cross / np.linalg.norm(cross, axis=1, keepdims=True)
+    v0, centroids = corners[:, 0].copy(), corners.mean(axis=1)
+    ids = rng.permutation(500).astype(np.int64)
+    eye = np.array([0.3, -0.2, 0.5])
+    for delta, grazing in ((0.0, 1e-6), (1e-3, 0.3), (0.5, 0.0)):
+        sure = frontfacing(ids, vertices, triangles, eye, delta, GAMMA_8)
+        w, n = eye - v0[ids], normals[ids]
+        towards = (n[:, 0] * w[:, 0] + n[:, 1] * w[:, 1]) + n[:, 2] * w[:, 2]
+        d = centroids[ids] - eye
+        far = np.sqrt((d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) + d[:, 2] * d[:, 2])
+        expect = sure & (towards > grazing * far)
+        for rows, table in ((ids, slice(None)), (np.arange(500), ids)):  # world or frame rows
+            got = facing_occluders(ids, vertices, triangles, rows, normals[table], v0[table],
+                                   centroids[table], eye, delta, GAMMA_8, grazing)
+            assert np.array_equal(got, expect) and 0 < got.sum() < len(ids)
+        if grazing == 0.3:
+            assert (sure & ~got).any()  # the grazing test dropped some that certainly face

@@ -77,13 +77,13 @@ def unit_corner_rays(camera) -> np.ndarray:
 def _corner_rays(camera) -> list:
     """corner_rays as four tuples of floats (scalars: numpy's small-array calls cost more)."""
     (rx, ry, rz), (ux, uy, uz), (fx, fy, fz) = camera.axes()
-    tx, ty = _half_tangents(camera.fov, camera.aspect)
+    tx, ty = half_tangents(camera.fov, camera.aspect)
     return [(fx + a * rx + b * ux, fy + a * ry + b * uy, fz + a * rz + b * uz)
             for a, b in ((-tx, -ty), (tx, -ty), (tx, ty), (-tx, ty))]
 
 
 @lru_cache(maxsize=64)  # every frame asks with the same fov and aspect
-def _half_tangents(fov: float, aspect: float) -> tuple:
+def half_tangents(fov: float, aspect: float) -> tuple:
     """(tan of the horizontal, of the vertical half field of view) as the frustum's corners use
     them: ty = tan(fov / 2), tx = ty x aspect."""
     ty = np.tan(np.radians(fov) / 2.0)

@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .facing import frontfacing
 from .occluder_rows import triangle_area
 
 SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
@@ -155,6 +156,8 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     xs = np.empty(4)
     ys = np.empty(4)
     cn = np.empty(3)
+    row_l = np.empty(height)  # per row: leftmost and rightmost crossing of the triangle
+    row_r = np.empty(height)
     sx, sy = 0.5 * width / tx, 0.5 * height / ty
     nearest = np.inf
     written = 0
@@ -185,20 +188,30 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
             r1 = min(np.floor(ys[:n].max() - 0.5), height - 1.0)
             if not r0 <= r1:
                 continue
-            for rr in range(int(r0), int(r1) + 1):
-                yc = rr + 0.5
-                xl, xr = np.inf, -np.inf
-                for c in range(n):
-                    ya, yb = ys[c], ys[(c + 1) % n]
-                    xa, xb = xs[c], xs[(c + 1) % n]
+            ir0, ir1 = int(r0), int(r1)
+            for rr in range(ir0, ir1 + 1):
+                row_l[rr] = np.inf
+                row_r[rr] = -np.inf
+            for c in range(n):  # each edge over the rows it may cross (one row of margin)
+                d = c + 1 if c + 1 < n else 0
+                ya, yb, xa, xb = ys[c], ys[d], xs[c], xs[d]
+                e0 = max(np.ceil(min(ya, yb) - 0.5) - 1.0, r0)
+                e1 = min(np.floor(max(ya, yb) - 0.5) + 1.0, r1)
+                if not e0 <= e1:
+                    continue
+                for rr in range(int(e0), int(e1) + 1):
+                    yc = rr + 0.5
                     if (ya <= yc <= yb) or (yb <= yc <= ya):
                         if ya == yb:
-                            xl, xr = min(xl, xa, xb), max(xr, xa, xb)
+                            row_l[rr] = min(row_l[rr], xa, xb)
+                            row_r[rr] = max(row_r[rr], xa, xb)
                         else:
                             x = xa + (yc - ya) * (xb - xa) / (yb - ya)
-                            xl, xr = min(xl, x), max(xr, x)
-                c0 = max(np.ceil(xl - 0.5), 0.0)
-                c1 = min(np.floor(xr - 0.5), width - 1.0)
+                            row_l[rr] = min(row_l[rr], x)
+                            row_r[rr] = max(row_r[rr], x)
+            for rr in range(ir0, ir1 + 1):
+                c0 = max(np.ceil(row_l[rr] - 0.5), 0.0)
+                c1 = min(np.floor(row_r[rr] - 0.5), width - 1.0)
                 if not c0 <= c1:
                     continue
                 for i in range(int(c0), int(c1) + 1):
@@ -755,6 +768,26 @@ def score_candidates(ids, normals, v0, centroids, radius, areas, planes, eye, gr
                 break
         if inside:
             out[k] = areas[t] * towards / max(dist2 ** 1.5, 1e-300)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def facing_occluders(ids, vertices, triangles, rows, normals, v0, centroids, eye, delta, gamma8,
+                     grazing):
+    """(n,) bool: triangle ids[k] certainly faces the eye, also after any move of its corners
+    and the eye by up to delta per coordinate (facing.frontfacing: errs toward False by that
+    bound), and is seen less edge-on than `grazing`: n.(e - v0) > grazing |d| (d eye to
+    centroid, as score_candidates computes them) from its row rows[k] of normals, v0 and
+    centroids."""
+    out = frontfacing(ids, vertices, triangles, eye, delta, gamma8)
+    for k in range(len(ids)):
+        if not out[k]:
+            continue
+        t = rows[k]
+        dx, dy, dz = centroids[t, 0] - eye[0], centroids[t, 1] - eye[1], centroids[t, 2] - eye[2]
+        towards = (normals[t, 0] * (eye[0] - v0[t, 0]) + normals[t, 1] * (eye[1] - v0[t, 1])
+                   + normals[t, 2] * (eye[2] - v0[t, 2]))
+        out[k] = towards > grazing * np.sqrt(dx * dx + dy * dy + dz * dz)
     return out
 
 

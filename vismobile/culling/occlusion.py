@@ -54,10 +54,11 @@ import numpy as np
 from ..mapped import triangle_corners
 from ..partition.base import gather_ranges
 from ..world import World, unit_normals
-from .facing import frontfacing
+from .backface import half_tangents
 from .frustum import frustum_refine
-from .hiz import (build_tiles, cull_nodes, frustum_cull_nodes, gather_candidates,
-                  hidden_triangles, lod_ancestors, node_candidates, rasterise, score_candidates)
+from .hiz import (build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
+                  gather_candidates, hidden_triangles, lod_ancestors, node_candidates, rasterise,
+                  score_candidates)
 from .occluder_rows import triangle_rows
 from .precision import device_move, world_scale
 from .state import CullResult, CullState
@@ -203,6 +204,7 @@ class DepthBufferOcclusion:
         self.nearest = np.inf  # nearest depth of this frame's rasterised occluder points
         self.history = np.zeros(0, dtype=np.int64)
         self._frame = 0
+        self._view_of = self._view_now = None
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -273,12 +275,10 @@ class DepthBufferOcclusion:
         ids : (n,) int64 world triangle ids;  eye : (3,) float64"""
         ids = np.ascontiguousarray(ids, dtype=np.int64)
         eye = np.asarray(eye, dtype=np.float64)
-        delta = DEVICE_RELATIVE * max(self.magnitude, float(np.abs(eye).max())) + DEVICE_ABSOLUTE
-        sure = frontfacing(ids, self.vertices, self.triangles_, eye, delta, GAMMA_8)
+        delta = DEVICE_RELATIVE * max(self.magnitude, *map(abs, eye)) + DEVICE_ABSOLUTE
         index, normals, v0, centroids, _, _ = self.rows(ids)
-        d = centroids[index] - eye
-        towards = -np.einsum("ij,ij->i", normals[index], v0[index] - eye)
-        return sure & (towards > GRAZING * np.sqrt(np.einsum("ij,ij->i", d, d)))
+        return facing_occluders(ids, self.vertices, self.triangles_, index, normals, v0,
+                                centroids, eye, delta, GAMMA_8, GRAZING)
 
     def best(self, ids, eye, planes, count) -> np.ndarray:
         """(<= count,) int64 of ids with the largest positive estimated solid angle, best first."""
@@ -338,16 +338,13 @@ class DepthBufferOcclusion:
     def move(self, camera) -> float:
         """m: per-coordinate move of any point relative to the eye on the device (its own
         rounding and the eye's), at this world's and eye's scale."""
-        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
-        return 2.0 * device_move(self.arithmetic, scale)
+        return self._view(camera)[4]
 
     def near_clip(self, camera) -> float:
         """Depth occluders are clipped at: beyond the near plane by more than the device's error
         in placing it (sqrt(3) m, and DEVICE_RELATIVE x scale as before), so only parts the GPU
         certainly draws occlude (it clips at `near`)."""
-        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
-        return (camera.near * (1.0 + NEAR_RELATIVE)
-                + max(DEVICE_RELATIVE * scale, 2.0 * self.move(camera)))
+        return self._view(camera)[5]
 
     def shift(self, camera, move: float) -> float:
         """Largest screen shift (x / z units) of a rasterised occluder point moved by `move` per
@@ -358,15 +355,22 @@ class DepthBufferOcclusion:
         z = self.nearest - reach
         if not z > 0:
             return np.inf
-        ty = np.tan(np.radians(camera.fov) / 2.0)
-        tangent = max(ty, ty * camera.aspect) * self.nearest / z + reach / z
+        tx, ty = self._view(camera)[2:4]
+        tangent = max(ty, tx) * self.nearest / z + reach / z
         return reach / z * (1.0 + tangent)
 
     def _view(self, camera) -> tuple:
-        right, up, forward = camera.basis()
-        rotation = np.ascontiguousarray(np.stack([right, up, forward]), dtype=np.float64)
-        ty = np.tan(np.radians(camera.fov) / 2.0)
-        return np.asarray(camera.eye, dtype=np.float64), rotation, ty * camera.aspect, ty
+        """(eye (3,), rotation (3, 3) rows right, up, forward, tx, ty, move, near clip, scale)
+        of the camera, computed once per camera (cameras are frozen; a frame asks many times)."""
+        if camera is self._view_of:
+            return self._view_now
+        tx, ty = half_tangents(camera.fov, camera.aspect)
+        scale = max(self.magnitude, *map(abs, camera.position))
+        move = 2.0 * device_move(self.arithmetic, scale)
+        clip = camera.near * (1.0 + NEAR_RELATIVE) + max(DEVICE_RELATIVE * scale, 2.0 * move)
+        self._view_of = camera
+        self._view_now = (camera.eye, np.array(camera.axes()), tx, ty, move, clip, scale)
+        return self._view_now
 
     def mesh(self, chosen) -> tuple:
         """(order, the rasteriser's tables, stamp) for world triangles `chosen` (K,) int64:
@@ -391,11 +395,11 @@ class DepthBufferOcclusion:
     def rasterise(self, camera, chosen) -> int:
         """Adds world triangles `chosen` (K,) int64 (they must certainly face the eye) to the
         depth buffer and rebuilds the tiles; returns pixels newly covered."""
-        eye, rotation, tx, ty = self._view(camera)
+        eye, rotation, tx, ty, _, clip, _ = self._view(camera)
         self._frame += 1
         nearest, written = rasterise(
             *self.mesh(np.ascontiguousarray(chosen, dtype=np.int64)), self._frame,
-            eye, rotation, self.near_clip(camera), tx, ty, self.width, self.height, self.depth,
+            eye, rotation, clip, tx, ty, self.width, self.height, self.depth,
             self.mask, self.centre, self.crease_far)
         self.nearest = min(self.nearest, nearest)
         build_tiles(self.depth, self.width, self.height, *self.tile, self.tile_max,
@@ -416,9 +420,8 @@ class DepthBufferOcclusion:
             self.tile_any.fill(False)
         state.count(f"{self.name}.occluders", len(chosen))
         state.count(f"{self.name}.pixels_covered", written)
-        eye, rotation, tx, ty = self._view(camera)
+        eye, rotation, tx, ty, move = self._view(camera)[:5]
         margin = ZBUFFER_MARGIN / camera.near
-        move = self.move(camera)
         recede = np.sqrt(3.0) * move  # an occluder point moves this much farther at most
         if not written and fused:  # nothing occludes: the frustum walk alone
             state.nodes = frustum_refine(tree, state, "vfc")
@@ -489,12 +492,12 @@ class DepthBufferOcclusion:
         state.count(f"{self.name}.nodes_culled", culled)
 
     def _test(self, camera, ids, move, margin, recede, use_buffer, screen) -> tuple:
-        eye, rotation, tx, ty = self._view(camera)
+        eye, rotation, tx, ty, _, _, scale = self._view(camera)
         n = len(ids)
         hidden, subpixel = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
         zmin = np.empty(n)
         sw, sh = screen if screen is not None else (0, 0)
-        delta = DEVICE_RELATIVE * max(self.magnitude, float(np.abs(camera.eye).max()))
+        delta = DEVICE_RELATIVE * scale
         hidden_triangles(ids, self.vertices, self.triangles_, eye, rotation, camera.near, tx, ty,
                          self.width, self.height, move, self.shift(camera, move), margin, recede,
                          self.depth, self.tile_max, *self.tile, use_buffer, sw, sh,
