@@ -1,5 +1,6 @@
 """Winding: consistency across shared edges, closed rooms seen from inside, --fix-winding, and
 tune refusing to call back-face culling exact on a room whose walls face out (trimesh's box)."""
+import json
 import numpy as np
 import pytest
 import trimesh
@@ -180,3 +181,25 @@ def test_cli_info_reports_and_fixes_the_winding(tmp_path, vismobile_cli):
     missing = vismobile_cli("info", "nothing.stl", "--fix-winding", cwd=tmp_path)
     assert missing.returncode == 2 and missing.stderr.count("\n") == 1
     assert "nothing.stl" in missing.stderr and "Traceback" not in missing.stderr
+
+
+def test_cli_compare_sweeps_the_fixed_copy_of_a_mesh_world(tmp_path, vismobile_cli):
+    """compare --fix-winding writes OUT/fixed/room.obj and sweeps it instead of room.stl."""
+    room_mesh().export(tmp_path / "room.stl")
+    room_walk().save(tmp_path / "walk.csv")
+
+    def compare(out, *extra):
+        done = vismobile_cli("compare", "--worlds", "room.stl", "--trajectory", "walk.csv",
+                             "--structures", "octree:1", "--cull", "vfc+tbfc", "--profiles",
+                             "ipaq-hx2490b", "--frames", "sample:2", "--agreement", "0", "--jobs",
+                             "1", "--quiet", "-o", out, *extra, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        return done, json.loads((tmp_path / out / "runs.json").read_text())
+
+    done, fixed = compare("fixed", "--fix-winding")
+    assert "room.stl: reversed 12 of 12 triangles" in done.stdout
+    assert facing_centre(World.from_file(tmp_path / "fixed" / "fixed" / "room.obj")).all()
+    _, plain = compare("plain")
+    assert fixed[0]["world"].endswith("room.obj") and plain[0]["world"].endswith("room.stl")
+    # From inside, tbfc drops every wall of the outward-facing room and none of the fixed one.
+    assert plain[0]["triangles_sent"] == 0 and fixed[0]["triangles_sent"] > 0

@@ -1,7 +1,7 @@
 """`vismobile compare`: the thesis's chapter-5 matrix (SPEC §6) in one command, with a report."""
 from pathlib import Path
 
-from . import CULL_HELP, FRAMES_HELP, PROFILE_NAMES, WORLDS_DIR_HELP
+from . import CULL_HELP, FIX_WINDING_HELP, FRAMES_HELP, PROFILE_NAMES, WORLDS_DIR_HELP
 
 
 def add_parser(sub):
@@ -20,6 +20,10 @@ def add_parser(sub):
                              "thesis's paths for w1..w6 with the camera looking up and down "
                              "(+-85 degrees every 150 frames; trajectories/indoor_pitched.csv, "
                              "outdoor_pitched.csv)")
+    parser.add_argument("--fix-winding", action="store_true",
+                        help=FIX_WINDING_HELP + "; worlds given as mesh files only (the thesis "
+                             "worlds are used as built), each fixed copy written to "
+                             "OUT/fixed/NAME.obj and swept in its place")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
                         help="comma-separated grid, octree[:N or A-B], portal[:N or A-B], bsp "
                              "or all (default the thesis's: grid,octree:3-6,portal:1-3,bsp)")
@@ -87,7 +91,10 @@ def run(args) -> int:
         # a variant of the thesis's paths for w1..w6; world files still need a CSV
         trajectories = {w: trajectory_for(w, variant) for w in parse_worlds(args.worlds)
                         if w in WORLDS}
-    specs = expand(args.worlds, args.structures, args.cull, args.profiles, args.frames or "all",
+    worlds = args.worlds
+    if args.fix_winding:
+        worlds, trajectories = _fixed_worlds(worlds, trajectories or {}, args.out)
+    specs = expand(worlds, args.structures, args.cull, args.profiles, args.frames or "all",
                    trajectories)
     for path in (args.out / "runs.csv", args.out / "runs" / "x.json",
                  args.report or args.out / "report.html"):
@@ -104,7 +111,7 @@ def run(args) -> int:
 
     checks = []
     with Status("compare", enabled=not args.quiet) as status:
-        for world in parse_worlds(args.worlds) if args.agreement > 0 else []:
+        for world in parse_worlds(worlds) if args.agreement > 0 else []:
             status(f"raster/ray-cast agreement on {world}")
             checks += agreement(world, context, specs[0].profile, args.agreement,
                                 (trajectories or {}).get(world))
@@ -118,6 +125,39 @@ def run(args) -> int:
     print(f"wrote {args.out / 'runs.csv'}, {args.out / 'runs.json'} and {report}"
           + (f"; {failed} runs failed (listed in the report)" if failed else ""))
     return 1 if failed else 0
+
+
+def _fixed_worlds(worlds: str, trajectories: dict, out: Path) -> tuple:
+    """(worlds text, trajectories) with each mesh-file world whose winding check_winding flags
+    (camera positions from its trajectory) replaced by its fixed copy out/fixed/<stem>.obj
+    (<stem>_<k>.obj when another file of that name came first)."""
+    from ..study.matrix import parse_worlds
+    from ..study.thesis import WORLDS
+    from ..trajectory import Trajectory
+    from ..winding import fixed_world
+    from ..world import World
+
+    names, trajectories = [], dict(trajectories)
+    for world in parse_worlds(worlds):
+        if world in WORLDS:
+            names.append(world)
+            continue
+        eyes = Trajectory.load(trajectories[world]).poses[:, :3] if world in trajectories \
+            else None
+        fixed, report = fixed_world(World.from_file(world), eyes=eyes)
+        print(f"--fix-winding: {world}: reversed {report.to_fix:,} of {report.triangles:,} "
+              "triangles", flush=True)
+        if report.to_fix:
+            stem = Path(world).stem
+            copy = (out / "fixed" / f"{stem}.obj").resolve()
+            if str(copy) in names:  # two files of the same name in different folders
+                copy = copy.with_name(f"{stem}_{len(names)}.obj")
+            fixed.to_obj(copy)
+            if world in trajectories:
+                trajectories[str(copy)] = trajectories.pop(world)
+            world = str(copy)
+        names.append(world)
+    return ",".join(names), trajectories
 
 
 def _terrain_options(args) -> tuple:
