@@ -5,12 +5,19 @@ peak resident memory (RSS) of each phase.
 Usage: nice -n 19 .venv/bin/python tools/bench_outofcore.py --world out/big20m
        [--depth 5] [--jobs 2] [--chunk 524288] [--frames 60] [--out out/big20m.vmp]
        [--skip-build] [--cull vfc vfc,tbfc vfc,cbfc vfc,cone] [--results DIR]
+       [--occlusion candidates=8,occluders=512,rounds=3]
 Make the world first with tools/make_big_world.py. The build's peak RSS is reported for this
 process and for the largest worker; each --cull stage list runs in a fresh process
 (`--cull-only`) so its peak RSS and its prepare time (Culler set-up: the stages' per-triangle
 and per-node tables) are its own. Cameras: the W2 indoor path moved to the centre tile,
 --frames evenly spaced frames, profile iPaq (FOV 45, far plane 1000, 240 x 320). Each run's
-figures are also written to DIR/<vmp name>.cull.<stages>.json (default DIR: beside the .vmp).
+figures are also written to DIR/<vmp name>.cull.<stages>[.<options>].json (default DIR: beside
+the .vmp). --occlusion passes options to the occlusion stage (DepthBufferOcclusion's keywords).
+
+Occlusion on the mapped 20 M world (docs/scale.md, "Occlusion on the mapped world"): it keeps
+nothing per triangle, so its prepare is the node lists (one pass over the references) and its
+frames follow what is seen; the octree must be deep enough for its leaves to offer room-sized
+occluders (depth 7 for the 616 m world: `vismobile partition DIR --depth 7 --jobs 2`).
 """
 from __future__ import annotations
 
@@ -78,10 +85,13 @@ def cull(args) -> dict:
     aspect = get_profile("ipaq-hx2490b").aspect
     frames = np.linspace(0, len(track) - 1, args.frames).round().astype(int)
     start, cpu0 = time.perf_counter(), time.process_time()
-    culler = Culler(partition, args.cull[0])
+    culler = Culler(partition, args.cull[0], **stage_options(args))
     setup_s, setup_cpu_s = time.perf_counter() - start, time.process_time() - cpu0
     setup_rss_mb = peak_mb()
     times, cpu, sent = [], [], []
+    keys = ("occlusion.pixels_covered", "occlusion.occluders", "occlusion.candidates",
+            "occlusion.candidate_nodes", "nodes_visited", "triangles_tested")
+    stats = {k: [] for k in keys}
     for f in frames:
         camera = track.camera(int(f), aspect)
         t0, c0 = time.perf_counter(), time.process_time()
@@ -89,13 +99,34 @@ def cull(args) -> dict:
         times.append((time.perf_counter() - t0) * 1e3)
         cpu.append((time.process_time() - c0) * 1e3)
         sent.append(len(result.triangles))
-    return {"stages": args.cull[0], "import_rss_mb": import_rss_mb, "map_s": map_s,
+        for k in keys:
+            stats[k].append(result.stats.get(k, 0))
+    occlusion = [s for s in culler.stages if s.name == "occlusion"]
+    counters = {}
+    if occlusion:  # node passes' work and the buffer's coverage, means over the frames
+        counters = {k: float(np.mean(v)) for k, v in stats.items()}
+    return {"stages": args.cull[0], "options": args.occlusion, **counters, "import_rss_mb": import_rss_mb, "map_s": map_s,
             "culler_setup_s": setup_s, "culler_setup_cpu_s": setup_cpu_s,
             "setup_peak_rss_mb": setup_rss_mb, "first_frame_ms": times[0],
             "median_ms": statistics.median(times[1:] or times), "max_ms": max(times),
             "median_cpu_ms": statistics.median(cpu[1:] or cpu), "load": os.getloadavg()[0],
             "mean_sent": float(np.mean(sent)), "max_sent": int(max(sent)),
             "frames": len(frames), "peak_rss_mb": peak_mb()}
+
+
+def stage_options(args) -> dict:
+    """Culler keyword options from --occlusion "key=value,..." (values read as JSON: numbers,
+    true/false, null), e.g. {"occlusion": {"candidates": 8}}; {} when not given."""
+    if not args.occlusion:
+        return {}
+    options = {}
+    for item in args.occlusion.split(","):
+        key, _, value = item.partition("=")
+        try:
+            options[key.strip()] = json.loads(value)
+        except ValueError:
+            raise ValueError(f"--occlusion: {item!r} is not key=value with a JSON value") from None
+    return {"occlusion": options}
 
 
 def main(argv=None) -> int:
@@ -111,6 +142,8 @@ def main(argv=None) -> int:
                         help="stage lists to cull with, one fresh process each (vfc vfc,tbfc ...)")
     parser.add_argument("--results", type=Path, default=None,
                         help="folder for the per-run JSON (default: beside the .vmp)")
+    parser.add_argument("--occlusion", default="", metavar="KEY=VALUE,...",
+                        help="occlusion stage options, e.g. candidates=8,occluders=512,rounds=3")
     parser.add_argument("--cull-only", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     args.out = args.out or args.world.with_suffix(".vmp")
@@ -119,6 +152,7 @@ def main(argv=None) -> int:
     try:
         for stages in args.cull:
             parse_stages(stages)
+        stage_options(args)
     except ValueError as error:
         print(f"bench_outofcore: {error}", file=sys.stderr)
         return 2
@@ -126,6 +160,8 @@ def main(argv=None) -> int:
     if args.cull_only:
         text = json.dumps(cull(args))
         label = args.cull[0].replace(",", "+")
+        if args.occlusion:
+            label += "." + args.occlusion.replace("=", "").replace(",", "_")
         (results / f"{args.out.stem}.cull.{label}.json").write_text(text + "\n")
         print(text)
         return 0
@@ -140,7 +176,7 @@ def main(argv=None) -> int:
     for stages in args.cull:
         command = [sys.executable, __file__, "--cull-only", "--world", str(args.world), "--out",
                    str(args.out), "--frames", str(args.frames), "--cull", stages,
-                   "--results", str(results)]
+                   "--results", str(results), "--occlusion", args.occlusion]
         result = json.loads(subprocess.run(command, check=True, capture_output=True,
                                            text=True).stdout.splitlines()[-1])
         print(f"cull ({stages}, mapped): RSS after imports {result['import_rss_mb']:.0f} MB, "
@@ -152,6 +188,12 @@ def main(argv=None) -> int:
               f"{result['median_cpu_ms']:.2f} ms, load {result['load']:.1f}); mean sent "
               f"{result['mean_sent']:,.0f} (max {result['max_sent']:,}); peak RSS "
               f"{result['peak_rss_mb']:.0f} MB", flush=True)
+        if "occlusion.pixels_covered" in result:
+            print("  occlusion, means a frame: " + ", ".join(
+                f"{k.split('.')[-1]} {v:,.0f}" for k, v in result.items()
+                if k in ("occlusion.pixels_covered", "occlusion.occluders",
+                         "occlusion.candidate_nodes", "nodes_visited", "triangles_tested")),
+                flush=True)
     return 0
 
 

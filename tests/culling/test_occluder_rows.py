@@ -52,3 +52,22 @@ def test_node_lists_are_each_subtrees_largest_triangles(w1_octree):
         expect = ids[np.lexsort((ids, -world.areas[ids]))][:k]  # largest first, ties by id
         got = lists[node]
         assert np.array_equal(got[:len(expect)], expect) and (got[len(expect):] == -1).all()
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_scores_from_corners_are_the_scores_of_the_world_tables(dtype):
+    from vismobile.camera import Camera
+    from vismobile.culling.hiz import score_candidates
+    from vismobile.culling.occluder_rows import score_corners
+
+    world, vertices = random_world(700, 22, dtype)
+    radius = np.linalg.norm(world.corners - world.centroids[:, None], axis=2).max(1)
+    ids = np.random.default_rng(3).permutation(world.triangle_count).astype(np.int64)
+    for eye, yaw in (((0.0, 0.0, 0.0), 0.0), ((10.0, -5.0, 3.0), 130.0)):
+        camera = Camera(eye, yaw=yaw, pitch=10.0, aspect=0.75, far=200.0)
+        planes = np.ascontiguousarray(camera.frustum_planes(), dtype=np.float64)
+        eye = np.asarray(camera.eye, dtype=np.float64)
+        expect = score_candidates(ids, world.normals, np.ascontiguousarray(world.corners[:, 0]),
+                                  world.centroids, radius, world.areas, planes, eye, 1e-6)
+        got = score_corners(ids, vertices, world.triangles, planes, eye, 1e-6)
+        assert np.array_equal(got, expect) and 0 < (got > 0).sum() < len(ids)

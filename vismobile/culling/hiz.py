@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit
 
 from .facing import frontfacing
-from .occluder_rows import triangle_area
+from .occluder_rows import solid_angle, triangle_area
 
 SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
 DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
@@ -754,20 +754,9 @@ def score_candidates(ids, normals, v0, centroids, radius, areas, planes, eye, gr
     out = np.zeros(len(ids))
     for k in range(len(ids)):
         t = ids[k]
-        dx, dy, dz = centroids[t, 0] - eye[0], centroids[t, 1] - eye[1], centroids[t, 2] - eye[2]
-        dist2 = dx * dx + dy * dy + dz * dz
-        towards = (normals[t, 0] * (eye[0] - v0[t, 0]) + normals[t, 1] * (eye[1] - v0[t, 1])
-                   + normals[t, 2] * (eye[2] - v0[t, 2]))
-        if not towards > grazing * np.sqrt(dist2):
-            continue
-        inside = True
-        for p in range(len(planes)):
-            if (planes[p, 0] * centroids[t, 0] + planes[p, 1] * centroids[t, 1]
-                    + planes[p, 2] * centroids[t, 2] + planes[p, 3]) < -radius[t]:
-                inside = False
-                break
-        if inside:
-            out[k] = areas[t] * towards / max(dist2 ** 1.5, 1e-300)
+        out[k] = solid_angle(normals[t, 0], normals[t, 1], normals[t, 2], v0[t, 0], v0[t, 1],
+                             v0[t, 2], centroids[t, 0], centroids[t, 1], centroids[t, 2],
+                             radius[t], areas[t], planes, eye, grazing)
     return out
 
 

@@ -59,7 +59,7 @@ from .frustum import frustum_refine
 from .hiz import (build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
                   gather_candidates, hidden_triangles, lod_ancestors, node_candidates, rasterise,
                   score_candidates)
-from .occluder_rows import triangle_rows
+from .occluder_rows import score_corners, triangle_rows
 from .precision import device_move, world_scale
 from .state import CullResult, CullState
 from .tree import Tree
@@ -283,7 +283,12 @@ class DepthBufferOcclusion:
     def best(self, ids, eye, planes, count) -> np.ndarray:
         """(<= count,) int64 of ids with the largest positive estimated solid angle, best first."""
         ids = np.ascontiguousarray(ids, dtype=np.int64)
-        score = score_candidates(*self.rows(ids), planes, eye, GRAZING)
+        planes = np.ascontiguousarray(planes, dtype=np.float64)
+        eye = np.asarray(eye, dtype=np.float64)
+        if self.tables:
+            score = score_candidates(*self.rows(ids), planes, eye, GRAZING)
+        else:  # rows from the corners on the way, nothing stored
+            score = score_corners(ids, self.vertices, self.triangles_, planes, eye, GRAZING)
         good = np.flatnonzero(score > 0)
         if len(good) > count:
             good = good[np.argpartition(-score[good], count - 1)[:count]]
