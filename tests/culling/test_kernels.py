@@ -1,35 +1,11 @@
-"""The compiled kernels against plain numpy references: distinct gather, frustum walk, back-face
-test; empty inputs on purpose."""
+"""The compiled kernels against plain numpy references: frustum walk, back-face test; empty
+inputs on purpose (the distinct gather: test_gather.py)."""
 import numpy as np
 
 from vismobile.camera import Camera
-from vismobile.culling.kernels import backfacing, frustum_walk, gather_distinct
+from vismobile.culling.kernels import backfacing, frustum_walk
 from vismobile.culling.tree import Tree
 from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
-
-
-def gather(tri_refs, starts, ends, nodes, count):
-    words = count // 64 + 1
-    bits = np.zeros(words, dtype=np.uint64)
-    out = np.empty(count, dtype=np.int64)
-    n = gather_distinct(tri_refs, starts, ends, nodes, bits, np.empty(words, np.int64), out)
-    assert not bits.any()  # the bitmap is left clear for the next frame
-    return out[:n]
-
-
-def test_gather_distinct_is_sorted_unique_of_the_ranges():
-    rng = np.random.default_rng(3)
-    refs = rng.integers(0, 1000, 5000).astype(np.int64)
-    starts = np.sort(rng.integers(0, 5000, 40)).astype(np.int64)
-    ends = np.minimum(starts + rng.integers(0, 300, 40), 5000).astype(np.int64)
-    nodes = rng.choice(40, 25, replace=False).astype(np.int64)
-    expect = np.unique(np.concatenate([refs[starts[k]:ends[k]] for k in nodes]))
-    assert np.array_equal(gather(refs, starts, ends, nodes, 1000), expect)
-
-
-def test_gather_distinct_of_no_nodes_is_empty():
-    refs = np.arange(10, dtype=np.int64)
-    assert len(gather(refs, np.zeros(1, np.int64), np.full(1, 10), np.zeros(0, np.int64), 10)) == 0
 
 
 def test_frustum_walk_keeps_every_triangle_in_the_frustum(w1_octree):
@@ -41,7 +17,7 @@ def test_frustum_walk_keeps_every_triangle_in_the_frustum(w1_octree):
         cam = Camera(rng.uniform(low, high), yaw=rng.uniform(0, 360), pitch=rng.uniform(-40, 40),
                      aspect=0.75)
         planes = cam.frustum_planes()
-        nodes, visited, tests, culled = tree.walk(np.zeros(1, np.int64), np.zeros(1, np.int64),
+        nodes, visited, tests, culled, _ = tree.walk(np.zeros(1, np.int64), np.zeros(1, np.int64),
                                                   planes[None])
         sent = np.unique(tree.refs(nodes))
         # Oracle: triangles with a sampled point (barycentric grid) inside every plane.
@@ -59,9 +35,9 @@ def test_frustum_walk_from_no_roots_accepts_nothing():
     out = np.empty(4, dtype=np.int64)
     stack = [np.empty(4, dtype=np.int64) for _ in range(3)]
     count, visited, *_ = frustum_walk(lo, lo + 1.0, np.full(1, -1), np.zeros(1, np.int64),
-                                      np.ones(1, bool), np.zeros(0, np.int64),
-                                      np.zeros(0, np.int64), np.zeros((1, 6, 4)), 0.0, out,
-                                      *stack)
+                                      np.ones(1, bool), np.zeros(1, np.int64), 64,
+                                      np.zeros(0, np.int64), np.zeros(0, np.int64),
+                                      np.zeros((1, 6, 4)), 0.0, out, *stack)
     assert count == 0 and visited == 0
 
 

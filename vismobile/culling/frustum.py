@@ -18,36 +18,50 @@ from ..geometry.planes import points_inside, spheres_outside
 from .state import CullState
 from .tree import Tree
 
+# FrustumStage's default: walk to the leaves (the thesis's exact node set).
+WHOLE_BELOW = -1
+
 
 def frustum_traverse(tree: Tree, roots, plane_sets, root_sets, state: CullState,
-                     prefix: str) -> np.ndarray:
+                     prefix: str, whole_below: int = -1) -> np.ndarray:
     """Hierarchical p/n-vertex culling from `roots`: (A,) int64 accepted nodes.
 
     roots      : (K,) int64 start nodes
     plane_sets : (S, P, 4) float64 inward planes; root k is tested against plane_sets[root_sets[k]]
     root_sets  : (K,) int64
+    whole_below: a node straddling a plane whose gather reads at most this many references is
+                 accepted whole instead of walked (-1: never; see kernels.frustum_walk)
     Errs toward keeping by tree.tol (never rejects a box touching the frustum).
-    Counts nodes_visited, plane_tests and <prefix>.nodes_culled/.nodes_accepted in state.
+    Counts nodes_visited, plane_tests and <prefix>.nodes_culled/.nodes_accepted in state, and
+    <prefix>.nodes_straddling (inner nodes accepted whole across a plane) when whole_below >= 0.
     """
-    result, visited, tests, culled = tree.walk(roots, root_sets, plane_sets)
+    result, visited, tests, culled, straddling = tree.walk(roots, root_sets, plane_sets,
+                                                           whole_below)
     state.count("nodes_visited", visited)
     state.count("plane_tests", tests)
     state.count(f"{prefix}.nodes_culled", culled)
     state.count(f"{prefix}.nodes_accepted", len(result))
+    if whole_below >= 0:
+        state.count(f"{prefix}.nodes_straddling", straddling)
     return result
 
 
-def frustum_refine(tree: Tree, state: CullState, prefix: str) -> np.ndarray:
+def frustum_refine(tree: Tree, state: CullState, prefix: str, whole_below: int = -1) -> np.ndarray:
     """(A,) int64 nodes: state.nodes culled against the camera frustum state.planes (see
     frustum_traverse)."""
     roots = state.nodes
     return frustum_traverse(tree, roots, state.planes[None], np.zeros(len(roots), dtype=np.int64),
-                            state, prefix)
+                            state, prefix, whole_below)
 
 
 class FrustumStage:
     """`vfc`: hierarchical AABB frustum culling with plane masks; refines state.nodes.
 
+    whole_below : a node straddling a frustum plane whose gather reads at most this many
+               references (Tree.read_size) is accepted whole rather than walked down (-1:
+               walk to the leaves, the default). Conservative: it sends a superset. At 64 the
+               tiled W2 (5.0 M triangles, octree 8) visits 6x fewer nodes for 0.8% more
+               triangles; W2 itself (octree 5) 6.5x fewer for 3.5% more.
     deferred : set by the Culler when the next node stage (`occlusion`) tests the frustum in its
                own walk (Culler._fuse): apply then only marks state.frustum_pending
     """
@@ -56,6 +70,12 @@ class FrustumStage:
     cost = 10
     deferred = False
 
+    def __init__(self, whole_below: int = WHOLE_BELOW):
+        if isinstance(whole_below, bool) or not isinstance(whole_below, (int, np.integer)) \
+                or whole_below < -1:
+            raise ValueError(f"vfc whole_below must be an integer >= -1, got {whole_below!r}")
+        self.whole_below = int(whole_below)
+
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
 
@@ -63,7 +83,7 @@ class FrustumStage:
         if self.deferred:
             state.frustum_pending = True
             return
-        state.nodes = frustum_refine(self.tree, state, self.name)
+        state.nodes = frustum_refine(self.tree, state, self.name, self.whole_below)
 
 
 class ThesisFrustumStage:

@@ -1,5 +1,5 @@
-"""Compiled per-frame kernels (numba, cached on disk): the frustum walk over the flat tree, the
-distinct gather of triangle references, and the per-triangle back-face test.
+"""Compiled per-frame kernels (numba, cached on disk): the frustum walk over the flat tree, run
+counting, and the per-triangle back-face test (the distinct gather is in gather.py).
 
 Each frame used to cost hundreds of small numpy calls (one batch per tree level, masks over the
 whole world); these loops do the same arithmetic once per touched node or reference, so a
@@ -13,18 +13,20 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def frustum_walk(lo, hi, first_child, child_count, nonempty, roots, root_sets, plane_sets, tol,
-                 out, stack_node, stack_set, stack_mask):
+def frustum_walk(lo, hi, first_child, child_count, nonempty, size, whole_below, roots, root_sets,
+                 plane_sets, tol, out, stack_node, stack_set, stack_mask):
     """Hierarchical p/n-vertex frustum test with plane masks, depth first from `roots`.
 
     Errs toward keeping by tol: a box is rejected only when its p-vertex is more than tol
     behind a plane; it is accepted whole when its n-vertex is at least tol inside every plane
-    its parent straddled.
+    its parent straddled, or when it straddles a plane and size[node] <= whole_below (a
+    superset: its subtree's part outside the frustum is sent too; whole_below < 0: never).
     lo, hi      : (N, 3) float64 node box corners;  first_child, child_count : (N,) int64
-    nonempty    : (N,) bool;  roots : (K,) int64;  root_sets : (K,) int64 into plane_sets
+    nonempty    : (N,) bool;  size : (N,) int, what accepting the node whole costs (references)
+    roots : (K,) int64;  root_sets : (K,) int64 into plane_sets
     plane_sets  : (S, P, 4) float64 inward planes (n, d), P <= 62
     out         : (>= accepted,) int64 receives accepted nodes; stacks : (>= K + N,) scratch
-    returns (accepted, visited, plane tests, culled)
+    returns (accepted, visited, plane tests, culled, inner nodes accepted while straddling)
     """
     planes_per_set = plane_sets.shape[1]
     full = (np.int64(1) << planes_per_set) - 1
@@ -34,7 +36,7 @@ def frustum_walk(lo, hi, first_child, child_count, nonempty, roots, root_sets, p
         stack_set[top] = root_sets[k]
         stack_mask[top] = full
         top += 1
-    count = visited = tests = culled = 0
+    count = visited = tests = culled = straddling = 0
     while top > 0:
         top -= 1
         node, s, mask = stack_node[top], stack_set[top], stack_mask[top]
@@ -66,7 +68,9 @@ def frustum_walk(lo, hi, first_child, child_count, nonempty, roots, root_sets, p
             culled += 1
             continue
         n = child_count[node]
-        if straddle == 0 or n == 0:
+        if straddle == 0 or n == 0 or size[node] <= whole_below:
+            if straddle != 0 and n != 0:
+                straddling += 1
             out[count] = node
             count += 1
             continue
@@ -76,55 +80,7 @@ def frustum_walk(lo, hi, first_child, child_count, nonempty, roots, root_sets, p
             stack_set[top] = s
             stack_mask[top] = straddle
             top += 1
-    return count, visited, tests, culled
-
-
-# De Bruijn sequence for the index of a word's lowest set bit (no count-trailing-zeros in numba).
-_DEBRUIJN = np.uint64(0x03F79D71B4CB0A89)
-_BIT_INDEX = np.zeros(64, dtype=np.int64)
-_BIT_INDEX[((np.uint64(1) << np.arange(64, dtype=np.uint64)) * _DEBRUIJN) >> np.uint64(58)] = \
-    np.arange(64)
-_FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
-
-
-@njit(cache=True, nogil=True)
-def gather_distinct(tri_refs, ref_start, ref_end, nodes, bits, words, out):
-    """Sorted distinct triangle ids referenced by the nodes' subtrees; returns their count.
-
-    A bitmap of T bits marks the ids; only the 64-bit words touched are listed, sorted and read
-    back (and cleared), so nothing of size T is cleared or scanned: the cost follows the
-    references gathered.
-    bits  : (T // 64 + 1,) uint64 scratch, all zero on entry and on return
-    words : (T // 64 + 1,) int64 scratch;  out : (>= distinct ids,) int64 receives the ids
-    """
-    touched = 0
-    for k in range(len(nodes)):
-        node = nodes[k]
-        for r in range(ref_start[node], ref_end[node]):
-            t = tri_refs[r]
-            w = t >> 6
-            if bits[w] == 0:
-                words[touched] = w
-                touched += 1
-            bits[w] |= np.uint64(1) << np.uint64(t & 63)
-    listed = np.sort(words[:touched])
-    count = 0
-    for k in range(touched):
-        w = listed[k]
-        x = bits[w]
-        bits[w] = 0
-        base = w << 6
-        if x == _FULL:  # dense runs are common: a node's refs are consecutive ids
-            for b in range(64):
-                out[count + b] = base + b
-            count += 64
-            continue
-        while x:
-            low = x & (~x + np.uint64(1))
-            out[count] = base + _BIT_INDEX[(low * _DEBRUIJN) >> np.uint64(58)]
-            count += 1
-            x ^= low
-    return count
+    return count, visited, tests, culled, straddling
 
 
 @njit(cache=True, nogil=True)

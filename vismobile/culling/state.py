@@ -53,10 +53,12 @@ class CullState:
 
         Filters see each referenced triangle once, and only the survivors of earlier filters.
         """
-        ids = self.tree.distinct_refs(self.nodes)  # leaves share triangles: each once
+        ids, runs = self.tree.gather(self.nodes)  # leaves share triangles: each once
         for keep_of in self.filters:
             ids = ids[keep_of(ids)]
+        if self.filters:
+            runs = run_count(ids)
         self.count("triangles_sent", len(ids))
-        self.count("draw_batches", run_count(ids))
+        self.count("draw_batches", runs)
         self.count("nodes_drawn", len(self.nodes))
         return CullResult(ids, self.nodes, self.stats, self.cull_back)

@@ -6,7 +6,8 @@ import numpy as np
 
 from ..geometry.planes import slack
 from ..partition.base import Partition, gather_ranges
-from .kernels import frustum_walk, gather_distinct
+from .gather import Bitmap, CoarseLevels, count_marked, extract_marked, mark_nodes
+from .kernels import frustum_walk
 
 
 class Tree:
@@ -43,37 +44,48 @@ class Tree:
         # Kernel inputs and scratch, allocated once: frames reuse them.
         self.lo = np.ascontiguousarray(self.node_bounds[:, 0])
         self.hi = np.ascontiguousarray(self.node_bounds[:, 1])
-        words = self.world.triangle_count // 64 + 1
-        self._bits = np.zeros(words, dtype=np.uint64)
-        self._words = np.empty(words, dtype=np.int64)
+        self._bitmap = Bitmap(self.world.triangle_count)
+        self.coarse = CoarseLevels(self)
+        # What gathering a node costs: the length of the list it reads (gather.mark_nodes).
+        c = self.coarse
+        wide = np.int32 if len(self.tri_refs) < 2 ** 31 else np.int64
+        self.read_size = (self.ref_end - self.ref_start).astype(wide)
+        self.read_size[:len(c.start)] = c.end - c.start
         self._stacks = self._stack_scratch(64)
 
     def _stack_scratch(self, roots: int) -> tuple:
         size = self.node_count + roots
         return tuple(np.empty(size, dtype=np.int64) for _ in range(4))
 
-    def walk(self, roots, root_sets, plane_sets) -> tuple:
+    def walk(self, roots, root_sets, plane_sets, whole_below: int = -1) -> tuple:
         """Frustum walk (kernels.frustum_walk) from roots (K,) int64 with plane_sets (S, P, 4)
-        and root_sets (K,) int64: (accepted nodes (A,) int64, visited, plane tests, culled)."""
+        and root_sets (K,) int64: (accepted nodes (A,) int64, visited, plane tests, culled,
+        straddling nodes accepted whole). whole_below >= 0: a straddling inner node whose
+        gather reads at most that many references (read_size) is accepted whole."""
         roots = np.ascontiguousarray(roots, dtype=np.int64)
         if len(roots) + self.node_count > len(self._stacks[0]):
             self._stacks = self._stack_scratch(2 * len(roots))
         out, nodes, sets, masks = self._stacks
-        count, visited, tests, culled = frustum_walk(
-            self.lo, self.hi, self.first_child, self.child_count, self.nonempty, roots,
-            np.ascontiguousarray(root_sets, dtype=np.int64),
+        count, visited, tests, culled, straddling = frustum_walk(
+            self.lo, self.hi, self.first_child, self.child_count, self.nonempty, self.read_size,
+            int(whole_below), roots, np.ascontiguousarray(root_sets, dtype=np.int64),
             np.ascontiguousarray(plane_sets, dtype=np.float64), self.tol, out, nodes, sets, masks)
-        return out[:count].copy(), visited, tests, culled
+        return out[:count].copy(), visited, tests, culled, straddling
 
     def distinct_refs(self, nodes) -> np.ndarray:
         """(S,) int64 sorted distinct triangle ids of the nodes' subtrees; cost follows the
-        references gathered, not the world's triangle count (kernels.gather_distinct)."""
+        references gathered, not the world's triangle count (gather.mark_nodes)."""
+        return self.gather(nodes)[0]
+
+    def gather(self, nodes) -> tuple:
+        """(sorted distinct triangle ids (S,) int64 of the nodes' subtrees, runs of consecutive
+        ids among them). Nodes accepted whole read their levels' lists (gather.CoarseLevels)."""
         nodes = np.ascontiguousarray(nodes, dtype=np.int64)
-        gathered = int((self.ref_end[nodes] - self.ref_start[nodes]).sum())
-        ids = np.empty(min(gathered, self.world.triangle_count), dtype=np.int64)
-        count = gather_distinct(self.tri_refs, self.ref_start, self.ref_end, nodes, self._bits,
-                                self._words, ids)
-        return ids[:count]
+        c, b = self.coarse, self._bitmap
+        ntops = mark_nodes(self.tri_refs, self.ref_start, self.ref_end, c.coarse, c.start, c.end,
+                           nodes, b.bits, b.summary, b.tops)
+        ids = b.output(count_marked(b.bits, b.summary, b.tops, ntops))
+        return ids, extract_marked(b.bits, b.summary, b.tops, ntops, ids)
 
     def children(self, nodes) -> tuple:
         """(children (C,) int64, parent_index (C,) int64 index into nodes) of inner nodes."""

@@ -1,0 +1,162 @@
+"""The distinct gather (culling/gather.py) against np.unique of the concatenated references: the
+two-level bitmap kernels on random ranges sharing triangles, the per-level lists of a real octree
+(each subtree's triangles, each at least once), first depths against their definition, the
+output pool, and the walk's whole_below superset."""
+import numpy as np
+import pytest
+
+from vismobile.camera import Camera
+from vismobile.culling import Culler, gather
+from vismobile.culling.gather import (Bitmap, CoarseLevels, choose_levels, count_marked,
+                                      extract_marked, first_depths, mark_nodes)
+from vismobile.culling.tree import Tree
+
+
+def runs_of(ids):
+    return int(len(ids) and 1 + np.count_nonzero(np.diff(ids) != 1))
+
+
+def gather_ranges(refs, starts, ends, nodes, count, coarse=None):
+    b = Bitmap(count)
+    empty = np.zeros(0, np.int64)
+    cs, ce, cl = coarse if coarse is not None else (empty, empty, refs[:0])
+    ntops = mark_nodes(refs, starts, ends, cl, cs, ce, nodes, b.bits, b.summary, b.tops)
+    out = np.full(count_marked(b.bits, b.summary, b.tops, ntops), -1, dtype=np.int64)
+    runs = extract_marked(b.bits, b.summary, b.tops, ntops, out)
+    assert not b.bits.any() and not b.summary.any()  # both levels left clear for the next frame
+    return out, runs
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_bitmap_gather_is_sorted_unique_of_the_ranges(seed):
+    rng = np.random.default_rng(seed)
+    count = int(rng.choice([100, 5000, 300_000]))  # one, a few and many summary words
+    refs = rng.integers(0, count, 20_000).astype(np.int32)
+    refs[5000:9000] = np.arange(4000) + count // 3 if count > 9000 else refs[5000:9000]  # dense
+    starts = np.sort(rng.integers(0, len(refs), 60)).astype(np.int64)
+    ends = np.minimum(starts + rng.integers(0, 3000, 60), len(refs)).astype(np.int64)
+    nodes = rng.choice(60, 40, replace=False).astype(np.int64)  # ranges overlap: shared ids
+    expect = np.unique(np.concatenate([refs[starts[k]:ends[k]] for k in nodes]))
+    ids, runs = gather_ranges(refs, starts, ends, nodes, count)
+    assert np.array_equal(ids, expect)
+    assert runs == runs_of(expect)
+
+
+def test_bitmap_gather_reads_coarse_lists_for_mapped_nodes():
+    refs = np.array([5, 9, 9, 5, 2, 70, 64, 63], dtype=np.int32)
+    starts, ends = np.array([0, 4], np.int64), np.array([4, 8], np.int64)
+    coarse = (np.array([0], np.int64), np.array([3], np.int64), np.array([1, 2, 3], np.int32))
+    ids, runs = gather_ranges(refs, starts, ends, np.array([0, 1], np.int64), 100, coarse)
+    assert ids.tolist() == [1, 2, 3, 63, 64, 70]  # node 0 read [1, 2, 3], not refs[0:4]
+    assert runs == 3
+
+
+def test_bitmap_gather_of_no_nodes_is_empty():
+    refs = np.arange(10, dtype=np.int32)
+    ids, runs = gather_ranges(refs, np.zeros(1, np.int64), np.full(1, 10), np.zeros(0, np.int64),
+                              10)
+    assert len(ids) == 0 and runs == 0
+
+
+def test_first_depths_follow_their_definition(w1_octree):
+    tree = Tree(w1_octree)
+    p = w1_octree
+    depth = p.node_levels().astype(np.int64)
+    parent = np.full(tree.node_count, -1, np.int64)
+    for node in np.flatnonzero(tree.child_count):
+        parent[tree.first_child[node]:tree.first_child[node] + tree.child_count[node]] = node
+    leaves = tree.leaf_order[tree.nonempty[tree.leaf_order]]
+    refs = np.asarray(tree.tri_refs)
+    fd = first_depths(refs, leaves, parent, depth, tree.ref_start, tree.ref_end,
+                      np.full(p.world.triangle_count, -1, np.int64))
+    rng = np.random.default_rng(1)
+    for leaf in rng.choice(leaves, 40, replace=False):
+        chain = [leaf]
+        while parent[chain[-1]] >= 0:
+            chain.append(parent[chain[-1]])
+        for r in range(tree.ref_start[leaf], tree.ref_end[leaf]):
+            # the shallowest ancestor in whose range r is the triangle's first reference
+            first = [a for a in chain if refs[tree.ref_start[a]:r].tolist().count(refs[r]) == 0]
+            assert fd[r] == min(depth[a] for a in first)
+    assert (fd == 0).sum() == len(np.unique(refs))  # each triangle's first reference overall
+
+
+def test_coarse_lists_hold_each_subtree_triangle(w1_octree, monkeypatch):
+    monkeypatch.setattr(gather, "KEEP_RATIO", 1.0)  # keep every level: all lists are checked
+    monkeypatch.setattr(gather, "MAX_COARSE", 100.0)
+    tree = Tree(w1_octree)
+    c = tree.coarse
+    assert c.levels == list(range(w1_octree.depth - 1, -1, -1))
+    levels = w1_octree.node_levels()
+    for node in range(len(c.start)):
+        listed = c.coarse[c.start[node]:c.end[node]]
+        subtree = np.unique(tree.refs([node]))
+        assert np.array_equal(np.unique(listed), subtree)
+        if levels[node] in c.levels:  # its own level: each triangle exactly once
+            assert len(listed) == len(subtree)
+
+
+@pytest.mark.parametrize("keep", [0.75, 1.0])
+def test_tree_gather_equals_unique_of_the_subtrees(w1_octree, monkeypatch, keep):
+    monkeypatch.setattr(gather, "KEEP_RATIO", keep)
+    monkeypatch.setattr(gather, "MAX_COARSE", 100.0)
+    tree = Tree(w1_octree)
+    rng = np.random.default_rng(7)
+    for size in (1, 5, 40, 200):
+        nodes = rng.choice(tree.node_count, size, replace=False)  # nested subtrees too
+        ids, runs = tree.gather(nodes)
+        expect = np.unique(tree.refs(nodes))
+        assert np.array_equal(ids, expect) and ids.dtype == np.int64
+        assert runs == runs_of(expect)
+
+
+def test_choose_levels_keeps_levels_that_save_references():
+    # counts[c]: references of first depth <= c for c = 0..3; the leaves hold 100
+    assert choose_levels(np.array([40, 50, 60, 90]), 100) == [2, 0]  # 90 > 0.75 * 100
+    assert choose_levels(np.array([10, 20, 70, 74]), 100) == [3, 1, 0]
+    assert choose_levels(np.array([40, 55, 74]), 100) == [2, 1]  # 40 more would pass 1.5x
+    assert choose_levels(np.array([100, 100]), 100) == []
+
+
+def test_held_results_are_not_overwritten(w1_octree):
+    tree = Tree(w1_octree)
+    first, _ = tree.gather(np.array([0]))
+    kept = first.copy()
+    for _ in range(4):  # the pool must not hand out a buffer a live result views
+        other, _ = tree.gather(np.array([tree.first_child[0]]))
+    assert np.array_equal(first, kept)
+    del first, other
+    again, _ = tree.gather(np.array([0]))
+    assert np.array_equal(again, kept)
+
+
+def test_whole_below_sends_a_superset_from_fewer_nodes(w1_octree):
+    tree = Tree(w1_octree)
+    world = w1_octree.world
+    rng = np.random.default_rng(5)
+    low, high = world.extent
+    fewer = 0
+    for _ in range(8):
+        cam = Camera(rng.uniform(low, high), yaw=rng.uniform(0, 360), pitch=rng.uniform(-40, 40),
+                     aspect=0.75)
+        planes = cam.frustum_planes()[None]
+        root = np.zeros(1, np.int64)
+        exact, visited, *_, straddling = tree.walk(root, root, planes, -1)
+        assert straddling == 0
+        coarse, fewer_visits, *_, straddling = tree.walk(root, root, planes, 10 ** 9)
+        assert np.all(np.isin(tree.distinct_refs(exact), tree.distinct_refs(coarse)))
+        assert fewer_visits <= visited and straddling <= len(coarse)
+        fewer += fewer_visits < visited
+    assert fewer  # it does save nodes
+
+
+def test_vfc_counts_nodes_accepted_across_a_plane(w1_octree):
+    cam = Camera((5.0, 1.7, 5.0), yaw=30.0, pitch=0.0, aspect=0.75)
+    exact = Culler(w1_octree, "vfc", vfc={"whole_below": -1}).cull(cam)
+    whole = Culler(w1_octree, "vfc", vfc={"whole_below": 10 ** 9}).cull(cam)
+    assert "vfc.nodes_straddling" not in exact.stats
+    assert whole.stats["vfc.nodes_straddling"] > 0
+    assert whole.stats["nodes_visited"] < exact.stats["nodes_visited"]
+    assert np.all(np.isin(exact.triangles, whole.triangles))
+    with pytest.raises(ValueError, match="whole_below"):
+        Culler(w1_octree, "vfc", vfc={"whole_below": -2})
