@@ -188,3 +188,55 @@ def test_portal_rectangles_hold_every_point_near_any_polygon(seed, grow):
         pu, pv = cam[:, 0] / (cam[:, 2] * tx), cam[:, 1] / (cam[:, 2] * ty)
         u0, u1, v0, v1 = rects[0]
         assert np.all((u0 <= pu) & (pu <= u1) & (v0 <= pv) & (pv <= v1))
+
+
+def _flood_reference(rect, starts, cps, cp, pcells, prects, pstates):
+    """The fixed point by repeated sweeps over every (cell, portal) pair, in plain Python."""
+    rect = rect.copy()
+    changed = True
+    while changed:
+        changed = False
+        for c in range(len(rect)):
+            if rect[c, 0] > rect[c, 1]:
+                continue
+            for p in cp[cps[c]:cps[c + 1]]:
+                if pstates[p] == 1:
+                    continue
+                r = rect[c].copy()
+                if pstates[p] == 0:
+                    r = np.array([max(r[0], prects[p, 0]), min(r[1], prects[p, 1]),
+                                  max(r[2], prects[p, 2]), min(r[3], prects[p, 3])])
+                if r[0] > r[1] or r[2] > r[3]:
+                    continue
+                other = pcells[p, 1] if pcells[p, 0] == c else pcells[p, 0]
+                new = np.array([min(rect[other, 0], r[0]), max(rect[other, 1], r[1]),
+                                min(rect[other, 2], r[2]), max(rect[other, 3], r[3])])
+                if not np.array_equal(new, rect[other]):
+                    rect[other], changed = new, True
+    return rect
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_flood_cells_reaches_the_fixed_point_of_every_path(seed):
+    """Random cell graphs with portals of all three states: the kernel's regions equal the
+    least fixed point found by exhaustive sweeps (the order of the walk does not matter)."""
+    from vismobile.culling.portals import flood_cells
+
+    rng = np.random.default_rng(seed)
+    cells, count = int(rng.integers(2, 12)), int(rng.integers(1, 30))
+    pcells = np.sort(rng.choice(cells, size=(count, 2)), axis=1).astype(np.int32)
+    pcells = pcells[pcells[:, 0] != pcells[:, 1]]
+    ends = np.concatenate([pcells[:, 0], pcells[:, 1]]).astype(np.int64)
+    cp = np.tile(np.arange(len(pcells)), 2)[np.argsort(ends, kind="stable")].astype(np.int32)
+    cps = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=cells))]).astype(np.int64)
+    corners = np.sort(rng.uniform(-1.2, 1.2, size=(len(pcells), 2, 2)), axis=2)
+    prects = corners.reshape(-1, 4)
+    pstates = rng.choice([0, 0, 0, 1, 2], size=len(pcells)).astype(np.int8)
+    starts = rng.choice(cells, size=int(rng.integers(1, 3)), replace=False).astype(np.int64)
+    rect = np.tile([np.inf, -np.inf, np.inf, -np.inf], (cells, 1))
+    rect[starts] = [-1.0, 1.0, -1.0, 1.0]
+    expected = _flood_reference(rect, starts, cps, cp, pcells, prects, pstates)
+    tested = flood_cells(rect, starts, cps, cp, pcells, prects, pstates)
+    assert np.array_equal(rect, expected)
+    assert tested >= sum(cps[c + 1] - cps[c] for c in starts)

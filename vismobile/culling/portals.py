@@ -36,6 +36,7 @@ crosses the eye's plane widens to the whole current rectangle; every other eye g
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from ..geometry.boxes import boxes_contain_point
 from ..geometry.planes import planes_through_eye
@@ -88,6 +89,53 @@ def portal_rects(vertices, starts, eye, rotation, tx: float, ty: float,
                              np.maximum.reduceat(v1, starts[:-1]) + RECT_SLACK])
     state = np.where(zmin > grow, 0, np.where(zmax < -grow, 1, 2)).astype(np.int8)
     return rects, state
+
+
+@njit(cache=True, nogil=True)
+def flood_cells(rect, starts, cell_portal_start, cell_portals, portal_cells, prects, pstates):
+    """Spread screen regions from the start cells through the portals until nothing grows:
+    rect[c] becomes the bounding rectangle of every path's region into c (a cell entered with
+    region r through portal p gets r clipped to p's rectangle, or r itself when pstates[p] is
+    2; never through a portal with pstates[p] 1). Errs outward: bounding rectangles of unions.
+
+    rect   : (C, 4) float64 u0, u1, v0, v1, in/out: the starts' regions set, others empty
+             (u0 > u1);  starts : (K,) int64;  prects, pstates : portal_rects' output
+    returns the number of (cell, portal) pairs tested
+    """
+    stack = np.empty(max(16, 4 * len(rect)), dtype=np.int64)
+    top = 0
+    for k in range(len(starts)):
+        stack[top] = starts[k]
+        top += 1
+    tested = 0
+    while top > 0:
+        top -= 1
+        c = stack[top]
+        h0, h1, h2, h3 = rect[c, 0], rect[c, 1], rect[c, 2], rect[c, 3]
+        for q in range(cell_portal_start[c], cell_portal_start[c + 1]):
+            p = cell_portals[q]
+            tested += 1
+            if pstates[p] == 1:
+                continue
+            r0, r1, r2, r3 = h0, h1, h2, h3
+            if pstates[p] == 0:
+                r0, r1 = max(r0, prects[p, 0]), min(r1, prects[p, 1])
+                r2, r3 = max(r2, prects[p, 2]), min(r3, prects[p, 3])
+            if r0 > r1 or r2 > r3:
+                continue
+            other = portal_cells[p, 1] if portal_cells[p, 0] == c else portal_cells[p, 0]
+            n0, n1 = min(rect[other, 0], r0), max(rect[other, 1], r1)
+            n2, n3 = min(rect[other, 2], r2), max(rect[other, 3], r3)
+            if n0 != rect[other, 0] or n1 != rect[other, 1] or n2 != rect[other, 2] \
+                    or n3 != rect[other, 3]:
+                rect[other, 0], rect[other, 1], rect[other, 2], rect[other, 3] = n0, n1, n2, n3
+                if top == len(stack):
+                    bigger = np.empty(2 * len(stack), dtype=np.int64)
+                    bigger[:top] = stack
+                    stack = bigger
+                stack[top] = other
+                top += 1
+    return tested
 
 
 def rect_planes(rects, camera, push: float = 0.0, limits=None) -> np.ndarray:
@@ -212,28 +260,8 @@ class PortalStage:
         count = len(x["cell_node"])
         rect = np.tile([np.inf, -np.inf, np.inf, -np.inf], (count, 1))
         rect[starts] = [-1.0, 1.0, -1.0, 1.0]
-        queue, tested = list(starts), 0
-        cps, cp, pcells = x["cell_portal_start"], x["cell_portals"], x["portal_cells"]
-        while queue:  # loop over visible portals
-            c = queue.pop()
-            here = rect[c]
-            for p in cp[cps[c]:cps[c + 1]]:
-                tested += 1
-                if pstate[p] == 1:
-                    continue
-                r = here.copy() if pstate[p] == 2 else np.array([
-                    max(here[0], prect[p, 0]), min(here[1], prect[p, 1]),
-                    max(here[2], prect[p, 2]), min(here[3], prect[p, 3])])
-                if r[0] > r[1] or r[2] > r[3]:
-                    continue
-                a, b = pcells[p]
-                other = b if a == c else a
-                old = rect[other]
-                new = np.array([min(old[0], r[0]), max(old[1], r[1]),
-                                min(old[2], r[2]), max(old[3], r[3])])
-                if not np.array_equal(new, old):
-                    rect[other] = new
-                    queue.append(other)
+        tested = flood_cells(rect, starts.astype(np.int64), x["cell_portal_start"],
+                             x["cell_portals"], x["portal_cells"], prect, pstate)
         state.count(f"{self.name}.portals_tested", tested)
         ids = np.flatnonzero(rect[:, 0] <= rect[:, 1])
         return ids, rect[ids]
