@@ -7,7 +7,7 @@ from vismobile.camera import Camera
 from vismobile.culling import Culler, backface, cones
 from vismobile.culling import kernels
 from vismobile.culling.facing import (TILT_BIAS, TILT_EXACT, backfacing, frontfacing,
-                                      keep_unmarked, tilt_keep, tilt_of, tilt_scales)
+                                      keep_unmarked, tilt_of, tilt_scales, tilt_select)
 from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
 from vismobile.geometry.tilt import tilt_coefficients, tilt_sine
 from vismobile.mapped import MappedWorld
@@ -23,6 +23,17 @@ def random_mesh(count, seed, dtype=np.float64):
     vertices[8] = vertices[7]  # triangle 2 is a segment
     triangles = np.arange(3 * count, dtype=np.int32).reshape(-1, 3)
     return vertices.astype(dtype), triangles
+
+
+def tilt_keep(ids, regions, scales, spare, vertices, triangles, move):
+    """(n,) bool: tilt_select's answer per id (it writes the kept ids, in order, and no other
+    value: the rest of out keeps its fill)."""
+    out = np.full(len(ids) + 1, -7, dtype=np.int64)
+    count = tilt_select(ids, regions, scales, spare, vertices, triangles, move, out)
+    assert (out[count:] == -7).all()
+    keep = np.isin(ids, out[:count])
+    assert np.array_equal(out[:count], ids[keep])
+    return keep
 
 
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
@@ -103,7 +114,7 @@ def test_tilt_scales_bound_the_tilt_and_are_the_smallest_power_of_two(dtype):
         assert (scale * move + scale * scale * (move * move)
                 >= tilt_sine(k1[ok], k2[ok], move)).all()
     # Spares on both sides of each triangle's tilt and of its bound (one region per triangle):
-    # tilt_keep still answers as the tilt does.
+    # tilt_select still answers as the tilt does.
     ids = np.arange(5, len(triangles), dtype=np.int64)
     regions = np.arange(len(triangles), dtype=np.uint16)
     rng = np.random.default_rng(6)

@@ -32,7 +32,7 @@ import numpy as np
 from ..geometry.sphere_regions import caps_within, direction_regions, region_caps
 from ..mapped import corner_chunks
 from ..world import unit_normals
-from .facing import tilt_keep, tilt_scales
+from .facing import region_spare, tilt_scales, tilt_select
 from .precision import device_move, world_scale
 from .state import CullState
 from .tree import Tree
@@ -145,11 +145,9 @@ class ConservativeBackface:
             tilt_scales(self.vertices, self.triangles, start,
                         self.scales[start:start + CHUNK])
         self.magnitude = world_scale(self.vertices)
-        # Per-frame constants: caps_within's bound per region, and the all-kept spare table.
+        # Per-frame constant: caps_within's bound per region.
         need = np.where(self.radii < np.pi / 2, np.sin(np.minimum(self.radii, np.pi / 2)), np.inf)
-        self._need = (need + 1e-12)[:, None]
-        self._none = np.full(len(self.radii) + 1, -1.0)
-        self._none.flags.writeable = False
+        self._need = need + 1e-12
         self._dropped_key = f"{self.name}.regions_dropped"
         self._culled_key = f"{self.name}.refs_culled"
 
@@ -175,17 +173,11 @@ class ConservativeBackface:
 
     def frame_table(self, camera) -> tuple:
         """(regions dropped, spare): droppable(camera).sum() and spare(camera, droppable(camera))
-        with the same bits, from one product of the caps' centres with the unit corner rays.
-        Errs as they do (toward keeping by 1e-12)."""
-        cosines = self.centers @ unit_corner_rays(camera).T  # (R, 4)
-        table = (cosines >= self._need).all(axis=1)
-        dropped = int(np.count_nonzero(table))
-        if not dropped:
-            return 0, self._none
-        low = np.minimum(np.maximum(cosines.min(axis=1), -1.0), 1.0)
-        room = np.minimum(np.maximum(np.arcsin(low) - self.radii, 0.0), np.pi / 2)
-        spare = np.full(len(table) + 1, -1.0)
-        spare[:-1] = np.where(table, np.sin(room) - 1e-12, -1.0)
+        in one compiled pass (facing.region_spare; its sums may differ from the BLAS products
+        by an ulp). Errs as they do (toward keeping by 1e-12)."""
+        spare = np.empty(len(self.radii) + 1)
+        dropped = region_spare(self.centers, self._need, self.radii, unit_corner_rays(camera),
+                               spare)
         return dropped, spare
 
     def apply(self, state: CullState) -> None:
@@ -197,12 +189,13 @@ class ConservativeBackface:
         scale = max(self.magnitude, *map(abs, state.camera.position))
         move = np.sqrt(3.0) * device_move(self.arithmetic, scale)  # Euclidean, per corner
 
-        def keep_of(ids):
-            keep = tilt_keep(np.ascontiguousarray(ids, dtype=np.int64), regions, self.scales,
-                             spare, self.vertices, self.triangles, move)
+        def keep_of(ids):  # the kept ids themselves (CullState.filters)
+            kept = np.empty(len(ids), dtype=np.int64)
+            count = tilt_select(np.ascontiguousarray(ids, dtype=np.int64), regions, self.scales,
+                                spare, self.vertices, self.triangles, move, kept)
             state.count("triangles_tested", len(ids))
-            state.count(self._culled_key, len(ids) - np.count_nonzero(keep))
-            return keep
+            state.count(self._culled_key, len(ids) - count)
+            return kept[:count]
 
         state.filters.append(keep_of)
 

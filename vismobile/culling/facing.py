@@ -135,12 +135,40 @@ def tilt_scales(vertices, triangles, start, out):
 
 
 @njit(cache=True, nogil=True)
-def tilt_keep(ids, regions, scales, spare, vertices, triangles, move):
-    """(n,) bool keep: cbfc's per-candidate test, ~(spare[region] >= tilt sine of the triangle
-    for corners moved by `move`), the tilt computed only where the region is droppable
-    (spare >= 0) and the triangle's scale bound K m + K^2 m^2 (tilt_scales) does not already
-    fit in the spare. Errs toward True (keeping) exactly as geometry.tilt.tilt_sine: the bound
-    is never below the tilt, so the answer is the tilt's.
+def region_spare(centers, need, radii, rays, spare):
+    """cbfc's per-frame table: spare[r] = sin(asin(min_i m_r.c_i) - rho_r) - 1e-12 for each
+    region r whose cap (centre m_r, radius rho_r) faces away from every unit corner ray c_i
+    (m_r.c_i >= need[r] = sin(rho_r) + 1e-12 for all four), -1 for the others and for the last
+    entry (degenerate normals); returns how many regions passed. The droppable and spare of
+    ConservativeBackface in one pass (dot products summed left to right, not by the BLAS: the
+    bits may differ by an ulp, far inside the 1e-12 they err by).
+    centers : (R, 3) unit;  need, radii : (R,);  rays : (4, 3) unit;  spare : (R + 1,) out"""
+    dropped = 0
+    for r in range(len(centers)):
+        low = np.inf
+        facing_away = True
+        for i in range(len(rays)):
+            c = centers[r, 0] * rays[i, 0] + centers[r, 1] * rays[i, 1] \
+                + centers[r, 2] * rays[i, 2]
+            facing_away = facing_away and c >= need[r]
+            low = min(low, c)
+        spare[r] = -1.0
+        if facing_away:
+            dropped += 1
+            room = min(max(np.arcsin(min(max(low, -1.0), 1.0)) - radii[r], 0.0), np.pi / 2)
+            spare[r] = np.sin(room) - 1e-12
+    spare[len(centers)] = -1.0
+    return dropped
+
+
+@njit(cache=True, nogil=True)
+def tilt_select(ids, regions, scales, spare, vertices, triangles, move, out):
+    """cbfc's per-candidate test: writes to out (>= n,) int64, in order, the ids it keeps and
+    returns their count. A candidate is dropped when spare[region] >= its tilt sine for
+    corners moved by `move`; the tilt is computed only where the region is droppable (spare
+    >= 0) and the triangle's scale bound K m + K^2 m^2 (tilt_scales) does not already fit in
+    the spare. Errs toward keeping exactly as geometry.tilt.tilt_sine: the bound is never below
+    the tilt, so the answer is the tilt's.
 
     ids : (n,) int64;  regions : (T,) small ints (direction region per triangle)
     scales : (T,) uint8 (tilt_scales);  spare : (R + 1,) float64 (ConservativeBackface.spare)
@@ -152,22 +180,23 @@ def tilt_keep(ids, regions, scales, spare, vertices, triangles, move):
     for e in range(TILT_EXACT):
         bound[e] = scale * move + (scale * scale) * square
         scale *= 2.0
-    out = np.ones(len(ids), dtype=np.bool_)
+    count = 0
     for k in range(len(ids)):
         t = ids[k]
         room = spare[regions[t]]
-        if not room >= 0.0:
-            continue
-        e = scales[t]
-        if e != TILT_EXACT and room >= bound[e]:
-            out[k] = False
-            continue
-        k1, k2 = tilt_of(vertices, triangles, t)
-        tilt = k1 * move + k2 * square
-        if np.isnan(tilt):  # inf * 0 for zero-area triangles, move 0
-            tilt = np.inf
-        out[k] = not room >= tilt
-    return out
+        if room >= 0.0:
+            e = scales[t]
+            if e != TILT_EXACT and room >= bound[e]:
+                continue
+            k1, k2 = tilt_of(vertices, triangles, t)
+            tilt = k1 * move + k2 * square
+            if np.isnan(tilt):  # inf * 0 for zero-area triangles, move 0
+                tilt = np.inf
+            if room >= tilt:
+                continue
+        out[count] = t
+        count += 1
+    return count
 
 
 @njit(cache=True, nogil=True)

@@ -31,7 +31,8 @@ class CullState:
     """Per-frame working set: node stages refine `nodes`; triangle stages append filters.
 
     nodes   : (D,) int64 draw nodes; initially the root (everything)
-    filters : list of functions (ids (n,) int64) -> (n,) bool keep, applied after gathering
+    filters : list of functions (ids (n,) int64) -> (n,) bool keep, or the kept ids themselves
+              (int64, in their order), applied after gathering
     frustum_pending : True when `vfc` left its frustum test to the next node stage (`occlusion`
               walks frustum and buffer in one pass: Culler._fuse); that stage clears it
     """
@@ -55,7 +56,8 @@ class CullState:
         """
         ids, runs = self.tree.gather(self.nodes)  # leaves share triangles: each once
         for keep_of in self.filters:
-            ids = ids[keep_of(ids)]
+            kept = keep_of(ids)
+            ids = ids[kept] if kept.dtype == np.bool_ else kept
         if self.filters:
             runs = run_count(ids)
         self.count("triangles_sent", len(ids))
