@@ -105,7 +105,8 @@ def cull(args) -> dict:
     counters = {}
     if occlusion:  # node passes' work and the buffer's coverage, means over the frames
         counters = {k: float(np.mean(v)) for k, v in stats.items()}
-    return {"stages": args.cull[0], "options": args.occlusion, **counters, "import_rss_mb": import_rss_mb, "map_s": map_s,
+    return {"stages": args.cull[0], "options": args.occlusion, **counters,
+            "import_rss_mb": import_rss_mb, "map_s": map_s,
             "culler_setup_s": setup_s, "culler_setup_cpu_s": setup_cpu_s,
             "setup_peak_rss_mb": setup_rss_mb, "first_frame_ms": times[0],
             "median_ms": statistics.median(times[1:] or times), "max_ms": max(times),

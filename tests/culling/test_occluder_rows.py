@@ -71,3 +71,29 @@ def test_scores_from_corners_are_the_scores_of_the_world_tables(dtype):
                                   world.centroids, radius, world.areas, planes, eye, 1e-6)
         got = score_corners(ids, vertices, world.triangles, planes, eye, 1e-6)
         assert np.array_equal(got, expect) and 0 < (got > 0).sum() < len(ids)
+
+
+def test_the_compiled_mesh_of_a_few_occluders_is_occluder_mesh_of_their_corners(kit):
+    # A mapped world's frames build their occluders' mesh in one kernel: the same arrays, bits
+    # included, as occluder_mesh (numpy) of the same triangles' corners and unit normals.
+    from vismobile.culling.occluder_rows import occluder_mesh_of
+    from vismobile.culling.occlusion import occluder_mesh
+    from vismobile.world import unit_normals
+
+    world = kit.world("w2")
+    rng = np.random.default_rng(7)
+    paired = 0
+    for start in rng.integers(0, world.triangle_count - 400, 6):
+        ids = np.unique(np.concatenate([np.arange(start, start + 300),  # neighbours pair
+                                        rng.integers(0, world.triangle_count, 200)]))
+        corners = world.corners[ids]
+        expect = occluder_mesh(corners.reshape(-1, 3), np.arange(3 * len(ids)).reshape(-1, 3),
+                               unit_normals(corners)[0])
+        got = occluder_mesh_of(ids.astype(np.int64), world.vertices, world.triangles)
+        for name, a, b in zip(("points", "tri_points", "normals", "offsets", "groups", "start",
+                               "end", "a", "b", "partner", "partner_any"), got, expect):
+            assert a.shape == b.shape and np.array_equal(a, b), name
+        paired += (got[9] >= 0).sum()
+    assert paired > 100
+    assert all(len(a) == 0 for a in occluder_mesh_of(np.zeros(0, np.int64), world.vertices,
+                                                     world.triangles))

@@ -51,15 +51,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mapped import triangle_corners
 from ..partition.base import gather_ranges
-from ..world import World, unit_normals
+from ..world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
 from .hiz import (build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
                   gather_candidates, hidden_triangles, lod_ancestors, node_candidates, rasterise,
                   score_candidates)
-from .occluder_rows import score_corners, triangle_rows
+from .occluder_rows import occluder_mesh_of, score_corners, triangle_rows
 from .precision import device_move, world_scale
 from .state import CullResult, CullState
 from .tree import Tree
@@ -381,18 +380,16 @@ class DepthBufferOcclusion:
         """(order, the rasteriser's tables, stamp) for world triangles `chosen` (K,) int64:
         order indexes the tables' triangles sorted by plane group (stable). On an in-memory
         World the world's tables with order = chosen sorted; else occluder_mesh of the chosen
-        triangles alone (local ids 0..K-1): points, groups and pieces match by exact value as
-        in the world's, so the rasteriser sees the same triangles, planes and shared edges."""
+        triangles alone (occluder_rows.occluder_mesh_of, local ids 0..K-1): points, groups and
+        pieces match by exact value as in the world's, so the rasteriser sees the same
+        triangles, planes and shared edges."""
         if self.tables:
             order = chosen[np.argsort(self.groups[chosen], kind="stable")]
             return (order, self.groups, self.tri_points, self.points, self.normals, self.offsets,
                     self.piece_start, self.piece_end, self.piece_a, self.piece_b, self.partner,
                     self.partner_any, self.stamp)
-        corners = triangle_corners(self.tree.world, chosen)
-        normals, _ = unit_normals(corners)
-        local = np.arange(3 * len(chosen), dtype=np.int64).reshape(-1, 3)
         (points, tri_points, normals, offsets, groups, piece_start, piece_end, piece_a, piece_b,
-         partner, partner_any) = occluder_mesh(corners.reshape(-1, 3), local, normals)
+         partner, partner_any) = occluder_mesh_of(chosen, self.vertices, self.triangles_)
         order = np.argsort(groups, kind="stable").astype(np.int64)
         return (order, groups, tri_points, points, normals, offsets, piece_start, piece_end,
                 piece_a, piece_b, partner, partner_any, np.full(len(chosen), -1, np.int64))
