@@ -3,7 +3,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vismobile.geometry.ray import first_hit, ray_triangle
+from vismobile.geometry.ray import EDGE_TOLERANCE, first_hit, ray_triangle
 from vismobile.open3d_import import raycast_primitive_ids
 
 TRI = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])  # front faces +z
@@ -84,3 +84,24 @@ def test_agrees_with_open3d_on_a_small_mesh():
     theirs = raycast_primitive_ids(vertices, triangles, origins, directions)
     # float32 in Embree may flip rays that graze an edge; all others agree
     assert np.mean(ids == theirs) > 0.97
+
+
+def test_compiled_single_ray_gives_ray_triangles_bits():
+    """ray_hit_t against ray_triangle on random rays and triangles, near-edge and edge-on ones
+    included: the same t (bit for bit) or the same miss."""
+    from vismobile.geometry.ray import ray_hit_t
+
+    rng = np.random.default_rng(11)
+    corners = rng.normal(size=(400, 3, 3))
+    corners[:50, 2] = corners[:50, 0] + 2.0 * (corners[:50, 1] - corners[:50, 0])  # degenerate
+    origins = rng.normal(size=(400, 3)) * 3
+    directions = rng.normal(size=(400, 3))
+    directions[:100] = np.eye(3)[rng.integers(0, 3, 100)] * rng.choice([-1.0, 1.0], (100, 1))
+    hits = 0
+    for k in range(400):
+        expected = ray_triangle(origins[k], directions[k], corners)[0]
+        got = np.array([ray_hit_t(*origins[k], *directions[k], c, EDGE_TOLERANCE)
+                        for c in corners])
+        assert np.array_equal(got, expected)
+        hits += int(np.isfinite(expected).sum())
+    assert hits > 500

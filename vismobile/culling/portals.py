@@ -41,7 +41,7 @@ from numba import njit
 from ..geometry.boxes import boxes_contain_point
 from ..geometry.planes import planes_through_eye
 from ..geometry.raster import to_camera
-from ..geometry.ray import ray_triangle
+from ..geometry.ray import EDGE_TOLERANCE, ray_hit_t
 from .frustum import frustum_refine, frustum_traverse
 from .precision import device_move, margin, world_scale
 from .state import CullState
@@ -138,6 +138,73 @@ def flood_cells(rect, starts, cell_portal_start, cell_portals, portal_cells, pre
     return tested
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _box_holds(bounds, k, eye, grow, axes):
+    """bounds[k] grown by `grow` holds the eye on the given axes (closed)."""
+    for a in axes:
+        if not (bounds[k, 0, a] - grow <= eye[a] and eye[a] <= bounds[k, 1, a] + grow):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _axis_hits(eye, axis, sign, tol, cell_bounds, cell_node, ref_start, ref_end, tri_refs,
+               tri_bounds, corners, normals, nearest):
+    """Along the ray from the eye in direction sign * axis, over the triangles of the cells the
+    axis line crosses: the nearest hit t when nearest is inf (first pass), else whether a
+    triangle hit within tol of `nearest` is seen from behind or edge-on (second pass)."""
+    others = (1, 2) if axis == 0 else ((0, 2) if axis == 1 else (0, 1))
+    d = np.zeros(3)
+    d[axis] = sign
+    best = np.inf
+    for c in range(len(cell_node)):
+        if not _box_holds(cell_bounds, c, eye, tol, others):
+            continue
+        node = cell_node[c]
+        for r in range(ref_start[node], ref_end[node]):
+            tri = tri_refs[r]
+            if not _box_holds(tri_bounds, tri, eye, tol, others):
+                continue
+            t = ray_hit_t(eye[0], eye[1], eye[2], d[0], d[1], d[2], corners[tri],
+                          EDGE_TOLERANCE)
+            if np.isinf(nearest):
+                best = min(best, t)
+            elif np.isfinite(t) and t <= nearest + tol and sign * normals[tri, axis] >= 0:
+                return 1.0
+    return best if np.isinf(nearest) else 0.0
+
+
+@njit(cache=True, nogil=True)
+def free_space(eye, reach, tol, max_escapes, cell_bounds, cell_node, ref_start, ref_end,
+               tri_refs, tri_bounds, corners, normals):
+    """PortalStage.eye_in_free_space over flat arrays (reach already grown by tol): no
+    triangle box within reach, and each of the six axis rays first hits a front face or
+    escapes, at most max_escapes escaping. Errs toward False (see the method)."""
+    every = (0, 1, 2)
+    for c in range(len(cell_node)):
+        if not _box_holds(cell_bounds, c, eye, reach, every):
+            continue
+        node = cell_node[c]
+        for r in range(ref_start[node], ref_end[node]):
+            if _box_holds(tri_bounds, tri_refs[r], eye, reach, every):
+                return False
+    escapes = 0
+    for axis in range(3):
+        nearest = np.empty(2)
+        for k, sign in enumerate((1.0, -1.0)):
+            nearest[k] = _axis_hits(eye, axis, sign, tol, cell_bounds, cell_node, ref_start,
+                                    ref_end, tri_refs, tri_bounds, corners, normals, np.inf)
+            escapes += np.isinf(nearest[k])
+        if escapes > max_escapes:
+            return False
+        for k, sign in enumerate((1.0, -1.0)):
+            if np.isfinite(nearest[k]) and _axis_hits(
+                    eye, axis, sign, tol, cell_bounds, cell_node, ref_start, ref_end, tri_refs,
+                    tri_bounds, corners, normals, nearest[k]) > 0:
+                return False
+    return True
+
+
 def rect_planes(rects, camera, push: float = 0.0, limits=None) -> np.ndarray:
     """(K, 6, 4) float64 frustum planes narrowed to NDC rectangles (K, 4): four through the eye,
     pushed out by `push` (world units), then near and far: limits (2, 4) (the Culler's
@@ -171,6 +238,7 @@ class PortalStage:
         self.available = all(key in extras for key in EXTRAS) and len(extras["cell_node"]) > 0
         if self.available:
             self.x = {key: np.asarray(extras[key]) for key in EXTRAS}
+            self.cell_node = self.x["cell_node"].astype(np.int64)
             world = tree.world
             self.corners, self.normals, self.bounds = world.corners, world.normals, world.bounds
             self.magnitude = world_scale(world.vertices)  # no abs copy of a mapped world
@@ -188,33 +256,10 @@ class PortalStage:
         through it.
         eye : (3,) float64;  reach : float, distance of the near plane's corners from the eye
         """
-        x, tol = self.x, self.tree.tol
-        bounds = x["cell_bounds"]
-        reach = reach + tol
-        around = np.flatnonzero(boxes_contain_point(bounds, eye, reach))
-        tb = self.bounds[self.tree.refs(x["cell_node"][around].astype(np.int64))]
-        if np.any(((tb[:, 0] - reach <= eye) & (eye <= tb[:, 1] + reach)).all(axis=1)):
-            return False
-        escapes = 0
-        for axis in range(3):
-            others = [a for a in range(3) if a != axis]
-            line = ((bounds[:, 0, others] - tol <= eye[others])
-                    & (eye[others] <= bounds[:, 1, others] + tol)).all(axis=1)
-            tris = self.tree.refs(x["cell_node"][np.flatnonzero(line)].astype(np.int64))
-            tb = self.bounds[tris]
-            tris = tris[((tb[:, 0, others] - tol <= eye[others])
-                         & (eye[others] <= tb[:, 1, others] + tol)).all(axis=1)]
-            directions = np.zeros((2, 3))
-            directions[:, axis] = (1.0, -1.0)
-            t = ray_triangle(np.tile(eye, (2, 1)), directions, self.corners[tris])
-            nearest = t.min(axis=1) if t.shape[1] else np.full(2, np.inf)
-            escapes += int(np.sum(~np.isfinite(nearest)))
-            if escapes > MAX_ESCAPES:
-                return False
-            facing = self.normals[tris] @ directions.T  # (K, 2): < 0 seen from the front
-            if np.any(np.isfinite(t) & (t <= (nearest + tol)[:, None]) & (facing.T >= 0)):
-                return False
-        return True
+        tree = self.tree
+        return free_space(np.asarray(eye, dtype=np.float64), reach + tree.tol, tree.tol,
+                          MAX_ESCAPES, self.x["cell_bounds"], self.cell_node, tree.ref_start,
+                          tree.ref_end, tree.tri_refs, self.bounds, self.corners, self.normals)
 
     def device_reach(self, camera) -> tuple:
         """(D, push): how far the device's rounding can move a sight line relative to the exact
@@ -234,7 +279,7 @@ class PortalStage:
         ids, rects = cells
         state.count(f"{self.name}.cells_visited", len(ids))
         planes = rect_planes(rects, camera, self.device_reach(camera)[1], state.planes[4:])
-        state.nodes = frustum_traverse(tree, self.x["cell_node"][ids].astype(np.int64),
+        state.nodes = frustum_traverse(tree, self.cell_node[ids],
                                        planes, np.arange(len(ids)), state, self.name)
 
     def visible_cells(self, camera, state: CullState):

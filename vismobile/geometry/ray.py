@@ -3,6 +3,7 @@ intersection"), vectorised over rays x triangles."""
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 # Barycentric slack: rays this far (in barycentric units) outside an edge still hit.
 EDGE_TOLERANCE = 1e-9
@@ -56,3 +57,30 @@ def first_hit(origins, directions, corners, t_min=0.0, tolerance=EDGE_TOLERANCE,
     ids = np.argmin(t, axis=1)
     best = t[np.arange(len(t)), ids]
     return np.where(np.isfinite(best), ids, -1).astype(np.int64), best
+
+
+@njit(cache=True, nogil=True)
+def ray_hit_t(ox, oy, oz, dx, dy, dz, corners, tolerance):
+    """ray_triangle for one ray and one triangle (t_min 0, no back-face culling), compiled:
+    its t or inf, with the same operations in the same order, so the same bits.
+
+    Errs as ray_triangle: toward hitting by `tolerance` (barycentric); det == 0 never hits.
+    corners : (3, 3) float64
+    """
+    ax, ay, az = corners[0, 0], corners[0, 1], corners[0, 2]
+    e1x, e1y, e1z = corners[1, 0] - ax, corners[1, 1] - ay, corners[1, 2] - az
+    e2x, e2y, e2z = corners[2, 0] - ax, corners[2, 1] - ay, corners[2, 2] - az
+    px, py, pz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x
+    det = e1x * px + e1y * py + e1z * pz
+    if det == 0.0:
+        return np.inf
+    inv = 1.0 / det
+    tx, ty, tz = ox - ax, oy - ay, oz - az
+    u = (tx * px + ty * py + tz * pz) * inv
+    qx, qy, qz = ty * e1z - tz * e1y, tz * e1x - tx * e1z, tx * e1y - ty * e1x
+    v = (dx * qx + dy * qy + dz * qz) * inv
+    t = (e2x * qx + e2y * qy + e2z * qz) * inv
+    if u >= -tolerance and v >= -tolerance and u + v <= 1.0 + tolerance and t >= 0.0 \
+            and np.isfinite(t):
+        return t
+    return np.inf
