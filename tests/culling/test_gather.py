@@ -1,14 +1,14 @@
 """The distinct gather (culling/gather.py) against np.unique of the concatenated references: the
-two-level bitmap kernels on random ranges sharing triangles, the per-level lists of a real octree
-(each subtree's triangles, each at least once), first depths against their definition, the
-output pool, and the walk's whole_below superset."""
+two-level bitmap kernels on random ranges sharing triangles, the (word, mask) pairs, the
+per-level lists of a real octree (each subtree's triangles, each at least once), first depths
+against their definition, the output pool, and the walk's whole_below superset."""
 import numpy as np
 import pytest
 
 from vismobile.camera import Camera
 from vismobile.culling import Culler, gather
-from vismobile.culling.gather import (Bitmap, CoarseLevels, choose_levels, count_marked,
-                                      extract_marked, first_depths, mark_nodes)
+from vismobile.culling.gather import (Bitmap, choose_levels, count_marked, extract_marked,
+                                      first_depths, level_groups, mark_nodes)
 from vismobile.culling.tree import Tree
 
 
@@ -16,15 +16,24 @@ def runs_of(ids):
     return int(len(ids) and 1 + np.count_nonzero(np.diff(ids) != 1))
 
 
-def gather_ranges(refs, starts, ends, nodes, count, coarse=None):
+def gather_ranges(refs, starts, ends, nodes, count):
+    """Sorted distinct ids of refs[starts[n]:ends[n]] for n in nodes, each reference its own
+    pair (ranges may overlap and ids need not ascend)."""
     b = Bitmap(count)
-    empty = np.zeros(0, np.int64)
-    cs, ce, cl = coarse if coarse is not None else (empty, empty, refs[:0])
-    ntops = mark_nodes(refs, starts, ends, cl, cs, ce, nodes, b.bits, b.summary, b.tops)
+    refs = np.asarray(refs, dtype=np.int64)
+    words, masks = (refs >> 6).astype(np.int32), np.uint64(1) << (refs & 63).astype(np.uint64)
+    ntops = mark_nodes(words, masks, starts, ends, nodes, b.bits, b.summary, b.tops)
     out = np.full(count_marked(b.bits, b.summary, b.tops, ntops), -1, dtype=np.int64)
     runs = extract_marked(b.bits, b.summary, b.tops, ntops, out)
     assert not b.bits.any() and not b.summary.any()  # both levels left clear for the next frame
     return out, runs
+
+
+def decode(words, masks):
+    """(ids of each pair's mask, concatenated in pair order)."""
+    bits = (masks[:, None] >> np.arange(64, dtype=np.uint64)) & np.uint64(1)
+    pair, bit = np.nonzero(bits)
+    return words[pair].astype(np.int64) * 64 + bit
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -42,13 +51,23 @@ def test_bitmap_gather_is_sorted_unique_of_the_ranges(seed):
     assert runs == runs_of(expect)
 
 
-def test_bitmap_gather_reads_coarse_lists_for_mapped_nodes():
-    refs = np.array([5, 9, 9, 5, 2, 70, 64, 63], dtype=np.int32)
-    starts, ends = np.array([0, 4], np.int64), np.array([4, 8], np.int64)
-    coarse = (np.array([0], np.int64), np.array([3], np.int64), np.array([1, 2, 3], np.int32))
-    ids, runs = gather_ranges(refs, starts, ends, np.array([0, 1], np.int64), 100, coarse)
-    assert ids.tolist() == [1, 2, 3, 63, 64, 70]  # node 0 read [1, 2, 3], not refs[0:4]
-    assert runs == 3
+def test_level_groups_pair_each_leafs_references_by_word():
+    refs = np.array([1, 5, 63, 64, 70, 3, 4, 200, 7], dtype=np.int32)
+    fd = np.array([0, 2, 0, 1, 0, 0, 3, 0, 1], dtype=np.uint8)
+    leaf_starts = np.array([0, 5, 5, 8], np.int64)  # an empty leaf at 5
+    none = np.zeros(0, np.int32)
+    for level, expect in ((255, [[1, 5, 63], [64, 70], [3, 4], [200], [7]]),
+                          (1, [[1, 63], [64, 70], [3], [200], [7]]),
+                          (0, [[1, 63], [70], [3], [200]])):
+        offsets = level_groups(refs, fd, level, leaf_starts, none, none)
+        words = np.empty(offsets[-1], np.int32)
+        masks = np.empty(offsets[-1], np.uint64)
+        assert np.array_equal(level_groups(refs, fd, level, leaf_starts, words, masks), offsets)
+        pairs = [decode(words[k:k + 1], masks[k:k + 1]).tolist() for k in range(len(words))]
+        assert pairs == expect
+        # a leaf's pairs start at its offset: leaf 1 is empty, leaf 2 starts at ref 5
+        assert decode(words[offsets[2]:offsets[3]], masks[offsets[2]:offsets[3]]).tolist() == \
+            [t for t, d in zip(refs[5:8].tolist(), fd[5:8]) if d <= level]
 
 
 def test_bitmap_gather_of_no_nodes_is_empty():
@@ -81,19 +100,22 @@ def test_first_depths_follow_their_definition(w1_octree):
     assert (fd == 0).sum() == len(np.unique(refs))  # each triangle's first reference overall
 
 
-def test_coarse_lists_hold_each_subtree_triangle(w1_octree, monkeypatch):
+def test_level_pairs_hold_each_subtree_triangle(w1_octree, monkeypatch):
     monkeypatch.setattr(gather, "KEEP_RATIO", 1.0)  # keep every level: all lists are checked
     monkeypatch.setattr(gather, "MAX_COARSE", 100.0)
     tree = Tree(w1_octree)
-    c = tree.coarse
-    assert c.levels == list(range(w1_octree.depth - 1, -1, -1))
+    g = tree.groups
+    assert g.levels == list(range(w1_octree.depth - 1, -1, -1))
     levels = w1_octree.node_levels()
-    for node in range(len(c.start)):
-        listed = c.coarse[c.start[node]:c.end[node]]
+    fewer = 0
+    for node in range(tree.node_count):
+        listed = decode(g.words[g.start[node]:g.end[node]], g.masks[g.start[node]:g.end[node]])
         subtree = np.unique(tree.refs([node]))
         assert np.array_equal(np.unique(listed), subtree)
-        if levels[node] in c.levels:  # its own level: each triangle exactly once
+        if levels[node] < w1_octree.depth:  # its own level's list: each triangle once
             assert len(listed) == len(subtree)
+        fewer += g.end[node] - g.start[node] < tree.ref_end[node] - tree.ref_start[node]
+    assert fewer  # pairs are fewer than references
 
 
 @pytest.mark.parametrize("keep", [0.75, 1.0])

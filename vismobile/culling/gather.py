@@ -1,21 +1,24 @@
-"""The distinct gather: sorted unique triangle ids of a frame's draw nodes, and the per-level
-reference lists (built once per tree) that let a node accepted whole read each of its triangles
-once instead of once per leaf that references it.
+"""The distinct gather: sorted unique triangle ids of a frame's draw nodes, from (word, mask)
+pairs built once per tree, and per-level lists that let a node accepted whole read each of its
+triangles once instead of once per leaf that references it.
 
 Per frame (numba, cached on disk) the ids go into a two-level bitmap: one bit per triangle, and
 one summary bit per 64-bit word of it, so that only the summary words touched are listed and
 sorted (T / 4096 at most, a few hundred in practice) and read back in order, with the words and
 the ids under them; both levels are cleared as they are read. Nothing of size T is cleared or
-scanned per frame. A node's ids are accumulated in a register while they stay in one word (a
-leaf's references are ascending ids), so the bitmap is written once per word, not per reference.
+scanned per frame.
+
+The references are not read one by one: a leaf's ids ascend, so its references falling in one
+64-id word of the bitmap are stored as one pair (word, mask) and marked with one OR (the 20 M
+world's 26.9 M references make 2.0 M pairs; the tiled W2 at octree 8, 26.4 M make 12.3 M).
 
 Leaves share triangles (an octree leaf references every triangle overlapping it): in the tiled
 W2 at octree depth 8, 26.4 M references name 5.0 M triangles, and a node accepted whole near the
 root reads 5x more references than it holds triangles. `first_depths` gives each reference the
 depth of the highest ancestor of its leaf in whose subtree it is its triangle's first reference;
-the references of depth <= c, in stored order, list each triangle of every depth-c subtree once
-(`level_refs`). A node at depth d reads its triangles from the finest such list kept at a level
-c >= d (`CoarseLevels`), or from tri_refs when none is kept.
+the references of depth <= c, in stored order, list each triangle of every depth-c subtree once.
+A node at depth d reads the pairs of the finest such list kept at a level c >= d, or of all its
+references when none is kept (`Groups`).
 """
 from __future__ import annotations
 
@@ -26,8 +29,6 @@ from numba import njit
 
 _ONE = np.uint64(1)
 _FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
-_SIX = np.uint64(6)
-_LOW6 = np.uint64(63)
 _M1 = np.uint64(0x5555555555555555)
 _M2 = np.uint64(0x3333333333333333)
 _M4 = np.uint64(0x0F0F0F0F0F0F0F0F)
@@ -40,7 +41,7 @@ _BIT_INDEX[((np.uint64(1) << np.arange(64, dtype=np.uint64)) * _DEBRUIJN) >> np.
 
 # A level's list is kept when it holds at most this share of the references of the next finer
 # list kept (or of tri_refs), and while all kept lists together hold at most MAX_COARSE times
-# the references: memory stays within 1.5x tri_refs.
+# the references: the pairs of the kept levels stay within 1.5x those of tri_refs.
 KEEP_RATIO = 0.75
 MAX_COARSE = 1.5
 
@@ -54,36 +55,28 @@ def _popcount(x):
 
 
 @njit(cache=True, nogil=True)
-def mark_nodes(tri_refs, ref_start, ref_end, coarse, coarse_start, coarse_end, nodes, bits,
-               summary, tops):
+def mark_nodes(words, masks, start, end, nodes, bits, summary, tops):
     """Mark the triangle ids of the nodes' subtrees in the two-level bitmap; returns the summary
-    words listed in tops. Exact: an id is marked iff a node's subtree references it.
+    words listed in tops. Exact: an id is marked iff a node's pairs hold it.
 
-    Node n < len(coarse_start) reads coarse[coarse_start[n]:coarse_end[n]] (its subtree's ids,
-    each at least once), any other tri_refs[ref_start[n]:ref_end[n]].
+    words, masks : (G,) int32 / uint64 pairs; node n reads pairs start[n]:end[n] (Groups)
     bits : (T // 64 + 1,) uint64;  summary, tops : (T // 4096 + 1,) uint64 / int64 scratch;
     bits and summary all zero on entry (extract_marked clears them).
     """
     ntops = 0
-    mapped = len(coarse_start)
     for k in range(len(nodes)):
         node = nodes[k]
-        if node < mapped:
-            src, lo, hi = coarse, coarse_start[node], coarse_end[node]
-        else:
-            src, lo, hi = tri_refs, ref_start[node], ref_end[node]
-        for r in range(lo, hi):
-            t = np.int64(src[r])
-            w = t >> 6
+        for g in range(start[node], end[node]):
+            w = np.int64(words[g])
             old = bits[w]
-            if old == 0:  # first id of its word: list the word's summary word when new
+            if old == 0:  # first ids of their word: list its summary word when new
                 s = w >> 6
                 above = summary[s]
                 if above == 0:
                     tops[ntops] = s
                     ntops += 1
                 summary[s] = above | (_ONE << np.uint64(w & 63))
-            bits[w] = old | (_ONE << np.uint64(t & 63))
+            bits[w] = old | masks[g]
     return ntops
 
 
@@ -206,19 +199,32 @@ def first_depths(tri_refs, leaves, parent, depth, ref_start, ref_end, last):
 
 
 @njit(cache=True, nogil=True)
-def level_refs(tri_refs, fd, level, leaf_starts, out):
-    """Copy the references with fd <= level into out in stored order; returns (L + 1,) int64
-    offsets of each leaf (leaf_starts ascending: tri_refs positions) and of the end in out."""
+def level_groups(tri_refs, fd, level, leaf_starts, words, masks):
+    """Pairs (word, mask) of the references with fd <= level, in stored order: consecutive ones
+    in one 64-id word within a leaf make one pair. Fills words and masks when they are not
+    empty (else only counts); returns (L + 1,) int64 offsets of each leaf's first pair (leaf
+    i starts at tri_refs position leaf_starts[i], ascending) and of the end."""
+    fill = len(words) > 0
     offsets = np.empty(len(leaf_starts) + 1, dtype=np.int64)
     count = 0
     k = 0
+    current = np.int64(-1)
     for r in range(len(tri_refs)):
         while k < len(leaf_starts) and leaf_starts[k] <= r:
             offsets[k] = count
             k += 1
+            current = -1  # pairs never span leaves: node ranges are whole leaves
         if fd[r] <= level:
-            out[count] = tri_refs[r]
-            count += 1
+            t = np.int64(tri_refs[r])
+            w = t >> 6
+            if w != current:
+                if fill:
+                    words[count] = w
+                    masks[count] = 0
+                count += 1
+                current = w
+            if fill:
+                masks[count - 1] |= _ONE << np.uint64(t & 63)
     while k < len(leaf_starts):
         offsets[k] = count
         k += 1
@@ -229,7 +235,7 @@ def level_refs(tri_refs, fd, level, leaf_starts, out):
 def choose_levels(counts, leaf_refs) -> list:
     """Levels to keep, deepest first, from counts[c] = references of fd <= c (c below the
     deepest leaf): each at most KEEP_RATIO of the next finer kept (tri_refs first), all together
-    at most MAX_COARSE * leaf_refs."""
+    at most MAX_COARSE * leaf_refs references."""
     kept, finer, total = [], leaf_refs, 0
     for c in range(len(counts) - 1, -1, -1):
         if counts[c] <= KEEP_RATIO * finer and total + counts[c] <= MAX_COARSE * leaf_refs:
@@ -239,24 +245,26 @@ def choose_levels(counts, leaf_refs) -> list:
     return kept
 
 
-class CoarseLevels:
-    """Per-level lists of each subtree's triangles, once each (see the module docstring).
+class Groups:
+    """The pairs every node reads (see the module docstring).
 
-    coarse        : (C,) the kept levels' lists, concatenated (tri_refs' dtype)
-    start, end    : (M,) int64 node n < M reads coarse[start[n]:end[n]]; M = nodes up to the
-                    deepest kept level (deeper nodes read tri_refs)
-    levels        : kept levels, deepest first
+    words, masks : (G,) int32 / uint64 the pairs of all references (tri_refs, leaf by leaf),
+                   then of each kept level's list
+    start, end   : (N,) node n reads pairs start[n]:end[n]: its kept level's when its depth
+                   is at most a kept level, else its references'
+    levels       : kept levels, deepest first
     """
+
+    ALL = 255  # first depths are at most 255: the list of every reference
 
     def __init__(self, tree):
         p = tree.partition
         refs = tree.tri_refs
         n = tree.node_count
         self.levels = []
-        self.coarse = np.zeros(0, dtype=refs.dtype)
-        self.coarse.flags.writeable = refs.flags.writeable
-        self.start = np.zeros(0, dtype=np.int64)
-        self.end = np.zeros(0, dtype=np.int64)
+        self.words = np.zeros(0, dtype=np.int32)
+        self.masks = np.zeros(0, dtype=np.uint64)
+        self.start = self.end = np.zeros(n, dtype=np.int32)
         if n == 0 or len(refs) == 0:
             return
         level_start = np.asarray(p.level_start, dtype=np.int64)
@@ -271,24 +279,25 @@ class CoarseLevels:
         fd = first_depths(refs, leaves, parent, depth, tree.ref_start, tree.ref_end, last)
         del last
         deepest = int(depth[leaves].max())
-        counts = np.cumsum(np.bincount(fd, minlength=256))[:min(deepest, 255)]
+        counts = np.cumsum(np.bincount(fd, minlength=256))[:min(deepest, self.ALL)]
         self.levels = choose_levels(counts, len(refs))
-        if not self.levels:
-            return
-        m = int(level_start[max(self.levels) + 1])
-        self.coarse = np.empty(int(sum(counts[c] for c in self.levels)), dtype=refs.dtype)
-        self.start = np.empty(m, dtype=np.int64)
-        self.end = np.empty(m, dtype=np.int64)
         leaf_starts = tree.ref_start[tree.leaf_order]
+        lists = [self.ALL] + self.levels
+        none = np.zeros(0, dtype=np.int32)
+        sizes = [int(level_groups(refs, fd, c, leaf_starts, none, none)[-1]) for c in lists]
+        self.words = np.empty(sum(sizes), dtype=np.int32)
+        self.masks = np.empty(sum(sizes), dtype=np.uint64)
+        index = np.int32 if sum(sizes) < 2 ** 31 else np.int64
+        self.start = np.empty(n, dtype=index)
+        self.end = np.empty(n, dtype=index)
         base = 0
-        for c in self.levels:  # deepest first: shallower levels overwrite their nodes
-            offsets = level_refs(refs, fd, c, leaf_starts, self.coarse[base:])
-            upto = int(level_start[c + 1])
-            self.start[:upto] = base + offsets[tree.leaf_lo[:upto]]
-            self.end[:upto] = base + offsets[tree.leaf_hi[:upto]]
-            base += int(offsets[-1])
-        # Same dtype and writeability as tri_refs: mark_nodes reads both through one variable.
-        self.coarse.flags.writeable = refs.flags.writeable
+        for c, size in zip(lists, sizes):  # all references first, then the deepest level kept
+            offsets = base + level_groups(refs, fd, c, leaf_starts, self.words[base:],
+                                          self.masks[base:])
+            upto = n if c == self.ALL else int(level_start[c + 1])  # shallower overwrite
+            self.start[:upto] = offsets[tree.leaf_lo[:upto]]
+            self.end[:upto] = offsets[tree.leaf_hi[:upto]]
+            base += size
 
 
 def _ranks(counts) -> np.ndarray:

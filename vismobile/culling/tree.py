@@ -6,7 +6,7 @@ import numpy as np
 
 from ..geometry.planes import slack
 from ..partition.base import Partition, gather_ranges
-from .gather import Bitmap, CoarseLevels, count_marked, extract_marked, mark_nodes
+from .gather import Bitmap, Groups, count_marked, extract_marked, mark_nodes
 from .kernels import frustum_walk
 
 
@@ -45,12 +45,9 @@ class Tree:
         self.lo = np.ascontiguousarray(self.node_bounds[:, 0])
         self.hi = np.ascontiguousarray(self.node_bounds[:, 1])
         self._bitmap = Bitmap(self.world.triangle_count)
-        self.coarse = CoarseLevels(self)
-        # What gathering a node costs: the length of the list it reads (gather.mark_nodes).
-        c = self.coarse
-        wide = np.int32 if len(self.tri_refs) < 2 ** 31 else np.int64
-        self.read_size = (self.ref_end - self.ref_start).astype(wide)
-        self.read_size[:len(c.start)] = c.end - c.start
+        self.groups = Groups(self)
+        # What gathering a node costs: the pairs it reads (gather.mark_nodes).
+        self.read_size = self.groups.end - self.groups.start
         self._stacks = self._stack_scratch(64)
 
     def _stack_scratch(self, roots: int) -> tuple:
@@ -79,11 +76,10 @@ class Tree:
 
     def gather(self, nodes) -> tuple:
         """(sorted distinct triangle ids (S,) int64 of the nodes' subtrees, runs of consecutive
-        ids among them). Nodes accepted whole read their levels' lists (gather.CoarseLevels)."""
+        ids among them). Nodes read (word, mask) pairs, whole ones their levels' (gather.Groups)."""
         nodes = np.ascontiguousarray(nodes, dtype=np.int64)
-        c, b = self.coarse, self._bitmap
-        ntops = mark_nodes(self.tri_refs, self.ref_start, self.ref_end, c.coarse, c.start, c.end,
-                           nodes, b.bits, b.summary, b.tops)
+        g, b = self.groups, self._bitmap
+        ntops = mark_nodes(g.words, g.masks, g.start, g.end, nodes, b.bits, b.summary, b.tops)
         ids = b.output(count_marked(b.bits, b.summary, b.tops, ntops))
         return ids, extract_marked(b.bits, b.summary, b.tops, ntops, ids)
 
