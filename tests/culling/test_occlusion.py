@@ -2,6 +2,7 @@
 quads with T-junctions around a door hides what is behind it, keeps what shows through the
 door, never drops what the item buffer shows; the thesis stage skips grazing occluders."""
 import numpy as np
+import pytest
 
 from vismobile.camera import Camera
 from vismobile.culling import Culler
@@ -312,3 +313,57 @@ def test_unique_rows_are_numpys_unique_rows():
     assert np.array_equal(got, expect) and np.array_equal(inverse, expect_inverse.ravel())
     assert inverse[7] == inverse[8] and np.array_equal(got[inverse], rows)
     assert unique_rows(np.zeros((0, 4)))[0].shape == (0, 4)
+
+
+def test_first_round_candidates_come_from_the_nearest_shells(kit):
+    # hiz.gather_shell_candidates: shells of distance from the eye, each sqrt(2) wider, until
+    # `limit` ids were offered; a larger limit walks on (a superset), no limit is the frustum walk.
+    from pathlib import Path
+
+    from vismobile.culling.hiz import gather_candidates, gather_shell_candidates
+    from vismobile.culling.occlusion import SHELL_GROWTH
+    from vismobile.trajectory import Trajectory
+
+    world = kit.world("w2")
+    part = partition(world, "octree", depth=5)
+    culler = Culler(part, "vfc,occlusion,tbfc")
+    stage = culler.stages[1]
+    assert stage.name == "occlusion" and stage.first_candidates == stage.occluders
+    tree = stage.tree
+    traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
+    cam = traj.camera(400, kit.ASPECT)
+    planes = np.ascontiguousarray(cam.frustum_planes(), dtype=np.float64)
+    eye = np.asarray(cam.eye, dtype=np.float64)
+    none = np.zeros(0, dtype=np.int64)
+    root = np.zeros(1, dtype=np.int64)
+
+    def walk(limit):
+        bits = np.zeros(world.triangle_count // 64 + 1, dtype=np.uint64)
+        out = np.empty(stage.lists.size, dtype=np.int64)
+        stack = np.empty(tree.node_count + 1, dtype=np.int64)
+        later = np.empty(tree.node_count + 1, dtype=np.int64)
+        args = (tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, root,
+                planes, tree.tol, eye, stage.detail, stage.lists, none, none, bits, out, stack)
+        if limit is None:
+            count, visited = gather_candidates(*args)
+            reach = np.inf
+        else:
+            count, visited, reach = gather_shell_candidates(*args, later, stage.shell, limit,
+                                                            SHELL_GROWTH)
+        assert not bits.any()  # handed back clear
+        return set(out[:count].tolist()), visited, reach
+
+    every, visited_all, _ = walk(None)
+    near, visited_near, reach = walk(64)
+    nearer, _, reach_small = walk(8)
+    assert np.isfinite(reach) and reach_small <= reach and visited_near < visited_all
+    assert len(near) >= 64 and nearer <= near <= every
+    assert walk(10 ** 9)[0] == every and walk(10 ** 9)[2] == np.inf
+    with pytest.raises(ValueError, match="first_candidates"):
+        Culler(part, "vfc,occlusion", occlusion={"first_candidates": -1})
+    whole = Culler(part, "vfc,occlusion,tbfc", occlusion={"first_candidates": 0})
+    for f in np.linspace(0, len(traj) - 1, 6).astype(int):
+        c = traj.camera(int(f), kit.ASPECT)
+        visible = kit.visible_ids(world, c, True)
+        for one in (culler, whole):
+            assert not len(np.setdiff1d(visible, one.cull(c).triangles)), int(f)

@@ -712,6 +712,93 @@ def gather_candidates(lo, hi, first_child, child_count, nonempty, roots, planes,
     return count, visited
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _box_gap2(lo, hi, node, eye):
+    """Squared distance from the eye to the node's box (0 inside) and its squared diagonal."""
+    dist2 = 0.0
+    diag2 = 0.0
+    for a in range(3):
+        diag2 += (hi[node, a] - lo[node, a]) ** 2
+        gap = max(lo[node, a] - eye[a], eye[a] - hi[node, a], 0.0)
+        dist2 += gap * gap
+    return dist2, diag2
+
+
+@njit(cache=True, nogil=True)
+def gather_shell_candidates(lo, hi, first_child, child_count, nonempty, roots, planes, tol, eye,
+                            detail, lists, history, skip, bits, out, stack, later, reach,
+                            limit, growth):
+    """gather_candidates from `roots` in shells of distance to the eye: nodes nearer than
+    `reach` first; while fewer than `limit` ids came from node lists, the reach grows by
+    `growth` and the walk resumes at the nodes it set aside (each node visited once). Only
+    chooses candidates (never affects safety). Returns (count in out, nodes visited, the last
+    shell's reach, or inf when the whole frustum was walked).
+    skip, bits : as in gather_candidates;  stack, later : scratch of >= N + len(roots) entries"""
+    for k in range(len(skip)):
+        _take(skip[k], bits)
+    count = 0
+    for k in range(len(history)):
+        t = history[k]
+        if _take(t, bits):
+            out[count] = t
+            count += 1
+    offered = 0
+    visited = 0
+    top = 0
+    for k in range(len(roots) - 1, -1, -1):
+        stack[top] = roots[k]
+        top += 1
+    while True:
+        reach2 = reach * reach
+        aside = 0
+        while top > 0:
+            top -= 1
+            node = stack[top]
+            if not nonempty[node]:
+                continue
+            dist2, diag2 = _box_gap2(lo, hi, node, eye)
+            if dist2 > reach2:
+                later[aside] = node  # beyond this shell: the next one starts here
+                aside += 1
+                continue
+            visited += 1
+            outside = False
+            for p in range(len(planes)):
+                nx, ny, nz, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
+                px = hi[node, 0] if nx >= 0 else lo[node, 0]
+                py = hi[node, 1] if ny >= 0 else lo[node, 1]
+                pz = hi[node, 2] if nz >= 0 else lo[node, 2]
+                if nx * px + ny * py + nz * pz + d < -tol:
+                    outside = True
+                    break
+            if outside:
+                continue
+            n = child_count[node]
+            if n == 0 or diag2 < detail * detail * dist2:
+                for j in range(lists.shape[1]):
+                    t = lists[node, j]
+                    if t >= 0 and _take(t, bits):
+                        out[count] = t
+                        count += 1
+                        offered += 1
+                continue
+            first = first_child[node]
+            for c in range(n - 1, -1, -1):
+                stack[top] = first + c
+                top += 1
+        if aside == 0 or offered >= limit:
+            break
+        for k in range(aside - 1, -1, -1):
+            stack[top] = later[k]
+            top += 1
+        reach *= growth
+    for k in range(count):
+        bits[out[k] >> 6] = 0
+    for k in range(len(skip)):
+        bits[skip[k] >> 6] = 0
+    return count, visited, (np.inf if aside == 0 else reach)
+
+
 @njit(cache=True, nogil=True)
 def lod_ancestors(nodes, parent, lo, hi, eye, detail, mark, frame, out):
     """Each node replaced by its highest ancestor still small as seen from the eye (diagonal

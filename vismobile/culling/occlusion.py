@@ -8,7 +8,9 @@ Each frame:
    frame's nodes (after vfc or portals), each replaced by its highest ancestor still small as
    seen from the eye (diagonal < `detail` x distance: coarse far away), offer their
    precomputed lists of their `candidates` largest triangles, plus last frame's best sent
-   triangles (`observe`). They are ranked by estimated solid angle A |n.d| / |d|^3 and the
+   triangles (`observe`). The first round walks shells of distance from the eye, nearest
+   first, until the lists offered `first_candidates` ids (the rooms around the eye; farther
+   occluders come from the second round, out of what the first left visible). They are ranked by estimated solid angle A |n.d| / |d|^3 and the
    best `occluders` that certainly face the eye, also as the device rounds it (tbfc's bound),
    are rasterised. Any front-facing world triangle is opaque in the final image (with or
    without GL_CULL_FACE).
@@ -56,8 +58,8 @@ from ..world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
 from .hiz import (build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
-                  gather_candidates, hidden_triangles, lod_ancestors, node_candidates, rasterise,
-                  score_candidates)
+                  gather_candidates, gather_shell_candidates, hidden_triangles, lod_ancestors,
+                  node_candidates, rasterise, score_candidates)
 from .occluder_rows import occluder_mesh_of, score_corners, triangle_rows
 from .precision import device_move, world_scale
 from .state import CullResult, CullState
@@ -72,6 +74,8 @@ ZBUFFER_MARGIN = 2.0 ** -18
 GRAZING = 1e-6
 # Occluders are clipped this much (relative) beyond the near plane, plus the device's rounding.
 NEAR_RELATIVE = 2.0 ** -10
+# The first round's candidate shells grow by this factor (hiz.gather_shell_candidates).
+SHELL_GROWTH = np.sqrt(2.0)
 
 
 def unique_rows(rows) -> tuple:
@@ -162,10 +166,14 @@ class DepthBufferOcclusion:
                     pass (hiz.frustum_cull_nodes, one walk from the root: hidden subtrees are
                     never entered); occluder candidates then come from the root's frustum walk
                     (Culler._fuse). False: vfc walks first, the node pass re-enters its nodes
-    first_reach   : None, or a depth (world units): the first round takes its candidates only
-                    from nodes nearer than it (the rooms around the eye; what shows through
-                    their openings offers occluders in the second round). Off by default; on
-                    tiled W2 15.6 m made occlusion faster and tighter (docs/culling-performance)
+    first_candidates: the first round takes its candidates from the nodes nearest the eye
+                    only: shells of distance from the smallest leaf's diagonal, each sqrt(2)
+                    wider, until their lists offered this many ids (None: `occluders`; 0: the
+                    whole frustum). What shows through the near rooms' openings offers occluders
+                    in the second round. The reach follows the scene and the tree, not world
+                    units (docs/culling-performance: faster and tighter on tiled W2)
+    first_reach   : None, or a depth (world units) overriding first_candidates: the first
+                    round takes its candidates only from nodes nearer than it
     """
 
     name = "occlusion"
@@ -175,7 +183,7 @@ class DepthBufferOcclusion:
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
                  candidates: int = 4, detail: float = 0.125, rounds: int = 2,
                  triangles: bool = True, self_occluders: int = 0, screen=None,
-                 fuse: bool = True, first_reach=None):
+                 fuse: bool = True, first_reach=None, first_candidates=None):
         self.width, self.height = int(width), int(height)
         self.tile = tuple(int(v) for v in tile)
         self.occluders, self.candidates = int(occluders), int(candidates)
@@ -188,6 +196,10 @@ class DepthBufferOcclusion:
         self.first_reach = None if first_reach is None else float(first_reach)
         if self.first_reach is not None and not self.first_reach > 0:
             raise ValueError("occlusion needs first_reach > 0 (or None)")
+        self.first_candidates = (int(occluders) if first_candidates is None
+                                 else int(first_candidates))
+        if self.first_candidates < 0:
+            raise ValueError("occlusion needs first_candidates >= 0 (or None)")
         self.self_occluders = int(self_occluders)
         if min(self.width, self.height, self.occluders, self.candidates) < 1:
             raise ValueError("occlusion needs positive width, height, occluders and candidates")
@@ -256,6 +268,13 @@ class DepthBufferOcclusion:
         self.up_mark = np.full(tree.node_count, -1, dtype=np.int64)
         self._out = np.empty(tree.node_count + 64, dtype=np.int64)
         self._cands = np.empty(self.lists.size + self.occluders, dtype=np.int64)
+        self._later = np.empty(tree.node_count + 64, dtype=np.int64)
+        # The first round's candidate shells start at the smallest leaf's diagonal (the finest
+        # scale the tree resolves); self.reach is this frame's last shell (inf: whole frustum).
+        leaves = (tree.child_count == 0) & tree.nonempty
+        diagonal = np.linalg.norm(tree.hi[leaves] - tree.lo[leaves], axis=1)
+        self.shell = float(diagonal[diagonal > 0].min()) if (diagonal > 0).any() else 1.0
+        self.reach = np.inf
 
     def rows(self, ids) -> tuple:
         """(index (n,), normals, v0, centroids, radius, areas) for ids (n,) int64: the tables
@@ -294,11 +313,14 @@ class DepthBufferOcclusion:
         return ids[good[np.argsort(-score[good], kind="stable")]]
 
     def select(self, state: CullState, roots=None, history=None, skip=None,
-               reach=None) -> np.ndarray:
+               reach=None, limit=0) -> np.ndarray:
         """(K,) int64 world ids of this frame's occluders, best first: candidates of
         the walk from `roots` (default: the tree's root, coarse far away) and `history`
         (default: last frame's), not in `skip`; with `reach`, only nodes nearer than that depth
-        (the walk's far plane pulled in; which occluders are chosen never affects safety)."""
+        (the walk's far plane pulled in); else with `limit` > 0, only nodes in the nearest
+        shells of distance (from the smallest leaf's diagonal, growing by SHELL_GROWTH) that
+        offer `limit` ids (hiz.gather_shell_candidates; self.reach is the last shell). Which
+        occluders are chosen never affects safety."""
         tree, camera = self.tree, state.camera
         eye = np.asarray(camera.eye, dtype=np.float64)
         self._frame += 1
@@ -319,10 +341,18 @@ class DepthBufferOcclusion:
         planes = np.array(state.planes, dtype=np.float64)
         if reach is not None and reach < camera.far:  # planes[5] is the far plane (camera.py)
             planes[5, 3] -= (camera.far - reach) * np.linalg.norm(planes[5, :3])
-        found, visited = gather_candidates(tree.lo, tree.hi, tree.first_child, tree.child_count,
-                                           tree.nonempty, roots, planes, tree.tol, eye,
-                                           self.detail, self.lists, history, skip, self.bits,
-                                           self._cands, self._stack)
+        if limit and reach is None:  # nearest shells first, until `limit` ids were offered
+            if len(roots) + tree.node_count > len(self._later):
+                self._later = np.empty(len(roots) + tree.node_count, dtype=np.int64)
+            found, visited, self.reach = gather_shell_candidates(
+                tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots,
+                planes, tree.tol, eye, self.detail, self.lists, history, skip, self.bits,
+                self._cands, self._stack, self._later, self.shell, limit, SHELL_GROWTH)
+        else:
+            found, visited = gather_candidates(tree.lo, tree.hi, tree.first_child,
+                                               tree.child_count, tree.nonempty, roots, planes,
+                                               tree.tol, eye, self.detail, self.lists, history,
+                                               skip, self.bits, self._cands, self._stack)
         state.count(f"{self.name}.candidates", found)
         state.count(f"{self.name}.candidate_nodes", visited)
         chosen = self.best(self._cands[:found], eye, state.planes, self.occluders)
@@ -414,7 +444,8 @@ class DepthBufferOcclusion:
         self._camera, self._planes = camera, np.ascontiguousarray(state.planes)
         self.nearest = np.inf
         self.depth.fill(np.inf)
-        chosen = self.select(state, reach=self.first_reach)
+        self.reach = np.inf if self.first_reach is None else self.first_reach
+        chosen = self.select(state, reach=self.first_reach, limit=self.first_candidates)
         written = self.rasterise(camera, chosen) if len(chosen) else 0
         if not len(chosen):
             self.tile_max.fill(np.inf)
