@@ -214,8 +214,9 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 c1 = min(np.floor(row_r[rr] - 0.5), width - 1.0)
                 if not c0 <= c1:
                     continue
-                for i in range(int(c0), int(c1) + 1):
-                    mask[rr * width + i] |= _CENTRE
+                # Only centres are marked yet (mask is zero where each group starts): a fill.
+                base = rr * width
+                mask[base + int(c0):base + int(c1) + 1] = _CENTRE
         gx0 = int(max(np.floor(bx0) - 1.0, 0.0)) if bx0 < np.inf else width
         gx1 = int(min(np.floor(bx1) + 1.0, width - 1.0)) if bx1 > -np.inf else -1
         gy0 = int(max(np.floor(by0) - 1.0, 0.0)) if by0 < np.inf else height
