@@ -7,7 +7,8 @@ from vismobile.camera import Camera
 from vismobile.culling import Culler, backface, cones
 from vismobile.culling import kernels
 from vismobile.culling.facing import (TILT_BIAS, TILT_EXACT, backfacing, frontfacing,
-                                      keep_unmarked, tilt_of, tilt_scales, tilt_select)
+                                      keep_unmarked, not_backfacing, tilt_of, tilt_scales,
+                                      tilt_select)
 from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
 from vismobile.geometry.tilt import tilt_coefficients, tilt_sine
 from vismobile.mapped import MappedWorld
@@ -47,6 +48,10 @@ def test_backfacing_kernel_matches_the_numpy_bound(dtype):
         expect = certainly_backfacing(cross, abs_cross, ea, eb, corners[:, 0], eye, delta)
         got = backfacing(ids, vertices, triangles, eye, delta, GAMMA_8)
         assert np.array_equal(got, expect) and 0 < got.sum() < len(ids)
+        shuffled = ids[::-1].copy()  # any order: the kept ids come out in theirs
+        kept = np.full(len(ids), -7, dtype=np.int64)
+        count = not_backfacing(shuffled, vertices, triangles, eye, delta, GAMMA_8, kept)
+        assert np.array_equal(kept[:count], shuffled[~expect[shuffled]])
     assert len(backfacing(ids[:0], vertices, triangles, eye, 0.0, GAMMA_8)) == 0
 
 

@@ -71,6 +71,19 @@ def backfacing(ids, vertices, triangles, eye, delta, gamma8):
 
 
 @njit(cache=True, nogil=True)
+def not_backfacing(ids, vertices, triangles, eye, delta, gamma8, out):
+    """tbfc's kept candidates: writes to out (>= n,) int64, in order, the ids that backfacing
+    does not flag (same bound, same bits) and returns their count. Errs toward keeping."""
+    count = 0
+    for k in range(len(ids)):
+        t = ids[k]
+        det, bound = _det_bound(vertices, triangles, t, eye, delta, gamma8)
+        out[count] = t  # written always, counted when kept: no branch on the data
+        count += not ((det < 0) & (det < -bound))
+    return count
+
+
+@njit(cache=True, nogil=True)
 def frontfacing(ids, vertices, triangles, eye, delta, gamma8):
     """(n,) bool: triangle ids certainly face the eye, also after any move of corners and eye by
     up to delta per coordinate, and despite float64 rounding: backfacing of the triangle with its

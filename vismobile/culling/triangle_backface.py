@@ -30,7 +30,7 @@ import numpy as np
 # largest coordinate magnitude (16 float32 ulps) plus, in fixed16.16, DEVICE_ABSOLUTE (2x the
 # grid's step): precision.device_move in the Culler's arithmetic mode.
 from .precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE, device_move  # noqa: F401 (re-exported)
-from .facing import backfacing
+from .facing import not_backfacing
 from .precision import world_scale
 from .state import CullState
 from .tree import Tree
@@ -100,11 +100,13 @@ class TriangleBackface:
             raise ValueError("tbfc needs relative >= 0 and absolute >= 0")
 
     def prepare(self, tree: Tree) -> None:
-        # Nothing per triangle: each frame reads its candidates' corners (facing.backfacing),
+        # Nothing per triangle: each frame reads its candidates' corners (facing.not_backfacing),
         # so a memory-mapped world needs no (T, 11) table (1.76 GB at 20 M triangles).
         world = tree.world
         self.vertices, self.triangles = np.asarray(world.vertices), np.asarray(world.triangles)
         self.magnitude = world_scale(self.vertices)
+        self._tested_key = f"{self.name}.triangles_tested"
+        self._culled_key = f"{self.name}.triangles_culled"
 
     def delta(self, eye) -> float:
         """Per-coordinate move allowed for device rounding, at this world's and eye's scale:
@@ -117,12 +119,13 @@ class TriangleBackface:
         eye = np.asarray(state.camera.eye, dtype=np.float64)
         delta = self.delta(eye)
 
-        def keep_of(ids):  # ids are distinct (CullState.finish)
-            drop = backfacing(np.ascontiguousarray(ids, dtype=np.int64), self.vertices,
-                              self.triangles, eye, delta, GAMMA_8)
+        def keep_of(ids):  # ids are distinct (CullState.finish); returns the kept ids
+            kept = np.empty(len(ids), dtype=np.int64)
+            count = not_backfacing(np.ascontiguousarray(ids, dtype=np.int64), self.vertices,
+                                   self.triangles, eye, delta, GAMMA_8, kept)
             state.count("triangles_tested", len(ids))
-            state.count(f"{self.name}.triangles_tested", len(ids))
-            state.count(f"{self.name}.triangles_culled", drop.sum())
-            return ~drop
+            state.count(self._tested_key, len(ids))
+            state.count(self._culled_key, len(ids) - count)
+            return kept[:count]
 
         state.filters.append(keep_of)
