@@ -1,9 +1,8 @@
-"""occlusion's per-triangle rows computed from corners against the World's tables (same bits),
-and the node lists built from them against a numpy reference."""
+"""occlusion's per-triangle rows, scores and occluder meshes computed from corners against the
+World's tables and numpy's occluder_mesh (same bits)."""
 import numpy as np
 import pytest
 
-from vismobile.culling.hiz import node_candidates
 from vismobile.culling.occluder_rows import triangle_rows
 from vismobile.world import World
 
@@ -34,24 +33,6 @@ def test_rows_give_the_bits_of_the_world_tables(dtype):
     assert np.array_equal(radius, expect)
     assert (areas == 0).sum() == 2 and not normals[areas == 0].any()
     assert all(len(a) == 0 for a in triangle_rows(ids[:0], vertices, world.triangles))
-
-
-def test_node_lists_are_each_subtrees_largest_triangles(w1_octree):
-    part = w1_octree
-    world = part.world
-    order = np.arange(part.node_count - 1, -1, -1, dtype=np.int64)
-    k = 4
-    lists = node_candidates(order, part.first_child.astype(np.int64),
-                            part.child_count.astype(np.int64), part.ref_start.astype(np.int64),
-                            part.ref_end.astype(np.int64), part.tri_refs, world.vertices,
-                            world.triangles, k)
-    assert lists.shape == (part.node_count, k)
-    for node in range(part.node_count):
-        ids = np.unique(part.tri_refs[part.ref_start[node]:part.ref_end[node]])
-        ids = ids[world.areas[ids] > 0]
-        expect = ids[np.lexsort((ids, -world.areas[ids]))][:k]  # largest first, ties by id
-        got = lists[node]
-        assert np.array_equal(got[:len(expect)], expect) and (got[len(expect):] == -1).all()
 
 
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])

@@ -299,6 +299,14 @@ def test_occlusion_on_a_mapped_world_culls_as_in_memory_and_drops_nothing_visibl
                 assert value.size < world.triangle_count, name
         assert stage.bits.nbytes <= mapped.world.triangle_count // 8 + 8
     assert culled > 0
+    # The build stored the node lists and the stage read them; a file without them (an older
+    # build) gets the same lists computed at prepare.
+    import dataclasses
+
+    stored = mapped.extras["occluders"]
+    assert np.array_equal(stage.lists, stored)
+    older = dataclasses.replace(mapped, extras={"octant": mapped.extras["octant"]})
+    assert np.array_equal(Culler(older, "vfc,occlusion").stages[1].lists, stored)
 
 
 def test_unique_rows_are_numpys_unique_rows():

@@ -114,3 +114,44 @@ def test_a_chunk_over_the_reference_limit_is_split(tmp_path, world_dir, streamed
     stats = build_octree_file(MappedWorld.open(world_dir), out, depth=4)
     assert stats["chunks"] > 1
     assert out.read_bytes() == streamed.read_bytes()
+
+
+def test_the_build_stores_each_nodes_largest_triangles(streamed, world32):
+    # occlusion's candidate lists (partition/occluders.py), computed at build from the
+    # scattered references: what the stage would compute from the loaded partition.
+    from vismobile.partition.occluders import CANDIDATES, candidate_lists
+
+    loaded = load_partition(streamed, world32)
+    stored = loaded.extras["occluders"]
+    assert stored.dtype == np.int32 and stored.shape == (loaded.node_count, CANDIDATES)
+    expect = candidate_lists(loaded.first_child, loaded.child_count, loaded.ref_start,
+                             loaded.ref_end, loaded.tri_refs, world32.vertices,
+                             world32.triangles)
+    assert np.array_equal(stored, expect) and (stored[0] >= 0).all()
+    assert np.array_equal(map_partition(streamed).extras["occluders"], stored)
+
+
+def test_occluder_lists_out_of_range_are_refused_with_valid_checksums(tmp_path, streamed):
+    import json
+    import struct
+    import zlib
+
+    from vismobile.partition.external import HEADER_SPACE
+    from vismobile.partition.store import PREFIX
+
+    data = bytearray(streamed.read_bytes())
+    _, version, length, _ = PREFIX.unpack_from(data, 0)
+    header = json.loads(bytes(data[PREFIX.size:PREFIX.size + length]))
+    section = next(s for s in header["sections"] if s["name"] == "extras.occluders")
+    at = HEADER_SPACE + section["offset"]
+    data[at:at + 4] = struct.pack("<i", 1 << 30)  # node 0's first id far past the world
+    section["crc32"] = zlib.crc32(bytes(data[at:at + section["nbytes"]]))
+    text = json.dumps(header, sort_keys=True, separators=(",", ":")).encode()
+    text += b" " * (length - len(text))
+    data[:PREFIX.size + length] = PREFIX.pack(bytes(data[:8]), version, length,
+                                              zlib.crc32(text)) + text
+    bad = tmp_path / "bad.vmp"
+    bad.write_bytes(bytes(data))
+    for read in (map_partition, load_partition):
+        with pytest.raises(PartitionError, match="bad.vmp: inconsistent.*occluders"):
+            read(bad)

@@ -33,7 +33,8 @@ import numpy as np
 from numba import njit
 
 from .facing import frontfacing
-from .occluder_rows import solid_angle, triangle_area
+from ..partition.occluders import node_candidates  # noqa: F401 (re-exported)
+from .occluder_rows import solid_angle
 
 SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
 DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
@@ -584,60 +585,6 @@ def screen_rect(points, near, tx, ty, width, height, move=0.0, shift=0.0) -> tup
     _rect(pts, len(pts), near, tx, ty, width, height, float(move), float(shift), out)
     return (int(out[0]), int(out[1]), int(out[2]), int(out[3]), float(out[4]), out[5] > 0,
             out[6] > 0)
-
-
-@njit(cache=True, nogil=True)
-def node_candidates(order, first_child, child_count, ref_start, ref_end, tri_refs, vertices,
-                    triangles, k):
-    """(N, k) int64 per node the ids of the k largest triangles (by area, > 0; ties by smaller
-    id) of its subtree, -1 padded. order : (N,) int64 nodes, every child before its parent.
-    Areas are computed from the corners (occluder_rows.triangle_area: World.areas' bits), once
-    per reference of a leaf and once per child's listed id, so the tables stay (N, k)."""
-    n = len(first_child)
-    out = np.full((n, k), -1, dtype=np.int64)
-    out_area = np.zeros((n, k))
-    buf = np.empty(k * 64 + 64, dtype=np.int64)
-    buf_area = np.empty(k * 64 + 64)
-    for node in order:
-        m = 0
-        if child_count[node] == 0:
-            for r in range(ref_start[node], ref_end[node]):
-                t = np.int64(tri_refs[r])
-                area = triangle_area(vertices, triangles, t)
-                if area > 0:
-                    if m == len(buf):
-                        buf = np.concatenate((buf, np.empty(len(buf), dtype=np.int64)))
-                        buf_area = np.concatenate((buf_area, np.empty(len(buf_area))))
-                    buf[m] = t
-                    buf_area[m] = area
-                    m += 1
-        else:
-            for c in range(first_child[node], first_child[node] + child_count[node]):
-                for j in range(k):
-                    if out[c, j] >= 0:
-                        if m == len(buf):
-                            buf = np.concatenate((buf, np.empty(len(buf), dtype=np.int64)))
-                            buf_area = np.concatenate((buf_area, np.empty(len(buf_area))))
-                        buf[m] = out[c, j]
-                        buf_area[m] = out_area[c, j]
-                        m += 1
-        # Distinct ids in increasing order, then the largest areas first (stable: ties keep
-        # the smaller id first).
-        by_id = np.argsort(buf[:m], kind="mergesort")
-        ids = np.empty(m, dtype=np.int64)
-        areas = np.empty(m)
-        u = 0
-        for j in range(m):
-            t = buf[by_id[j]]
-            if u == 0 or ids[u - 1] != t:
-                ids[u] = t
-                areas[u] = buf_area[by_id[j]]
-                u += 1
-        best = np.argsort(-areas[:u], kind="mergesort")[:k]
-        for j in range(len(best)):
-            out[node, j] = ids[best[j]]
-            out_area[node, j] = areas[best[j]]
-    return out
 
 
 @njit(cache=True, nogil=True, inline="always")

@@ -17,18 +17,6 @@ from .facing import _corners
 
 
 @njit(cache=True, nogil=True, inline="always")
-def triangle_area(vertices, triangles, t):
-    """Area of triangle t: World.areas[t] (half the norm of its cross product), same bits."""
-    x0, y0, z0, x1, y1, z1, x2, y2, z2 = _corners(vertices, triangles, t)
-    ax, ay, az = x1 - x0, y1 - y0, z1 - z0
-    bx, by, bz = x2 - x0, y2 - y0, z2 - z0
-    cx = ay * bz - az * by
-    cy = az * bx - ax * bz
-    cz = ax * by - ay * bx
-    return 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
-
-
-@njit(cache=True, nogil=True, inline="always")
 def _row(vertices, triangles, t):
     """Triangle t's unit normal (zero when degenerate), first corner, centroid, radius and area
     (World's bits: module docstring), as 11 floats."""

@@ -38,12 +38,14 @@ or triangle is taken with all its moves (rectangle grown by the projection of m,
 lowered by sqrt(3) m); an occluder point at depth z >= z_occ (the nearest occluder point, at
 least the clip depth) shifts on screen by at most sqrt(3) m / z_occ (1 + tan) and recedes by at
 most sqrt(3) m, so the rectangle grows by that shift too and the depth test gains sqrt(3) m.
+
 Memory. On an in-memory World the stage slices whole-world tables (normals, areas, the
 rasteriser's mesh); on any other world (a memory-mapped .vmp, mapped.MappedWorld) it keeps
-nothing per triangle but a 1-bit candidate map: the node lists are built at prepare from each
-leaf's references and the corners (hiz.node_candidates), and each frame computes its
-candidates' rows (occluder_rows.triangle_rows) and its occluders' mesh (occluder_mesh of those
-triangles alone) with the same bits, so both send the same triangles (tests).
+nothing per triangle but a 1-bit candidate map: the node lists are read from the file (stored
+by the out-of-core build) or built at prepare from each leaf's references and the corners
+(partition/occluders.py), and each frame computes its candidates' scores and rows
+(occluder_rows) and its occluders' mesh (occluder_rows.occluder_mesh_of) with the World's
+bits, so both send the same triangles (tests).
 
 Contract: never drops a triangle that the full world's item buffer shows (any resolution; with
 `screen`, at that resolution), also when the device moves points by m, and through the cracks
@@ -54,12 +56,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..partition.base import gather_ranges
+from ..partition.occluders import candidate_lists
 from ..world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
 from .hiz import (build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
                   gather_candidates, gather_shell_candidates, hidden_triangles, lod_ancestors,
-                  node_candidates, rasterise, score_candidates)
+                  rasterise, score_candidates)
 from .occluder_rows import occluder_mesh_of, score_corners, triangle_rows
 from .precision import device_move, world_scale
 from .state import CullResult, CullState
@@ -238,12 +241,16 @@ class DepthBufferOcclusion:
             self.v0 = np.ascontiguousarray(corners[:, 0])
             self.radius = np.linalg.norm(corners - self.centroids[:, None], axis=2).max(1)
             self.stamp = np.full(count, -1, dtype=np.int64)
-        # Candidate lists: each node's largest triangles (children before parents), areas from
-        # the corners of each leaf's references: (N, k), nothing per triangle kept.
-        order = np.arange(tree.node_count - 1, -1, -1, dtype=np.int64)
-        self.lists = node_candidates(order, tree.first_child, tree.child_count, tree.ref_start,
-                                     tree.ref_end, tree.tri_refs, self.vertices,
-                                     self.triangles_, self.candidates)
+        # Candidate lists: each node's largest triangles, (N, k), nothing per triangle kept;
+        # read from the file when its build stored them for this k (partition/occluders.py),
+        # else from each leaf's references and their corners.
+        stored = tree.partition.extras.get("occluders")
+        if stored is not None and np.shape(stored) == (tree.node_count, self.candidates):
+            self.lists = np.ascontiguousarray(stored, dtype=np.int64)
+        else:
+            self.lists = candidate_lists(tree.first_child, tree.child_count, tree.ref_start,
+                                         tree.ref_end, tree.tri_refs, self.vertices,
+                                         self.triangles_, self.candidates)
         # Scratch, allocated once: frames reuse it.
         pixels = self.width * self.height
         tw, th = self.tile

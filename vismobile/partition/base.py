@@ -200,6 +200,12 @@ class Partition:
                 raise ValueError("split_planes must be (N, 4), finite on inner nodes")
             if np.any((count != 0) & (count != 2)):
                 raise ValueError("BSP nodes must have 0 or 2 children")
+        if "occluders" in x:  # occlusion's per-node lists (partition/occluders.py)
+            lists = x["occluders"]
+            if (lists.ndim != 2 or lists.shape[0] != n or lists.shape[1] < 1
+                    or lists.dtype.kind not in "iu" or lists.min(initial=0) < -1
+                    or lists.max(initial=0) >= self.world.triangle_count):
+                raise ValueError("occluders must be (N, k) triangle ids or -1, one row per node")
         if "cell_node" in x:
             self._check_portals(x, n)
 

@@ -32,6 +32,7 @@ import numpy as np
 from ..atomic import check_destination, make_dirs, sweep_stale, temp_path
 from .layout import outward_f32
 from .octree import DEFAULT_DEPTH, check_depth, child_boxes, subdivide
+from .occluders import candidate_lists
 from .store import ALIGN, MAGIC, PREFIX, VERSION
 
 CHUNK = 1 << 19
@@ -310,6 +311,19 @@ def build_octree_file(world, out, depth=DEFAULT_DEPTH, chunk=CHUNK, jobs=1,
                                                   (offsets[rows, c], counts))))
                 workers.run(tasks)
             clock("scatter")
+            # Each node's largest triangles (partition/occluders.py), from the references just
+            # scattered (read back through a map) and the world's corners: occlusion's lists.
+            handle.flush()
+            refs = (np.memmap(tmp, dtype="<i4", mode="r", offset=refs_at[0], shape=(total,))
+                    if total else np.zeros(0, np.int32))
+            count = tree["child_count"].astype(np.int64)
+            lists = candidate_lists(np.where(count > 0, 1 + np.cumsum(count) - count, -1), count,
+                                    tree["ref_start"], tree["ref_end"], refs, world.vertices,
+                                    world.triangles)
+            del refs
+            writer.field("extras.occluders", "<i4", lists.shape, "<i4",
+                         lambda w: w.put(lists))
+            clock("occluders")
             writer.checksum_pending()
             last = writer.sections[-1]
             handle.truncate(HEADER_SPACE + last["offset"] + last["nbytes"])
