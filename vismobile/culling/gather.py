@@ -8,17 +8,18 @@ sorted (T / 4096 at most, a few hundred in practice) and read back in order, wit
 the ids under them; both levels are cleared as they are read. Nothing of size T is cleared or
 scanned per frame.
 
-The references are not read one by one: a leaf's ids ascend, so its references falling in one
-64-id word of the bitmap are stored as one pair (word, mask) and marked with one OR (the 20 M
-world's 26.9 M references make 2.0 M pairs; the tiled W2 at octree 8, 26.4 M make 12.3 M).
+The references are not read one by one: a leaf's ids falling in one 64-id word of the bitmap
+are stored as one pair (word, mask) and marked with one OR (the 20 M world's 26.9 M references
+make 2.0 M pairs; the tiled W2 at octree 8, 26.4 M make 12.3 M).
 
 Leaves share triangles (an octree leaf references every triangle overlapping it): in the tiled
 W2 at octree depth 8, 26.4 M references name 5.0 M triangles, and a node accepted whole near the
 root reads 5x more references than it holds triangles. `first_depths` gives each reference the
 depth of the highest ancestor of its leaf in whose subtree it is its triangle's first reference;
-the references of depth <= c, in stored order, list each triangle of every depth-c subtree once.
-A node at depth d reads the pairs of the finest such list kept at a level c >= d, or of all its
-references when none is kept (`Groups`).
+the references of depth <= c list each triangle of every depth-c subtree once, and as pairs per
+depth-c node (its ids sorted) they take fewer words than its leaves' pairs. A node at depth d
+reads the pairs of the finest such list kept at a level c >= d, or of all its references when
+none is kept (`Groups`).
 """
 from __future__ import annotations
 
@@ -44,6 +45,8 @@ _BIT_INDEX[((np.uint64(1) << np.arange(64, dtype=np.uint64)) * _DEBRUIJN) >> np.
 # the references: the pairs of the kept levels stay within 1.5x those of tri_refs.
 KEEP_RATIO = 0.75
 MAX_COARSE = 1.5
+# Segments of at most this many ids are sorted before pairing (level_groups).
+SORT_LIMIT = 1 << 16
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -199,23 +202,39 @@ def first_depths(tri_refs, leaves, parent, depth, ref_start, ref_end, last):
 
 
 @njit(cache=True, nogil=True)
-def level_groups(tri_refs, fd, level, leaf_starts, words, masks):
-    """Pairs (word, mask) of the references with fd <= level, in stored order: consecutive ones
-    in one 64-id word within a leaf make one pair. Fills words and masks when they are not
-    empty (else only counts); returns (L + 1,) int64 offsets of each leaf's first pair (leaf
-    i starts at tri_refs position leaf_starts[i], ascending) and of the end."""
+def level_groups(tri_refs, fd, level, seg_starts, words, masks):
+    """Pairs (word, mask) of the references with fd <= level, segment by segment: a segment's
+    ids, sorted, make one pair per 64-id word they fall in. Fills words and masks when they are
+    not empty (else only counts); returns (S + 1,) int64 offsets of each segment's first pair
+    (segment i: tri_refs[seg_starts[i]:seg_starts[i + 1]], ascending starts) and of the end."""
     fill = len(words) > 0
-    offsets = np.empty(len(leaf_starts) + 1, dtype=np.int64)
+    nseg = len(seg_starts)
+    offsets = np.empty(nseg + 1, dtype=np.int64)
+    longest = 0
+    for k in range(nseg):
+        stop = seg_starts[k + 1] if k + 1 < nseg else len(tri_refs)
+        longest = max(longest, stop - seg_starts[k])
+    ids = np.empty(longest, dtype=np.int64)
     count = 0
-    k = 0
-    current = np.int64(-1)
-    for r in range(len(tri_refs)):
-        while k < len(leaf_starts) and leaf_starts[k] <= r:
-            offsets[k] = count
-            k += 1
-            current = -1  # pairs never span leaves: node ranges are whole leaves
-        if fd[r] <= level:
-            t = np.int64(tri_refs[r])
+    for k in range(nseg):
+        offsets[k] = count
+        stop = seg_starts[k + 1] if k + 1 < nseg else len(tri_refs)
+        n = 0
+        ascending = True
+        for r in range(seg_starts[k], stop):
+            if fd[r] <= level:
+                ids[n] = tri_refs[r]
+                ascending = ascending and (n == 0 or ids[n] > ids[n - 1])
+                n += 1
+        chosen = ids[:n]
+        # A level's segment lists its leaves' first references leaf by leaf: sorted, its ids
+        # take fewer words. Long segments (shallow levels, rarely accepted whole) stay as
+        # they are: sorting them would cost seconds at 20 M references.
+        if not ascending and n <= SORT_LIMIT:
+            chosen.sort()  # in place
+        current = np.int64(-1)
+        for i in range(n):
+            t = chosen[i]
             w = t >> 6
             if w != current:
                 if fill:
@@ -225,10 +244,7 @@ def level_groups(tri_refs, fd, level, leaf_starts, words, masks):
                 current = w
             if fill:
                 masks[count - 1] |= _ONE << np.uint64(t & 63)
-    while k < len(leaf_starts):
-        offsets[k] = count
-        k += 1
-    offsets[len(leaf_starts)] = count
+    offsets[nseg] = count
     return offsets
 
 
@@ -281,22 +297,25 @@ class Groups:
         deepest = int(depth[leaves].max())
         counts = np.cumsum(np.bincount(fd, minlength=256))[:min(deepest, self.ALL)]
         self.levels = choose_levels(counts, len(refs))
-        leaf_starts = tree.ref_start[tree.leaf_order]
+        leaf = tree.child_count == 0
         lists = [self.ALL] + self.levels
+        # A list's segments: its level's nodes and the leaves above it (all leaves for ALL).
+        cuts = [np.sort(tree.ref_start[(depth == c) | (leaf & (depth < c))]) for c in lists]
         none = np.zeros(0, dtype=np.int32)
-        sizes = [int(level_groups(refs, fd, c, leaf_starts, none, none)[-1]) for c in lists]
+        sizes = [int(level_groups(refs, fd, c, cut, none, none)[-1])
+                 for c, cut in zip(lists, cuts)]
         self.words = np.empty(sum(sizes), dtype=np.int32)
         self.masks = np.empty(sum(sizes), dtype=np.uint64)
         index = np.int32 if sum(sizes) < 2 ** 31 else np.int64
         self.start = np.empty(n, dtype=index)
         self.end = np.empty(n, dtype=index)
         base = 0
-        for c, size in zip(lists, sizes):  # all references first, then the deepest level kept
-            offsets = base + level_groups(refs, fd, c, leaf_starts, self.words[base:],
-                                          self.masks[base:])
+        for c, cut, size in zip(lists, cuts, sizes):  # all references, then the deepest kept
+            offsets = base + level_groups(refs, fd, c, cut, self.words[base:], self.masks[base:])
             upto = n if c == self.ALL else int(level_start[c + 1])  # shallower overwrite
-            self.start[:upto] = offsets[tree.leaf_lo[:upto]]
-            self.end[:upto] = offsets[tree.leaf_hi[:upto]]
+            # a node's segments are those starting inside its range (empty ones add nothing)
+            self.start[:upto] = offsets[np.searchsorted(cut, tree.ref_start[:upto], "left")]
+            self.end[:upto] = offsets[np.searchsorted(cut, tree.ref_end[:upto], "left")]
             base += size
 
 
