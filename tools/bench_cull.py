@@ -23,6 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.culling import BACKFACE_STAGES, Culler  # noqa: E402
+from vismobile.errors import VisMobileError  # noqa: E402
 from vismobile.render.item_buffer import item_buffer_renderer  # noqa: E402
 from vismobile.culling.backface import thesis_region_count  # noqa: E402
 from vismobile.geometry.sphere_regions import direction_regions  # noqa: E402
@@ -122,36 +123,53 @@ def exact_routes(world, profile, cameras, truth, octree) -> list:
     return rows
 
 
-def tiled_rows(sizes, base, traj, frames, profile, depth_of) -> list:
+def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None) -> list:
     """Rows (world, triangles, depth, stages, median ms, mean sent, mean visible, sent / visible,
-    dropped, mean nodes visited) on W2 tiled n x n, the trajectory on the centre tile."""
+    dropped, mean nodes visited) on W2 tiled n x n, the trajectory on the centre tile. saved:
+    None, or a .vmp path pattern with {n} and {depth}: the octree is loaded from it when the
+    file exists (build s is then the load), else built in memory."""
     from tile_world import centre_offset, tiled_w2
+
+    from vismobile.partition import load_partition
 
     rows = []
     for n in sizes:
-        world = tiled_w2(n, base)
         shift = centre_offset(n)
         cameras = [traj.camera(int(f), profile.aspect) for f in frames]
         cameras = [c.with_(position=tuple(np.asarray(c.position) + shift)) for c in cameras]
         depth = depth_of(n)
+        path = Path(saved.format(n=n, depth=depth)) if saved else None
         t = time.perf_counter()
-        tree = partition(world, "octree", depth=depth)
+        if path is not None and path.exists():
+            tree = load_partition(path)
+            world = tree.world
+            if world.triangle_count != n * n * base.triangle_count:
+                raise ValueError(f"{path}: {world.triangle_count:,} triangles, not W2 tiled "
+                                 f"{n} x {n} ({n * n * base.triangle_count:,})")
+        else:
+            world = tiled_w2(n, base)
+            tree = partition(world, "octree", depth=depth)
         build_s = time.perf_counter() - t
         renderer = item_buffer_renderer(world, profile)
-        for stages in ("vfc", "vfc,occlusion,tbfc"):
+        truth = {}
+        for combo in ("vfc", "vfc,occlusion,tbfc", "vfc,occlusion,tbfc@screen"):
+            stages, options = combo_options(combo, profile)
             back = any(s in BACKFACE_STAGES for s in stages.split(","))
             t = time.perf_counter()
-            culler = Culler(tree, stages)
+            culler = Culler(tree, stages, **options)
             prepare_s = time.perf_counter() - t
             sent, shown, dropped, visited = [], [], 0, []
-            for cam in cameras:
+            for i, cam in enumerate(cameras):
                 result = culler.cull(cam)
-                seen = renderer.visible(np.arange(world.triangle_count), cam, cull_back=back)
+                if (i, back) not in truth:
+                    truth[i, back] = renderer.visible(np.arange(world.triangle_count), cam,
+                                                      cull_back=back)
+                seen = truth[i, back]
                 sent.append(len(result.triangles))
                 shown.append(len(seen))
                 dropped += len(np.setdiff1d(seen, result.triangles))
                 visited.append(result.stats.get("nodes_visited", 0))
-            rows.append((world.name, world.triangle_count, depth, build_s, prepare_s, stages,
+            rows.append((world.name, world.triangle_count, depth, build_s, prepare_s, combo,
                          median_ms(culler.cull, cameras), float(np.mean(sent)),
                          float(np.mean(shown)), float(np.mean(sent) / max(np.mean(shown), 1)),
                          dropped, float(np.mean(visited))))
@@ -209,6 +227,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=None, help="also write the report here")
     ap.add_argument("--tiled", default="", help="W2 tiled n x n worlds to run, e.g. 3,7")
     ap.add_argument("--tiled-frames", type=int, default=30, help="frames on tiled worlds")
+    ap.add_argument("--tiled-partition", default=None,
+                    help="load each tiled octree from this .vmp when it exists (a pattern with "
+                         "{n} and {depth}, e.g. /work/big/w2x{n}_d{depth}.vmp), else build it")
     ap.add_argument("--skip-combos", action="store_true", help="only the comparison and tiles")
     ap.add_argument("--skip-routes", action="store_true", help="no item buffer / Open3D rows")
     ap.add_argument("--combos", default=None,
@@ -256,8 +277,13 @@ def main(argv=None) -> int:
         rows += run_combos(portal, PORTAL_COMBOS, cameras, world, profile, truth)
     routes = [] if args.skip_routes else exact_routes(world, profile, cameras, truth, octree)
     tile_frames = np.unique(np.linspace(0, len(traj) - 1, args.tiled_frames).astype(int))
-    tiles = tiled_rows(sizes, world, traj, tile_frames, profile,
-                       lambda n: args.depth + int(np.ceil(np.log2(n)))) if sizes else []
+    try:
+        tiles = tiled_rows(sizes, world, traj, tile_frames, profile,
+                           lambda n: args.depth + int(np.ceil(np.log2(n))),
+                           args.tiled_partition) if sizes else []
+    except (VisMobileError, ValueError) as error:  # a bad or mismatched --tiled-partition
+        print(f"bench_cull: {error}", file=sys.stderr)
+        return 2
 
     out = [f"# Culling benchmark: {args.world.upper()} ({world.triangle_count} triangles), "
            f"octree depth {args.depth} ({octree.node_count} nodes, built in {build_s:.2f} s), "
