@@ -303,10 +303,15 @@ def test_occlusion_on_a_mapped_world_culls_as_in_memory_and_drops_nothing_visibl
     # build) gets the same lists computed at prepare.
     import dataclasses
 
-    stored = mapped.extras["occluders"]
+    stored = mapped.extras["occluders"][:, :stage.candidates]
     assert np.array_equal(stage.lists, stored)
     older = dataclasses.replace(mapped, extras={"octant": mapped.extras["octant"]})
     assert np.array_equal(Culler(older, "vfc,occlusion").stages[1].lists, stored)
+    wide = mapped.extras["occluders"]  # any candidates up to the stored width read them too
+    for k in (wide.shape[1], wide.shape[1] + 1):
+        read = Culler(mapped, "vfc,occlusion", occlusion={"candidates": k}).stages[1].lists
+        made = Culler(older, "vfc,occlusion", occlusion={"candidates": k}).stages[1].lists
+        assert np.array_equal(read, made) and read.shape[1] == k
 
 
 def test_unique_rows_are_numpys_unique_rows():

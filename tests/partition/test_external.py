@@ -119,14 +119,14 @@ def test_a_chunk_over_the_reference_limit_is_split(tmp_path, world_dir, streamed
 def test_the_build_stores_each_nodes_largest_triangles(streamed, world32):
     # occlusion's candidate lists (partition/occluders.py), computed at build from the
     # scattered references: what the stage would compute from the loaded partition.
-    from vismobile.partition.occluders import CANDIDATES, candidate_lists
+    from vismobile.partition.occluders import STORED, candidate_lists
 
     loaded = load_partition(streamed, world32)
     stored = loaded.extras["occluders"]
-    assert stored.dtype == np.int32 and stored.shape == (loaded.node_count, CANDIDATES)
+    assert stored.dtype == np.int32 and stored.shape == (loaded.node_count, STORED)
     expect = candidate_lists(loaded.first_child, loaded.child_count, loaded.ref_start,
                              loaded.ref_end, loaded.tri_refs, world32.vertices,
-                             world32.triangles)
+                             world32.triangles, STORED)
     assert np.array_equal(stored, expect) and (stored[0] >= 0).all()
     assert np.array_equal(map_partition(streamed).extras["occluders"], stored)
 

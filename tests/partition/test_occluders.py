@@ -18,6 +18,11 @@ def test_node_lists_are_each_subtrees_largest_triangles(w1, k):
         expect = ids[np.lexsort((ids, -w1.areas[ids]))][:k]  # largest first, ties by id
         got = lists[node]
         assert np.array_equal(got[:len(expect)], expect) and (got[len(expect):] == -1).all()
+    # the j largest are the first j columns of the k largest (a stored list serves any j <= k)
+    for j in range(1, k):
+        assert np.array_equal(lists[:, :j], candidate_lists(
+            part.first_child, part.child_count, part.ref_start, part.ref_end, part.tri_refs,
+            w1.vertices, w1.triangles, j))
     # float32 vertices (a mapped world) give the lists of the same values in float64
     f32 = w1.vertices.astype(np.float32)
     assert np.array_equal(candidate_lists(part.first_child, part.child_count, part.ref_start,

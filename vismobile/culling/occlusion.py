@@ -242,11 +242,12 @@ class DepthBufferOcclusion:
             self.radius = np.linalg.norm(corners - self.centroids[:, None], axis=2).max(1)
             self.stamp = np.full(count, -1, dtype=np.int64)
         # Candidate lists: each node's largest triangles, (N, k), nothing per triangle kept;
-        # read from the file when its build stored them for this k (partition/occluders.py),
-        # else from each leaf's references and their corners.
+        # read from the file when its build stored at least k a node (the first k columns:
+        # partition/occluders.py), else from each leaf's references and their corners.
         stored = tree.partition.extras.get("occluders")
-        if stored is not None and np.shape(stored) == (tree.node_count, self.candidates):
-            self.lists = np.ascontiguousarray(stored, dtype=np.int64)
+        if stored is not None and len(stored) == tree.node_count \
+                and stored.shape[1] >= self.candidates:
+            self.lists = np.ascontiguousarray(stored[:, :self.candidates], dtype=np.int64)
         else:
             self.lists = candidate_lists(tree.first_child, tree.child_count, tree.ref_start,
                                          tree.ref_end, tree.tri_refs, self.vertices,

@@ -32,7 +32,7 @@ import numpy as np
 from ..atomic import check_destination, make_dirs, sweep_stale, temp_path
 from .layout import outward_f32
 from .octree import DEFAULT_DEPTH, check_depth, child_boxes, subdivide
-from .occluders import candidate_lists
+from .occluders import STORED, candidate_lists
 from .store import ALIGN, MAGIC, PREFIX, VERSION
 
 CHUNK = 1 << 19
@@ -319,7 +319,7 @@ def build_octree_file(world, out, depth=DEFAULT_DEPTH, chunk=CHUNK, jobs=1,
             count = tree["child_count"].astype(np.int64)
             lists = candidate_lists(np.where(count > 0, 1 + np.cumsum(count) - count, -1), count,
                                     tree["ref_start"], tree["ref_end"], refs, world.vertices,
-                                    world.triangles)
+                                    world.triangles, STORED)
             del refs
             writer.field("extras.occluders", "<i4", lists.shape, "<i4",
                          lambda w: w.put(lists))

@@ -1,17 +1,20 @@
 """Each node's largest triangles: the occluder candidates the `occlusion` stage
 (culling/occlusion.py) takes from the nodes around the eye. Computed from a tree's references
 and the triangles' corners (areas with World.areas' bits), so the out-of-core build stores them
-in its .vmp (extras "occluders", (N, CANDIDATES) int32) and a stage culling such a file, mapped,
-has nothing to compute; files without them (older builds, in-memory partitions) get them
-computed when the stage prepares. One pass over the references; tables of (N, k) only.
+in its .vmp (extras "occluders", (N, STORED) int32) and a stage culling such a file, mapped,
+has nothing to compute: its k largest are the first k columns of the STORED largest (one
+order: area down, then id up). Files without them (older builds, in-memory partitions) get
+them computed when the stage prepares. One pass over the references; tables of (N, k) only.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-# The occlusion stage's default `candidates`: lists of this length are stored at build.
+# The occlusion stage's default `candidates`.
 CANDIDATES = 4
+# Lists of this length are stored at build: a stage with candidates <= STORED reads them.
+STORED = 8
 
 
 @njit(cache=True, nogil=True, inline="always")
