@@ -58,19 +58,25 @@ def _popcount(x):
 
 
 @njit(cache=True, nogil=True)
-def mark_nodes(words, masks, start, end, nodes, bits, summary, tops):
+def mark_nodes(pairs, span, nodes, bits, summary, tops, ranges):
     """Mark the triangle ids of the nodes' subtrees in the two-level bitmap; returns the summary
     words listed in tops. Exact: an id is marked iff a node's pairs hold it.
 
-    words, masks : (G,) int32 / uint64 pairs; node n reads pairs start[n]:end[n] (Groups)
+    pairs : (G, 2) uint64 (word, mask);  span : (N, 2) node n reads pairs span[n, 0]:span[n, 1]
+    (Groups). A frame's nodes are scattered in memory: their spans are read first, in a loop
+    of independent loads (the misses overlap; 25% less time at 5.0M), then their pairs.
     bits : (T // 64 + 1,) uint64;  summary, tops : (T // 4096 + 1,) uint64 / int64 scratch;
-    bits and summary all zero on entry (extract_marked clears them).
+    bits and summary all zero on entry (extract_marked clears them); ranges : (>= len(nodes),
+    2) int64 scratch
     """
-    ntops = 0
     for k in range(len(nodes)):
         node = nodes[k]
-        for g in range(start[node], end[node]):
-            w = np.int64(words[g])
+        ranges[k, 0] = span[node, 0]
+        ranges[k, 1] = span[node, 1]
+    ntops = 0
+    for k in range(len(nodes)):
+        for g in range(ranges[k, 0], ranges[k, 1]):
+            w = np.int64(pairs[g, 0])
             old = bits[w]
             if old == 0:  # first ids of their word: list its summary word when new
                 s = w >> 6
@@ -79,7 +85,7 @@ def mark_nodes(words, masks, start, end, nodes, bits, summary, tops):
                     tops[ntops] = s
                     ntops += 1
                 summary[s] = above | (_ONE << np.uint64(w & 63))
-            bits[w] = old | masks[g]
+            bits[w] = old | pairs[g, 1]
     return ntops
 
 
@@ -153,7 +159,14 @@ class Bitmap:
         self.bits = np.zeros(words, dtype=np.uint64)
         self.summary = np.zeros(words // 64 + 1, dtype=np.uint64)
         self.tops = np.empty(words // 64 + 1, dtype=np.int64)
+        self.ranges = np.empty((64, 2), dtype=np.int64)
         self.pool = []
+
+    def node_ranges(self, count: int) -> np.ndarray:
+        """(>= count, 2) int64 scratch for mark_nodes, grown as needed."""
+        if len(self.ranges) < count:
+            self.ranges = np.empty((2 * count, 2), dtype=np.int64)
+        return self.ranges
 
     def output(self, size: int) -> np.ndarray:
         """(size,) int64 uninitialised, a view of a pooled buffer when one is free."""
@@ -264,10 +277,11 @@ def choose_levels(counts, leaf_refs) -> list:
 class Groups:
     """The pairs every node reads (see the module docstring).
 
-    words, masks : (G,) int32 / uint64 the pairs of all references (tri_refs, leaf by leaf),
-                   then of each kept level's list
-    start, end   : (N,) node n reads pairs start[n]:end[n]: its kept level's when its depth
-                   is at most a kept level, else its references'
+    pairs        : (G, 2) uint64 (word, mask): the pairs of all references (tri_refs, leaf by
+                   leaf), then of each kept level's list; words, masks are its columns
+    span         : (N, 2) node n reads pairs span[n, 0]:span[n, 1] (start, end: its columns):
+                   its kept level's when its depth is at most a kept level, else its
+                   references'
     levels       : kept levels, deepest first
     """
 
@@ -278,9 +292,7 @@ class Groups:
         refs = tree.tri_refs
         n = tree.node_count
         self.levels = []
-        self.words = np.zeros(0, dtype=np.int32)
-        self.masks = np.zeros(0, dtype=np.uint64)
-        self.start = self.end = np.zeros(n, dtype=np.int32)
+        self._columns(np.zeros((0, 2), dtype=np.uint64), np.zeros((n, 2), dtype=np.int32))
         if n == 0 or len(refs) == 0:
             return
         level_start = np.asarray(p.level_start, dtype=np.int64)
@@ -304,11 +316,8 @@ class Groups:
         none = np.zeros(0, dtype=np.int32)
         sizes = [int(level_groups(refs, fd, c, cut, none, none)[-1])
                  for c, cut in zip(lists, cuts)]
-        self.words = np.empty(sum(sizes), dtype=np.int32)
-        self.masks = np.empty(sum(sizes), dtype=np.uint64)
         index = np.int32 if sum(sizes) < 2 ** 31 else np.int64
-        self.start = np.empty(n, dtype=index)
-        self.end = np.empty(n, dtype=index)
+        self._columns(np.empty((sum(sizes), 2), dtype=np.uint64), np.empty((n, 2), dtype=index))
         base = 0
         for c, cut, size in zip(lists, cuts, sizes):  # all references, then the deepest kept
             offsets = base + level_groups(refs, fd, c, cut, self.words[base:], self.masks[base:])
@@ -317,6 +326,11 @@ class Groups:
             self.start[:upto] = offsets[np.searchsorted(cut, tree.ref_start[:upto], "left")]
             self.end[:upto] = offsets[np.searchsorted(cut, tree.ref_end[:upto], "left")]
             base += size
+
+    def _columns(self, pairs, span) -> None:
+        self.pairs, self.span = pairs, span
+        self.words, self.masks = pairs[:, 0], pairs[:, 1]
+        self.start, self.end = span[:, 0], span[:, 1]
 
 
 def _ranks(counts) -> np.ndarray:
