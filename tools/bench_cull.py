@@ -43,9 +43,11 @@ COMBOS = ("vfc", "vfc_thesis", "vfc,cbfc", "vfc,cone", "vfc,tbfc", "vfc,bfc,cbfc
 PORTAL_COMBOS = ("portals", "portals,occlusion", "portals,occlusion,tbfc",
                  "portals,occlusion,tbfc@screen")
 # Option presets: "screen" = occlusion also drops triangles that cover no pixel centre of the
-# profile's screen (safe at that resolution only); "self" = objects' near sides occlude too.
+# profile's screen (safe at that resolution only); "self" = objects' near sides occlude too;
+# "whole" = the first round's occluder candidates from the whole frustum (not the near shells).
 PRESETS = {"screen": lambda profile: {"screen": profile.resolution},
-           "self": lambda profile: {"self_occluders": 512}}
+           "self": lambda profile: {"self_occluders": 512},
+           "whole": lambda profile: {"first_candidates": 0}}
 
 
 def combo_options(combo, profile) -> tuple:
@@ -127,7 +129,7 @@ def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None) -> list
     """Rows (world, triangles, depth, stages, median ms, mean sent, mean visible, sent / visible,
     dropped, mean nodes visited) on W2 tiled n x n, the trajectory on the centre tile. saved:
     None, or a .vmp path pattern with {n} and {depth}: the octree is loaded from it when the
-    file exists (build s is then the load), else built in memory."""
+    file exists (build s is then the load), else built in memory and saved there."""
     from tile_world import centre_offset, tiled_w2
 
     from vismobile.partition import load_partition
@@ -149,6 +151,9 @@ def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None) -> list
         else:
             world = tiled_w2(n, base)
             tree = partition(world, "octree", depth=depth)
+            if path is not None:  # built once: the next run loads it
+                path.parent.mkdir(parents=True, exist_ok=True)
+                tree.save(path)
         build_s = time.perf_counter() - t
         renderer = item_buffer_renderer(world, profile)
         truth = {}
@@ -229,7 +234,7 @@ def main(argv=None) -> int:
     ap.add_argument("--tiled-frames", type=int, default=30, help="frames on tiled worlds")
     ap.add_argument("--tiled-partition", default=None,
                     help="load each tiled octree from this .vmp when it exists (a pattern with "
-                         "{n} and {depth}, e.g. /work/big/w2x{n}_d{depth}.vmp), else build it")
+                         "{n} and {depth}, e.g. out/w2x{n}_d{depth}.vmp), else build and save it")
     ap.add_argument("--skip-combos", action="store_true", help="only the comparison and tiles")
     ap.add_argument("--skip-routes", action="store_true", help="no item buffer / Open3D rows")
     ap.add_argument("--combos", default=None,
