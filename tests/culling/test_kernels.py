@@ -3,7 +3,7 @@ inputs on purpose (the distinct gather: test_gather.py)."""
 import numpy as np
 
 from vismobile.camera import Camera
-from vismobile.culling.kernels import backfacing, frustum_walk
+from vismobile.culling.kernels import backfacing, frustum_walk, node_records
 from vismobile.culling.tree import Tree
 from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
 
@@ -34,8 +34,9 @@ def test_frustum_walk_from_no_roots_accepts_nothing():
     lo = np.zeros((1, 3))
     out = np.empty(4, dtype=np.int64)
     stack = [np.empty(4, dtype=np.int64) for _ in range(3)]
-    count, visited, *_ = frustum_walk(lo, lo + 1.0, np.full(1, -1), np.zeros(1, np.int64),
-                                      np.ones(1, bool), np.zeros(1, np.int64), 64,
+    box, links = node_records(np.stack([lo, lo + 1.0], axis=1), np.full(1, -1),
+                              np.zeros(1, np.int64), np.ones(1, bool))
+    count, visited, *_ = frustum_walk(box, links, np.zeros(1, np.int64), 64,
                                       np.zeros(0, np.int64), np.zeros(0, np.int64),
                                       np.zeros((1, 6, 4)), 0.0, out, *stack)
     assert count == 0 and visited == 0
@@ -52,3 +53,27 @@ def test_backfacing_kernel_matches_the_numpy_bound():
         expect = certainly_backfacing(cross, abs_cross, ea, eb, corners[:, 0], eye, delta)
         assert np.array_equal(backfacing(ids, packed, eye, delta, GAMMA_8), expect)
     assert len(backfacing(ids[:0], packed, eye, 0.0, GAMMA_8)) == 0
+
+
+def test_node_records_hold_the_bounds_exactly(w1_octree):
+    tree = Tree(w1_octree)
+    box, links = node_records(tree.node_bounds, tree.first_child, tree.child_count, tree.nonempty)
+    assert box.dtype == np.float32  # octree cells are float32 numbers
+    assert np.array_equal(box[:, :6].astype(np.float64), tree.node_bounds.reshape(-1, 6))
+    assert np.array_equal(links[:, 6], tree.first_child)
+    assert np.array_equal(links[:, 7], np.where(tree.nonempty, tree.child_count, -1))
+    odd = tree.node_bounds.copy()
+    odd[0, 0, 0] -= 1e-12  # not a float32: the records widen to float64, exact again
+    box64, links64 = node_records(odd, tree.first_child, tree.child_count, tree.nonempty)
+    assert box64.dtype == np.float64 and np.array_equal(box64[:, :6], odd.reshape(-1, 6))
+    # the walk reads both the same way
+    cam = Camera((5.0, 1.7, 5.0), yaw=30.0, pitch=-10.0, aspect=0.75)
+    planes = cam.frustum_planes()[None]
+    scratch = [np.empty(tree.node_count + 1, dtype=np.int64) for _ in range(4)]
+    results = []
+    for b, l in ((box, links), (box64, links64)):
+        count, *counters = frustum_walk(b, l, tree.read_size, -1, np.zeros(1, np.int64),
+                                        np.zeros(1, np.int64), planes, tree.tol, *scratch)
+        results.append((scratch[0][:count].copy(), counters))
+    assert np.array_equal(results[0][0], results[1][0]) and results[0][1] == results[1][1]
+    assert len(results[0][0]) > 0

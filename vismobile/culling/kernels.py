@@ -12,17 +12,34 @@ import numpy as np
 from numba import njit
 
 
+def node_records(node_bounds, first_child, child_count, nonempty) -> tuple:
+    """(box, links): one (N, 8) record per node for frustum_walk, float32 when every bound is
+    a float32 (octree cells are rounded to float32: the same numbers), else float64; links is
+    the same memory read as integers. A visited node's box and links share a cache line (its
+    siblings the next ones), instead of six arrays' lines."""
+    flat = np.asarray(node_bounds, dtype=np.float64).reshape(-1, 6)
+    narrow = np.array_equal(flat.astype(np.float32).astype(np.float64), flat)
+    box = np.empty((len(flat), 8), dtype=np.float32 if narrow else np.float64)
+    links = box.view(np.int32 if narrow else np.int64)
+    box[:, :6] = flat
+    links[:, 6] = first_child
+    links[:, 7] = np.where(nonempty, child_count, -1)
+    return box, links
+
+
 @njit(cache=True, nogil=True)
-def frustum_walk(lo, hi, first_child, child_count, nonempty, size, whole_below, roots, root_sets,
-                 plane_sets, tol, out, stack_node, stack_set, stack_mask):
+def frustum_walk(box, links, size, whole_below, roots, root_sets, plane_sets, tol, out, stack_node,
+                 stack_set, stack_mask):
     """Hierarchical p/n-vertex frustum test with plane masks, depth first from `roots`.
 
     Errs toward keeping by tol: a box is rejected only when its p-vertex is more than tol
     behind a plane; it is accepted whole when its n-vertex is at least tol inside every plane
     its parent straddled, or when it straddles a plane and size[node] <= whole_below (a
     superset: its subtree's part outside the frustum is sent too; whole_below < 0: never).
-    lo, hi      : (N, 3) float64 node box corners;  first_child, child_count : (N,) int64
-    nonempty    : (N,) bool;  size : (N,) int, what accepting the node whole costs (references)
+    box, links  : (N, 8) views of one record per node (node_records): box[n, :6] its corners
+                  lo, hi (float32 or float64, widened to float64 here), links[n, 6] its first
+                  child, links[n, 7] its child count or -1 when it references nothing
+    size        : (N,) int, what accepting the node whole costs (pairs read)
     roots : (K,) int64;  root_sets : (K,) int64 into plane_sets
     plane_sets  : (S, P, 4) float64 inward planes (n, d), P <= 62
     out         : (>= accepted,) int64 receives accepted nodes; stacks : (>= K + N,) scratch
@@ -40,15 +57,18 @@ def frustum_walk(lo, hi, first_child, child_count, nonempty, size, whole_below, 
     while top > 0:
         top -= 1
         node, s, mask = stack_node[top], stack_set[top], stack_mask[top]
-        if not nonempty[node]:
+        n = links[node, 7]
+        if n < 0:  # references nothing
             continue
         visited += 1
-        cx = 0.5 * (lo[node, 0] + hi[node, 0])
-        cy = 0.5 * (lo[node, 1] + hi[node, 1])
-        cz = 0.5 * (lo[node, 2] + hi[node, 2])
-        hx = 0.5 * (hi[node, 0] - lo[node, 0])
-        hy = 0.5 * (hi[node, 1] - lo[node, 1])
-        hz = 0.5 * (hi[node, 2] - lo[node, 2])
+        lx, ly, lz = np.float64(box[node, 0]), np.float64(box[node, 1]), np.float64(box[node, 2])
+        ux, uy, uz = np.float64(box[node, 3]), np.float64(box[node, 4]), np.float64(box[node, 5])
+        cx = 0.5 * (lx + ux)
+        cy = 0.5 * (ly + uy)
+        cz = 0.5 * (lz + uz)
+        hx = 0.5 * (ux - lx)
+        hy = 0.5 * (uy - ly)
+        hz = 0.5 * (uz - lz)
         straddle = np.int64(0)
         outside = False
         for p in range(planes_per_set):
@@ -67,14 +87,13 @@ def frustum_walk(lo, hi, first_child, child_count, nonempty, size, whole_below, 
         if outside:
             culled += 1
             continue
-        n = child_count[node]
         if straddle == 0 or n == 0 or size[node] <= whole_below:
             if straddle != 0 and n != 0:
                 straddling += 1
             out[count] = node
             count += 1
             continue
-        first = first_child[node]
+        first = links[node, 6]
         for c in range(n - 1, -1, -1):  # first child on top: depth-first in stored order
             stack_node[top] = first + c
             stack_set[top] = s

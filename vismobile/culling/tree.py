@@ -7,7 +7,7 @@ import numpy as np
 from ..geometry.planes import slack
 from ..partition.base import Partition, gather_ranges
 from .gather import Bitmap, Groups, count_marked, extract_marked, mark_nodes
-from .kernels import frustum_walk
+from .kernels import frustum_walk, node_records
 
 
 class Tree:
@@ -48,6 +48,8 @@ class Tree:
         self.groups = Groups(self)
         # What gathering a node costs: the pairs it reads (gather.mark_nodes).
         self.read_size = self.groups.end - self.groups.start
+        self._box, self._links = node_records(self.node_bounds, self.first_child, self.child_count,
+                                              self.nonempty)
         self._stacks = self._stack_scratch(64)
 
     def _stack_scratch(self, roots: int) -> tuple:
@@ -64,8 +66,7 @@ class Tree:
             self._stacks = self._stack_scratch(2 * len(roots))
         out, nodes, sets, masks = self._stacks
         count, visited, tests, culled, straddling = frustum_walk(
-            self.lo, self.hi, self.first_child, self.child_count, self.nonempty, self.read_size,
-            int(whole_below), roots, np.ascontiguousarray(root_sets, dtype=np.int64),
+            self._box, self._links, self.read_size, int(whole_below), roots, np.ascontiguousarray(root_sets, dtype=np.int64),
             np.ascontiguousarray(plane_sets, dtype=np.float64), self.tol, out, nodes, sets, masks)
         return out[:count].copy(), visited, tests, culled, straddling
 
