@@ -31,7 +31,7 @@ def walk(frames=12):
     t = np.linspace(0.0, 1.0, frames)
     poses = np.column_stack([-20 + 40 * t, np.full(frames, 6.0), 25 - 30 * t, 60 * t,
                              np.full(frames, -15.0)])
-    return Trajectory(poses, {"A": 3, "B": 9})
+    return Trajectory(poses, {name: frame for name, frame in (("A", 3), ("B", 9)) if frame < frames})
 
 
 def read_csv(path):
