@@ -31,7 +31,8 @@ def walk(frames=12):
     t = np.linspace(0.0, 1.0, frames)
     poses = np.column_stack([-20 + 40 * t, np.full(frames, 6.0), 25 - 30 * t, 60 * t,
                              np.full(frames, -15.0)])
-    return Trajectory(poses, {name: frame for name, frame in (("A", 3), ("B", 9)) if frame < frames})
+    waypoints = {name: frame for name, frame in (("A", 3), ("B", 9)) if frame < frames}
+    return Trajectory(poses, waypoints)
 
 
 def read_csv(path):
