@@ -15,9 +15,12 @@ figures are also written to DIR/<vmp name>.cull.<stages>[.<options>].json (defau
 the .vmp). --occlusion passes options to the occlusion stage (DepthBufferOcclusion's keywords).
 
 Occlusion on the mapped 20 M world (docs/scale.md, "Occlusion on the mapped world"): it keeps
-nothing per triangle, so its prepare is the node lists (one pass over the references) and its
-frames follow what is seen; the octree must be deep enough for its leaves to offer room-sized
-occluders (depth 7 for the 616 m world: `vismobile partition DIR --depth 7 --jobs 2`).
+nothing per triangle; its node lists are read from the file (stored by the out-of-core build,
+8 a node) or, for older files, computed at prepare in one pass over the references; its frames
+follow what is seen. The octree must be deep enough for its leaves to offer room-sized
+occluders (depth 7 for the 616 m world: `vismobile partition DIR --depth 7 --jobs 2`, or
+--depth 7 here). Measured there: --occlusion candidates=8,occluders=512,rounds=3 5.0 ms CPU a
+frame, 42,712 sent (vfc 7.3 ms, 1.93 M), peak RSS 1.76 GB.
 """
 from __future__ import annotations
 
