@@ -42,7 +42,7 @@ _BIT_INDEX[((np.uint64(1) << np.arange(64, dtype=np.uint64)) * _DEBRUIJN) >> np.
 
 # A level's list is kept when it holds at most this share of the references of the next finer
 # list kept (or of tri_refs), and while all kept lists together hold at most MAX_COARSE times
-# the references: the pairs of the kept levels stay within 1.5x those of tri_refs.
+# tri_refs' references (their pairs are fewer still).
 KEEP_RATIO = 0.75
 MAX_COARSE = 1.5
 # Segments of at most this many ids are sorted before pairing (level_groups).
