@@ -21,10 +21,11 @@ def gather_ranges(refs, starts, ends, nodes, count):
     pair (ranges may overlap and ids need not ascend)."""
     b = Bitmap(count)
     refs = np.asarray(refs, dtype=np.int64)
-    pairs = np.stack([(refs >> 6).astype(np.uint64),
-                      np.uint64(1) << (refs & 63).astype(np.uint64)], axis=1)
+    words = (refs >> 6).astype(np.uint32)
+    masks = np.uint64(1) << (refs & 63).astype(np.uint64)
     span = np.stack([starts, ends], axis=1)
-    ntops = mark_nodes(pairs, span, nodes, b.bits, b.summary, b.tops, b.node_ranges(len(nodes)))
+    ntops = mark_nodes(words, masks, span, nodes, b.bits, b.summary, b.tops,
+                       b.node_ranges(len(nodes)))
     out = np.full(count_marked(b.bits, b.summary, b.tops, ntops), -1, dtype=np.int64)
     runs = extract_marked(b.bits, b.summary, b.tops, ntops, out)
     assert not b.bits.any() and not b.summary.any()  # both levels left clear for the next frame

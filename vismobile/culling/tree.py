@@ -80,7 +80,7 @@ class Tree:
         ids among them). Nodes read (word, mask) pairs, whole ones their levels' (gather.Groups)."""
         nodes = np.ascontiguousarray(nodes, dtype=np.int64)
         g, b = self.groups, self._bitmap
-        ntops = mark_nodes(g.pairs, g.span, nodes, b.bits, b.summary, b.tops,
+        ntops = mark_nodes(g.words, g.masks, g.span, nodes, b.bits, b.summary, b.tops,
                            b.node_ranges(len(nodes)))
         ids = b.output(count_marked(b.bits, b.summary, b.tops, ntops))
         return ids, extract_marked(b.bits, b.summary, b.tops, ntops, ids)
