@@ -372,6 +372,12 @@ def test_first_round_candidates_come_from_the_nearest_shells(kit):
     assert np.isfinite(reach) and reach_small <= reach and visited_near < visited_all
     assert len(near) >= 64 and nearer <= near <= every
     assert walk(10 ** 9)[0] == every and walk(10 ** 9)[2] == np.inf
+    few = Culler(part, "vfc,occlusion,tbfc", occlusion={"first_candidates": 64})
+    few.cull(cam)  # the stage's own first round stops at a finite shell here
+    assert np.isfinite(few.stages[1].reach) and few.stages[1].reach >= few.stages[1].shell
+    fixed = Culler(part, "vfc,occlusion,tbfc", occlusion={"first_reach": 5.0})
+    fixed.cull(cam)  # an explicit reach overrides the shells
+    assert fixed.stages[1].reach == 5.0
     with pytest.raises(ValueError, match="first_candidates"):
         Culler(part, "vfc,occlusion", occlusion={"first_candidates": -1})
     whole = Culler(part, "vfc,occlusion,tbfc", occlusion={"first_candidates": 0})
