@@ -597,69 +597,6 @@ def _take(t, bits):
     return True
 
 
-@njit(cache=True, nogil=True)
-def gather_candidates(lo, hi, first_child, child_count, nonempty, roots, planes, tol, eye,
-                      detail, lists, history, skip, bits, out, stack):
-    """Occluder candidates around the eye: a frustum walk from roots that takes a node's list of
-    largest triangles (lists (N, k)) once the node is a leaf or small as seen from the eye
-    (diagonal < detail x distance to the box), plus the `history` ids; each id once and none of
-    `skip` (bits (T // 64 + 1,) uint64 scratch, zero on entry and on return, so the cost
-    follows the candidates, not the world). Returns (count in out, nodes visited)."""
-    for k in range(len(skip)):
-        _take(skip[k], bits)
-    count = 0
-    for k in range(len(history)):
-        t = history[k]
-        if _take(t, bits):
-            out[count] = t
-            count += 1
-    top = 0
-    for k in range(len(roots) - 1, -1, -1):
-        stack[top] = roots[k]
-        top += 1
-    visited = 0
-    while top > 0:
-        top -= 1
-        node = stack[top]
-        if not nonempty[node]:
-            continue
-        visited += 1
-        outside = False
-        dist2 = 0.0
-        diag2 = 0.0
-        for a in range(3):
-            diag2 += (hi[node, a] - lo[node, a]) ** 2
-            gap = max(lo[node, a] - eye[a], eye[a] - hi[node, a], 0.0)
-            dist2 += gap * gap
-        for p in range(len(planes)):
-            nx, ny, nz, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
-            px = hi[node, 0] if nx >= 0 else lo[node, 0]
-            py = hi[node, 1] if ny >= 0 else lo[node, 1]
-            pz = hi[node, 2] if nz >= 0 else lo[node, 2]
-            if nx * px + ny * py + nz * pz + d < -tol:
-                outside = True
-                break
-        if outside:
-            continue
-        n = child_count[node]
-        if n == 0 or diag2 < detail * detail * dist2:
-            for j in range(lists.shape[1]):
-                t = lists[node, j]
-                if t >= 0 and _take(t, bits):
-                    out[count] = t
-                    count += 1
-            continue
-        first = first_child[node]
-        for c in range(n - 1, -1, -1):
-            stack[top] = first + c
-            top += 1
-    for k in range(count):
-        bits[out[k] >> 6] = 0
-    for k in range(len(skip)):
-        bits[skip[k] >> 6] = 0
-    return count, visited
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _box_gap2(lo, hi, node, eye):
     """Squared distance from the eye to the node's box (0 inside) and its squared diagonal."""
@@ -745,6 +682,21 @@ def gather_shell_candidates(lo, hi, first_child, child_count, nonempty, roots, p
     for k in range(len(skip)):
         bits[skip[k] >> 6] = 0
     return count, visited, (np.inf if aside == 0 else reach)
+
+
+@njit(cache=True, nogil=True)
+def gather_candidates(lo, hi, first_child, child_count, nonempty, roots, planes, tol, eye,
+                      detail, lists, history, skip, bits, out, stack):
+    """Occluder candidates around the eye: a frustum walk from roots that takes a node's list of
+    largest triangles (lists (N, k)) once the node is a leaf or small as seen from the eye
+    (diagonal < detail x distance to the box), plus the `history` ids; each id once and none of
+    `skip` (bits (T // 64 + 1,) uint64 scratch, zero on entry and on return, so the cost
+    follows the candidates, not the world). Returns (count in out, nodes visited): one shell
+    of gather_shell_candidates that reaches everything (so nothing is set aside in `later`)."""
+    count, visited, _ = gather_shell_candidates(lo, hi, first_child, child_count, nonempty,
+                                                roots, planes, tol, eye, detail, lists, history,
+                                                skip, bits, out, stack, stack, np.inf, 0, 2.0)
+    return count, visited
 
 
 @njit(cache=True, nogil=True)
