@@ -161,6 +161,7 @@ def main(argv=None) -> int:
         print(f"bench_outofcore: {error}", file=sys.stderr)
         return 2
     results = args.results or args.out.parent
+    results.mkdir(parents=True, exist_ok=True)  # a --results folder may not exist yet
     if args.cull_only:
         text = json.dumps(cull(args))
         label = args.cull[0].replace(",", "+")
