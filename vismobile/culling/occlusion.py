@@ -10,9 +10,9 @@ Each frame:
    precomputed lists of their `candidates` largest triangles, plus last frame's best sent
    triangles (`observe`). The first round walks shells of distance from the eye, nearest
    first, until the lists offered `first_candidates` ids (the rooms around the eye; farther
-   occluders come from the second round, out of what the first left visible). They are ranked by estimated solid angle A |n.d| / |d|^3 and the
-   best `occluders` that certainly face the eye, also as the device rounds it (tbfc's bound),
-   are rasterised. Any front-facing world triangle is opaque in the final image (with or
+   occluders come from the second round, out of what the first left visible). They are
+   ranked by estimated solid angle A |n.d| / |d|^3 and the best `occluders` that certainly
+   face the eye, also as the device rounds it (tbfc's bound), are rasterised. Any front-facing world triangle is opaque in the final image (with or
    without GL_CULL_FACE).
 2. hiz.rasterise: per exact-plane group, a pixel counts only when wholly inside the union of the
    group's triangles (or, across a crease between groups, of both) clipped slightly beyond the

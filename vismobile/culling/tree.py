@@ -66,7 +66,8 @@ class Tree:
             self._stacks = self._stack_scratch(2 * len(roots))
         out, nodes, sets, masks = self._stacks
         count, visited, tests, culled, straddling = frustum_walk(
-            self._box, self._links, self.read_size, int(whole_below), roots, np.ascontiguousarray(root_sets, dtype=np.int64),
+            self._box, self._links, self.read_size, int(whole_below), roots,
+            np.ascontiguousarray(root_sets, dtype=np.int64),
             np.ascontiguousarray(plane_sets, dtype=np.float64), self.tol, out, nodes, sets, masks)
         return out[:count].copy(), visited, tests, culled, straddling
 
