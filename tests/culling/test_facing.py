@@ -5,7 +5,6 @@ import pytest
 
 from vismobile.camera import Camera
 from vismobile.culling import Culler, backface, cones
-from vismobile.culling import kernels
 from vismobile.culling.facing import (TILT_BIAS, TILT_EXACT, backfacing, frontfacing,
                                       keep_unmarked, not_backfacing, tilt_of, tilt_scales,
                                       tilt_select)
@@ -57,16 +56,15 @@ def test_backfacing_kernel_matches_the_numpy_bound(dtype):
 
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_frontfacing_is_backfacing_of_the_reversed_triangle(dtype):
-    # occlusion's occluder test: the packed table of reversed cross products it kept before
-    # (kernels.backfacing over -cross) gives the same bits as the corners read per candidate.
+    # occlusion's occluder test: the numpy bound over reversed cross products (the packed table
+    # it kept before) gives the same bits as the corners read per candidate.
     vertices, triangles = random_mesh(600, 13, dtype)
     corners = vertices.astype(np.float64)[triangles]
     cross, abs_cross, ea, eb = triangle_cross(corners)
-    flipped = np.column_stack([-cross, abs_cross, corners[:, 0], ea, eb])
     ids = np.arange(len(triangles), dtype=np.int64)
     eye = np.array([0.5, -1.0, 2.0])
     for delta in (0.0, 1e-3, 0.5):
-        expect = kernels.backfacing(ids, flipped, eye, delta, GAMMA_8)
+        expect = certainly_backfacing(-cross, abs_cross, ea, eb, corners[:, 0], eye, delta)
         got = frontfacing(ids, vertices, triangles, eye, delta, GAMMA_8)
         assert np.array_equal(got, expect) and 0 < got.sum() < len(ids)
         assert not (got & backfacing(ids, vertices, triangles, eye, delta, GAMMA_8)).any()

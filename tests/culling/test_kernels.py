@@ -3,9 +3,8 @@ inputs on purpose (the distinct gather: test_gather.py)."""
 import numpy as np
 
 from vismobile.camera import Camera
-from vismobile.culling.kernels import backfacing, frustum_walk, node_records
+from vismobile.culling.kernels import frustum_walk, node_records
 from vismobile.culling.tree import Tree
-from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
 
 
 def test_frustum_walk_keeps_every_triangle_in_the_frustum(w1_octree):
@@ -40,19 +39,6 @@ def test_frustum_walk_from_no_roots_accepts_nothing():
                                       np.zeros(0, np.int64), np.zeros(0, np.int64),
                                       np.zeros((1, 6, 4)), 0.0, out, *stack)
     assert count == 0 and visited == 0
-
-
-def test_backfacing_kernel_matches_the_numpy_bound():
-    rng = np.random.default_rng(11)
-    corners = rng.normal(size=(500, 3, 3)) * 10.0
-    cross, abs_cross, ea, eb = triangle_cross(corners)
-    packed = np.column_stack([cross, abs_cross, corners[:, 0], ea, eb])
-    eye = np.array([0.5, -1.0, 2.0])
-    ids = np.arange(500, dtype=np.int64)
-    for delta in (0.0, 1e-3, 0.5):
-        expect = certainly_backfacing(cross, abs_cross, ea, eb, corners[:, 0], eye, delta)
-        assert np.array_equal(backfacing(ids, packed, eye, delta, GAMMA_8), expect)
-    assert len(backfacing(ids[:0], packed, eye, 0.0, GAMMA_8)) == 0
 
 
 def test_node_records_hold_the_bounds_exactly(w1_octree):

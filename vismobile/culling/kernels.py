@@ -1,5 +1,6 @@
 """Compiled per-frame kernels (numba, cached on disk): the frustum walk over the flat tree, run
-counting, and the per-triangle back-face test (the distinct gather is in gather.py).
+counting, and the back-face bound the per-triangle tests in facing.py use (the distinct gather
+is in gather.py).
 
 Each frame used to cost hundreds of small numpy calls (one batch per tree level, masks over the
 whole world); these loops do the same arithmetic once per touched node or reference, so a
@@ -117,29 +118,8 @@ def backface_threshold(delta, lw, ea, eb, rounding):
     """How far below zero det must be for a triangle to face away certainly: triangle_backface's
     bound for corners and eye moved by up to delta per coordinate, plus `rounding` (gamma8
     |c|.|w|), raised by 2^-50 for its own evaluation. Errs large (toward keeping).
-    lw : |e - v0|;  ea, eb : |v1 - v0|, |v2 - v0|. The one copy of the bound both compiled
-    back-face kernels (this module's and facing.py's) use; numpy's is certainly_backfacing."""
+    lw : |e - v0|;  ea, eb : |v1 - v0|, |v2 - v0|. The one copy of the bound the compiled
+    back-face kernels (facing.py) use; numpy's is certainly_backfacing."""
     moved = np.sqrt(3.0) * delta * (2.0 * lw * (ea + eb) + 2.0 * ea * eb) \
         + 36.0 * delta * delta * (lw + ea + eb) + 48.0 * delta * delta * delta
     return (moved + rounding) * (1.0 + 2.0 ** -50)
-
-
-@njit(cache=True, nogil=True)
-def backfacing(ids, packed, eye, delta, gamma8):
-    """(n,) bool: triangle ids certainly face away from the eye, also after any move of corners
-    and eye by up to delta per coordinate, and despite float64 rounding (triangle_backface's
-    bound, evaluated per triangle). Errs toward False by that bound; edge-on is never True.
-
-    packed : (T, 11) float64 rows cross (3), abs_cross (3), v0 (3), |v1 - v0|, |v2 - v0|
-    """
-    out = np.zeros(len(ids), dtype=np.bool_)
-    for k in range(len(ids)):
-        row = packed[ids[k]]
-        wx, wy, wz = eye[0] - row[6], eye[1] - row[7], eye[2] - row[8]
-        det = row[0] * wx + row[1] * wy + row[2] * wz
-        if not det < 0:
-            continue
-        lw = np.sqrt(wx * wx + wy * wy + wz * wz)
-        rounding = gamma8 * (row[3] * abs(wx) + row[4] * abs(wy) + row[5] * abs(wz))
-        out[k] = det < -backface_threshold(delta, lw, row[9], row[10], rounding)
-    return out
