@@ -30,15 +30,21 @@ def _corners(vertices, triangles, t):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _edges_cross(x0, y0, z0, x1, y1, z1, x2, y2, z2):
+    """Edges a = v1 - v0, b = v2 - v0 and their cross product a x b (9 floats), as
+    triangle_backface.triangle_cross computes them (same bits)."""
+    ax, ay, az = x1 - x0, y1 - y0, z1 - z0
+    bx, by, bz = x2 - x0, y2 - y0, z2 - z0
+    return (ax, ay, az, bx, by, bz,
+            ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _det_bound(vertices, triangles, t, eye, delta, gamma8):
     """(det, bound) of triangle t: det = ((v1 - v0) x (v2 - v0)) . (e - v0) and how far det may
     move for corners and eye moved by up to delta per coordinate plus its float64 rounding."""
     x0, y0, z0, x1, y1, z1, x2, y2, z2 = _corners(vertices, triangles, t)
-    ax, ay, az = x1 - x0, y1 - y0, z1 - z0
-    bx, by, bz = x2 - x0, y2 - y0, z2 - z0
-    cx = ay * bz - az * by
-    cy = az * bx - ax * bz
-    cz = ax * by - ay * bx
+    ax, ay, az, bx, by, bz, cx, cy, cz = _edges_cross(x0, y0, z0, x1, y1, z1, x2, y2, z2)
     wx, wy, wz = eye[0] - x0, eye[1] - y0, eye[2] - z0
     det = cx * wx + cy * wy + cz * wz
     # The bound for every candidate, without a branch on the sign of det: about half the
@@ -115,10 +121,7 @@ def tilt_of(vertices, triangles, t):
         short = l0 + l2
     else:
         short = l0 + l1
-    bx, by, bz = -e2x, -e2y, -e2z
-    cx = e0y * bz - e0z * by
-    cy = e0z * bx - e0x * bz
-    cz = e0x * by - e0y * bx
+    cx, cy, cz = _edges_cross(x0, y0, z0, x1, y1, z1, x2, y2, z2)[6:]  # e0 x -e2
     cross = np.sqrt(cx * cx + cy * cy + cz * cz)
     inv = 1.0 / cross if cross > 0 else np.inf
     return 2.0 * short * inv * TILT_SLACK, 4.0 * inv * TILT_SLACK

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .facing import _corners
+from .facing import _corners, _edges_cross
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -21,11 +21,7 @@ def _row(vertices, triangles, t):
     """Triangle t's unit normal (zero when degenerate), first corner, centroid, radius and area
     (World's bits: module docstring), as 11 floats."""
     x0, y0, z0, x1, y1, z1, x2, y2, z2 = _corners(vertices, triangles, t)
-    ax, ay, az = x1 - x0, y1 - y0, z1 - z0
-    bx, by, bz = x2 - x0, y2 - y0, z2 - z0
-    cx = ay * bz - az * by
-    cy = az * bx - ax * bz
-    cz = ax * by - ay * bx
+    cx, cy, cz = _edges_cross(x0, y0, z0, x1, y1, z1, x2, y2, z2)[6:]
     length = np.sqrt(cx * cx + cy * cy + cz * cz)
     nx = ny = nz = 0.0
     if length > 0:
