@@ -166,9 +166,9 @@ def test_whole_below_sends_a_superset_from_fewer_nodes(w1_octree):
                      aspect=0.75)
         planes = cam.frustum_planes()[None]
         root = np.zeros(1, np.int64)
-        exact, visited, *_, straddling = tree.walk(root, root, planes, -1)
+        exact, visited, *_, straddling, _ = tree.walk(root, root, planes, -1)
         assert straddling == 0
-        coarse, fewer_visits, *_, straddling = tree.walk(root, root, planes, 10 ** 9)
+        coarse, fewer_visits, *_, straddling, _ = tree.walk(root, root, planes, 10 ** 9)
         assert np.all(np.isin(tree.distinct_refs(exact), tree.distinct_refs(coarse)))
         assert fewer_visits <= visited and straddling <= len(coarse)
         fewer += fewer_visits < visited
@@ -185,3 +185,21 @@ def test_vfc_counts_nodes_accepted_across_a_plane(w1_octree):
     assert np.all(np.isin(exact.triangles, whole.triangles))
     with pytest.raises(ValueError, match="whole_below"):
         Culler(w1_octree, "vfc", vfc={"whole_below": -2})
+
+
+def test_vfc_covers_only_where_no_later_stage_tests_its_nodes(w1_octree):
+    cam = Camera((5.0, 1.7, 5.0), yaw=30.0, pitch=0.0, aspect=0.75)
+    for stages in ("vfc", "vfc,cbfc", "vfc,tbfc", "vfc,cone", "vfc,bfc,cbfc,cone"):
+        walked = Culler(w1_octree, stages, vfc={"cover": False}).cull(cam)
+        covered = Culler(w1_octree, stages).cull(cam)
+        assert np.array_equal(walked.triangles, covered.triangles)
+        assert covered.stats["nodes_visited"] <= walked.stats["nodes_visited"]
+        assert covered.stats["vfc.nodes_covered"] >= 0
+        assert "vfc.nodes_covered" not in walked.stats
+    assert Culler(w1_octree, "vfc").cull(cam).stats["vfc.nodes_covered"] > 0
+    for stages in ("vfc,vfc_thesis", "vfc,occlusion_thesis"):
+        assert not next(s for s in Culler(w1_octree, stages).stages if s.name == "vfc").covering
+    unfused = Culler(w1_octree, "vfc,occlusion", occlusion={"fuse": False})
+    assert not unfused.stages[0].covering
+    with pytest.raises(ValueError, match="cover"):
+        Culler(w1_octree, "vfc", vfc={"cover": 1})

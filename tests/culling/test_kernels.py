@@ -1,9 +1,10 @@
 """The compiled kernels against plain numpy references: frustum walk, back-face test; empty
 inputs on purpose (the distinct gather: test_gather.py)."""
 import numpy as np
+import pytest
 
 from vismobile.camera import Camera
-from vismobile.culling.kernels import frustum_walk, node_records
+from vismobile.culling.kernels import cover_records, frustum_walk, node_records
 from vismobile.culling.tree import Tree
 
 
@@ -16,8 +17,8 @@ def test_frustum_walk_keeps_every_triangle_in_the_frustum(w1_octree):
         cam = Camera(rng.uniform(low, high), yaw=rng.uniform(0, 360), pitch=rng.uniform(-40, 40),
                      aspect=0.75)
         planes = cam.frustum_planes()
-        nodes, visited, tests, culled, _ = tree.walk(np.zeros(1, np.int64), np.zeros(1, np.int64),
-                                                  planes[None])
+        nodes, visited, tests, culled, *_ = tree.walk(np.zeros(1, np.int64),
+                                                   np.zeros(1, np.int64), planes[None])
         sent = np.unique(tree.refs(nodes))
         # Oracle: triangles with a sampled point (barycentric grid) inside every plane.
         bary = np.array([(i, j, 8 - i - j) for i in range(9) for j in range(9 - i)]) / 8.0
@@ -36,6 +37,7 @@ def test_frustum_walk_from_no_roots_accepts_nothing():
     box, links = node_records(np.stack([lo, lo + 1.0], axis=1), np.full(1, -1),
                               np.zeros(1, np.int64), np.ones(1, bool))
     count, visited, *_ = frustum_walk(box, links, np.zeros(1, np.int64), 64,
+                                      cover_records(box, links), True,
                                       np.zeros(0, np.int64), np.zeros(0, np.int64),
                                       np.zeros((1, 6, 4)), 0.0, out, *stack)
     assert count == 0 and visited == 0
@@ -58,8 +60,61 @@ def test_node_records_hold_the_bounds_exactly(w1_octree):
     scratch = [np.empty(tree.node_count + 1, dtype=np.int64) for _ in range(4)]
     results = []
     for b, l in ((box, links), (box64, links64)):
-        count, *counters = frustum_walk(b, l, tree.read_size, -1, np.zeros(1, np.int64),
+        count, *counters = frustum_walk(b, l, tree.read_size, -1, cover_records(b, l), True,
+                                        np.zeros(1, np.int64),
                                         np.zeros(1, np.int64), planes, tree.tol, *scratch)
         results.append((scratch[0][:count].copy(), counters))
     assert np.array_equal(results[0][0], results[1][0]) and results[0][1] == results[1][1]
     assert len(results[0][0]) > 0
+
+
+def _subtree_bounds(tree):
+    """Reference for cover_records: per node, the least hi and greatest lo of the non-empty
+    nodes strictly below it."""
+    n = tree.node_count
+    parent = np.full(n, -1)
+    for node in range(n):
+        first, count = tree.first_child[node], tree.child_count[node]
+        parent[first:first + count] = node
+    least = np.full((n, 3), np.inf)
+    most = np.full((n, 3), -np.inf)
+    for node in np.flatnonzero(tree.nonempty):
+        a = parent[node]
+        while a >= 0:
+            least[a] = np.minimum(least[a], tree.node_bounds[node, 1])
+            most[a] = np.maximum(most[a], tree.node_bounds[node, 0])
+            a = parent[a]
+    return least, most
+
+
+@pytest.mark.parametrize("kind", ["octree", "bsp", "grid"])
+def test_cover_records_bound_every_node_below(kit, kind):
+    tree = Tree(kit.structure("w1", kind))
+    cover = cover_records(tree._box, tree._links)
+    least, most = _subtree_bounds(tree)
+    inner = tree.child_count > 0
+    assert len(cover) == np.flatnonzero(inner)[-1] + 1
+    assert np.array_equal(cover[:, :3].astype(np.float64), least[:len(cover)])
+    assert np.array_equal(cover[:, 3:6].astype(np.float64), most[:len(cover)])
+
+
+@pytest.mark.parametrize("kind", ["octree", "bsp", "grid"])
+def test_covered_walk_sends_the_same_leaves_from_fewer_nodes(kit, kind):
+    part = kit.structure("w1", kind)
+    tree = Tree(part)
+    root = np.zeros(1, np.int64)
+    covered_any = 0
+    for cam in kit.random_cameras(part, 12, seed=11):
+        planes = cam.frustum_planes()[None]
+        exact, visited, tests, culled, _, none = tree.walk(root, root, planes)
+        nodes, fewer, _, fewer_culled, _, covered = tree.walk(root, root, planes, covering=True)
+        assert none == 0 and covered <= len(nodes)
+        leaves = tree.leaf_order[tree.leaves_under(exact)]
+        leaves_now = tree.leaf_order[tree.leaves_under(nodes)]
+        nonempty = tree.nonempty
+        assert np.array_equal(np.sort(leaves[nonempty[leaves]]),
+                              np.sort(leaves_now[nonempty[leaves_now]]))
+        assert np.array_equal(tree.distinct_refs(exact), tree.distinct_refs(nodes))
+        assert fewer <= visited and fewer_culled == culled and len(nodes) <= len(exact)
+        covered_any += covered
+    assert covered_any or kind == "grid"  # it does accept covered nodes (a grid is one level)

@@ -32,6 +32,10 @@ CONSERVATIVE = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "tbfc", "occlusion",
                 "occlusion_thesis", "portals")
 
 
+# Stages that test the nodes vfc hands on: vfc's cover would change what they decide.
+NODE_TESTS = {"vfc_thesis", "occlusion_thesis", "occlusion"}
+
+
 def parse_stages(stages) -> tuple:
     """Stage names from a list/tuple or a comma string ("vfc,bfc,cbfc"), deduplicated, ordered
     by cost. Raises ValueError naming the valid stages on an unknown one."""
@@ -94,6 +98,15 @@ class Culler:
                                  f"({error}); load the partition with load_partition instead "
                                  f"of map_partition") from None
         self._fuse()
+        self._cover()
+
+    def _cover(self) -> None:
+        """vfc accepts covered nodes whole (FrustumStage cover) only when no later stage tests
+        its nodes one by one (vfc_thesis, occlusion_thesis, occlusion): the triangle stages
+        see the same triangles, and cone the same leaves (it expands nodes to their leaves)."""
+        vfc = next((stage for stage in self.stages if stage.name == "vfc"), None)
+        if vfc is not None:
+            vfc.covering = vfc.cover and not set(self.names) & NODE_TESTS
 
     def _fuse(self) -> None:
         """When `vfc` and `occlusion` are the only node stages (no portals, cone or other node

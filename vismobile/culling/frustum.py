@@ -23,7 +23,7 @@ WHOLE_BELOW = -1
 
 
 def frustum_traverse(tree: Tree, roots, plane_sets, root_sets, state: CullState,
-                     prefix: str, whole_below: int = -1) -> np.ndarray:
+                     prefix: str, whole_below: int = -1, covering: bool = False) -> np.ndarray:
     """Hierarchical p/n-vertex culling from `roots`: (A,) int64 accepted nodes.
 
     roots      : (K,) int64 start nodes
@@ -31,27 +31,33 @@ def frustum_traverse(tree: Tree, roots, plane_sets, root_sets, state: CullState,
     root_sets  : (K,) int64
     whole_below: a node straddling a plane whose gather reads at most this many references is
                  accepted whole instead of walked (-1: never; see kernels.frustum_walk)
+    covering   : a straddling node below which no node would be rejected is accepted whole
+                 (the same triangles, fewer nodes; see kernels.cover_records)
     Errs toward keeping by tree.tol (never rejects a box touching the frustum).
-    Counts nodes_visited, plane_tests and <prefix>.nodes_culled/.nodes_accepted in state, and
-    <prefix>.nodes_straddling (inner nodes accepted whole across a plane) when whole_below >= 0.
+    Counts nodes_visited, plane_tests and <prefix>.nodes_culled/.nodes_accepted in state,
+    <prefix>.nodes_straddling (inner nodes accepted whole across a plane) when whole_below >= 0
+    and <prefix>.nodes_covered (accepted by their cover) when covering.
     """
-    result, visited, tests, culled, straddling = tree.walk(roots, root_sets, plane_sets,
-                                                           whole_below)
+    result, visited, tests, culled, straddling, covered = tree.walk(
+        roots, root_sets, plane_sets, whole_below, covering)
     state.count("nodes_visited", visited)
     state.count("plane_tests", tests)
     state.count(f"{prefix}.nodes_culled", culled)
     state.count(f"{prefix}.nodes_accepted", len(result))
     if whole_below >= 0:
         state.count(f"{prefix}.nodes_straddling", straddling)
+    if covering:
+        state.count(f"{prefix}.nodes_covered", covered)
     return result
 
 
-def frustum_refine(tree: Tree, state: CullState, prefix: str, whole_below: int = -1) -> np.ndarray:
+def frustum_refine(tree: Tree, state: CullState, prefix: str, whole_below: int = -1,
+                   covering: bool = False) -> np.ndarray:
     """(A,) int64 nodes: state.nodes culled against the camera frustum state.planes (see
     frustum_traverse)."""
     roots = state.nodes
     return frustum_traverse(tree, roots, state.planes[None], np.zeros(len(roots), dtype=np.int64),
-                            state, prefix, whole_below)
+                            state, prefix, whole_below, covering)
 
 
 class FrustumStage:
@@ -62,6 +68,10 @@ class FrustumStage:
                walk to the leaves, the default). Conservative: it sends a superset. At 64 the
                tiled W2 (5.0 M triangles, octree 8) visits 6x fewer nodes for 0.8% more
                triangles; W2 itself (octree 5) 6.5x fewer for 3.5% more.
+    cover    : accept whole a straddling node below which no node would be rejected (its
+               cover: kernels.cover_records), instead of walking it to the leaves the walk
+               would accept anyway: the same triangles from fewer nodes (on by default). Used
+               only when no later node stage tests vfc's nodes (Culler._cover sets covering)
     deferred : set by the Culler when the next node stage (`occlusion`) tests the frustum in its
                own walk (Culler._fuse): apply then only marks state.frustum_pending
     """
@@ -70,11 +80,14 @@ class FrustumStage:
     cost = 10
     deferred = False
 
-    def __init__(self, whole_below: int = WHOLE_BELOW):
+    def __init__(self, whole_below: int = WHOLE_BELOW, cover: bool = True):
         if isinstance(whole_below, bool) or not isinstance(whole_below, (int, np.integer)) \
                 or whole_below < -1:
             raise ValueError(f"vfc whole_below must be an integer >= -1, got {whole_below!r}")
+        if not isinstance(cover, (bool, np.bool_)):
+            raise ValueError(f"vfc cover must be True or False, got {cover!r}")
         self.whole_below = int(whole_below)
+        self.cover = self.covering = bool(cover)
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -83,7 +96,8 @@ class FrustumStage:
         if self.deferred:
             state.frustum_pending = True
             return
-        state.nodes = frustum_refine(self.tree, state, self.name, self.whole_below)
+        state.nodes = frustum_refine(self.tree, state, self.name, self.whole_below,
+                                     self.covering)
 
 
 class ThesisFrustumStage:

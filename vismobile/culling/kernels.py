@@ -28,23 +28,77 @@ def node_records(node_bounds, first_child, child_count, nonempty) -> tuple:
     return box, links
 
 
+def cover_records(box, links) -> np.ndarray:
+    """(M, 8) per node below M (every node with children; breadth-first order puts them first),
+    box's dtype: columns 0:3 the least hi and 3:6 the greatest lo, per axis, of the non-empty
+    nodes strictly below it (+inf / -inf when none). Exact: min and max of the boxes' numbers.
+
+    frustum_walk's cover test: for a plane (n, d), d + sum over axes of n_i * (the least hi_i
+    when n_i > 0, else the greatest lo_i) is at most the distance of the p-vertex of every such
+    node, so when it is >= 0 none of them lies behind that plane.
+    """
+    inner = np.flatnonzero(links[:, 7] > 0)
+    cover = np.empty((int(inner[-1]) + 1 if len(inner) else 0, 8), dtype=box.dtype)
+    cover[:, :3] = np.inf
+    cover[:, 3:] = -np.inf
+    if len(cover):
+        _cover_up(box, links, cover)
+    return cover
+
+
 @njit(cache=True, nogil=True)
-def frustum_walk(box, links, size, whole_below, roots, root_sets, plane_sets, tol, out, stack_node,
-                 stack_set, stack_mask):
+def _cover_up(box, links, cover):
+    """Fill cover bottom-up; children follow their parent (the layout is breadth-first)."""
+    for node in range(len(cover) - 1, -1, -1):
+        n = links[node, 7]
+        if n <= 0:
+            continue
+        first = links[node, 6]
+        for c in range(first, first + n):
+            if links[c, 7] < 0:  # references nothing: the walk skips it
+                continue
+            below = c < len(cover)
+            for i in range(3):
+                least = min(cover[node, i], box[c, 3 + i])
+                most = max(cover[node, 3 + i], box[c, i])
+                if below:
+                    least = min(least, cover[c, i])
+                    most = max(most, cover[c, 3 + i])
+                cover[node, i] = least
+                cover[node, 3 + i] = most
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _lowest_bit(mask):
+    """Index of the lowest set bit of mask > 0 (a plane mask: at most 62 bits)."""
+    p = 0
+    while not (mask >> p) & 1:
+        p += 1
+    return p
+
+
+@njit(cache=True, nogil=True)
+def frustum_walk(box, links, size, whole_below, cover, covering, roots, root_sets, plane_sets,
+                 tol, out, stack_node, stack_set, stack_mask):
     """Hierarchical p/n-vertex frustum test with plane masks, depth first from `roots`.
 
     Errs toward keeping by tol: a box is rejected only when its p-vertex is more than tol
     behind a plane; it is accepted whole when its n-vertex is at least tol inside every plane
     its parent straddled, or when it straddles a plane and size[node] <= whole_below (a
-    superset: its subtree's part outside the frustum is sent too; whole_below < 0: never).
+    superset: its subtree's part outside the frustum is sent too; whole_below < 0: never), or
+    (covering) when it straddles planes but no node below it would be rejected by them: its
+    cover (cover_records) is >= 0 for each. Then its subtree's leaves are the walk's accepted
+    leaves below it, every one: the same triangles, from fewer nodes.
     box, links  : (N, 8) views of one record per node (node_records): box[n, :6] its corners
                   lo, hi (float32 or float64, widened to float64 here), links[n, 6] its first
                   child, links[n, 7] its child count or -1 when it references nothing
     size        : (N,) int, what accepting the node whole costs (pairs read)
+    cover       : cover_records(box, links);  covering : bool, use it
     roots : (K,) int64;  root_sets : (K,) int64 into plane_sets
     plane_sets  : (S, P, 4) float64 inward planes (n, d), P <= 62
     out         : (>= accepted,) int64 receives accepted nodes; stacks : (>= K + N,) scratch
-    returns (accepted, visited, plane tests, culled, inner nodes accepted while straddling)
+    returns (accepted, visited, plane tests, culled, inner nodes accepted while straddling by
+    whole_below, inner nodes accepted by their cover); plane tests count the cover's too
     """
     planes_per_set = plane_sets.shape[1]
     full = (np.int64(1) << planes_per_set) - 1
@@ -54,7 +108,7 @@ def frustum_walk(box, links, size, whole_below, roots, root_sets, plane_sets, to
         stack_set[top] = root_sets[k]
         stack_mask[top] = full
         top += 1
-    count = visited = tests = culled = straddling = 0
+    count = visited = tests = culled = straddling = covered = 0
     while top > 0:
         top -= 1
         node, s, mask = stack_node[top], stack_set[top], stack_mask[top]
@@ -72,10 +126,11 @@ def frustum_walk(box, links, size, whole_below, roots, root_sets, plane_sets, to
         hz = 0.5 * (uz - lz)
         straddle = np.int64(0)
         outside = False
-        for p in range(planes_per_set):
+        rest = mask
+        while rest:  # the planes of the mask, lowest first
+            p = _lowest_bit(rest)
             bit = np.int64(1) << p
-            if not (mask & bit):
-                continue
+            rest ^= bit
             tests += 1
             nx, ny, nz = plane_sets[s, p, 0], plane_sets[s, p, 1], plane_sets[s, p, 2]
             mid = cx * nx + cy * ny + cz * nz + plane_sets[s, p, 3]
@@ -88,19 +143,42 @@ def frustum_walk(box, links, size, whole_below, roots, root_sets, plane_sets, to
         if outside:
             culled += 1
             continue
-        if straddle == 0 or n == 0 or size[node] <= whole_below:
-            if straddle != 0 and n != 0:
-                straddling += 1
+        if straddle == 0 or n == 0:
             out[count] = node
             count += 1
             continue
+        if size[node] <= whole_below:
+            straddling += 1
+            out[count] = node
+            count += 1
+            continue
+        if covering:
+            whole = True
+            rest = straddle
+            while rest:
+                p = _lowest_bit(rest)
+                rest ^= np.int64(1) << p
+                tests += 1
+                nx, ny, nz = plane_sets[s, p, 0], plane_sets[s, p, 1], plane_sets[s, p, 2]
+                least = plane_sets[s, p, 3]
+                least += nx * (np.float64(cover[node, 0]) if nx > 0 else np.float64(cover[node, 3]))
+                least += ny * (np.float64(cover[node, 1]) if ny > 0 else np.float64(cover[node, 4]))
+                least += nz * (np.float64(cover[node, 2]) if nz > 0 else np.float64(cover[node, 5]))
+                if not least >= tol:  # tol of margin for rounding: errs toward walking
+                    whole = False
+                    break
+            if whole:
+                covered += 1
+                out[count] = node
+                count += 1
+                continue
         first = links[node, 6]
         for c in range(n - 1, -1, -1):  # first child on top: depth-first in stored order
             stack_node[top] = first + c
             stack_set[top] = s
             stack_mask[top] = straddle
             top += 1
-    return count, visited, tests, culled, straddling
+    return count, visited, tests, culled, straddling, covered
 
 
 @njit(cache=True, nogil=True)

@@ -7,7 +7,7 @@ import numpy as np
 from ..geometry.planes import slack
 from ..partition.base import Partition, gather_ranges
 from .gather import Bitmap, Groups, count_marked, extract_marked, mark_nodes
-from .kernels import frustum_walk, node_records
+from .kernels import cover_records, frustum_walk, node_records
 
 
 class Tree:
@@ -50,26 +50,30 @@ class Tree:
         self.read_size = self.groups.end - self.groups.start
         self._box, self._links = node_records(self.node_bounds, self.first_child, self.child_count,
                                               self.nonempty)
+        self._cover = cover_records(self._box, self._links)
         self._stacks = self._stack_scratch(64)
 
     def _stack_scratch(self, roots: int) -> tuple:
         size = self.node_count + roots
         return tuple(np.empty(size, dtype=np.int64) for _ in range(4))
 
-    def walk(self, roots, root_sets, plane_sets, whole_below: int = -1) -> tuple:
+    def walk(self, roots, root_sets, plane_sets, whole_below: int = -1,
+             covering: bool = False) -> tuple:
         """Frustum walk (kernels.frustum_walk) from roots (K,) int64 with plane_sets (S, P, 4)
         and root_sets (K,) int64: (accepted nodes (A,) int64, visited, plane tests, culled,
-        straddling nodes accepted whole). whole_below >= 0: a straddling inner node whose
-        gather reads at most that many references (read_size) is accepted whole."""
+        straddling nodes accepted whole, nodes accepted by their cover). whole_below >= 0: a
+        straddling inner node whose gather reads at most that many references (read_size) is
+        accepted whole. covering: a straddling inner node below which no node would be rejected
+        is accepted whole (the same triangles as its accepted leaves)."""
         roots = np.ascontiguousarray(roots, dtype=np.int64)
         if len(roots) + self.node_count > len(self._stacks[0]):
             self._stacks = self._stack_scratch(2 * len(roots))
         out, nodes, sets, masks = self._stacks
-        count, visited, tests, culled, straddling = frustum_walk(
-            self._box, self._links, self.read_size, int(whole_below), roots,
-            np.ascontiguousarray(root_sets, dtype=np.int64),
+        count, *counters = frustum_walk(
+            self._box, self._links, self.read_size, int(whole_below), self._cover,
+            bool(covering), roots, np.ascontiguousarray(root_sets, dtype=np.int64),
             np.ascontiguousarray(plane_sets, dtype=np.float64), self.tol, out, nodes, sets, masks)
-        return out[:count].copy(), visited, tests, culled, straddling
+        return (out[:count].copy(), *counters)
 
     def distinct_refs(self, nodes) -> np.ndarray:
         """(S,) int64 sorted distinct triangle ids of the nodes' subtrees; cost follows the

@@ -87,10 +87,13 @@ def load_structure(world, label: str, cache_dir=None):
 
 
 def make_culler(partition, stages, profile=None):
-    """Culler over partition; with a profile, its arithmetic mode and screen (device_options)."""
+    """Culler over partition; with a profile, its arithmetic mode and screen (device_options).
+    vfc walks to the thesis's draw nodes (its `cover` off): the device model's per-call term
+    was fitted to their count (costmodel.CALIBRATION_ROWS), and the same triangles are sent."""
     from ..culling import Culler, device_options
 
-    return Culler(partition, list(stages), **(device_options(profile) if profile else {}))
+    options = device_options(profile) if profile else {}
+    return Culler(partition, list(stages), vfc={"cover": False}, **options)
 
 
 def timed_cull(culler, camera) -> tuple:
