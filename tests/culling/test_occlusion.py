@@ -291,12 +291,15 @@ def test_occlusion_on_a_mapped_world_culls_as_in_memory_and_drops_nothing_visibl
             assert not len(missing), (stages, options, camera, missing[:5])
             culled += x.stats.get("occlusion.nodes_culled", 0)
         # Nothing per triangle but the 1-bit candidate map and views of the mapped file: the
-        # stage's own arrays follow the nodes.
+        # stage's own arrays follow the nodes (`candidates` ids a node, scratch for the
+        # frame's occluders).
         world = mapped.world
+        bound = (mapped.node_count + 64) * stage.candidates + 2 * stage.occluders
+        assert bound < 2 * world.triangle_count
         for name, value in vars(stage).items():
             if isinstance(value, np.ndarray) and name != "bits" and not any(
                     np.shares_memory(value, w) for w in (world.vertices, world.triangles)):
-                assert value.size < world.triangle_count, name
+                assert value.size <= bound, (name, value.shape)
         assert stage.bits.nbytes <= mapped.world.triangle_count // 8 + 8
     assert culled > 0
     # The build stored the node lists and the stage read them; a file without them (an older

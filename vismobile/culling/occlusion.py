@@ -184,7 +184,7 @@ class DepthBufferOcclusion:
     arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
-                 candidates: int = 4, detail: float = 0.125, rounds: int = 2,
+                 candidates: int = 8, detail: float = 0.125, rounds: int = 2,
                  triangles: bool = True, self_occluders: int = 0, screen=None,
                  fuse: bool = True, first_reach=None, first_candidates=None):
         self.width, self.height = int(width), int(height)
