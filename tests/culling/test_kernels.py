@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vismobile.camera import Camera
-from vismobile.culling.kernels import cover_records, frustum_walk, node_records
+from vismobile.culling.kernels import frustum_walk, inner_records, node_records
 from vismobile.culling.tree import Tree
 
 
@@ -36,8 +36,9 @@ def test_frustum_walk_from_no_roots_accepts_nothing():
     stack = [np.empty(4, dtype=np.int64) for _ in range(3)]
     box, links = node_records(np.stack([lo, lo + 1.0], axis=1), np.full(1, -1),
                               np.zeros(1, np.int64), np.ones(1, bool))
+    inner = inner_records(box, links)
     count, visited, *_ = frustum_walk(box, links, np.zeros(1, np.int64), 64,
-                                      cover_records(box, links), True,
+                                      inner, inner.view(links.dtype), True,
                                       np.zeros(0, np.int64), np.zeros(0, np.int64),
                                       np.zeros((1, 6, 4)), 0.0, out, *stack)
     assert count == 0 and visited == 0
@@ -60,8 +61,9 @@ def test_node_records_hold_the_bounds_exactly(w1_octree):
     scratch = [np.empty(tree.node_count + 1, dtype=np.int64) for _ in range(4)]
     results = []
     for b, l in ((box, links), (box64, links64)):
-        count, *counters = frustum_walk(b, l, tree.read_size, -1, cover_records(b, l), True,
-                                        np.zeros(1, np.int64),
+        inner = inner_records(b, l)
+        count, *counters = frustum_walk(b, l, tree.read_size, -1, inner, inner.view(l.dtype),
+                                        True, np.zeros(1, np.int64),
                                         np.zeros(1, np.int64), planes, tree.tol, *scratch)
         results.append((scratch[0][:count].copy(), counters))
     assert np.array_equal(results[0][0], results[1][0]) and results[0][1] == results[1][1]
@@ -69,7 +71,7 @@ def test_node_records_hold_the_bounds_exactly(w1_octree):
 
 
 def _subtree_bounds(tree):
-    """Reference for cover_records: per node, the least hi and greatest lo of the non-empty
+    """Reference for inner_records' cover: per node, the least hi and greatest lo of the non-empty
     nodes strictly below it."""
     n = tree.node_count
     parent = np.full(n, -1)
@@ -88,9 +90,9 @@ def _subtree_bounds(tree):
 
 
 @pytest.mark.parametrize("kind", ["octree", "bsp", "grid"])
-def test_cover_records_bound_every_node_below(kit, kind):
+def test_inner_records_bound_every_node_below(kit, kind):
     tree = Tree(kit.structure("w1", kind))
-    cover = cover_records(tree._box, tree._links)
+    cover = inner_records(tree._box, tree._links)
     least, most = _subtree_bounds(tree)
     inner = tree.child_count > 0
     assert len(cover) == np.flatnonzero(inner)[-1] + 1
@@ -118,3 +120,43 @@ def test_covered_walk_sends_the_same_leaves_from_fewer_nodes(kit, kind):
         assert fewer <= visited and fewer_culled == culled and len(nodes) <= len(exact)
         covered_any += covered
     assert covered_any or kind == "grid"  # it does accept covered nodes (a grid is one level)
+
+
+def test_octant_leaves_are_tested_from_their_parent_with_the_same_decisions(w1_octree):
+    tree = Tree(w1_octree)
+    inner = inner_records(tree._box, tree._links)
+    ints = inner.view(tree._links.dtype)
+    octants = np.flatnonzero(ints[:, 7] == 1)
+    assert len(octants)  # an octree's last inner level has octant leaves
+    for node in octants[:50]:  # the rule rebuilds every child's box exactly
+        first, n = tree.first_child[node], tree.child_count[node]
+        for k in range(n):
+            code = (int(ints[node, 6]) >> (3 * k)) & 7
+            upper = np.array([(code >> i) & 1 for i in range(3)], bool)
+            lo = np.where(upper, inner[node, 8:11], tree._box[node, :3])
+            hi = np.where(upper, tree._box[node, 3:6], inner[node, 11:14])
+            assert np.array_equal(lo, tree._box[first + k, :3])
+            assert np.array_equal(hi, tree._box[first + k, 3:6])
+    plain = inner.copy()
+    plain.view(ints.dtype)[:, 7] = 0  # no octant leaves: every child read from its record
+    scratch = [np.empty(tree.node_count + 1, dtype=np.int64) for _ in range(4)]
+    for cam in random_walk_cameras(w1_octree):
+        planes = cam.frustum_planes()[None]
+        results = []
+        for records in (inner, plain):
+            for covering in (False, True):
+                count, *counters = frustum_walk(
+                    tree._box, tree._links, tree.read_size, -1, records,
+                    records.view(ints.dtype), covering, np.zeros(1, np.int64),
+                    np.zeros(1, np.int64), planes, tree.tol, *scratch)
+                results.append((scratch[0][:count].copy(), counters))
+        for a, b in ((0, 2), (1, 3)):
+            assert np.array_equal(results[a][0], results[b][0])
+            assert results[a][1] == results[b][1]
+
+
+def random_walk_cameras(part, count=8, seed=3):
+    rng = np.random.default_rng(seed)
+    low, high = part.world.extent
+    return [Camera(rng.uniform(low, high), yaw=rng.uniform(0, 360), pitch=rng.uniform(-40, 40),
+                   aspect=0.75) for _ in range(count)]

@@ -32,7 +32,7 @@ def frustum_traverse(tree: Tree, roots, plane_sets, root_sets, state: CullState,
     whole_below: a node straddling a plane whose gather reads at most this many references is
                  accepted whole instead of walked (-1: never; see kernels.frustum_walk)
     covering   : a straddling node below which no node would be rejected is accepted whole
-                 (the same triangles, fewer nodes; see kernels.cover_records)
+                 (the same triangles, fewer nodes; see kernels.inner_records)
     Errs toward keeping by tree.tol (never rejects a box touching the frustum).
     Counts nodes_visited, plane_tests and <prefix>.nodes_culled/.nodes_accepted in state,
     <prefix>.nodes_straddling (inner nodes accepted whole across a plane) when whole_below >= 0
@@ -69,7 +69,7 @@ class FrustumStage:
                tiled W2 (5.0 M triangles, octree 8) visits 6x fewer nodes for 0.8% more
                triangles; W2 itself (octree 5) 6.5x fewer for 3.5% more.
     cover    : accept whole a straddling node below which no node would be rejected (its
-               cover: kernels.cover_records), instead of walking it to the leaves the walk
+               cover: kernels.inner_records), instead of walking it to the leaves the walk
                would accept anyway: the same triangles from fewer nodes (on by default). Used
                only when no later node stage tests vfc's nodes (Culler._cover sets covering)
     deferred : set by the Culler when the next node stage (`occlusion`) tests the frustum in its

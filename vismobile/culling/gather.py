@@ -28,6 +28,8 @@ import sys
 import numpy as np
 from numba import njit
 
+from .prefetch import prefetch
+
 _ONE = np.uint64(1)
 _FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
 _M1 = np.uint64(0x5555555555555555)
@@ -75,7 +77,14 @@ def mark_nodes(words, masks, span, nodes, bits, summary, tops, ranges):
         ranges[k, 0] = span[node, 0]
         ranges[k, 1] = span[node, 1]
     ntops = 0
+    ahead = 4  # spans whose first pairs are asked for before they are read
+    for k in range(min(ahead, len(nodes))):
+        prefetch(words, ranges[k, 0])
+        prefetch(masks, ranges[k, 0])
     for k in range(len(nodes)):
+        if k + ahead < len(nodes):
+            prefetch(words, ranges[k + ahead, 0])
+            prefetch(masks, ranges[k + ahead, 0])
         for g in range(ranges[k, 0], ranges[k, 1]):
             w = np.int64(words[g])
             old = bits[w]

@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .prefetch import prefetch
+
 
 def node_records(node_bounds, first_child, child_count, nonempty) -> tuple:
     """(box, links): one (N, 8) record per node for frustum_walk, float32 when every bound is
@@ -28,27 +30,34 @@ def node_records(node_bounds, first_child, child_count, nonempty) -> tuple:
     return box, links
 
 
-def cover_records(box, links) -> np.ndarray:
-    """(M, 8) per node below M (every node with children; breadth-first order puts them first),
-    box's dtype: columns 0:3 the least hi and 3:6 the greatest lo, per axis, of the non-empty
-    nodes strictly below it (+inf / -inf when none). Exact: min and max of the boxes' numbers.
-
-    frustum_walk's cover test: for a plane (n, d), d + sum over axes of n_i * (the least hi_i
-    when n_i > 0, else the greatest lo_i) is at most the distance of the p-vertex of every such
-    node, so when it is >= 0 none of them lies behind that plane.
+def inner_records(box, links) -> np.ndarray:
+    """(M, 16) per node below M (every node with children; breadth-first order puts them
+    first), box's dtype, for frustum_walk:
+    0:3, 3:6  its cover: the least hi and the greatest lo, per axis, of the non-empty nodes
+              strictly below it (+inf / -inf when none). For a plane (n, d), d + sum over axes
+              of n_i * (the least hi_i when n_i > 0, else the greatest lo_i) is at most the
+              distance of the p-vertex of every such node: when it is >= 0, none of them lies
+              behind that plane;
+    6, 7      (as integers) its children's octant codes, 3 bits each, and 1 when its children
+              are all non-empty leaves whose boxes are octants of its own: child k's lo_i is
+              split_lo_i when bit i of its code is set, else the node's lo_i; its hi_i the
+              node's hi_i when set, else split_hi_i (checked exactly against their records);
+    8:11, 11:14 split_lo, split_hi.
+    Exact: every number is one of the boxes' own.
     """
     inner = np.flatnonzero(links[:, 7] > 0)
-    cover = np.empty((int(inner[-1]) + 1 if len(inner) else 0, 8), dtype=box.dtype)
-    cover[:, :3] = np.inf
-    cover[:, 3:] = -np.inf
-    if len(cover):
-        _cover_up(box, links, cover)
-    return cover
+    records = np.zeros((int(inner[-1]) + 1 if len(inner) else 0, 16), dtype=box.dtype)
+    records[:, :3] = np.inf
+    records[:, 3:6] = -np.inf
+    if len(records):
+        _cover_up(box, links, records)
+        _octants(box, links, records, records.view(links.dtype))
+    return records
 
 
 @njit(cache=True, nogil=True)
 def _cover_up(box, links, cover):
-    """Fill cover bottom-up; children follow their parent (the layout is breadth-first)."""
+    """Fill columns 0:6 bottom-up; children follow their parent (the layout is breadth-first)."""
     for node in range(len(cover) - 1, -1, -1):
         n = links[node, 7]
         if n <= 0:
@@ -68,6 +77,46 @@ def _cover_up(box, links, cover):
                 cover[node, 3 + i] = most
 
 
+@njit(cache=True, nogil=True)
+def _octants(box, links, records, ints):
+    """Columns 6:14 of inner_records: the octant codes and split of each node whose children
+    are non-empty leaves with octant boxes (ints: records read as integers)."""
+    for node in range(len(records)):
+        n = links[node, 7]
+        if n <= 0 or n > 8:
+            continue
+        first = links[node, 6]
+        codes = 0
+        ok = True
+        for k in range(n):
+            c = first + k
+            if links[c, 7] != 0:  # not a non-empty leaf
+                ok = False
+                break
+            code = 0
+            for i in range(3):
+                if box[c, i] != box[node, i]:  # the upper half on axis i
+                    code |= 1 << i
+                    records[node, 8 + i] = box[c, i]
+                else:
+                    records[node, 11 + i] = box[c, 3 + i]
+            codes |= code << (3 * k)
+        if not ok:
+            continue
+        for k in range(n):  # every child's box must come out of the rule exactly
+            c = first + k
+            code = (codes >> (3 * k)) & 7
+            for i in range(3):
+                upper = (code >> i) & 1
+                lo = records[node, 8 + i] if upper else box[node, i]
+                hi = box[node, 3 + i] if upper else records[node, 11 + i]
+                if lo != box[c, i] or hi != box[c, 3 + i]:
+                    ok = False
+        if ok:
+            ints[node, 6] = codes
+            ints[node, 7] = 1
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _lowest_bit(mask):
     """Index of the lowest set bit of mask > 0 (a plane mask: at most 62 bits)."""
@@ -77,9 +126,37 @@ def _lowest_bit(mask):
     return p
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _box_planes(lx, ly, lz, ux, uy, uz, planes, mask, tol):
+    """(outside, straddled planes, planes tested) of the box lo, hi against the planes of mask
+    (p-vertex / n-vertex with tol toward keeping); stops at the first plane it is behind."""
+    cx = 0.5 * (lx + ux)
+    cy = 0.5 * (ly + uy)
+    cz = 0.5 * (lz + uz)
+    hx = 0.5 * (ux - lx)
+    hy = 0.5 * (uy - ly)
+    hz = 0.5 * (uz - lz)
+    straddle = np.int64(0)
+    tests = 0
+    rest = mask
+    while rest:  # the planes of the mask, lowest first
+        p = _lowest_bit(rest)
+        bit = np.int64(1) << p
+        rest ^= bit
+        tests += 1
+        nx, ny, nz = planes[p, 0], planes[p, 1], planes[p, 2]
+        mid = cx * nx + cy * ny + cz * nz + planes[p, 3]
+        reach = hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
+        if mid + reach < -tol:
+            return True, straddle, tests
+        if mid - reach < tol:
+            straddle |= bit
+    return False, straddle, tests
+
+
 @njit(cache=True, nogil=True)
-def frustum_walk(box, links, size, whole_below, cover, covering, roots, root_sets, plane_sets,
-                 tol, out, stack_node, stack_set, stack_mask):
+def frustum_walk(box, links, size, whole_below, inner, inner_links, covering, roots, root_sets,
+                 plane_sets, tol, out, stack_node, stack_set, stack_mask):
     """Hierarchical p/n-vertex frustum test with plane masks, depth first from `roots`.
 
     Errs toward keeping by tol: a box is rejected only when its p-vertex is more than tol
@@ -87,13 +164,16 @@ def frustum_walk(box, links, size, whole_below, cover, covering, roots, root_set
     its parent straddled, or when it straddles a plane and size[node] <= whole_below (a
     superset: its subtree's part outside the frustum is sent too; whole_below < 0: never), or
     (covering) when it straddles planes but no node below it would be rejected by them: its
-    cover (cover_records) is >= 0 for each. Then its subtree's leaves are the walk's accepted
-    leaves below it, every one: the same triangles, from fewer nodes.
+    cover (inner_records) is >= tol for each. Then its subtree's leaves are the walk's
+    accepted leaves below it, every one: the same triangles, from fewer nodes.
+    A node whose children are octant leaves (inner_records) tests them from its own record:
+    the same boxes, so the same decisions, without reading theirs.
     box, links  : (N, 8) views of one record per node (node_records): box[n, :6] its corners
                   lo, hi (float32 or float64, widened to float64 here), links[n, 6] its first
                   child, links[n, 7] its child count or -1 when it references nothing
     size        : (N,) int, what accepting the node whole costs (pairs read)
-    cover       : cover_records(box, links);  covering : bool, use it
+    inner, inner_links : inner_records(box, links) and the same read as integers
+    covering    : bool, accept covered nodes whole
     roots : (K,) int64;  root_sets : (K,) int64 into plane_sets
     plane_sets  : (S, P, 4) float64 inward planes (n, d), P <= 62
     out         : (>= accepted,) int64 receives accepted nodes; stacks : (>= K + N,) scratch
@@ -118,28 +198,8 @@ def frustum_walk(box, links, size, whole_below, cover, covering, roots, root_set
         visited += 1
         lx, ly, lz = np.float64(box[node, 0]), np.float64(box[node, 1]), np.float64(box[node, 2])
         ux, uy, uz = np.float64(box[node, 3]), np.float64(box[node, 4]), np.float64(box[node, 5])
-        cx = 0.5 * (lx + ux)
-        cy = 0.5 * (ly + uy)
-        cz = 0.5 * (lz + uz)
-        hx = 0.5 * (ux - lx)
-        hy = 0.5 * (uy - ly)
-        hz = 0.5 * (uz - lz)
-        straddle = np.int64(0)
-        outside = False
-        rest = mask
-        while rest:  # the planes of the mask, lowest first
-            p = _lowest_bit(rest)
-            bit = np.int64(1) << p
-            rest ^= bit
-            tests += 1
-            nx, ny, nz = plane_sets[s, p, 0], plane_sets[s, p, 1], plane_sets[s, p, 2]
-            mid = cx * nx + cy * ny + cz * nz + plane_sets[s, p, 3]
-            reach = hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
-            if mid + reach < -tol:
-                outside = True
-                break
-            if mid - reach < tol:
-                straddle |= bit
+        outside, straddle, done = _box_planes(lx, ly, lz, ux, uy, uz, plane_sets[s], mask, tol)
+        tests += done
         if outside:
             culled += 1
             continue
@@ -161,9 +221,9 @@ def frustum_walk(box, links, size, whole_below, cover, covering, roots, root_set
                 tests += 1
                 nx, ny, nz = plane_sets[s, p, 0], plane_sets[s, p, 1], plane_sets[s, p, 2]
                 least = plane_sets[s, p, 3]
-                least += nx * (np.float64(cover[node, 0]) if nx > 0 else np.float64(cover[node, 3]))
-                least += ny * (np.float64(cover[node, 1]) if ny > 0 else np.float64(cover[node, 4]))
-                least += nz * (np.float64(cover[node, 2]) if nz > 0 else np.float64(cover[node, 5]))
+                least += nx * (np.float64(inner[node, 0]) if nx > 0 else np.float64(inner[node, 3]))
+                least += ny * (np.float64(inner[node, 1]) if ny > 0 else np.float64(inner[node, 4]))
+                least += nz * (np.float64(inner[node, 2]) if nz > 0 else np.float64(inner[node, 5]))
                 if not least >= tol:  # tol of margin for rounding: errs toward walking
                     whole = False
                     break
@@ -173,6 +233,28 @@ def frustum_walk(box, links, size, whole_below, cover, covering, roots, root_set
                 count += 1
                 continue
         first = links[node, 6]
+        if inner_links[node, 7] == 1:  # octant leaves: their boxes from this record, in order
+            codes = inner_links[node, 6]
+            for c in range(n):
+                code = (codes >> (3 * c)) & 7
+                clx = np.float64(inner[node, 8]) if code & 1 else lx
+                cly = np.float64(inner[node, 9]) if code & 2 else ly
+                clz = np.float64(inner[node, 10]) if code & 4 else lz
+                cux = ux if code & 1 else np.float64(inner[node, 11])
+                cuy = uy if code & 2 else np.float64(inner[node, 12])
+                cuz = uz if code & 4 else np.float64(inner[node, 13])
+                visited += 1
+                outside, _, done = _box_planes(clx, cly, clz, cux, cuy, cuz, plane_sets[s],
+                                               straddle, tol)
+                tests += done
+                if outside:
+                    culled += 1
+                else:
+                    out[count] = first + c
+                    count += 1
+            continue
+        for c in range(n):  # the children's records, read soon
+            prefetch(box, first + c)
         for c in range(n - 1, -1, -1):  # first child on top: depth-first in stored order
             stack_node[top] = first + c
             stack_set[top] = s

@@ -7,7 +7,7 @@ import numpy as np
 from ..geometry.planes import slack
 from ..partition.base import Partition, gather_ranges
 from .gather import Bitmap, Groups, count_marked, extract_marked, mark_nodes
-from .kernels import cover_records, frustum_walk, node_records
+from .kernels import frustum_walk, inner_records, node_records
 
 
 class Tree:
@@ -50,7 +50,8 @@ class Tree:
         self.read_size = self.groups.end - self.groups.start
         self._box, self._links = node_records(self.node_bounds, self.first_child, self.child_count,
                                               self.nonempty)
-        self._cover = cover_records(self._box, self._links)
+        self._inner = inner_records(self._box, self._links)
+        self._inner_links = self._inner.view(self._links.dtype)
         self._stacks = self._stack_scratch(64)
 
     def _stack_scratch(self, roots: int) -> tuple:
@@ -70,8 +71,8 @@ class Tree:
             self._stacks = self._stack_scratch(2 * len(roots))
         out, nodes, sets, masks = self._stacks
         count, *counters = frustum_walk(
-            self._box, self._links, self.read_size, int(whole_below), self._cover,
-            bool(covering), roots, np.ascontiguousarray(root_sets, dtype=np.int64),
+            self._box, self._links, self.read_size, int(whole_below), self._inner,
+            self._inner_links, bool(covering), roots, np.ascontiguousarray(root_sets, dtype=np.int64),
             np.ascontiguousarray(plane_sets, dtype=np.float64), self.tol, out, nodes, sets, masks)
         return (out[:count].copy(), *counters)
 
