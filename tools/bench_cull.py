@@ -125,11 +125,16 @@ def exact_routes(world, profile, cameras, truth, octree) -> list:
     return rows
 
 
-def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None) -> list:
+TILED_COMBOS = ("vfc", "vfc,occlusion,tbfc", "vfc,occlusion,tbfc@screen")
+
+
+def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None,
+               combos=TILED_COMBOS) -> list:
     """Rows (world, triangles, depth, stages, median ms, mean sent, mean visible, sent / visible,
     dropped, mean nodes visited) on W2 tiled n x n, the trajectory on the centre tile. saved:
     None, or a .vmp path pattern with {n} and {depth}: the octree is loaded from it when the
-    file exists (build s is then the load), else built in memory and saved there."""
+    file exists (build s is then the load), else built in memory and saved there. combos:
+    the stage combos run on each (--combos when given)."""
     from tile_world import centre_offset, tiled_w2
 
     from vismobile.partition import load_partition
@@ -157,7 +162,7 @@ def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None) -> list
         build_s = time.perf_counter() - t
         renderer = item_buffer_renderer(world, profile)
         truth = {}
-        for combo in ("vfc", "vfc,occlusion,tbfc", "vfc,occlusion,tbfc@screen"):
+        for combo in combos:
             stages, options = combo_options(combo, profile)
             back = any(s in BACKFACE_STAGES for s in stages.split(","))
             t = time.perf_counter()
@@ -238,7 +243,8 @@ def main(argv=None) -> int:
     ap.add_argument("--skip-combos", action="store_true", help="only the comparison and tiles")
     ap.add_argument("--skip-routes", action="store_true", help="no item buffer / Open3D rows")
     ap.add_argument("--combos", default=None,
-                    help="octree combos to run instead of the list, separated by ';'")
+                    help="octree combos to run instead of the list (and on the tiled worlds), "
+                         "separated by ';'")
     args = ap.parse_args(argv)
     try:
         sizes = [int(v) for v in args.tiled.split(",") if v.strip()]
@@ -285,7 +291,8 @@ def main(argv=None) -> int:
     try:
         tiles = tiled_rows(sizes, world, traj, tile_frames, profile,
                            lambda n: args.depth + int(np.ceil(np.log2(n))),
-                           args.tiled_partition) if sizes else []
+                           args.tiled_partition,
+                           TILED_COMBOS if args.combos is None else combos) if sizes else []
     except (VisMobileError, ValueError) as error:  # a bad or mismatched --tiled-partition
         print(f"bench_cull: {error}", file=sys.stderr)
         return 2
