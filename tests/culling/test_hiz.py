@@ -320,3 +320,92 @@ def test_facing_occluders_is_the_device_bound_and_the_grazing_test():
             assert np.array_equal(got, expect) and 0 < got.sum() < len(ids)
         if grazing == 0.3:
             assert (sure & ~got).any()  # the grazing test dropped some that certainly face
+
+
+# ---- the centre test (`screen` option): only pixels under the screen's centres are read ------
+
+def centre_test(tris, depth, shift=0.0, tile_near=None, screen=(2 * W, 2 * H)):
+    """(hidden, subpixel) of camera-space triangles (K, 3, 3) against the (H, W) depth buffer
+    (no device move), with the centre test of an sw x sh screen (sw 0: off); tile_near (rows *
+    cols,) the occluders' nearest depth per tile for the local shift (None: no occluder)."""
+    from vismobile.culling.hiz import hidden_triangles, shift_table_size, tile_shifts
+
+    tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
+    cols, rows = W // TILE[0], H // TILE[1]
+    flat = np.ascontiguousarray(np.asarray(depth, dtype=float).ravel())
+    tmax, tany, tmin = np.empty(rows * cols), np.empty(rows * cols, bool), np.empty(rows * cols)
+    build_tiles(flat, W, H, *TILE, tmax, tany, tmin)
+    table = np.zeros(shift_table_size(rows, cols))
+    near = np.full(rows * cols, np.inf) if tile_near is None else np.asarray(tile_near, float)
+    tile_shifts(near, 1e-3, max(TX, TY), rows, cols, table)
+    n = len(tris)
+    hidden, subpixel, zmin = np.empty(n, bool), np.empty(n, bool), np.empty(n)
+    hidden_triangles(np.arange(n), tris.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3),
+                     np.zeros(3), np.eye(3), 0.1, TX, TY, W, H, 0.0, shift, 0.0, 0.0, flat,
+                     tmax, table, *TILE, True, *screen, 0.0, hidden, subpixel, zmin)
+    return hidden, subpixel
+
+
+def test_a_thin_triangle_along_a_row_boundary_is_hidden_only_at_the_screens_centres():
+    # Rows 0..9 of the buffer covered at depth 5, rows 10.. open. A far triangle over rows
+    # 9.3 .. 9.995: its rectangle grown by SLACK_PX reaches the open row 10 (kept without a
+    # screen), but the 2x screen's centres under it (screen row 19, buffer y 9.75) are all in
+    # row 9, covered nearer: hidden with the screen. One reaching y 10.3 holds centre row 20
+    # (buffer y 10.25, open): kept either way.
+    depth = np.full((H, W), np.inf)
+    depth[:10] = 5.0
+    thin = camera_triangle([[4.0, 9.3], [14.0, 9.995], [4.0, 9.995]], 20.0, W, H)
+    over = camera_triangle([[4.0, 9.3], [14.0, 10.3], [4.0, 10.3]], 20.0, W, H)
+    hidden, subpixel = centre_test([thin, over], depth, screen=(0, 0))
+    assert not hidden.any() and not subpixel.any()
+    hidden, subpixel = centre_test([thin, over], depth)
+    assert list(hidden) == [True, False] and not subpixel.any()
+    # Behind the covered rows but nearer than their depth: never hidden.
+    near = camera_triangle([[4.0, 9.3], [14.0, 9.995], [4.0, 9.995]], 4.0, W, H)
+    assert not centre_test([near], depth)[0].any()
+
+
+def test_the_centre_test_reads_pixels_within_the_occluders_local_shift():
+    # The same thin triangle with occluders that may shift by 1.5 buffer pixels: over tiles no
+    # near occluder meets the shift is 0 (hidden); with a near occluder over its tiles the
+    # pixels within the shift are read, the open row among them (kept).
+    depth = np.full((H, W), np.inf)
+    depth[:10] = 5.0
+    thin = camera_triangle([[4.0, 9.3], [14.0, 9.995], [4.0, 9.995]], 20.0, W, H)
+    shift = 1.5 * TY / (0.5 * H)  # tangent units: 1.5 buffer pixels vertically
+    cols, rows = W // TILE[0], H // TILE[1]
+    far_away = np.full(rows * cols, np.inf)
+    far_away[-1] = 0.05  # a near occluder over the last tile only
+    hidden, _ = centre_test([thin], depth, shift=shift, tile_near=far_away)
+    assert hidden.all()
+    over_it = np.full(rows * cols, 0.05)  # shift about 1 pixel
+    hidden, _ = centre_test([thin], depth, shift=shift, tile_near=over_it)
+    assert not hidden.any()
+
+
+def test_tile_shift_table_gives_the_exact_maximum_over_any_tile_range():
+    from vismobile.culling.hiz import shift_table_size, tile_shift_bound, tile_shifts
+
+    rng = np.random.default_rng(5)
+    for rows, cols in ((40, 15), (1, 1), (3, 7), (5, 1)):
+        near = rng.uniform(0.05, 5.0, rows * cols)
+        near[rng.random(rows * cols) < 0.3] = np.inf
+        table = np.zeros(shift_table_size(rows, cols))
+        tile_shifts(near, 0.01, 1.2, rows, cols, table)
+        per = table[:rows * cols].reshape(rows, cols)
+        z = np.where(np.isinf(near), 1.0, near - 0.01)
+        expect = np.where(np.isinf(near), 0.0, 0.01 / z * (1 + 1.2 * near / z + 0.01 / z))
+        assert np.allclose(per.ravel(), expect, rtol=1e-14, atol=0)
+        for _ in range(200):
+            r0, r1 = np.sort(rng.integers(0, rows, 2))
+            c0, c1 = np.sort(rng.integers(0, cols, 2))
+            assert tile_shift_bound(c0, c1, r0, r1, table, rows, cols) \
+                == per[r0:r1 + 1, c0:c1 + 1].max()
+
+
+def test_a_triangle_under_no_centre_of_the_screen_is_dropped_by_the_centre_test():
+    # Between two centre rows of the 2x screen (buffer y 9.75 and 10.25), over open pixels.
+    depth = np.full((H, W), np.inf)
+    tri = camera_triangle([[4.0, 9.8], [14.0, 10.2], [4.0, 10.2]], 20.0, W, H)
+    hidden, subpixel = centre_test([tri], depth)
+    assert not hidden.any() and subpixel.all()

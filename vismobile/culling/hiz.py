@@ -26,6 +26,14 @@ Tests. A box (8 corners) or triangle (3 corners), each corner moved by up to `mo
 coordinate (device rounding), gives a pixel rectangle grown by SLACK_PX plus `shift` and a
 nearest depth zmin; it is hidden when every corner is beyond `near` and the rectangle is off
 screen or zmin > D + margin D^2 + recede for the largest D over the rectangle.
+
+With the device's screen (sw x sh, sampled at pixel centres only) the GPU writes a triangle only
+at the centres its moved corners' hull covers, and an occluder point at depth z moves on screen
+by at most shift(z), so a test reads only the buffer pixels within the local shift of the centres
+under the moved rectangle (_centre_rect): the largest shift over the tiles the wide rectangle
+meets, from the nearest rasterised occluder depth over each tile (stamp_near, tile_shifts).
+No centre under it: nothing is drawn. Each pixel's D bounds its whole square, so reading fewer
+pixels stays conservative at that resolution (issue 10: w2x7 sent 222 -> 147 a frame).
 """
 from __future__ import annotations
 
@@ -39,6 +47,9 @@ from .occluder_rows import solid_angle
 SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
 DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
 SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
+# With a screen, node boxes whose rectangle spans up to this many pixels (width + height, buffer
+# pixels) are tested at the centres (cull_nodes): on w2x7 wider ones cost more than they cull.
+CENTRE_SPAN = 24.0
 
 
 @njit(cache=True, nogil=True)
@@ -314,6 +325,95 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
 
 
 @njit(cache=True, nogil=True)
+def stamp_near(ids, tri_points, points, eye, rot, clip, tx, ty, width, height, tw, th,
+               tile_near):
+    """Lowers tile_near (tiles of tw x th pixels) to the nearest depth of each triangle `ids`
+    clipped to depth >= clip over every tile its projected bounding box meets (clamped to the
+    screen: points off it count at the border). Contract: errs toward nearer and more tiles:
+    every point of a rasterised occluder lies over a tile whose value is <= its depth."""
+    cols = (width + tw - 1) // tw
+    tri = np.empty((3, 3))
+    poly = np.empty((4, 3))
+    cut = np.empty(4, dtype=np.bool_)
+    sx, sy = 0.5 * width / tx, 0.5 * height / ty
+    for k in range(len(ids)):
+        t = ids[k]
+        for c in range(3):
+            _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
+        n = _clip_triangle(tri, clip, poly, cut)
+        if n == 0:
+            continue
+        x0, x1, y0, y1, z = np.inf, -np.inf, np.inf, -np.inf, np.inf
+        for c in range(n):
+            z = min(z, poly[c, 2])
+            x = poly[c, 0] / poly[c, 2] * sx + 0.5 * width
+            y = poly[c, 1] / poly[c, 2] * sy + 0.5 * height
+            x0, x1, y0, y1 = min(x0, x), max(x1, x), min(y0, y), max(y1, y)
+        c0 = int(min(max(np.floor(x0 - SLACK_PX), 0.0), width - 1.0)) // tw
+        c1 = int(min(max(np.floor(x1 + SLACK_PX), 0.0), width - 1.0)) // tw
+        r0 = int(min(max(np.floor(y0 - SLACK_PX), 0.0), height - 1.0)) // th
+        r1 = int(min(max(np.floor(y1 + SLACK_PX), 0.0), height - 1.0)) // th
+        for r in range(r0, r1 + 1):
+            for c in range(c0, c1 + 1):
+                tile_near[r * cols + c] = min(tile_near[r * cols + c], z)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _levels(n):
+    """floor(log2(n)) + 1 for n >= 1: the sparse table's levels over n entries."""
+    k = 1
+    while (1 << k) <= n:
+        k += 1
+    return k
+
+
+def shift_table_size(rows: int, cols: int) -> int:
+    """Entries of tile_shifts' table for rows x cols tiles."""
+    return _levels(rows) * _levels(cols) * rows * cols
+
+
+@njit(cache=True, nogil=True)
+def tile_shifts(tile_near, reach, tangent, rows, cols, out):
+    """out: a 2D sparse table of the largest screen shift (x / z units) of an occluder point
+    over each tile of tile_near (rows * cols,): reach / z (1 + tangent near / z + reach / z),
+    z = near - reach, for reach = sqrt(3) move (inf when z <= 0, 0 over tiles no occluder
+    meets); level (a, b) at ((a * levels(cols) + b) * rows + r) * cols + c holds the maximum
+    over rows r..r+2^a-1 and columns c..c+2^b-1 (tile_shift_bound). Exact."""
+    la, lb = _levels(rows), _levels(cols)
+    for k in range(rows * cols):
+        near = tile_near[k]
+        s = 0.0
+        if near < np.inf:
+            z = near - reach
+            s = reach / z * (1.0 + (tangent * near / z + reach / z)) if z > 0 else np.inf
+        out[k] = s
+    for a in range(la):
+        for b in range(lb):
+            if a == 0 and b == 0:
+                continue
+            base = (a * lb + b) * rows * cols
+            if b > 0:  # from level (a, b - 1): two column halves
+                src, step, rstep = (a * lb + b - 1) * rows * cols, 1 << (b - 1), 0
+            else:      # from level (a - 1, 0): two row halves
+                src, step, rstep = ((a - 1) * lb) * rows * cols, 0, 1 << (a - 1)
+            for r in range(rows - (1 << a) + 1):
+                for c in range(cols - (1 << b) + 1):
+                    k = r * cols + c
+                    out[base + k] = max(out[src + k], out[src + k + rstep * cols + step])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def tile_shift_bound(c0, c1, r0, r1, table, rows, cols):
+    """The largest per-tile value of tile_shifts' table over tiles c0..c1 x r0..r1 (inclusive,
+    non-empty): four look-ups. Exact."""
+    a, b = _levels(r1 - r0 + 1) - 1, _levels(c1 - c0 + 1) - 1
+    base = (a * _levels(cols) + b) * rows * cols
+    r2, c2 = r1 - (1 << a) + 1, c1 - (1 << b) + 1
+    return max(max(table[base + r0 * cols + c0], table[base + r0 * cols + c2]),
+               max(table[base + r2 * cols + c0], table[base + r2 * cols + c2]))
+
+
+@njit(cache=True, nogil=True)
 def build_tiles(depth, width, height, tw, th, tile_max, tile_any, tile_min):
     """Per tile of tw x th pixels: tile_max the largest depth bound (inf when any pixel is not
     covered), tile_any whether any pixel is covered, tile_min the smallest bound. Exact."""
@@ -335,8 +435,9 @@ def build_tiles(depth, width, height, tw, th, tile_max, tile_any, tile_min):
 @njit(cache=True, nogil=True)
 def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
     """Conservative pixel rectangle of the first m camera-space points of cam (m, 3), each moved
-    by up to `move` per coordinate: out = (x0, x1, y0, y1, zmin, testable, onscreen), errs large
-    (grown by SLACK_PX plus `shift` tangents; zmin lowered by sqrt(3) move and DEPTH_SLACK)."""
+    by up to `move` per coordinate: out (12,) = (x0, x1, y0, y1, zmin, testable, onscreen), errs
+    large (grown by SLACK_PX plus `shift` tangents; zmin lowered by sqrt(3) move and
+    DEPTH_SLACK); when testable also (umin, umax, vmin, vmax, the move's growth) in tangents."""
     reach = np.sqrt(3.0) * move
     zmin = np.inf
     for k in range(m):
@@ -353,6 +454,7 @@ def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
         umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
         lateral = max(abs(cam[k, 0]), abs(cam[k, 1])) + reach
         grow = max(grow, reach / z * (1.0 + lateral / z))
+    out[7], out[8], out[9], out[10], out[11] = umin, umax, vmin, vmax, grow
     grow += shift
     if not grow < np.inf:  # an unbounded shift (nan or inf): the whole screen, on screen
         out[0], out[1], out[2], out[3], out[6] = 0.0, width - 1.0, 0.0, height - 1.0, 1.0
@@ -366,6 +468,64 @@ def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
     out[6] = 0.0 if offscreen else 1.0
     out[0], out[1] = min(max(x0, 0.0), width - 1.0), min(max(x1, 0.0), width - 1.0)
     out[2], out[3] = min(max(y0, 0.0), height - 1.0), min(max(y1, 0.0), height - 1.0)
+
+
+@njit(cache=True, nogil=True)
+def _centre_rect(cam, m, tx, ty, width, height, move, rect_move, shift, tile_shift, cols, tw,
+                 th, sw, sh, out):
+    """Narrows the buffer rectangle out[0:4] (from _rect of the same m testable camera-space
+    points of cam (m, 3), with `shift`) to the buffer pixels within the local shift (plus
+    SLACK_PX) of a pixel centre of the sw x sh screen that the points, each moved by up to `move`
+    per coordinate, may cover: their screen rectangle grown by the move's projection and
+    max(SAMPLE_SLACK_PX, SLACK_PX) screen pixels, centres on its boundary included. The local
+    shift is the smaller of `shift` and the largest over the tiles out[0:4] meets (tile_shift:
+    tile_shifts' table; only looked up when it changes the pixels). Returns False when no centre
+    of the screen lies in the grown rectangle (the GPU writes nothing there); out stays as it
+    was when the narrowed rectangle would be empty or a bound is nan. rect_move: the move _rect
+    took (its projection in out[7:12] is reused when it equals move).
+    Contract: errs large: keeps every pixel within the local shift + SLACK_PX of a centre the
+    moved points' hull may cover; "no centre" only when none lies within the slack."""
+    if move == rect_move:  # _rect's projection (the same arithmetic)
+        umin, umax, vmin, vmax, grow = out[7], out[8], out[9], out[10], out[11]
+    else:
+        reach = np.sqrt(3.0) * move
+        umin, umax, vmin, vmax, grow = np.inf, -np.inf, np.inf, -np.inf, 0.0
+        for k in range(m):
+            z = cam[k, 2] - reach
+            u, v = cam[k, 0] / (z * tx), cam[k, 1] / (z * ty)
+            umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
+            lateral = max(abs(cam[k, 0]), abs(cam[k, 1])) + reach
+            grow = max(grow, reach / z * (1.0 + lateral / z))
+    sx = max(SAMPLE_SLACK_PX, SLACK_PX * sw / width)
+    sy = max(SAMPLE_SLACK_PX, SLACK_PX * sh / height)
+    i0 = max(np.ceil((umin - grow / tx + 1.0) * 0.5 * sw - sx - 0.5), 0.0)
+    i1 = min(np.floor((umax + grow / tx + 1.0) * 0.5 * sw + sx - 0.5), sw - 1.0)
+    j0 = max(np.ceil((vmin - grow / ty + 1.0) * 0.5 * sh - sy - 0.5), 0.0)
+    j1 = min(np.floor((vmax + grow / ty + 1.0) * 0.5 * sh + sy - 0.5), sh - 1.0)
+    if not (i0 <= i1 and j0 <= j1):  # nan: not sure, keep
+        return not (i0 > i1 or j0 > j1)
+    if not shift >= 0.0:  # nan: keep the rectangle
+        return True
+    # Buffer coordinates of the outermost centres, SLACK_PX wider.
+    cx0, cx1 = (i0 + 0.5) * width / sw - SLACK_PX, (i1 + 0.5) * width / sw + SLACK_PX
+    cy0, cy1 = (j0 + 0.5) * height / sh - SLACK_PX, (j1 + 0.5) * height / sh + SLACK_PX
+    gx, gy = shift / tx * 0.5 * width, shift / ty * 0.5 * height  # buffer pixels
+    if np.floor(cx0 - gx) != np.floor(cx0) or np.floor(cx1 + gx) != np.floor(cx1) \
+            or np.floor(cy0 - gy) != np.floor(cy0) or np.floor(cy1 + gy) != np.floor(cy1):
+        # The shift matters: the occluders' largest over the tiles the rectangle meets.
+        shift = min(shift, tile_shift_bound(int(out[0]) // tw, int(out[1]) // tw,
+                                            int(out[2]) // th, int(out[3]) // th, tile_shift,
+                                            (height + th - 1) // th, cols))
+        if not shift < np.inf:
+            return True
+        gx, gy = shift / tx * 0.5 * width, shift / ty * 0.5 * height
+    x0 = max(np.floor(cx0 - gx), out[0])
+    x1 = min(np.floor(cx1 + gx), out[1])
+    y0 = max(np.floor(cy0 - gy), out[2])
+    y1 = min(np.floor(cy1 + gy), out[3])
+    if x0 <= x1 and y0 <= y1:
+        out[0], out[1], out[2], out[3] = x0, x1, y0, y1
+    return True
 
 
 @njit(cache=True, nogil=True)
@@ -391,6 +551,29 @@ def _behind(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, 
 
 
 @njit(cache=True, nogil=True)
+def _verdict(cam, m, near, tx, ty, width, height, move, shift, depth, tile_max, tile_shift,
+             cols, tw, th, margin, recede, use_buffer, sw, sh, sample_move, r):
+    """The test of the first m camera-space points of cam (a box's 8 or a triangle's 3): 1 when
+    testable and off screen or (use_buffer) behind the buffer over the rectangle, 2 when (a
+    screen given, sw > 0, and use_buffer) no pixel centre of that screen lies under it, else 0;
+    r (7,) holds the rectangle (_rect, narrowed to the centres' pixels with a screen)."""
+    _rect(cam, m, near, tx, ty, width, height, move, shift, r)
+    if r[5] == 0:
+        return 0
+    if r[6] == 0:
+        return 1
+    if not use_buffer:
+        return 0
+    if sw > 0 and not _centre_rect(cam, m, tx, ty, width, height, sample_move, move, shift,
+                                   tile_shift, cols, tw, th, sw, sh, r):
+        return 2
+    if _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]), r[4], depth, width, tile_max, cols,
+               tw, th, margin, recede):
+        return 1
+    return 0
+
+
+@njit(cache=True, nogil=True)
 def _touches(x0, x1, y0, y1, tile_any, cols, tw, th):
     for ty_ in range(y0 // th, y1 // th + 1):
         for tx_ in range(x0 // tw, x1 // tw + 1):
@@ -402,7 +585,8 @@ def _touches(x0, x1, y0, y1, tile_any, cols, tw, th):
 @njit(cache=True, nogil=True)
 def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_mark, up_mark,
                frame, eye, rot, near, tx, ty, width, height, move, shift, margin, recede, depth,
-               tile_max, tile_any, tw, th, out, stack, below, nearest_far, from_root):
+               tile_max, tile_any, tile_shift, tw, th, out, stack, below, nearest_far, from_root,
+               sw, sh, sample_move):
     """Occlusion walk over the subtrees of `roots` (the frame's draw nodes), entered from the
     tree's root so that hidden regions go at a coarse level: an ancestor of draw nodes that is
     hidden by the buffer (module docstring) drops every draw node under it; a draw node (or a
@@ -415,11 +599,14 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
     nearest_far: a leaf whose nearest corner is not beyond this (the smallest covered depth
                  bound D plus margin D^2 + recede) is kept without its rectangle
     from_root  : enter through the ancestors (else start at the roots themselves)
+    sw, sh, sample_move, tile_shift : with a screen (sw > 0) a box whose rectangle spans at
+                 most 24 pixels (width + height) is tested over the pixels under its centres
+                 only (hidden_triangles; larger ones: the test costs more than it removes)
     returns (kept count, nodes visited, nodes culled)"""
     cols = (width + tw - 1) // tw
     cam = np.empty((8, 3))
     corner = np.empty(3)
-    r = np.empty(7)
+    r = np.empty(12)
     for k in range(len(roots)):
         draw_mark[roots[k]] = frame
     top = 0
@@ -455,8 +642,14 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
             count += 1
             continue
         _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
-        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
         testable = r[5] > 0
+        if testable and sw > 0 and r[6] != 0 and r[1] - r[0] + r[3] - r[2] <= CENTRE_SPAN \
+                and not _centre_rect(
+                cam, 8, tx, ty, width, height, sample_move, move, shift, tile_shift, cols, tw,
+                th, sw, sh, r):
+            culled += 1  # no pixel centre under it
+            continue
+        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
         if testable and (r[6] == 0 or _behind(x0, x1, y0, y1, r[4], depth, width, tile_max,
                                               cols, tw, th, margin, recede)):
             culled += 1
@@ -512,31 +705,31 @@ def _no_sample(px, py, err, sw, sh, max_samples):
 
 @njit(cache=True, nogil=True)
 def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, height, move,
-                     shift, margin, recede, depth, tile_max, tw, th, use_buffer, sw, sh,
-                     sample_move, hidden, subpixel, zmin):
+                     shift, margin, recede, depth, tile_max, tile_shift, tw, th, use_buffer, sw,
+                     sh, sample_move, hidden, subpixel, zmin):
     """Per triangle id: hidden[k] when in front of `near` (corners moved) and off screen or behind
     the buffer (use_buffer); else, with a screen (sw > 0), subpixel[k] when it certainly covers
     no pixel centre of that sw x sh screen (corners moved by sample_move, SAMPLE_SLACK_PX);
-    zmin[k] its nearest depth (-inf when not testable). Errs toward keeping."""
+    zmin[k] its nearest depth (-inf when not testable). With a screen the buffer test reads only
+    the pixels within the occluders' local shift of the centres under the triangle's grown
+    rectangle (_centre_rect; tile_shift: tile_shifts' table). Contract: errs toward keeping
+    (without a screen at any resolution; with one, at that resolution without multisampling)."""
     cols = (width + tw - 1) // tw
     cam = np.empty((3, 3))
-    r = np.empty(7)
+    r = np.empty(12)
     px = np.empty(3)
     py = np.empty(3)
     for k in range(len(ids)):
         t = ids[k]
         for c in range(3):
             _to_camera(vertices[triangles[t, c]], eye, rot, cam[c])
-        _rect(cam, 3, near, tx, ty, width, height, move, shift, r)
-        hidden[k] = False
-        subpixel[k] = False
+        verdict = _verdict(cam, 3, near, tx, ty, width, height, move, shift, depth, tile_max,
+                           tile_shift, cols, tw, th, margin, recede, use_buffer, sw, sh,
+                           sample_move, r)
+        hidden[k] = verdict == 1
+        subpixel[k] = verdict == 2  # no centre under its rectangle
         zmin[k] = r[4] if r[5] > 0 else -np.inf
-        if r[5] == 0:
-            continue
-        if r[6] == 0 or (use_buffer and _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]),
-                                                 r[4], depth, width, tile_max, cols, tw, th,
-                                                 margin, recede)):
-            hidden[k] = True
+        if r[5] == 0 or verdict:
             continue
         if sw > 0:
             subpixel[k] = _covers_no_sample(cam, near, tx, ty, sw, sh, sample_move, 16, px, py)
@@ -580,7 +773,7 @@ def covers_no_sample(points, near, tx, ty, width, height, move=0.0, max_samples=
 def screen_rect(points, near, tx, ty, width, height, move=0.0, shift=0.0) -> tuple:
     """The tests' conservative pixel rectangle of camera-space points (m, 3) (hiz._rect):
     (x0, x1, y0, y1 int inclusive, zmin, testable, onscreen); errs large."""
-    out = np.empty(7)
+    out = np.empty(12)
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     _rect(pts, len(pts), near, tx, ty, width, height, float(move), float(shift), out)
     return (int(out[0]), int(out[1]), int(out[2]), int(out[3]), float(out[4]), out[5] > 0,
@@ -770,7 +963,8 @@ def facing_occluders(ids, vertices, triangles, rows, normals, v0, centroids, eye
 @njit(cache=True, nogil=True)
 def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes, tol, eye, rot,
                        near, tx, ty, width, height, move, shift, margin, recede, depth,
-                       tile_max, tile_any, tw, th, out, stack_node, stack_mask, nearest_far):
+                       tile_max, tile_any, tile_shift, tw, th, out, stack_node, stack_mask,
+                       nearest_far, sw, sh, sample_move):
     """One walk from `roots` that rejects a node outside the frustum or hidden by the buffer, so
     neither kind of subtree is entered: the frustum test of kernels.frustum_walk (p/n-vertex
     with plane masks; errs toward keeping by tol: rejects only a box more than tol behind a
@@ -779,11 +973,12 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
     straddles a plane, is not testable or its rectangle meets a covered tile; others are kept
     in out. A leaf whose nearest corner is not beyond nearest_far is kept without a rectangle.
     planes : (P, 4) float64 inward (n, d), P <= 62;  stacks : (>= N + len(roots),) int64
+    sw, sh, sample_move, tile_shift : the screen's centre test, as in cull_nodes
     returns (kept count, nodes visited, plane tests, outside the frustum, hidden, tested)"""
     cols = (width + tw - 1) // tw
     cam = np.empty((8, 3))
     corner = np.empty(3)
-    r = np.empty(7)
+    r = np.empty(12)
     planes_count = planes.shape[0]
     full = (np.int64(1) << planes_count) - 1
     top = 0
@@ -830,8 +1025,14 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
             continue
         tested += 1
         _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
-        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
         testable = r[5] > 0
+        if testable and sw > 0 and r[6] != 0 and r[1] - r[0] + r[3] - r[2] <= CENTRE_SPAN \
+                and not _centre_rect(
+                cam, 8, tx, ty, width, height, sample_move, move, shift, tile_shift, cols, tw,
+                th, sw, sh, r):
+            hidden += 1  # no pixel centre under it
+            continue
+        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
         if testable and (r[6] == 0 or _behind(x0, x1, y0, y1, r[4], depth, width, tile_max,
                                               cols, tw, th, margin, recede)):
             hidden += 1

@@ -31,6 +31,9 @@ Each frame:
    (hiz.hidden_triangles). Optionally (`self_occluders`) the survivors that certainly face the
    eye, nearest first, are rasterised too (objects hiding objects) and the test reruns;
    optionally (`screen`) a triangle covering no pixel centre of the device's screen goes too.
+   With `screen` the triangle test (and the node test of boxes spanning a few pixels) reads
+   only the buffer pixels near the screen's centres under the rectangle, within the local
+   shift of the occluders over it (per tile, from their nearest depth there: hiz._centre_rect).
 
 Device rounding (issue 17). The device draws rounded vertices from a rounded eye: relative to
 the eye every point moves by at most m = 2 device_move(arithmetic) per coordinate. A tested box
@@ -62,7 +65,8 @@ from .backface import half_tangents
 from .frustum import frustum_refine
 from .hiz import (build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
                   gather_candidates, gather_shell_candidates, hidden_triangles, lod_ancestors,
-                  rasterise, score_candidates)
+                  rasterise, score_candidates, shift_table_size, stamp_near,
+                  tile_shifts)
 from .occluder_rows import occluder_mesh_of, score_corners, triangle_rows
 from .precision import device_move, world_scale
 from .state import CullResult, CullState
@@ -163,8 +167,10 @@ class DepthBufferOcclusion:
                     triangle test; 0 turns it off
     screen        : (width, height) of the device's screen, or None. When given, the triangle
                     test also drops triangles that cover no pixel centre of that screen
-                    (hiz._no_sample): safe only for that resolution, without multisampling
-                    (the item buffer's), so it is off unless the caller says
+                    (hiz._no_sample), and the buffer tests read only the pixels under the
+                    centres a triangle or small box may cover (hiz._centre_rect): safe only
+                    for that resolution, without multisampling (the item buffer's), so it is
+                    off unless the caller says
     fuse          : with `vfc` as the only other node stage, test the frustum in the first node
                     pass (hiz.frustum_cull_nodes, one walk from the root: hidden subtrees are
                     never entered); occluder candidates then come from the root's frustum walk
@@ -255,7 +261,8 @@ class DepthBufferOcclusion:
         # Scratch, allocated once: frames reuse it.
         pixels = self.width * self.height
         tw, th = self.tile
-        self.tiles = ((self.width + tw - 1) // tw) * ((self.height + th - 1) // th)
+        self._cols, self._rows = (self.width + tw - 1) // tw, (self.height + th - 1) // th
+        self.tiles = self._cols * self._rows
         self.depth = np.full(pixels, np.inf)
         self.mask = np.zeros(pixels, dtype=np.uint8)
         self.centre = np.zeros(pixels, dtype=np.uint8)
@@ -263,6 +270,10 @@ class DepthBufferOcclusion:
         self.tile_max = np.full(self.tiles, np.inf)
         self.tile_any = np.zeros(self.tiles, dtype=np.bool_)
         self.tile_min = np.full(self.tiles, np.inf)
+        # With `screen`: per tile the nearest rasterised occluder depth over it and the largest
+        # screen shift of an occluder point there (the triangle test's local shift).
+        self.tile_near = np.full(self.tiles, np.inf)
+        self.tile_shift = np.zeros(shift_table_size(self._rows, self._cols))
         self.bits = np.zeros(count // 64 + 1, dtype=np.uint64)  # candidates' dedup, 1 bit each
         self._stack = np.empty(tree.node_count + 64, dtype=np.int64)
         self._masks = np.empty(tree.node_count + 64, dtype=np.int64)
@@ -435,13 +446,18 @@ class DepthBufferOcclusion:
     def rasterise(self, camera, chosen) -> int:
         """Adds world triangles `chosen` (K,) int64 (they must certainly face the eye) to the
         depth buffer and rebuilds the tiles; returns pixels newly covered."""
-        eye, rotation, tx, ty, _, clip, _ = self._view(camera)
+        eye, rotation, tx, ty, move, clip, _ = self._view(camera)
         self._frame += 1
-        nearest, written = rasterise(
-            *self.mesh(np.ascontiguousarray(chosen, dtype=np.int64)), self._frame,
-            eye, rotation, clip, tx, ty, self.width, self.height, self.depth,
-            self.mask, self.centre, self.crease_far)
+        tables = self.mesh(np.ascontiguousarray(chosen, dtype=np.int64))
+        nearest, written = rasterise(*tables, self._frame, eye, rotation, clip, tx, ty,
+                                     self.width, self.height, self.depth, self.mask,
+                                     self.centre, self.crease_far)
         self.nearest = min(self.nearest, nearest)
+        if self.screen is not None:
+            stamp_near(tables[0], tables[2], tables[3], eye, rotation, clip, tx, ty, self.width,
+                       self.height, *self.tile, self.tile_near)
+            tile_shifts(self.tile_near, np.sqrt(3.0) * move, max(tx, ty), self._rows,
+                        self._cols, self.tile_shift)
         build_tiles(self.depth, self.width, self.height, *self.tile, self.tile_max,
                     self.tile_any, self.tile_min)
         return written
@@ -452,6 +468,8 @@ class DepthBufferOcclusion:
         self._camera, self._planes = camera, np.ascontiguousarray(state.planes)
         self.nearest = np.inf
         self.depth.fill(np.inf)
+        self.tile_near.fill(np.inf)
+        self.tile_shift.fill(0.0)
         self.reach = np.inf if self.first_reach is None else self.first_reach
         chosen = self.select(state, reach=self.first_reach, limit=self.first_candidates)
         written = self.rasterise(camera, chosen) if len(chosen) else 0
@@ -510,8 +528,9 @@ class DepthBufferOcclusion:
                 tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots,
                 np.ascontiguousarray(state.planes, dtype=np.float64), tree.tol, eye, rotation,
                 camera.near, tx, ty, self.width, self.height, move, self.shift(camera, move),
-                margin, recede, self.depth, self.tile_max, self.tile_any, *self.tile, self._out,
-                self._stack, self._masks, self.nearest_far(margin, recede))
+                margin, recede, self.depth, self.tile_max, self.tile_any, self.tile_shift,
+                *self.tile, self._out, self._stack, self._masks, self.nearest_far(margin, recede),
+                *self.samples(camera, move))
             state.nodes = self._out[:kept].copy()
             state.count("nodes_visited", visited)
             state.count("plane_tests", tests)
@@ -525,24 +544,31 @@ class DepthBufferOcclusion:
             tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,
             roots, self.draw_mark, self.up_mark, self._frame, eye, rotation, camera.near, tx, ty,
             self.width, self.height, move, self.shift(camera, move), margin, recede, self.depth,
-            self.tile_max, self.tile_any, *self.tile, self._out, self._stack, self._below,
-            self.nearest_far(margin, recede), from_root)
+            self.tile_max, self.tile_any, self.tile_shift, *self.tile, self._out, self._stack,
+            self._below, self.nearest_far(margin, recede), from_root,
+            *self.samples(camera, move))
         state.nodes = self._out[:kept].copy()
         state.count("nodes_visited", visited)
         state.count(f"{self.name}.nodes_tested", visited)
         state.count(f"{self.name}.nodes_culled", culled)
 
-    def _test(self, camera, ids, move, margin, recede, use_buffer, screen) -> tuple:
-        eye, rotation, tx, ty, _, _, scale = self._view(camera)
+    def samples(self, camera, move) -> tuple:
+        """(screen width, height, the move of a tested point's screen position) for the centre
+        tests with `screen`, else (0, 0, move): the centre tests are off."""
+        if self.screen is None:
+            return 0, 0, move
+        return (*self.screen, max(DEVICE_RELATIVE * self._view(camera)[6] + DEVICE_ABSOLUTE,
+                                  move))
+
+    def _test(self, camera, ids, move, margin, recede, use_buffer) -> tuple:
+        eye, rotation, tx, ty = self._view(camera)[:4]
         n = len(ids)
         hidden, subpixel = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
         zmin = np.empty(n)
-        sw, sh = screen if screen is not None else (0, 0)
-        delta = DEVICE_RELATIVE * scale
         hidden_triangles(ids, self.vertices, self.triangles_, eye, rotation, camera.near, tx, ty,
                          self.width, self.height, move, self.shift(camera, move), margin, recede,
-                         self.depth, self.tile_max, *self.tile, use_buffer, sw, sh,
-                         max(delta + DEVICE_ABSOLUTE, move), hidden, subpixel, zmin)
+                         self.depth, self.tile_max, self.tile_shift, *self.tile, use_buffer,
+                         *self.samples(camera, move), hidden, subpixel, zmin)
         return hidden, subpixel, zmin
 
     def _hidden_triangles(self, state, ids, move, margin, recede, use_buffer) -> np.ndarray:
@@ -551,8 +577,7 @@ class DepthBufferOcclusion:
         rasterised too (`self_occluders`)."""
         camera = state.camera
         ids = np.ascontiguousarray(ids, dtype=np.int64)
-        hidden, subpixel, zmin = self._test(camera, ids, move, margin, recede, use_buffer,
-                                            self.screen)
+        hidden, subpixel, zmin = self._test(camera, ids, move, margin, recede, use_buffer)
         state.count("triangles_tested", len(ids))
         state.count(f"{self.name}.triangles_tested", len(ids))
         state.count(f"{self.name}.subpixel_culled", subpixel.sum())
@@ -566,7 +591,7 @@ class DepthBufferOcclusion:
             if len(live):
                 extra = ids[live]
                 if self.rasterise(camera, extra):  # may lower self.nearest
-                    again, _, _ = self._test(camera, ids, move, margin, recede, True, None)
+                    again, _, _ = self._test(camera, ids, move, margin, recede, True)
                     hidden |= again
         state.count(f"{self.name}.triangles_culled", hidden.sum())
         return hidden | subpixel
