@@ -81,6 +81,9 @@ ZBUFFER_MARGIN = 2.0 ** -18
 GRAZING = 1e-6
 # Occluders are clipped this much (relative) beyond the near plane, plus the device's rounding.
 NEAR_RELATIVE = 2.0 ** -10
+# With `screen`, per-tile (local) occluder shifts are computed only in frames whose global shift
+# after the first occluders exceeds this many buffer pixels (thesis worlds: rarely).
+LOCAL_SHIFT_PX = 0.25
 # The first round's candidate shells grow by this factor (hiz.gather_shell_candidates).
 SHELL_GROWTH = np.sqrt(2.0)
 
@@ -273,7 +276,8 @@ class DepthBufferOcclusion:
         # With `screen`: per tile the nearest rasterised occluder depth over it and the largest
         # screen shift of an occluder point there (the triangle test's local shift).
         self.tile_near = np.full(self.tiles, np.inf)
-        self.tile_shift = np.zeros(shift_table_size(self._rows, self._cols))
+        self.tile_shift = np.full(shift_table_size(self._rows, self._cols), np.inf)
+        self._local = None
         self.bits = np.zeros(count // 64 + 1, dtype=np.uint64)  # candidates' dedup, 1 bit each
         self._stack = np.empty(tree.node_count + 64, dtype=np.int64)
         self._masks = np.empty(tree.node_count + 64, dtype=np.int64)
@@ -454,10 +458,15 @@ class DepthBufferOcclusion:
                                      self.centre, self.crease_far)
         self.nearest = min(self.nearest, nearest)
         if self.screen is not None:
-            stamp_near(tables[0], tables[2], tables[3], eye, rotation, clip, tx, ty, self.width,
-                       self.height, *self.tile, self.tile_near)
-            tile_shifts(self.tile_near, np.sqrt(3.0) * move, max(tx, ty), self._rows,
-                        self._cols, self.tile_shift)
+            if self._local is None:  # the frame's first occluders: is a local shift worth it?
+                pixels = self.shift(camera, move) * 0.5 * max(self.width / tx,
+                                                              self.height / ty)
+                self._local = bool(pixels > LOCAL_SHIFT_PX)
+            if self._local:  # else the table stays inf: the global shift everywhere
+                stamp_near(tables[0], tables[2], tables[3], eye, rotation, clip, tx, ty,
+                           self.width, self.height, *self.tile, self.tile_near)
+                tile_shifts(self.tile_near, np.sqrt(3.0) * move, max(tx, ty), self._rows,
+                            self._cols, self.tile_shift)
         build_tiles(self.depth, self.width, self.height, *self.tile, self.tile_max,
                     self.tile_any, self.tile_min)
         return written
@@ -468,8 +477,10 @@ class DepthBufferOcclusion:
         self._camera, self._planes = camera, np.ascontiguousarray(state.planes)
         self.nearest = np.inf
         self.depth.fill(np.inf)
-        self.tile_near.fill(np.inf)
-        self.tile_shift.fill(0.0)
+        if self.screen is not None:
+            self.tile_near.fill(np.inf)
+            self.tile_shift.fill(np.inf)  # no local bound until the table is built
+            self._local = None
         self.reach = np.inf if self.first_reach is None else self.first_reach
         chosen = self.select(state, reach=self.first_reach, limit=self.first_candidates)
         written = self.rasterise(camera, chosen) if len(chosen) else 0
