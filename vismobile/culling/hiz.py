@@ -432,6 +432,21 @@ def build_tiles(depth, width, height, tw, th, tile_max, tile_any, tile_min):
             tile_min[ty_ * cols + tx_] = low
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _projected_bounds(cam, m, tx, ty, reach):
+    """(umin, umax, vmin, vmax, grow): tangent-space bounds of the m camera-space points of cam
+    each taken `reach` nearer, and the largest growth of their projection under that move.
+    Contract: the arithmetic _rect and _centre_rect test with (shared so they agree bit for bit)."""
+    umin, umax, vmin, vmax, grow = np.inf, -np.inf, np.inf, -np.inf, 0.0
+    for k in range(m):
+        z = cam[k, 2] - reach
+        u, v = cam[k, 0] / (z * tx), cam[k, 1] / (z * ty)
+        umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
+        lateral = max(abs(cam[k, 0]), abs(cam[k, 1])) + reach
+        grow = max(grow, reach / z * (1.0 + lateral / z))
+    return umin, umax, vmin, vmax, grow
+
+
 @njit(cache=True, nogil=True)
 def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
     """Conservative pixel rectangle of the first m camera-space points of cam (m, 3), each moved
@@ -447,13 +462,7 @@ def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
     if not testable:
         out[0], out[1], out[2], out[3] = 0.0, width - 1.0, 0.0, height - 1.0
         return
-    umin, umax, vmin, vmax, grow = np.inf, -np.inf, np.inf, -np.inf, 0.0
-    for k in range(m):
-        z = cam[k, 2] - reach
-        u, v = cam[k, 0] / (z * tx), cam[k, 1] / (z * ty)
-        umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
-        lateral = max(abs(cam[k, 0]), abs(cam[k, 1])) + reach
-        grow = max(grow, reach / z * (1.0 + lateral / z))
+    umin, umax, vmin, vmax, grow = _projected_bounds(cam, m, tx, ty, reach)
     out[7], out[8], out[9], out[10], out[11] = umin, umax, vmin, vmax, grow
     grow += shift
     if not grow < np.inf:  # an unbounded shift (nan or inf): the whole screen, on screen
@@ -489,13 +498,7 @@ def _centre_rect(cam, m, tx, ty, width, height, move, rect_move, shift, tile_shi
         umin, umax, vmin, vmax, grow = out[7], out[8], out[9], out[10], out[11]
     else:
         reach = np.sqrt(3.0) * move
-        umin, umax, vmin, vmax, grow = np.inf, -np.inf, np.inf, -np.inf, 0.0
-        for k in range(m):
-            z = cam[k, 2] - reach
-            u, v = cam[k, 0] / (z * tx), cam[k, 1] / (z * ty)
-            umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
-            lateral = max(abs(cam[k, 0]), abs(cam[k, 1])) + reach
-            grow = max(grow, reach / z * (1.0 + lateral / z))
+        umin, umax, vmin, vmax, grow = _projected_bounds(cam, m, tx, ty, reach)
     sx = max(SAMPLE_SLACK_PX, SLACK_PX * sw / width)
     sy = max(SAMPLE_SLACK_PX, SLACK_PX * sh / height)
     i0 = max(np.ceil((umin - grow / tx + 1.0) * 0.5 * sw - sx - 0.5), 0.0)
