@@ -562,6 +562,24 @@ def _touches(x0, x1, y0, y1, tile_any, cols, tw, th):
     return False
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _box_hidden(cam, near, tx, ty, width, height, move, shift, sample_move, tile_shift, sw, sh,
+                depth, tile_max, cols, tw, th, margin, recede, r):
+    """The node walks' box test of the 8 camera-space corners cam: True when testable and off
+    screen or behind the buffer (_rect into r, _behind), or, with a screen (sw > 0) and a span
+    of at most CENTRE_SPAN pixels, when no centre lies under it (_centre_rect narrows r first).
+    Contract: errs toward False (kept), as _rect, _centre_rect and _behind do."""
+    _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
+    if r[5] == 0:
+        return False
+    if sw > 0 and r[6] != 0 and r[1] - r[0] + r[3] - r[2] <= CENTRE_SPAN and not _centre_rect(
+            cam, 8, tx, ty, width, height, sample_move, move, shift, tile_shift, cols, tw, th,
+            sw, sh, r):
+        return True
+    return r[6] == 0 or _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]), r[4], depth, width,
+                                tile_max, cols, tw, th, margin, recede)
+
+
 @njit(cache=True, nogil=True)
 def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_mark, up_mark,
                frame, eye, rot, near, tx, ty, width, height, move, shift, margin, recede, depth,
@@ -621,19 +639,12 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
             out[count] = node  # nearer than every covered pixel's bound: cannot be hidden
             count += 1
             continue
-        _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
-        testable = r[5] > 0
-        if testable and sw > 0 and r[6] != 0 and r[1] - r[0] + r[3] - r[2] <= CENTRE_SPAN \
-                and not _centre_rect(
-                cam, 8, tx, ty, width, height, sample_move, move, shift, tile_shift, cols, tw,
-                th, sw, sh, r):
-            culled += 1  # no pixel centre under it
-            continue
-        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
-        if testable and (r[6] == 0 or _behind(x0, x1, y0, y1, r[4], depth, width, tile_max,
-                                              cols, tw, th, margin, recede)):
+        if _box_hidden(cam, near, tx, ty, width, height, move, shift, sample_move, tile_shift,
+                       sw, sh, depth, tile_max, cols, tw, th, margin, recede, r):
             culled += 1
             continue
+        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
+        testable = r[5] > 0
         if not under or (n > 0 and (not testable
                                     or _touches(x0, x1, y0, y1, tile_any, cols, tw, th))):
             first = first_child[node]
@@ -1017,19 +1028,12 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
             count += 1
             continue
         tested += 1
-        _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
-        testable = r[5] > 0
-        if testable and sw > 0 and r[6] != 0 and r[1] - r[0] + r[3] - r[2] <= CENTRE_SPAN \
-                and not _centre_rect(
-                cam, 8, tx, ty, width, height, sample_move, move, shift, tile_shift, cols, tw,
-                th, sw, sh, r):
-            hidden += 1  # no pixel centre under it
-            continue
-        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
-        if testable and (r[6] == 0 or _behind(x0, x1, y0, y1, r[4], depth, width, tile_max,
-                                              cols, tw, th, margin, recede)):
+        if _box_hidden(cam, near, tx, ty, width, height, move, shift, sample_move, tile_shift,
+                       sw, sh, depth, tile_max, cols, tw, th, margin, recede, r):
             hidden += 1
             continue
+        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
+        testable = r[5] > 0
         if n > 0 and (straddle != 0 or not testable
                       or _touches(x0, x1, y0, y1, tile_any, cols, tw, th)):
             first = first_child[node]
