@@ -94,6 +94,16 @@ def _clip_triangle(tri, clip, poly, cut):
     return n if n >= 3 else 0
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut):
+    """Occluder t's corners (points[tri_points[t]]) into camera space (tri) and clipped to
+    z >= clip into poly (_clip_triangle); returns the point count. The rasteriser and
+    stamp_near read the same polygon. Contract: exact (the same arithmetic everywhere)."""
+    for c in range(3):
+        _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
+    return _clip_triangle(tri, clip, poly, cut)
+
+
 @njit(cache=True, nogil=True)
 def _mark_segment(ax, ay, bx, by, width, height, mask, bit):
     """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of,
@@ -185,9 +195,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
         # 1. Pixel centres inside any triangle of the group.
         for k in range(start, stop):
             t = ids[k]
-            for c in range(3):
-                _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
-            n = _clip_triangle(tri, clip, poly, cut)
+            n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
             if n == 0:
                 continue
             for c in range(n):
@@ -261,9 +269,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                               pa[1] / pa[2] * sy + 0.5 * height,
                               pb[0] / pb[2] * sx + 0.5 * width,
                               pb[1] / pb[2] * sy + 0.5 * height, width, height, mask, bit)
-            for c in range(3):
-                _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
-            n = _clip_triangle(tri, clip, poly, cut)
+            n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
             for c in range(n):
                 d = (c + 1) % n
                 if cut[c] and cut[d]:  # the near-plane side of a cut triangle
@@ -338,9 +344,7 @@ def stamp_near(ids, tri_points, points, eye, rot, clip, tx, ty, width, height, t
     sx, sy = 0.5 * width / tx, 0.5 * height / ty
     for k in range(len(ids)):
         t = ids[k]
-        for c in range(3):
-            _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
-        n = _clip_triangle(tri, clip, poly, cut)
+        n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
         if n == 0:
             continue
         x0, x1, y0, y1, z = np.inf, -np.inf, np.inf, -np.inf, np.inf
