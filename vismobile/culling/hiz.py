@@ -41,6 +41,7 @@ import numpy as np
 from numba import njit
 
 from .facing import frontfacing
+from .kernels import _box_planes
 from ..partition.occluders import node_candidates  # noqa: F401 (re-exported)
 from .occluder_rows import solid_angle
 
@@ -1001,27 +1002,10 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
         if not nonempty[node]:
             continue
         visited += 1
-        cx = 0.5 * (lo[node, 0] + hi[node, 0])
-        cy = 0.5 * (lo[node, 1] + hi[node, 1])
-        cz = 0.5 * (lo[node, 2] + hi[node, 2])
-        hx = 0.5 * (hi[node, 0] - lo[node, 0])
-        hy = 0.5 * (hi[node, 1] - lo[node, 1])
-        hz = 0.5 * (hi[node, 2] - lo[node, 2])
-        straddle = np.int64(0)
-        outside = False
-        for p in range(planes_count):
-            bit = np.int64(1) << p
-            if not (mask & bit):
-                continue
-            tests += 1
-            nx, ny, nz = planes[p, 0], planes[p, 1], planes[p, 2]
-            mid = cx * nx + cy * ny + cz * nz + planes[p, 3]
-            reach = hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
-            if mid + reach < -tol:
-                outside = True
-                break
-            if mid - reach < tol:
-                straddle |= bit
+        outside, straddle, planes_tested = _box_planes(
+            lo[node, 0], lo[node, 1], lo[node, 2], hi[node, 0], hi[node, 1], hi[node, 2],
+            planes, mask, tol)
+        tests += planes_tested
         if outside:
             outside_count += 1
             continue
