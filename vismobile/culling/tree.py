@@ -72,7 +72,8 @@ class Tree:
         out, nodes, sets, masks = self._stacks
         count, *counters = frustum_walk(
             self._box, self._links, self.read_size, int(whole_below), self._inner,
-            self._inner_links, bool(covering), roots, np.ascontiguousarray(root_sets, dtype=np.int64),
+            self._inner_links, bool(covering), roots,
+            np.ascontiguousarray(root_sets, dtype=np.int64),
             np.ascontiguousarray(plane_sets, dtype=np.float64), self.tol, out, nodes, sets, masks)
         return (out[:count].copy(), *counters)
 
