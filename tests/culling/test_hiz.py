@@ -409,3 +409,63 @@ def test_a_triangle_under_no_centre_of_the_screen_is_dropped_by_the_centre_test(
     tri = camera_triangle([[4.0, 9.8], [14.0, 10.2], [4.0, 10.2]], 20.0, W, H)
     hidden, subpixel = centre_test([tri], depth)
     assert not hidden.any() and subpixel.all()
+
+
+# ---- the screen border: occluder points just off screen may shift onto it ----------------------
+
+def border_px(side, d, a):
+    """Buffer pixel coordinates (..., 2) of the point at distance d inside `side`'s border (d < 0:
+    off screen) and a along it."""
+    d, a = np.broadcast_arrays(np.asarray(d, float), np.asarray(a, float))
+    return {"left": np.stack([d, a], -1), "right": np.stack([W - d, a], -1),
+            "bottom": np.stack([a, d], -1), "top": np.stack([a, H - d], -1)}[side]
+
+
+def border_shift(side, pixels):
+    """Tangent-unit shift moving a point `pixels` buffer pixels across `side`'s border."""
+    return pixels * (TX / (0.5 * W) if side in ("left", "right") else TY / (0.5 * H))
+
+
+def wall_from(side, edge, z=5.0):
+    """A camera-space wall at depth z over the screen and beyond, whose only edge near the
+    screen lies `edge` pixels inside `side`'s border (negative: off screen)."""
+    corners = border_px(side, [edge, 3 * (W + H)], [-(W + H), 2 * (W + H)])
+    (x0, y0), (x1, y1) = corners.min(axis=0), corners.max(axis=0)
+    return quad_at(z, 2 * x0 / W - 1, 2 * x1 / W - 1, 2 * y0 / H - 1, 2 * y1 / H - 1)
+
+
+@pytest.mark.parametrize("side", ["left", "right", "bottom", "top"])
+@pytest.mark.parametrize("edge, shift_px, near, hidden", [
+    (-0.5, 0.8, 0.015, False),  # the edge moves to 0.3 on screen: within the guard band
+    (-1.5, 1.8, 0.015, False),  # the edge moves to 0.3 on screen: beyond the band
+    (-1.5, 1.8, 5.0, True),     # the same, but no occluder over these tiles shifts that far
+    (-40.0, 0.8, 0.015, True),  # the wall still covers the border after any such shift
+])
+def test_a_wall_ending_just_off_screen_hides_the_border_only_if_no_shift_uncovers_it(
+        side, edge, shift_px, near, hidden):
+    # A far triangle over 0.1 .. 0.6 pixels inside the border: an occluder edge `edge` pixels
+    # off screen, moved by shift_px toward the screen, uncovers its points before 0.3. `near`:
+    # the occluders' nearest depth over every tile (0.015: local shifts above 1.8 pixels).
+    depth, _, _ = raster(wall_from(side, edge))
+    thing = camera_triangle(border_px(side, [0.1, 0.6, 0.1], [10.0, 11.0, 12.0]), 20.0, W, H)
+    got, _ = centre_test([thing], depth, shift=border_shift(side, shift_px),
+                         tile_near=np.full((H // TILE[1]) * (W // TILE[0]), near), screen=(0, 0))
+    assert got[0] == hidden
+
+
+def test_a_border_pixels_depth_bounds_the_occluder_just_off_screen():
+    # A wall receding toward the left border (camera z = 5 - 1.5 x): its depth at buffer x 0,
+    # -0.7, -1 is 12.5, 13.7, 14.3. A triangle at depth 13.1 over x 0.1 .. 0.6 shows in front
+    # of the wall moved 0.8 pixels right (its point at x 0.1 came from x -0.7): kept. One at
+    # depth 15, behind the wall anywhere within the guard band, stays hidden.
+    us = 2 * np.array([-3.0, 3.0 * W]) / W - 1
+    vs = 2 * np.array([-H, 2.0 * H]) / H - 1
+    rays = np.array([[u * TX, v * TY, 1.0] for u, v in
+                     ((us[0], vs[0]), (us[1], vs[0]), (us[1], vs[1]), (us[0], vs[1]))])
+    c = rays * (5.0 / (1.0 + 1.5 * rays[:, 0]))[:, None]  # on the plane z = 5 - 1.5 x
+    depth, _, _ = raster(np.stack([c[[0, 2, 1]], c[[0, 3, 2]]]))
+    thing = camera_triangle([[0.1, 10.0], [0.6, 11.0], [0.1, 12.0]], 13.1, W, H)
+    assert not centre_test([thing], depth, shift=border_shift("left", 0.8), screen=(0, 0))[0][0]
+    assert depth[11, 0] >= 5.0 / (1.0 + 1.5 * TX * (2 * -1.0 / W - 1))  # the wall at x = -1
+    deep = camera_triangle([[0.1, 10.0], [0.6, 11.0], [0.1, 12.0]], 15.0, W, H)
+    assert centre_test([deep], depth, shift=border_shift("left", 0.8), screen=(0, 0))[0][0]

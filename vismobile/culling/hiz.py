@@ -22,6 +22,11 @@ farthest depth over its four corner rays (1/z is affine over a pixel). Groups ar
 the pointwise minimum (each bounds the nearest surface there); across a crease (an edge shared
 by two groups) a pixel takes the larger of the two groups' depths (rasterise).
 
+Screen border. Occluder points just off screen may shift onto it: a border pixel is covered and
+bounded over its square taken GUARD_PX wider off screen, and a tested point within the shift
+minus GUARD_PX of the border (the local shift over its tiles, when tile_shifts' table is built)
+is never hidden by the buffer: it would need pixels farther off screen.
+
 Tests. A box (8 corners) or triangle (3 corners), each corner moved by up to `move` per
 coordinate (device rounding), gives a pixel rectangle grown by SLACK_PX plus `shift` and a
 nearest depth zmin; it is hidden when every corner is beyond `near` and the rectangle is off
@@ -48,6 +53,9 @@ from .occluder_rows import solid_angle
 SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
 DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
 SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
+# Buffer pixels: a border pixel is covered (and bounded) over its square taken this much wider
+# off screen, so a test may read it for occluder points up to this far off the screen.
+GUARD_PX = 1.0
 # With a screen, node boxes whose rectangle spans up to this many pixels (width + height, buffer
 # pixels) are tested at the centres (cull_nodes): on w2x7 wider ones cost more than they cull.
 CENTRE_SPAN = 24.0
@@ -108,7 +116,7 @@ def _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut):
 @njit(cache=True, nogil=True)
 def _mark_segment(ax, ay, bx, by, width, height, mask, bit):
     """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of,
-    clipped to the buffer (errs toward more pixels)."""
+    a border pixel's square taken GUARD_PX wider off screen (errs toward more pixels)."""
     steep = abs(by - ay) > abs(bx - ax)
     if steep:
         ax, ay, bx, by = ay, ax, by, bx
@@ -117,19 +125,24 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit):
         major, minor = width, height
     if ax > bx:
         ax, ay, bx, by = bx, by, ax, ay
-    c0 = max(np.floor(ax - SLACK_PX), 0.0)
-    c1 = min(np.floor(bx + SLACK_PX), major - 1.0)
+    if bx + SLACK_PX < -GUARD_PX or ax - SLACK_PX >= major + GUARD_PX:
+        return
+    c0 = min(max(np.floor(ax - SLACK_PX), 0.0), major - 1.0)
+    c1 = min(max(np.floor(bx + SLACK_PX), 0.0), major - 1.0)
     if not c0 <= c1:
         return
     dx = bx - ax
     slope = (by - ay) / dx if dx > 0 else 0.0
     for c in range(int(c0), int(c1) + 1):
-        lo = max(c - SLACK_PX, ax)
-        hi = min(c + 1 + SLACK_PX, bx)
+        lo = max(c - SLACK_PX - (GUARD_PX if c == 0 else 0.0), ax)
+        hi = min(c + 1 + SLACK_PX + (GUARD_PX if c == major - 1 else 0.0), bx)
         ylo = ay + (lo - ax) * slope
         yhi = ay + (hi - ax) * slope
-        r0 = max(np.floor(min(ylo, yhi) - SLACK_PX), 0.0)
-        r1 = min(np.floor(max(ylo, yhi) + SLACK_PX), minor - 1.0)
+        y0, y1 = min(ylo, yhi) - SLACK_PX, max(ylo, yhi) + SLACK_PX
+        if y1 < -GUARD_PX or y0 >= minor + GUARD_PX:
+            continue
+        r0 = min(max(np.floor(y0), 0.0), minor - 1.0)
+        r1 = min(max(np.floor(y1), 0.0), minor - 1.0)
         if not r0 <= r1:
             continue
         for r in range(int(r0), int(r1) + 1):
@@ -137,6 +150,14 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit):
                 mask[c * width + r] |= bit
             else:
                 mask[r * width + c] |= bit
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _guarded_low(a, i, n):
+    """min of a x over pixel i's span [i, i + 1] of n, GUARD_PX wider at the borders."""
+    lo = i - GUARD_PX if i == 0 else float(i)
+    hi = i + 1 + GUARD_PX if i == n - 1 else i + 1.0
+    return min(a * lo, a * hi)
 
 
 # Group scratch bits per pixel: centre inside a triangle of the group, met by a boundary piece
@@ -154,7 +175,8 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
 
     Contract: errs toward "not covered" and "farther": a pixel is written only when wholly inside
     the union of the triangles clipped to depth >= clip, with a depth >= every point of that
-    union over the pixel (x (1 + DEPTH_SLACK)). Either one plane group covers it (its centre in
+    union over the pixel (x (1 + DEPTH_SLACK)); a border pixel's square is taken GUARD_PX wider
+    off screen. Either one plane group covers it (its centre in
     a triangle of the group, no unpaired piece of the group near it: that plane's farthest
     depth), or its centre is in some triangle and only crease pieces (paired across groups) come
     near it: the largest of the farthest depths of the groups whose pieces come near.
@@ -307,6 +329,8 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 z = np.inf
                 if dd > 0:
                     inv = a * i + b * rr + c0_ + low
+                    if i == 0 or rr == 0 or i == width - 1 or rr == height - 1:
+                        inv = _guarded_low(a, i, width) + _guarded_low(b, rr, height) + c0_
                     if inv > 0:
                         z = (1.0 + DEPTH_SLACK) / inv
                 if m & _CREASE:
@@ -457,7 +481,9 @@ def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
     """Conservative pixel rectangle of the first m camera-space points of cam (m, 3), each moved
     by up to `move` per coordinate: out (12,) = (x0, x1, y0, y1, zmin, testable, onscreen), errs
     large (grown by SLACK_PX plus `shift` tangents; zmin lowered by sqrt(3) move and
-    DEPTH_SLACK); when testable also (umin, umax, vmin, vmax, the move's growth) in tangents."""
+    DEPTH_SLACK); when testable also (umin, umax, vmin, vmax, the move's growth) in tangents.
+    onscreen: 0 off screen, 1 on screen, 2 on screen but an occluder point more than GUARD_PX
+    off screen may shift over it (or the shift is unbounded): the buffer cannot hide it."""
     reach = np.sqrt(3.0) * move
     zmin = np.inf
     for k in range(m):
@@ -470,18 +496,45 @@ def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
     umin, umax, vmin, vmax, grow = _projected_bounds(cam, m, tx, ty, reach)
     out[7], out[8], out[9], out[10], out[11] = umin, umax, vmin, vmax, grow
     grow += shift
-    if not grow < np.inf:  # an unbounded shift (nan or inf): the whole screen, on screen
-        out[0], out[1], out[2], out[3], out[6] = 0.0, width - 1.0, 0.0, height - 1.0, 1.0
+    if not grow < np.inf:  # an unbounded shift (nan or inf): the whole screen, not hideable
+        out[0], out[1], out[2], out[3], out[6] = 0.0, width - 1.0, 0.0, height - 1.0, 2.0
         return
     gu, gv = grow / tx, grow / ty
-    x0 = np.floor((umin - gu + 1.0) * 0.5 * width - SLACK_PX)
-    x1 = np.floor((umax + gu + 1.0) * 0.5 * width + SLACK_PX)
-    y0 = np.floor((vmin - gv + 1.0) * 0.5 * height - SLACK_PX)
-    y1 = np.floor((vmax + gv + 1.0) * 0.5 * height + SLACK_PX)
-    offscreen = x1 < 0 or x0 > width - 1 or y1 < 0 or y0 > height - 1  # False on nan
-    out[6] = 0.0 if offscreen else 1.0
+    x0 = (umin - gu + 1.0) * 0.5 * width - SLACK_PX
+    x1 = (umax + gu + 1.0) * 0.5 * width + SLACK_PX
+    y0 = (vmin - gv + 1.0) * 0.5 * height - SLACK_PX
+    y1 = (vmax + gv + 1.0) * 0.5 * height + SLACK_PX
+    offscreen = x1 < 0 or x0 >= width or y1 < 0 or y0 >= height  # False on nan
+    out[6] = 0.0 if offscreen else (2.0 if _reaches_off_screen(out, shift, tx, ty, width,
+                                                              height) else 1.0)
+    x0, x1, y0, y1 = np.floor(x0), np.floor(x1), np.floor(y0), np.floor(y1)
     out[0], out[1] = min(max(x0, 0.0), width - 1.0), min(max(x1, 0.0), width - 1.0)
     out[2], out[3] = min(max(y0, 0.0), height - 1.0), min(max(y1, 0.0), height - 1.0)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _reaches_off_screen(out, shift, tx, ty, width, height):
+    """True when an occluder point more than GUARD_PX off screen may shift (by up to `shift`
+    tangents) onto a point on screen of _rect's moved points (out[7:12]). Errs toward True."""
+    sx, sy = shift / tx * 0.5 * width, shift / ty * 0.5 * height
+    x0 = (out[7] - out[11] / tx + 1.0) * 0.5 * width - SLACK_PX
+    x1 = (out[8] + out[11] / tx + 1.0) * 0.5 * width + SLACK_PX
+    y0 = (out[9] - out[11] / ty + 1.0) * 0.5 * height - SLACK_PX
+    y1 = (out[10] + out[11] / ty + 1.0) * 0.5 * height + SLACK_PX
+    return not (max(x0, 0.0) - sx >= -GUARD_PX and min(x1, width) + sx <= width + GUARD_PX
+                and max(y0, 0.0) - sy >= -GUARD_PX and min(y1, height) + sy <= height + GUARD_PX)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _local_border(r, shift, tx, ty, width, height, tile_shift, cols, tw, th):
+    """_rect's onscreen flag r[6] == 2 lowered to 1 when, with the occluders' largest local
+    shift over the tiles r[0:4] meets (tile_shifts' table), no occluder point more than
+    GUARD_PX off screen reaches the points. Contract: as _reaches_off_screen."""
+    local = min(shift, tile_shift_bound(int(r[0]) // tw, int(r[1]) // tw, int(r[2]) // th,
+                                        int(r[3]) // th, tile_shift, (height + th - 1) // th,
+                                        cols))
+    if local < np.inf and not _reaches_off_screen(r, local, tx, ty, width, height):
+        r[6] = 1.0
 
 
 @njit(cache=True, nogil=True)
@@ -577,12 +630,15 @@ def _box_hidden(cam, near, tx, ty, width, height, move, shift, sample_move, tile
     _rect(cam, 8, near, tx, ty, width, height, move, shift, r)
     if r[5] == 0:
         return False
+    if r[6] == 2:
+        _local_border(r, shift, tx, ty, width, height, tile_shift, cols, tw, th)
     if sw > 0 and r[6] != 0 and r[1] - r[0] + r[3] - r[2] <= CENTRE_SPAN and not _centre_rect(
             cam, 8, tx, ty, width, height, sample_move, move, shift, tile_shift, cols, tw, th,
             sw, sh, r):
         return True
-    return r[6] == 0 or _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]), r[4], depth, width,
-                                tile_max, cols, tw, th, margin, recede)
+    return r[6] == 0 or (r[6] == 1 and _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]),
+                                               r[4], depth, width, tile_max, cols, tw, th,
+                                               margin, recede))
 
 
 @njit(cache=True, nogil=True)
@@ -725,12 +781,15 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
         zmin[k] = r[4] if r[5] > 0 else -np.inf
         if r[5] == 0:
             continue
+        if use_buffer and r[6] == 2:
+            _local_border(r, shift, tx, ty, width, height, tile_shift, cols, tw, th)
         x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
-        if r[6] == 0 or (use_buffer and _behind(x0, x1, y0, y1, r[4], depth, width, tile_max,
-                                                 cols, tw, th, margin, recede)):
+        use = use_buffer and r[6] == 1  # else the buffer cannot hide it
+        if r[6] == 0 or (use and _behind(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw,
+                                         th, margin, recede)):
             hidden[k] = True
             continue
-        if use_buffer and sw > 0:  # the wide rectangle failed: the pixels under the centres
+        if use and sw > 0:  # the wide rectangle failed: the pixels under the centres
             if not _centre_rect(cam, 3, tx, ty, width, height, sample_move, move, shift,
                                 tile_shift, cols, tw, th, sw, sh, r):
                 subpixel[k] = True  # no centre under its rectangle

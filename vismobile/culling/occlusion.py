@@ -63,7 +63,7 @@ from ..partition.occluders import candidate_lists
 from ..world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
-from .hiz import (build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
+from .hiz import (GUARD_PX, build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
                   gather_candidates, gather_shell_candidates, hidden_triangles, lod_ancestors,
                   rasterise, score_candidates, shift_table_size, stamp_near,
                   tile_shifts)
@@ -82,7 +82,8 @@ GRAZING = 1e-6
 # Occluders are clipped this much (relative) beyond the near plane, plus the device's rounding.
 NEAR_RELATIVE = 2.0 ** -10
 # With `screen`, per-tile (local) occluder shifts are computed only in frames whose global shift
-# after the first occluders exceeds this many buffer pixels (thesis worlds: rarely).
+# after the first occluders exceeds this many buffer pixels (thesis worlds: rarely); without,
+# only when it exceeds hiz.GUARD_PX (the screen border's test needs them then).
 LOCAL_SHIFT_PX = 0.25
 # The first round's candidate shells grow by this factor (hiz.gather_shell_candidates).
 SHELL_GROWTH = np.sqrt(2.0)
@@ -273,8 +274,8 @@ class DepthBufferOcclusion:
         self.tile_max = np.full(self.tiles, np.inf)
         self.tile_any = np.zeros(self.tiles, dtype=np.bool_)
         self.tile_min = np.full(self.tiles, np.inf)
-        # With `screen`: per tile the nearest rasterised occluder depth over it and the largest
-        # screen shift of an occluder point there (the triangle test's local shift).
+        # Per tile the nearest rasterised occluder depth over it and the largest screen shift
+        # of an occluder point there (the tests' local shift).
         self.tile_near = np.full(self.tiles, np.inf)
         self.tile_shift = np.full(shift_table_size(self._rows, self._cols), np.inf)
         self._local = None
@@ -457,16 +458,14 @@ class DepthBufferOcclusion:
                                      self.width, self.height, self.depth, self.mask,
                                      self.centre, self.crease_far)
         self.nearest = min(self.nearest, nearest)
-        if self.screen is not None:
-            if self._local is None:  # the frame's first occluders: is a local shift worth it?
-                pixels = self.shift(camera, move) * 0.5 * max(self.width / tx,
-                                                              self.height / ty)
-                self._local = bool(pixels > LOCAL_SHIFT_PX)
-            if self._local:  # else the table stays inf: the global shift everywhere
-                stamp_near(tables[0], tables[2], tables[3], eye, rotation, clip, tx, ty,
-                           self.width, self.height, *self.tile, self.tile_near)
-                tile_shifts(self.tile_near, np.sqrt(3.0) * move, max(tx, ty), self._rows,
-                            self._cols, self.tile_shift)
+        if self._local is None:  # the frame's first occluders: is a local shift worth it?
+            pixels = self.shift(camera, move) * 0.5 * max(self.width / tx, self.height / ty)
+            self._local = bool(pixels > (GUARD_PX if self.screen is None else LOCAL_SHIFT_PX))
+        if self._local:  # else the table stays inf: the global shift everywhere
+            stamp_near(tables[0], tables[2], tables[3], eye, rotation, clip, tx, ty, self.width,
+                       self.height, *self.tile, self.tile_near)
+            tile_shifts(self.tile_near, np.sqrt(3.0) * move, max(tx, ty), self._rows,
+                        self._cols, self.tile_shift)
         build_tiles(self.depth, self.width, self.height, *self.tile, self.tile_max,
                     self.tile_any, self.tile_min)
         return written
@@ -477,10 +476,9 @@ class DepthBufferOcclusion:
         self._camera, self._planes = camera, np.ascontiguousarray(state.planes)
         self.nearest = np.inf
         self.depth.fill(np.inf)
-        if self.screen is not None:
-            self.tile_near.fill(np.inf)
-            self.tile_shift.fill(np.inf)  # no local bound until the table is built
-            self._local = None
+        self.tile_near.fill(np.inf)
+        self.tile_shift.fill(np.inf)  # no local bound until the table is built
+        self._local = None
         self.reach = np.inf if self.first_reach is None else self.first_reach
         chosen = self.select(state, reach=self.first_reach, limit=self.first_candidates)
         written = self.rasterise(camera, chosen) if len(chosen) else 0
