@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT))
 
 from vismobile.study import distributed  # noqa: E402
 from vismobile.study.matrix import expand  # noqa: E402
-from vismobile.study.runner import Context, prepare, run_matrix  # noqa: E402
+from vismobile.study.runner import Context, _worker_init, prepare, run_matrix  # noqa: E402
 
 
 def cpu_s() -> float:
@@ -82,6 +82,7 @@ def main(argv=None) -> int:
             return Context(ROOT, tmp / name, ROOT / "worlds", cache)
 
         warm = context("warm")
+        _worker_init()  # one llvmpipe thread, as every mode's runs use (before any GL context)
         for spec in {(s.world, s.structure): s for s in specs}.values():
             prepare(("structure", spec, warm.as_tuple()))
         for spec in {(s.world, s.profile, s.frames, s.truth_cull_back): s for s in specs}.values():

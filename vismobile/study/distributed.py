@@ -37,7 +37,12 @@ def open_client(scheduler: str, workers: int | None, timeout: str = "15s"):
     import dask
     from dask.distributed import Client, LocalCluster
 
-    dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES})
+    dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+                     # Dask's 64 KiB makes glibc hand freed memory back at once, so numpy's
+                     # per-frame temporaries fault their pages in again (docs/scale.md).
+                     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                     # The statistical profiler samples every 10 ms for a dashboard not shown.
+                     "distributed.worker.profile.enabled": False})
     try:
         if scheduler == "dask":
             cluster = LocalCluster(n_workers=max(1, workers or os.cpu_count() or 1),

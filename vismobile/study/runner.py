@@ -205,7 +205,9 @@ def summarize_run(table, trajectory, frames, partition, profile, world, build_se
 
 
 def _worker_init() -> None:
-    """One llvmpipe rasteriser thread per worker: parallel runs must not fight for cores."""
+    """One llvmpipe rasteriser thread in every process that measures runs (the single process,
+    pool and Dask workers): parallel runs must not fight for cores, and a run's render_ms must
+    not depend on the scheduler. Mesa reads it when the process opens its first GL context."""
     os.environ.setdefault("LP_NUM_THREADS", "1")
 
 
@@ -278,6 +280,7 @@ def run_matrix(specs, context: Context, processes: int | None = None,
                 (study/distributed.py); results are the same files either way
     on_record : with Dask, called with (client, key, record) as each run finishes
     """
+    _worker_init()  # before this process's first GL context (truths, single-process runs)
     specs = list(dict.fromkeys(specs))
     keyed, records = _finished(specs, context)
     # Runs that differ only in a profile measured alike are executed once and recorded for each.
