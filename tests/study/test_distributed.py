@@ -72,3 +72,19 @@ def test_an_unreachable_scheduler_is_one_clear_error():
     pytest.importorskip("dask.distributed")
     with pytest.raises(distributed.SchedulerError, match="127.0.0.1:9"):
         distributed.open_client("tcp://127.0.0.1:9", None, timeout="1s")
+
+
+def test_local_cluster_workers_render_on_one_thread_and_keep_glibcs_trim(monkeypatch):
+    pytest.importorskip("dask.distributed")
+    import dask
+
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    client, cluster = distributed.open_client("dask", 1)
+    try:
+        seen = client.run(lambda: (os.environ.get("LP_NUM_THREADS"),
+                                   os.environ.get("MALLOC_TRIM_THRESHOLD_"),
+                                   dask.config.get("distributed.worker.profile.enabled")))
+    finally:
+        client.close()
+        cluster.close()
+    assert list(seen.values()) == [("1", None, False)]
