@@ -15,6 +15,7 @@ from ..partition.base import gather_ranges
 from ..world import unit_normals
 from .facing import keep_unmarked
 from .precision import device_move, world_scale
+from .shared import per_object
 from .state import CullState
 from .tree import Tree
 
@@ -54,48 +55,13 @@ class NormalConeStage:
         self.clusters = clusters
 
     def prepare(self, tree: Tree) -> None:
-        # Built in groups of consecutive leaves of about CHUNK references: a cluster never spans
-        # leaves, so each group's cones are those of the whole, and only a group's corners and
-        # normals are in memory at once (a memory-mapped world is read group by group).
         self.tree = tree
-        world = tree.world
-        k = self.per_leaf = GROUPS[self.clusters]
-        leaves = tree.leaf_order
-        counts = tree.ref_end[leaves] - tree.ref_start[leaves]
-        total = int(counts.sum())
-        wide = world.triangle_count > np.iinfo(np.int32).max
-        self.cluster_refs = np.empty(total, dtype=np.int64 if wide else np.int32)
-        bounds = np.zeros(len(leaves) * k + 1, dtype=np.int64)
-        self.apex, self.axis = np.zeros((len(leaves) * k, 3)), np.zeros((len(leaves) * k, 3))
-        self.cutoff, self.rounding = np.zeros(len(leaves) * k), np.zeros((len(leaves) * k, 5))
-        done = 0
-        for lo, hi in leaf_groups(counts, CHUNK):
-            group = leaves[lo:hi]
-            ids = gather_ranges(tree.tri_refs, tree.ref_start[group],
-                                tree.ref_end[group]).astype(np.int64)
-            corners = triangle_corners(world, ids)
-            normals, _ = unit_normals(corners)
-            rank = np.repeat(np.arange(hi - lo), counts[lo:hi])
-            if k == 8:
-                octant = (normals[:, 0] > 0) * 1 + (normals[:, 1] > 0) * 2 + (normals[:, 2] > 0) * 4
-            else:
-                octant = np.zeros(len(ids), dtype=np.int64)
-            key = rank * k + octant
-            order = np.argsort(key, kind="stable")
-            normals, corners = normals[order], corners[order]
-            local = np.searchsorted(key[order], np.arange((hi - lo) * k + 1))
-            starts, ends = local[:-1], local[1:]
-            apex, axis, cutoff = cluster_cones(normals, corners, starts, ends, scale=tree.scale)
-            rows = slice(lo * k, hi * k)
-            self.apex[rows], self.axis[rows], self.cutoff[rows] = apex, axis, cutoff
-            self.rounding[rows] = cone_rounding(normals, corners, apex, starts, ends)
-            self.cluster_refs[done:done + len(ids)] = ids[order]
-            bounds[lo * k + 1:hi * k + 1] = done + ends
-            done += len(ids)
-        # (R,) triangle ids grouped by (leaf rank, octant); cluster c is [starts[c], ends[c]).
-        self.starts, self.ends = bounds[:-1], bounds[1:]
-        self.magnitude = world_scale(world.vertices)
-        self._bits = np.zeros(world.triangle_count // 64 + 1, dtype=np.uint64)
+        self.per_leaf = GROUPS[self.clusters]
+        (self.cluster_refs, self.apex, self.axis, self.cutoff, self.rounding, self.starts,
+         self.ends) = per_object(tree.partition, ("cones", self.clusters),
+                                 lambda: leaf_cones(tree, self.per_leaf))
+        self.magnitude = world_scale(tree.world.vertices)
+        self._bits = np.zeros(tree.world.triangle_count // 64 + 1, dtype=np.uint64)
 
     def apply(self, state: CullState) -> None:
         tree, k = self.tree, self.per_leaf
@@ -122,3 +88,46 @@ class NormalConeStage:
                                      self.starts, self.ends, culled, self._bits)
 
             state.filters.append(keep_of)
+
+
+def leaf_cones(tree: Tree, k: int) -> tuple:
+    """(cluster_refs (R,) triangle ids grouped by (leaf rank, octant), apex, axis (C, 3), cutoff
+    (C,), rounding (C, 5), starts, ends (C,)): cluster c of k per leaf (leaf_order) holds
+    cluster_refs[starts[c]:ends[c]]. Built in groups of consecutive leaves of about CHUNK
+    references: a cluster never spans leaves, so each group's cones are those of the whole,
+    and only a group's corners and normals are in memory at once (a memory-mapped world is
+    read group by group)."""
+    world = tree.world
+    leaves = tree.leaf_order
+    counts = tree.ref_end[leaves] - tree.ref_start[leaves]
+    total = int(counts.sum())
+    wide = world.triangle_count > np.iinfo(np.int32).max
+    cluster_refs = np.empty(total, dtype=np.int64 if wide else np.int32)
+    bounds = np.zeros(len(leaves) * k + 1, dtype=np.int64)
+    apex, axis = np.zeros((len(leaves) * k, 3)), np.zeros((len(leaves) * k, 3))
+    cutoff, rounding = np.zeros(len(leaves) * k), np.zeros((len(leaves) * k, 5))
+    done = 0
+    for lo, hi in leaf_groups(counts, CHUNK):
+        group = leaves[lo:hi]
+        ids = gather_ranges(tree.tri_refs, tree.ref_start[group],
+                            tree.ref_end[group]).astype(np.int64)
+        corners = triangle_corners(world, ids)
+        normals, _ = unit_normals(corners)
+        rank = np.repeat(np.arange(hi - lo), counts[lo:hi])
+        if k == 8:
+            octant = (normals[:, 0] > 0) * 1 + (normals[:, 1] > 0) * 2 + (normals[:, 2] > 0) * 4
+        else:
+            octant = np.zeros(len(ids), dtype=np.int64)
+        key = rank * k + octant
+        order = np.argsort(key, kind="stable")
+        normals, corners = normals[order], corners[order]
+        local = np.searchsorted(key[order], np.arange((hi - lo) * k + 1))
+        starts, ends = local[:-1], local[1:]
+        rows = slice(lo * k, hi * k)
+        apex[rows], axis[rows], cutoff[rows] = cluster_cones(normals, corners, starts, ends,
+                                                             scale=tree.scale)
+        rounding[rows] = cone_rounding(normals, corners, apex[rows], starts, ends)
+        cluster_refs[done:done + len(ids)] = ids[order]
+        bounds[lo * k + 1:hi * k + 1] = done + ends
+        done += len(ids)
+    return cluster_refs, apex, axis, cutoff, rounding, bounds[:-1], bounds[1:]

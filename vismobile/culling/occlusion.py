@@ -69,6 +69,7 @@ from .hiz import (GUARD_PX, build_tiles, cull_nodes, facing_occluders, frustum_c
                   tile_shifts)
 from .occluder_rows import occluder_mesh_of, score_corners, triangle_rows
 from .precision import device_move, world_scale
+from .shared import per_object
 from .state import CullResult, CullState
 from .tree import Tree
 from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE, GAMMA_8
@@ -87,6 +88,17 @@ NEAR_RELATIVE = 2.0 ** -10
 LOCAL_SHIFT_PX = 0.25
 # The first round's candidate shells grow by this factor (hiz.gather_shell_candidates).
 SHELL_GROWTH = np.sqrt(2.0)
+
+
+def _world_tables(world) -> tuple:
+    """An in-memory world's whole-world tables: occluder_mesh's, then areas, centroids, first
+    corners and bounding radii about the centroids (T,)."""
+    centroids = np.ascontiguousarray(world.centroids, dtype=np.float64)
+    corners = world.corners
+    return (*occluder_mesh(world.vertices, world.triangles, world.normals),
+            np.ascontiguousarray(world.areas, dtype=np.float64), centroids,
+            np.ascontiguousarray(corners[:, 0]),
+            np.linalg.norm(corners - centroids[:, None], axis=2).max(1))
 
 
 def unique_rows(rows) -> tuple:
@@ -244,12 +256,8 @@ class DepthBufferOcclusion:
         if self.tables:
             (self.points, self.tri_points, self.normals, self.offsets, self.groups,
              self.piece_start, self.piece_end, self.piece_a, self.piece_b, self.partner,
-             self.partner_any) = occluder_mesh(world.vertices, world.triangles, world.normals)
-            self.areas = np.ascontiguousarray(world.areas, dtype=np.float64)
-            self.centroids = np.ascontiguousarray(world.centroids, dtype=np.float64)
-            corners = world.corners
-            self.v0 = np.ascontiguousarray(corners[:, 0])
-            self.radius = np.linalg.norm(corners - self.centroids[:, None], axis=2).max(1)
+             self.partner_any, self.areas, self.centroids, self.v0, self.radius) = per_object(
+                world, "occlusion", lambda: _world_tables(world))
             self.stamp = np.full(count, -1, dtype=np.int64)
         # Candidate lists: each node's largest triangles, (N, k), nothing per triangle kept;
         # read from the file when its build stored at least k a node (the first k columns:
@@ -259,9 +267,11 @@ class DepthBufferOcclusion:
                 and stored.shape[1] >= self.candidates:
             self.lists = np.ascontiguousarray(stored[:, :self.candidates], dtype=np.int64)
         else:
-            self.lists = candidate_lists(tree.first_child, tree.child_count, tree.ref_start,
-                                         tree.ref_end, tree.tri_refs, self.vertices,
-                                         self.triangles_, self.candidates)
+            self.lists = per_object(tree.partition, ("candidates", self.candidates),
+                                    lambda: candidate_lists(
+                                        tree.first_child, tree.child_count, tree.ref_start,
+                                        tree.ref_end, tree.tri_refs, self.vertices,
+                                        self.triangles_, self.candidates))
         # Scratch, allocated once: frames reuse it.
         pixels = self.width * self.height
         tw, th = self.tile
