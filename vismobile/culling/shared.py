@@ -6,26 +6,19 @@ from __future__ import annotations
 
 import weakref
 
-_TABLES: dict = {}
+_TABLES: dict = {}  # id(owner) -> {name: table}
 
 
 def per_object(owner, name, compute):
     """compute() the first time (owner, name) is asked for while owner lives, then that same
     result. Exact (it is compute()'s result); an owner without weak references is not cached."""
-    key = (id(owner), name)
-    if key in _TABLES:
-        return _TABLES[key]
-    try:
-        weakref.ref(owner)
-    except TypeError:
-        return compute()
-    value = compute()
-    if not any(k[0] == key[0] for k in _TABLES):  # the owner's first table: drop all with it
-        weakref.finalize(owner, _forget, key[0])
-    _TABLES[key] = value
-    return value
-
-
-def _forget(ident: int) -> None:
-    for key in [k for k in _TABLES if k[0] == ident]:
-        del _TABLES[key]
+    tables = _TABLES.get(id(owner))
+    if tables is None:
+        try:
+            weakref.finalize(owner, _TABLES.pop, id(owner), None)  # all its tables go with it
+        except TypeError:
+            return compute()
+        tables = _TABLES[id(owner)] = {}
+    if name not in tables:
+        tables[name] = compute()
+    return tables[name]
