@@ -176,10 +176,10 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     Contract: errs toward "not covered" and "farther": a pixel is written only when wholly inside
     the union of the triangles clipped to depth >= clip, with a depth >= every point of that
     union over the pixel (x (1 + DEPTH_SLACK)); a border pixel's square is taken GUARD_PX wider
-    off screen. Either one plane group covers it (its centre in
-    a triangle of the group, no unpaired piece of the group near it: that plane's farthest
-    depth), or its centre is in some triangle and only crease pieces (paired across groups) come
-    near it: the largest of the farthest depths of the groups whose pieces come near.
+    off screen. Either one plane group covers it (its centre in a triangle of the group, no
+    unpaired piece of the group near it: that plane's farthest depth), or its centre is in some
+    triangle and only crease pieces (paired across groups) come near it: the largest of the
+    farthest depths of the groups whose pieces come near.
     groups     : (T,) int64 exact-plane label;  tri_points : (T, 3) int64 into points (P, 3)
     normals    : (T, 3), offsets (T,) float64 exact planes n.x = offset; ids must face the eye
     piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (occlusion.occluder_mesh)
