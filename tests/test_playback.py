@@ -149,7 +149,8 @@ def test_cli_plays_an_obj_and_reports_errors_in_one_line(tmp_path, capsys):
     printed = capsys.readouterr().out.splitlines()
     # The profile's device model first, then the other device, then this machine, labelled.
     assert "Nokia N82 model" in printed[1] and "iPaq hx2490b model" in printed[2]
-    assert "measured here" in printed[3] and "of 128 MB" in printed[4]
+    assert "measured here" in printed[3] and "median" in printed[3]
+    assert "warm-up" in printed[4] and "in no figure" in printed[4] and "of 128 MB" in printed[5]
     assert load_scene(tmp_path / "hills.obj").world.triangle_count == hills().triangle_count
     code = main(["play", str(tmp_path / "hills.obj"), "--trajectory", str(tmp_path / "walk.csv"),
                  "--profile", "palm", "--out", str(tmp_path / "bad")])
@@ -273,3 +274,31 @@ def test_play_warns_in_one_line_when_the_path_misses_the_world(tmp_path, vismobi
     assert len(summary["warnings"]) == 2
     for quiet in (play("inside.csv"), play("orbit.csv", "object.stl")):
         assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
+
+
+def test_first_use_work_is_in_the_warm_up_not_in_any_measured_frame(tmp_path, monkeypatch):
+    # A stand-in for numba's first-use compile: the first cull in the process sleeps 0.3 s.
+    import time
+
+    from vismobile import playback
+
+    made = playback.make_culler
+    first = []
+
+    class FirstUseSlow:
+        def __init__(self, inner):
+            self.inner = inner
+
+        def __getattr__(self, name):
+            return getattr(self.inner, name)
+
+        def cull(self, camera):
+            if not first:
+                first.append(1)
+                time.sleep(0.3)
+            return self.inner.cull(camera)
+
+    monkeypatch.setattr(playback, "make_culler", lambda *a, **k: FirstUseSlow(made(*a, **k)))
+    result = play(Scene(hills()), walk(6), "bfc", "ipaq-hx2490b")
+    assert first and result.summary["warmup_ms"] >= 300.0
+    assert result.frames["cull_ms"].max() < 300.0 and result.summary["frames"] == 6

@@ -239,6 +239,10 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     active = ["+".join(stages) or "none"] * count
     gif_images, saved = [], {}
     hud_ms = 0.0
+    warmup_ms = warm_up(scene, stages, profile, renderer,
+                        [trajectory.camera(played[i], profile.aspect)
+                         for i in sorted({0, count // 2, count - 1})] if count else [],
+                        progress, world.name)
     bar = Progress(f"play {world.name}", enabled=None if progress else False)
     step = max(count // 200, 1)  # redraw the bar about 200 times
     for index, frame in enumerate(played):
@@ -288,6 +292,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         # frames' counters (vismobile/costmodel.py).
         "timing": label(None), "model": model_block(counters),
         "adaptive": bool(adaptive), "adaptive_events": list(getattr(culler, "events", [])),
+        # Untimed frames before the first measured one (numba's first-use compile, uploads).
+        "warmup_ms": warmup_ms,
     })
     summary["warnings"] = path_warnings(world, trajectory, played, table["triangles_sent"])
     if summary["warnings"]:
@@ -305,6 +311,23 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
                                (json.dumps(summary, indent=2, sort_keys=True) + "\n").encode())
     result.images = saved
     return result
+
+
+def warm_up(scene, stages, profile, renderer, cameras, progress=False, name="") -> float:
+    """Cull (with a throwaway culler) and draw each camera once, untimed, so no measured frame
+    holds numba's first-use compile (tens of seconds on a fresh clone), lazy tables or the first
+    uploads; the measured culler starts cold in its frame-to-frame state. Says "compiling
+    (first run)" on stderr when it runs past progress.QUIET_SECONDS. Returns its wall ms."""
+    from .progress import Status
+
+    start = time.perf_counter()
+    with Status(f"play {name}", enabled=bool(progress)) as status:
+        status("compiling (first run; later runs load numba's cache)")
+        culler = make_culler(scene, stages, profile)
+        for camera in cameras:
+            culled = culler.cull(camera)
+            renderer.draw(culled.triangles, camera, bool(culled.cull_back))
+    return (time.perf_counter() - start) * 1000.0
 
 
 def path_warnings(world, trajectory, played, sent) -> list:

@@ -68,3 +68,18 @@ def test_paths_are_deterministic_and_above_ground(fractal257):
         step_slow = np.linalg.norm(np.diff([c.position for c in slow], axis=0)[:, [0, 2]], axis=1)
         step_fast = np.linalg.norm(np.diff([c.position for c in fast], axis=0)[:, [0, 2]], axis=1)
         assert np.isclose(step_fast.mean(), step_slow.mean(), rtol=0.5)
+
+
+def test_measure_warms_up_without_changing_what_a_path_selects(fractal129):
+    # The untimed warm-up frame (numba's first-use compile) leaves each method's frame-to-frame
+    # state as a fresh method's: the measured rows select the same triangles.
+    from vismobile.study.terrain import build_method
+
+    cameras = [c.with_(aspect=PROFILE.aspect)
+               for c in path_cameras(fractal129, "circle", "slow", frames=4, every=8)]
+    for name in ("roam", "roettger", "tiles"):
+        rows = measure([build_method(name, fractal129, 8)], fractal129, cameras, [1.0], PROFILE,
+                       render=False)
+        fresh = build_method(name, fractal129, 8)
+        expected = [fresh.frame(c, PROFILE.resolution, 1.0)[2] for c in cameras]
+        assert [r["triangles"] for r in rows] == expected, name

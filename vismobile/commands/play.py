@@ -59,16 +59,18 @@ def run(args) -> int:
     corr = s["pearson_frame_ms_triangles"]
     print(f"{s['frames']} frames of {s['world']} ({s['structure']}, cull "
           f"{'+'.join(s['stages']) or 'none'}, {s['profile']}): "
-          f"{s['triangles_sent']['mean']:,.0f} triangles sent, "
-          f"r(ms, triangles) = {'n/a' if corr is None else f'{corr:+.2f}'}")
+          f"{s['triangles_sent']['mean']:,.0f} triangles sent per frame on average; "
+          f"{correlation_words(corr)}")
     # The profile's own device first; every figure says whether it is measured or modelled.
     devices = sorted(s["model"], key=lambda d: d != s["profile"])
     for device in devices:
         model = s["model"][device]
         print(f"  {model['label']:>20}: {model['frame_ms']['mean']:8.2f} ms/frame, "
               f"{model['fps']:.2f} fps")
-    print(f"  {s['timing']:>20}: {s['frame_ms']['mean']:8.2f} ms/frame, {s['fps']:.1f} fps "
-          "(this machine, not the device)")
+    print(f"  {s['timing']:>20}: {s['frame_ms']['median']:8.2f} ms/frame median "
+          f"(mean {s['frame_ms']['mean']:.2f}, {s['fps']:.1f} fps; this machine, not the device)")
+    print(f"  {'warm-up':>20}: {s['warmup_ms'] / 1000:8.2f} s before the first measured frame "
+          "(numba's first-use compile, uploads; in no figure)")
     memory = s["memory"]["total"] / (1 << 20)
     print(f"  memory {memory:.1f} MB of the {s['profile']} heap of "
           f"{s['heap_bytes'] / (1 << 20):.0f} MB")
@@ -77,3 +79,13 @@ def run(args) -> int:
               f"{event['saving_ms']:.3f} ms, costs {event['cost_ms']:.3f} ms per frame)")
     print(f"wrote {args.out}/frames.csv and {args.out}/summary.json")
     return 0
+
+
+def correlation_words(r) -> str:
+    """Pearson's r of frame time against triangles sent, in words."""
+    if r is None:
+        return "frame time against triangles sent: no correlation (constant)"
+    strength = "strong" if abs(r) >= 0.7 else "moderate" if abs(r) >= 0.3 else "weak or none"
+    meaning = ("; the time follows the triangles" if r >= 0.7 else
+               "; the time hardly depends on the triangle count" if abs(r) < 0.3 else "")
+    return f"frame time against triangles sent: r = {r:+.2f} ({strength}{meaning})"

@@ -261,6 +261,8 @@ def measure(methods, heightmap, cameras, taus, profile, exact_vertices: bool = F
             references.append(renderer.read_rgb())
         if not render:
             full_counts = [None] * len(cameras)
+        if cameras and taus:
+            warm_up(method, cameras[0], resolution, taus[0])
         for tau in taus:
             for frame, camera in enumerate(cameras):
                 result, lod_ms, triangles = method.frame(camera, resolution, tau)
@@ -282,6 +284,19 @@ def measure(methods, heightmap, cameras, taus, profile, exact_vertices: bool = F
                     row["vertical_error_max"] = world_error(heightmap, drawn, camera)
                 rows.append(row)
     return rows
+
+
+def warm_up(method, camera, resolution, tau) -> float:
+    """One untimed frame, so numba's first-use compile (seconds; a minute for ROAM on a loaded
+    machine) is in no frame's LOD ms; the frame-to-frame state is put back (ROAM refines from
+    its two roots again, Röttger forgets its last chunk signatures). Returns its wall ms."""
+    start = time.perf_counter()
+    method.frame(camera, resolution, tau)
+    if hasattr(method, "roam"):
+        method.roam.reset()
+    if hasattr(method, "roettger"):
+        method.roettger.previous = None
+    return (time.perf_counter() - start) * 1000.0
 
 
 def build_method(name: str, heightmap, patch: int = 16, C: float = 8.0):
