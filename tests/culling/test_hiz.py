@@ -1,4 +1,4 @@
-"""The tiled depth buffer's rasteriser contract (culling/hiz.py): a covered pixel (and so a
+"""The tiled depth buffer's rasteriser contract (culling/hiz/): a covered pixel (and so a
 covered tile) never holds a depth nearer than the nearest occluder anywhere over it, coverage is
 shrunk to whole pixels, quads and T-junctions fuse without cracks, holes stay open, and the part
 of an occluder nearer than the clip depth covers nothing."""

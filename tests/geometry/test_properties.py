@@ -224,7 +224,7 @@ def test_caps_within_means_every_cap_direction_is_within_90_degrees(center, radi
         assert np.all(rim @ rays.T >= -1e-9)
 
 
-# ---- culling/hiz.py: screen rectangles ------------------------------------------------------------
+# ---- culling/hiz/buffer.py: screen rectangles---------------------------------------------------
 
 @SETTINGS
 @given(boxes(offset=0.0), st.floats(0, 360), st.floats(-89, 89),

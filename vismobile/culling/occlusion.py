@@ -1,4 +1,4 @@
-"""`occlusion`: a conservative tiled depth buffer on the CPU (culling/hiz.py), in the style of
+"""`occlusion`: a conservative tiled depth buffer on the CPU (culling/hiz/), in the style of
 Masked Occlusion Culling (Hasselgren, Andersson, Akenine-Moller 2016) and the hierarchical
 Z-buffer (Greene 1993).
 

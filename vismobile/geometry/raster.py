@@ -1,4 +1,4 @@
-"""Camera-space projection (the occlusion stage's rasteriser is culling/hiz.py).
+"""Camera-space projection (the occlusion stage's rasteriser is culling/hiz/raster.py).
 
 Camera space here: x right, y up, z = depth along the view direction (positive in front).
 """

@@ -1,0 +1,378 @@
+"""The tiled depth buffer's tests (numba, cached on disk): its tiles and the occluders' screen
+shift per tile, the conservative pixel rectangle of tested points, the comparison with the
+buffer, and the per-triangle test (package docstring: the buffer and its screen).
+
+Tests. A box (8 corners) or triangle (3 corners), each corner moved by up to `move` per
+coordinate (device rounding), gives a pixel rectangle grown by SLACK_PX plus `shift` and a
+nearest depth zmin; it is hidden when every corner is beyond `near` and the rectangle is off
+screen or zmin > D + margin D^2 + recede for the largest D over the rectangle.
+
+With the device's screen (sw x sh, sampled at pixel centres only) the GPU writes a triangle only
+at the centres its moved corners' hull covers, and an occluder point at depth z moves on screen
+by at most shift(z), so a test reads only the buffer pixels within the local shift of the centres
+under the moved rectangle (_centre_rect): the largest shift over the tiles the wide rectangle
+meets, from the nearest rasterised occluder depth over each tile (stamp_near, tile_shifts).
+No centre under it: nothing is drawn. Each pixel's D bounds its whole square, so reading fewer
+pixels stays conservative at that resolution (issue 10: w2x7 sent 249.5 -> 176.8 a frame).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .raster import DEPTH_SLACK, GUARD_PX, SLACK_PX, _to_camera
+
+SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _levels(n):
+    """floor(log2(n)) + 1 for n >= 1: the sparse table's levels over n entries."""
+    k = 1
+    while (1 << k) <= n:
+        k += 1
+    return k
+
+
+def shift_table_size(rows: int, cols: int) -> int:
+    """Entries of tile_shifts' table for rows x cols tiles."""
+    return _levels(rows) * _levels(cols) * rows * cols
+
+
+@njit(cache=True, nogil=True)
+def tile_shifts(tile_near, reach, tangent, rows, cols, out):
+    """out: a 2D sparse table of the largest screen shift (x / z units) of an occluder point
+    over each tile of tile_near (rows * cols,): reach / z (1 + tangent near / z + reach / z),
+    z = near - reach, for reach = sqrt(3) move (inf when z <= 0, 0 over tiles no occluder
+    meets); level (a, b) at ((a * levels(cols) + b) * rows + r) * cols + c holds the maximum
+    over rows r..r+2^a-1 and columns c..c+2^b-1 (tile_shift_bound). Exact."""
+    la, lb = _levels(rows), _levels(cols)
+    for k in range(rows * cols):
+        near = tile_near[k]
+        s = 0.0
+        if near < np.inf:
+            z = near - reach
+            s = reach / z * (1.0 + (tangent * near / z + reach / z)) if z > 0 else np.inf
+        out[k] = s
+    for a in range(la):
+        for b in range(lb):
+            if a == 0 and b == 0:
+                continue
+            base = (a * lb + b) * rows * cols
+            if b > 0:  # from level (a, b - 1): two column halves
+                src, step, rstep = (a * lb + b - 1) * rows * cols, 1 << (b - 1), 0
+            else:      # from level (a - 1, 0): two row halves
+                src, step, rstep = ((a - 1) * lb) * rows * cols, 0, 1 << (a - 1)
+            for r in range(rows - (1 << a) + 1):
+                for c in range(cols - (1 << b) + 1):
+                    k = r * cols + c
+                    out[base + k] = max(out[src + k], out[src + k + rstep * cols + step])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def tile_shift_bound(c0, c1, r0, r1, table, rows, cols):
+    """The largest per-tile value of tile_shifts' table over tiles c0..c1 x r0..r1 (inclusive,
+    non-empty): four look-ups. Exact."""
+    a, b = _levels(r1 - r0 + 1) - 1, _levels(c1 - c0 + 1) - 1
+    base = (a * _levels(cols) + b) * rows * cols
+    r2, c2 = r1 - (1 << a) + 1, c1 - (1 << b) + 1
+    return max(max(table[base + r0 * cols + c0], table[base + r0 * cols + c2]),
+               max(table[base + r2 * cols + c0], table[base + r2 * cols + c2]))
+
+
+@njit(cache=True, nogil=True)
+def build_tiles(depth, width, height, tw, th, tile_max, tile_any, tile_min):
+    """Per tile of tw x th pixels: tile_max the largest depth bound (inf when any pixel is not
+    covered), tile_any whether any pixel is covered, tile_min the smallest bound. Exact."""
+    cols = (width + tw - 1) // tw
+    rows = (height + th - 1) // th
+    for ty_ in range(rows):
+        for tx_ in range(cols):
+            m, low = -np.inf, np.inf
+            for r in range(ty_ * th, min((ty_ + 1) * th, height)):
+                for c in range(tx_ * tw, min((tx_ + 1) * tw, width)):
+                    v = depth[r * width + c]
+                    m = max(m, v)
+                    low = min(low, v)
+            tile_max[ty_ * cols + tx_] = m
+            tile_any[ty_ * cols + tx_] = low < np.inf
+            tile_min[ty_ * cols + tx_] = low
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _projected_bounds(cam, m, tx, ty, reach):
+    """(umin, umax, vmin, vmax, grow): tangent-space bounds of the m camera-space points of cam
+    each taken `reach` nearer, and the largest growth of their projection under that move.
+    Contract: the arithmetic _rect and _centre_rect test with (shared so they agree bit for bit)."""
+    umin, umax, vmin, vmax, grow = np.inf, -np.inf, np.inf, -np.inf, 0.0
+    for k in range(m):
+        z = cam[k, 2] - reach
+        u, v = cam[k, 0] / (z * tx), cam[k, 1] / (z * ty)
+        umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
+        lateral = max(abs(cam[k, 0]), abs(cam[k, 1])) + reach
+        grow = max(grow, reach / z * (1.0 + lateral / z))
+    return umin, umax, vmin, vmax, grow
+
+
+@njit(cache=True, nogil=True)
+def _rect(cam, m, near, tx, ty, width, height, move, shift, out):
+    """Conservative pixel rectangle of the first m camera-space points of cam (m, 3), each moved
+    by up to `move` per coordinate: out (12,) = (x0, x1, y0, y1, zmin, testable, onscreen), errs
+    large (grown by SLACK_PX plus `shift` tangents; zmin lowered by sqrt(3) move and
+    DEPTH_SLACK); when testable also (umin, umax, vmin, vmax, the move's growth) in tangents.
+    onscreen: 0 off screen, 1 on screen, 2 on screen but an occluder point more than GUARD_PX
+    off screen may shift over it (or the shift is unbounded): the buffer cannot hide it."""
+    reach = np.sqrt(3.0) * move
+    zmin = np.inf
+    for k in range(m):
+        zmin = min(zmin, cam[k, 2] - reach)
+    testable = zmin >= near
+    out[4], out[5], out[6] = zmin * (1.0 - DEPTH_SLACK), 1.0 if testable else 0.0, 0.0
+    if not testable:
+        out[0], out[1], out[2], out[3] = 0.0, width - 1.0, 0.0, height - 1.0
+        return
+    umin, umax, vmin, vmax, grow = _projected_bounds(cam, m, tx, ty, reach)
+    out[7], out[8], out[9], out[10], out[11] = umin, umax, vmin, vmax, grow
+    grow += shift
+    if not grow < np.inf:  # an unbounded shift (nan or inf): the whole screen, not hideable
+        out[0], out[1], out[2], out[3], out[6] = 0.0, width - 1.0, 0.0, height - 1.0, 2.0
+        return
+    gu, gv = grow / tx, grow / ty
+    x0 = (umin - gu + 1.0) * 0.5 * width - SLACK_PX
+    x1 = (umax + gu + 1.0) * 0.5 * width + SLACK_PX
+    y0 = (vmin - gv + 1.0) * 0.5 * height - SLACK_PX
+    y1 = (vmax + gv + 1.0) * 0.5 * height + SLACK_PX
+    offscreen = x1 < 0 or x0 >= width or y1 < 0 or y0 >= height  # False on nan
+    out[6] = 0.0 if offscreen else (2.0 if _reaches_off_screen(out, shift, tx, ty, width,
+                                                              height) else 1.0)
+    x0, x1, y0, y1 = np.floor(x0), np.floor(x1), np.floor(y0), np.floor(y1)
+    out[0], out[1] = min(max(x0, 0.0), width - 1.0), min(max(x1, 0.0), width - 1.0)
+    out[2], out[3] = min(max(y0, 0.0), height - 1.0), min(max(y1, 0.0), height - 1.0)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _reaches_off_screen(out, shift, tx, ty, width, height):
+    """True when an occluder point more than GUARD_PX off screen may shift (by up to `shift`
+    tangents) onto a point on screen of _rect's moved points (out[7:12]). Errs toward True."""
+    sx, sy = shift / tx * 0.5 * width, shift / ty * 0.5 * height
+    x0 = (out[7] - out[11] / tx + 1.0) * 0.5 * width - SLACK_PX
+    x1 = (out[8] + out[11] / tx + 1.0) * 0.5 * width + SLACK_PX
+    y0 = (out[9] - out[11] / ty + 1.0) * 0.5 * height - SLACK_PX
+    y1 = (out[10] + out[11] / ty + 1.0) * 0.5 * height + SLACK_PX
+    return not (max(x0, 0.0) - sx >= -GUARD_PX and min(x1, width) + sx <= width + GUARD_PX
+                and max(y0, 0.0) - sy >= -GUARD_PX and min(y1, height) + sy <= height + GUARD_PX)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _local_border(r, shift, tx, ty, width, height, tile_shift, cols, tw, th):
+    """_rect's onscreen flag r[6] == 2 lowered to 1 when, with the occluders' largest local
+    shift over the tiles r[0:4] meets (tile_shifts' table), no occluder point more than
+    GUARD_PX off screen reaches the points. Contract: as _reaches_off_screen."""
+    local = min(shift, tile_shift_bound(int(r[0]) // tw, int(r[1]) // tw, int(r[2]) // th,
+                                        int(r[3]) // th, tile_shift, (height + th - 1) // th,
+                                        cols))
+    if local < np.inf and not _reaches_off_screen(r, local, tx, ty, width, height):
+        r[6] = 1.0
+
+
+@njit(cache=True, nogil=True)
+def _centre_rect(cam, m, tx, ty, width, height, move, rect_move, shift, tile_shift, cols, tw,
+                 th, sw, sh, out):
+    """Narrows the buffer rectangle out[0:4] (from _rect of the same m testable camera-space
+    points of cam (m, 3), with `shift`) to the buffer pixels within the local shift (plus
+    SLACK_PX) of a pixel centre of the sw x sh screen that the points, each moved by up to `move`
+    per coordinate, may cover: their screen rectangle grown by the move's projection and
+    max(SAMPLE_SLACK_PX, SLACK_PX) screen pixels, centres on its boundary included. The local
+    shift is the smaller of `shift` and the largest over the tiles out[0:4] meets (tile_shift:
+    tile_shifts' table; only looked up when it changes the pixels). Returns False when no centre
+    of the screen lies in the grown rectangle (the GPU writes nothing there); out stays as it
+    was when the narrowed rectangle would be empty or a bound is nan. rect_move: the move _rect
+    took (its projection in out[7:12] is reused when it equals move).
+    Contract: errs large: keeps every pixel within the local shift + SLACK_PX of a centre the
+    moved points' hull may cover; "no centre" only when none lies within the slack."""
+    if move == rect_move:  # _rect's projection (the same arithmetic)
+        umin, umax, vmin, vmax, grow = out[7], out[8], out[9], out[10], out[11]
+    else:
+        reach = np.sqrt(3.0) * move
+        umin, umax, vmin, vmax, grow = _projected_bounds(cam, m, tx, ty, reach)
+    sx = max(SAMPLE_SLACK_PX, SLACK_PX * sw / width)
+    sy = max(SAMPLE_SLACK_PX, SLACK_PX * sh / height)
+    i0 = max(np.ceil((umin - grow / tx + 1.0) * 0.5 * sw - sx - 0.5), 0.0)
+    i1 = min(np.floor((umax + grow / tx + 1.0) * 0.5 * sw + sx - 0.5), sw - 1.0)
+    j0 = max(np.ceil((vmin - grow / ty + 1.0) * 0.5 * sh - sy - 0.5), 0.0)
+    j1 = min(np.floor((vmax + grow / ty + 1.0) * 0.5 * sh + sy - 0.5), sh - 1.0)
+    if not (i0 <= i1 and j0 <= j1):  # nan: not sure, keep
+        return not (i0 > i1 or j0 > j1)
+    if not shift >= 0.0:  # nan: keep the rectangle
+        return True
+    # Buffer coordinates of the outermost centres, SLACK_PX wider.
+    cx0, cx1 = (i0 + 0.5) * width / sw - SLACK_PX, (i1 + 0.5) * width / sw + SLACK_PX
+    cy0, cy1 = (j0 + 0.5) * height / sh - SLACK_PX, (j1 + 0.5) * height / sh + SLACK_PX
+    gx, gy = shift / tx * 0.5 * width, shift / ty * 0.5 * height  # buffer pixels
+    if np.floor(cx0 - gx) != np.floor(cx0) or np.floor(cx1 + gx) != np.floor(cx1) \
+            or np.floor(cy0 - gy) != np.floor(cy0) or np.floor(cy1 + gy) != np.floor(cy1):
+        # The shift matters: the occluders' largest over the tiles the rectangle meets.
+        shift = min(shift, tile_shift_bound(int(out[0]) // tw, int(out[1]) // tw,
+                                            int(out[2]) // th, int(out[3]) // th, tile_shift,
+                                            (height + th - 1) // th, cols))
+        if not shift < np.inf:
+            return True
+        gx, gy = shift / tx * 0.5 * width, shift / ty * 0.5 * height
+    x0 = max(np.floor(cx0 - gx), out[0])
+    x1 = min(np.floor(cx1 + gx), out[1])
+    y0 = max(np.floor(cy0 - gy), out[2])
+    y1 = min(np.floor(cy1 + gy), out[3])
+    if x0 <= x1 and y0 <= y1:
+        out[0], out[1], out[2], out[3] = x0, x1, y0, y1
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _behind(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, recede):
+    """True when zmin > D + margin D^2 + recede for the largest D over the inclusive pixel
+    rectangle (tiles first, pixels of partly covered tiles only when their maximum fails)."""
+    for ty_ in range(y0 // th, y1 // th + 1):
+        for tx_ in range(x0 // tw, x1 // tw + 1):
+            d = tile_max[ty_ * cols + tx_]
+            if zmin > d + margin * d * d + recede:
+                continue
+            r0, r1 = max(y0, ty_ * th), min(y1, ty_ * th + th - 1)
+            c0, c1 = max(x0, tx_ * tw), min(x1, tx_ * tw + tw - 1)
+            if r0 == ty_ * th and r1 == ty_ * th + th - 1 and c0 == tx_ * tw \
+                    and c1 == tx_ * tw + tw - 1:
+                return False  # the tile lies wholly in the rectangle: its maximum is exact
+            for r in range(r0, r1 + 1):
+                for c in range(c0, c1 + 1):
+                    d = depth[r * width + c]
+                    if not zmin > d + margin * d * d + recede:
+                        return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _no_sample(px, py, err, sw, sh, max_samples):
+    """True when no pixel centre of an sw x sh screen lies within the triangle (window coords
+    px, py (3,)) grown by err pixels; False when unsure or more than max_samples centres lie in
+    the grown box. Errs toward False."""
+    x0, x1 = min(px[0], px[1], px[2]) - err, max(px[0], px[1], px[2]) + err
+    y0, y1 = min(py[0], py[1], py[2]) - err, max(py[0], py[1], py[2]) + err
+    big = 4.0 * (sw + sh)
+    i0 = int(min(max(np.ceil(min(max(x0, -big), big) - 0.5), 0.0), sw))
+    i1 = int(min(max(np.floor(min(max(x1, -big), big) - 0.5), -1.0), sw - 1.0))
+    j0 = int(min(max(np.ceil(min(max(y0, -big), big) - 0.5), 0.0), sh))
+    j1 = int(min(max(np.floor(min(max(y1, -big), big) - 0.5), -1.0), sh - 1.0))
+    nx, ny = max(i1 - i0 + 1, 0), max(j1 - j0 + 1, 0)
+    if nx * ny == 0:
+        return True
+    if nx * ny > max_samples:
+        return False
+    for j in range(j0, j1 + 1):
+        for i in range(i0, i1 + 1):
+            sxc, syc = i + 0.5, j + 0.5
+            pos = neg = True
+            for k in range(3):
+                ax, ay = px[k], py[k]
+                ex, ey = px[(k + 1) % 3] - ax, py[(k + 1) % 3] - ay
+                rx, ry = sxc - ax, syc - ay
+                e = ex * ry - ey * rx
+                # Moving both ends by <= err changes e by <= err (2 |s - p| + |q - p|) + 2 err^2.
+                tol = (err * (2.0 * np.hypot(rx, ry) + np.hypot(ex, ey)) + 2.0 * err * err) \
+                    * (1.0 + 1e-9) + 1e-9
+                pos = pos and e >= -tol
+                neg = neg and e <= tol
+            if pos or neg:
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, height, move,
+                     shift, margin, recede, depth, tile_max, tile_shift, tw, th, use_buffer, sw,
+                     sh, sample_move, hidden, subpixel, zmin):
+    """Per triangle id: hidden[k] when in front of `near` (corners moved) and off screen or behind
+    the buffer (use_buffer); else, with a screen (sw > 0), subpixel[k] when it certainly covers
+    no pixel centre of that sw x sh screen (corners moved by sample_move, SAMPLE_SLACK_PX);
+    zmin[k] its nearest depth (-inf when not testable). With a screen the buffer test reads only
+    the pixels within the occluders' local shift of the centres under the triangle's grown
+    rectangle (_centre_rect; tile_shift: tile_shifts' table). Contract: errs toward keeping
+    (without a screen at any resolution; with one, at that resolution without multisampling)."""
+    cols = (width + tw - 1) // tw
+    cam = np.empty((3, 3))
+    r = np.empty(12)
+    px = np.empty(3)
+    py = np.empty(3)
+    for k in range(len(ids)):
+        t = ids[k]
+        for c in range(3):
+            _to_camera(vertices[triangles[t, c]], eye, rot, cam[c])
+        _rect(cam, 3, near, tx, ty, width, height, move, shift, r)
+        hidden[k] = False
+        subpixel[k] = False
+        zmin[k] = r[4] if r[5] > 0 else -np.inf
+        if r[5] == 0:
+            continue
+        if use_buffer and r[6] == 2:
+            _local_border(r, shift, tx, ty, width, height, tile_shift, cols, tw, th)
+        x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
+        use = use_buffer and r[6] == 1  # else the buffer cannot hide it
+        if r[6] == 0 or (use and _behind(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw,
+                                         th, margin, recede)):
+            hidden[k] = True
+            continue
+        if use and sw > 0:  # the wide rectangle failed: the pixels under the centres
+            if not _centre_rect(cam, 3, tx, ty, width, height, sample_move, move, shift,
+                                tile_shift, cols, tw, th, sw, sh, r):
+                subpixel[k] = True  # no centre under its rectangle
+                continue
+            if (int(r[0]) != x0 or int(r[1]) != x1 or int(r[2]) != y0 or int(r[3]) != y1) \
+                    and _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]), r[4], depth, width,
+                                tile_max, cols, tw, th, margin, recede):
+                hidden[k] = True
+                continue
+        if sw > 0:
+            subpixel[k] = _covers_no_sample(cam, near, tx, ty, sw, sh, sample_move, 16, px, py)
+
+
+@njit(cache=True, nogil=True)
+def _covers_no_sample(cam, near, tx, ty, sw, sh, move, max_samples, px, py):
+    """True when the camera-space triangle cam (3, 3), drawn on an sw x sh screen sampled at
+    pixel centres (no multisampling), certainly covers no sample: every vertex in front of near
+    and no centre within the triangle grown by its vertices' worst screen error (SAMPLE_SLACK_PX
+    plus the projection of a move of up to `move` per coordinate). Errs toward False; False too
+    when more than max_samples centres lie in the grown box. px, py : (3,) scratch."""
+    if min(cam[0, 2], cam[1, 2], cam[2, 2]) < near:
+        return False
+    ssx, ssy = 0.5 * sw / tx, 0.5 * sh / ty
+    err = 0.0
+    for c in range(3):
+        z = cam[c, 2]
+        px[c] = cam[c, 0] / z * ssx + 0.5 * sw
+        py[c] = cam[c, 1] / z * ssy + 0.5 * sh
+        lateral = max(abs(cam[c, 0]), abs(cam[c, 1]))
+        reach = np.sqrt(3.0) * move / z * (1.0 + lateral / z)
+        err = max(err, SAMPLE_SLACK_PX + max(ssx, ssy) * reach)
+    return _no_sample(px, py, err, sw, sh, max_samples)
+
+
+@njit(cache=True, nogil=True)
+def covers_no_sample(points, near, tx, ty, width, height, move=0.0, max_samples=16):
+    """(B,) bool: each camera-space triangle of points (B, 3, 3), drawn on a width x height
+    screen sampled at pixel centres, certainly covers no sample (_covers_no_sample); errs
+    toward False."""
+    out = np.zeros(len(points), dtype=np.bool_)
+    px = np.empty(3)
+    py = np.empty(3)
+    for k in range(len(points)):
+        out[k] = _covers_no_sample(points[k], near, tx, ty, width, height, move, max_samples,
+                                   px, py)
+    return out
+
+
+def screen_rect(points, near, tx, ty, width, height, move=0.0, shift=0.0) -> tuple:
+    """The tests' conservative pixel rectangle of camera-space points (m, 3) (hiz._rect):
+    (x0, x1, y0, y1 int inclusive, zmin, testable, onscreen); errs large."""
+    out = np.empty(12)
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    _rect(pts, len(pts), near, tx, ty, width, height, float(move), float(shift), out)
+    return (int(out[0]), int(out[1]), int(out[2]), int(out[3]), float(out[4]), out[5] > 0,
+            out[6] > 0)

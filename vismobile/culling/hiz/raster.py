@@ -1,0 +1,356 @@
+"""The `occlusion` stage's conservative rasteriser (numba, cached on disk): occluder triangles
+into the tiled depth buffer's pixels (package docstring: the buffer and its screen).
+
+Rasteriser (conservative: a pixel counts only when wholly covered; depth is the farthest).
+Occluders are world triangles that certainly face the eye, clipped to depth >= clip (the part
+nearer than the GPU's near plane is not drawn and hides nothing), grouped by exact plane. Within
+a group a pixel lies inside the union of the group's (clipped) triangles when its centre is in
+one of them and no piece of the union's boundary meets it. The boundary lies on the edge pieces
+without a reverse partner among the group's chosen triangles (partners hold both corners of
+the edge: the GPU fills such shared edges without cracks, but not T-junctions, which stay
+boundaries) and on the near-plane cuts; a pixel covered by the group gets the group plane's
+farthest depth over its four corner rays (1/z is affine over a pixel). Groups are merged by
+the pointwise minimum (each bounds the nearest surface there); across a crease (an edge shared
+by two groups) a pixel takes the larger of the two groups' depths (rasterise).
+
+Screen border. Occluder points just off screen may shift onto it: a border pixel is covered and
+bounded over its square taken GUARD_PX wider off screen, and a tested point within the shift
+minus GUARD_PX of the border (the local shift over its tiles, when tile_shifts' table is built)
+is never hidden by the buffer: it would need pixels farther off screen.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
+DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
+# Buffer pixels: a border pixel is covered (and bounded) over its square taken this much wider
+# off screen, so a test may read it for occluder points up to this far off the screen.
+GUARD_PX = 1.0
+
+
+@njit(cache=True, nogil=True)
+def _to_camera(p, eye, rot, out):
+    x, y, z = p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]
+    for r in range(3):
+        out[r] = rot[r, 0] * x + rot[r, 1] * y + rot[r, 2] * z
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _box_to_camera(lo, hi, node, eye, rot, corner, cam):
+    """Node's 8 box corners into cam (8, 3) in camera space; returns their nearest depth."""
+    zmin = np.inf
+    for k in range(8):
+        corner[0] = hi[node, 0] if k & 1 else lo[node, 0]
+        corner[1] = hi[node, 1] if k & 2 else lo[node, 1]
+        corner[2] = hi[node, 2] if k & 4 else lo[node, 2]
+        _to_camera(corner, eye, rot, cam[k])
+        zmin = min(zmin, cam[k, 2])
+    return zmin
+
+
+@njit(cache=True, nogil=True)
+def _clip_triangle(tri, clip, poly, cut):
+    """Sutherland-Hodgman clip of a (3, 3) camera-space triangle to z >= clip into poly (4, 3);
+    cut[k] is True for points made by the cut. Returns the point count (0 or 3..4)."""
+    n = 0
+    for k in range(3):
+        a, b = tri[k], tri[(k + 1) % 3]
+        ina, inb = a[2] >= clip, b[2] >= clip
+        if ina:
+            poly[n, 0], poly[n, 1], poly[n, 2] = a[0], a[1], a[2]
+            cut[n] = False
+            n += 1
+        if ina != inb:
+            t = (clip - a[2]) / (b[2] - a[2])
+            poly[n, 0] = a[0] + t * (b[0] - a[0])
+            poly[n, 1] = a[1] + t * (b[1] - a[1])
+            poly[n, 2] = clip
+            cut[n] = True
+            n += 1
+    return n if n >= 3 else 0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut):
+    """Occluder t's corners (points[tri_points[t]]) into camera space (tri) and clipped to
+    z >= clip into poly (_clip_triangle); returns the point count. The rasteriser and
+    stamp_near read the same polygon. Contract: exact (the same arithmetic everywhere)."""
+    for c in range(3):
+        _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
+    return _clip_triangle(tri, clip, poly, cut)
+
+
+@njit(cache=True, nogil=True)
+def _mark_segment(ax, ay, bx, by, width, height, mask, bit):
+    """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of,
+    a border pixel's square taken GUARD_PX wider off screen (errs toward more pixels)."""
+    steep = abs(by - ay) > abs(bx - ax)
+    if steep:
+        ax, ay, bx, by = ay, ax, by, bx
+        major, minor = height, width
+    else:
+        major, minor = width, height
+    if ax > bx:
+        ax, ay, bx, by = bx, by, ax, ay
+    if bx + SLACK_PX < -GUARD_PX or ax - SLACK_PX >= major + GUARD_PX:
+        return
+    c0 = min(max(np.floor(ax - SLACK_PX), 0.0), major - 1.0)
+    c1 = min(max(np.floor(bx + SLACK_PX), 0.0), major - 1.0)
+    if not c0 <= c1:
+        return
+    dx = bx - ax
+    slope = (by - ay) / dx if dx > 0 else 0.0
+    for c in range(int(c0), int(c1) + 1):
+        lo = max(c - SLACK_PX - (GUARD_PX if c == 0 else 0.0), ax)
+        hi = min(c + 1 + SLACK_PX + (GUARD_PX if c == major - 1 else 0.0), bx)
+        ylo = ay + (lo - ax) * slope
+        yhi = ay + (hi - ax) * slope
+        y0, y1 = min(ylo, yhi) - SLACK_PX, max(ylo, yhi) + SLACK_PX
+        if y1 < -GUARD_PX or y0 >= minor + GUARD_PX:
+            continue
+        r0 = min(max(np.floor(y0), 0.0), minor - 1.0)
+        r1 = min(max(np.floor(y1), 0.0), minor - 1.0)
+        if not r0 <= r1:
+            continue
+        for r in range(int(r0), int(r1) + 1):
+            if steep:
+                mask[c * width + r] |= bit
+            else:
+                mask[r * width + c] |= bit
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _guarded_low(a, i, n):
+    """min of a x over pixel i's span [i, i + 1] of n, GUARD_PX wider at the borders."""
+    lo = i - GUARD_PX if i == 0 else float(i)
+    hi = i + 1 + GUARD_PX if i == n - 1 else i + 1.0
+    return min(a * lo, a * hi)
+
+
+# Group scratch bits per pixel: centre inside a triangle of the group, met by a boundary piece
+# (no reverse partner among this call's triangles) or a near-plane cut, met by a crease piece
+# (reverse partner in another group of this call).
+_CENTRE, _BOUNDARY, _CREASE = 1, 2, 4
+
+
+@njit(cache=True, nogil=True)
+def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, piece_end,
+              piece_a, piece_b, partner, partner_any, stamp, frame, eye, rot, clip, tx, ty,
+              width, height, depth, mask, centre, crease_far):
+    """Rasterise occluder triangles `ids` (sorted by group) into depth (H * W,) float64 by the
+    pointwise minimum; returns (nearest rasterised depth (inf if none), pixels written).
+
+    Contract: errs toward "not covered" and "farther": a pixel is written only when wholly inside
+    the union of the triangles clipped to depth >= clip, with a depth >= every point of that
+    union over the pixel (x (1 + DEPTH_SLACK)); a border pixel's square is taken GUARD_PX wider
+    off screen. Either one plane group covers it (its centre in a triangle of the group, no
+    unpaired piece of the group near it: that plane's farthest depth), or its centre is in some
+    triangle and only crease pieces (paired across groups) come near it: the largest of the
+    farthest depths of the groups whose pieces come near.
+    groups     : (T,) int64 exact-plane label;  tri_points : (T, 3) int64 into points (P, 3)
+    normals    : (T, 3), offsets (T,) float64 exact planes n.x = offset; ids must face the eye
+    piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (occlusion.occluder_mesh)
+    partner    : (S,) int64 triangle holding the reverse piece in the same group, or -1
+    partner_any: (S,) int64 triangle holding the reverse piece in any group, or -1
+    stamp      : (T,) int64 scratch; stamp[t] == frame marks this call's triangles (set here)
+    eye (3,), rot (3, 3) rows right, up, forward
+    mask, centre : (H * W,) uint8 scratch, zero on entry and on return
+    crease_far : (H * W,) float64 scratch, 0 on entry and on return (inf: a crease pixel with
+                 no bound; -1: met by a boundary)
+    """
+    for k in range(len(ids)):
+        stamp[ids[k]] = frame
+    tri = np.empty((3, 3))
+    poly = np.empty((4, 3))
+    cut = np.empty(4, dtype=np.bool_)
+    pa = np.empty(3)
+    pb = np.empty(3)
+    xs = np.empty(4)
+    ys = np.empty(4)
+    cn = np.empty(3)
+    row_l = np.empty(height)  # per row: leftmost and rightmost crossing of the triangle
+    row_r = np.empty(height)
+    sx, sy = 0.5 * width / tx, 0.5 * height / ty
+    nearest = np.inf
+    written = 0
+    creases = False
+    start = 0
+    while start < len(ids):
+        g = groups[ids[start]]
+        stop = start
+        while stop < len(ids) and groups[ids[stop]] == g:
+            stop += 1
+        # Box of everything the group marks: its projected points, one pixel wider.
+        bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf
+        # 1. Pixel centres inside any triangle of the group.
+        for k in range(start, stop):
+            t = ids[k]
+            n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
+            if n == 0:
+                continue
+            for c in range(n):
+                nearest = min(nearest, poly[c, 2])
+                xs[c] = poly[c, 0] / poly[c, 2] * sx + 0.5 * width
+                ys[c] = poly[c, 1] / poly[c, 2] * sy + 0.5 * height
+                bx0, bx1 = min(bx0, xs[c]), max(bx1, xs[c])
+                by0, by1 = min(by0, ys[c]), max(by1, ys[c])
+            r0 = max(np.ceil(ys[:n].min() - 0.5), 0.0)
+            r1 = min(np.floor(ys[:n].max() - 0.5), height - 1.0)
+            if not r0 <= r1:
+                continue
+            ir0, ir1 = int(r0), int(r1)
+            for rr in range(ir0, ir1 + 1):
+                row_l[rr] = np.inf
+                row_r[rr] = -np.inf
+            for c in range(n):  # each edge over the rows it may cross (one row of margin)
+                d = c + 1 if c + 1 < n else 0
+                ya, yb, xa, xb = ys[c], ys[d], xs[c], xs[d]
+                e0 = max(np.ceil(min(ya, yb) - 0.5) - 1.0, r0)
+                e1 = min(np.floor(max(ya, yb) - 0.5) + 1.0, r1)
+                if not e0 <= e1:
+                    continue
+                for rr in range(int(e0), int(e1) + 1):
+                    yc = rr + 0.5
+                    if (ya <= yc <= yb) or (yb <= yc <= ya):
+                        if ya == yb:
+                            row_l[rr] = min(row_l[rr], xa, xb)
+                            row_r[rr] = max(row_r[rr], xa, xb)
+                        else:
+                            x = xa + (yc - ya) * (xb - xa) / (yb - ya)
+                            row_l[rr] = min(row_l[rr], x)
+                            row_r[rr] = max(row_r[rr], x)
+            for rr in range(ir0, ir1 + 1):
+                c0 = max(np.ceil(row_l[rr] - 0.5), 0.0)
+                c1 = min(np.floor(row_r[rr] - 0.5), width - 1.0)
+                if not c0 <= c1:
+                    continue
+                # Only centres are marked yet (mask is zero where each group starts): a fill.
+                base = rr * width
+                mask[base + int(c0):base + int(c1) + 1] = _CENTRE
+        gx0 = int(max(np.floor(bx0) - 1.0, 0.0)) if bx0 < np.inf else width
+        gx1 = int(min(np.floor(bx1) + 1.0, width - 1.0)) if bx1 > -np.inf else -1
+        gy0 = int(max(np.floor(by0) - 1.0, 0.0)) if by0 < np.inf else height
+        gy1 = int(min(np.floor(by1) + 1.0, height - 1.0)) if by1 > -np.inf else -1
+        if gx1 < gx0 or gy1 < gy0:
+            start = stop
+            continue
+        # 2. Pixels unpaired pieces, crease pieces or near-plane cuts pass near.
+        for k in range(start, stop):
+            t = ids[k]
+            for s in range(piece_start[t], piece_end[t]):
+                q = partner[s]
+                if q >= 0 and stamp[q] == frame:
+                    continue  # the reverse piece's triangle is on the other side
+                q = partner_any[s]
+                bit = _CREASE if q >= 0 and stamp[q] == frame else _BOUNDARY
+                _to_camera(points[piece_a[s]], eye, rot, pa)
+                _to_camera(points[piece_b[s]], eye, rot, pb)
+                if pa[2] < clip and pb[2] < clip:
+                    continue
+                if pa[2] < clip or pb[2] < clip:
+                    u = (clip - pa[2]) / (pb[2] - pa[2])
+                    cx = pa[0] + u * (pb[0] - pa[0])
+                    cy = pa[1] + u * (pb[1] - pa[1])
+                    if pa[2] < clip:
+                        pa[0], pa[1], pa[2] = cx, cy, clip
+                    else:
+                        pb[0], pb[1], pb[2] = cx, cy, clip
+                _mark_segment(pa[0] / pa[2] * sx + 0.5 * width,
+                              pa[1] / pa[2] * sy + 0.5 * height,
+                              pb[0] / pb[2] * sx + 0.5 * width,
+                              pb[1] / pb[2] * sy + 0.5 * height, width, height, mask, bit)
+            n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
+            for c in range(n):
+                d = (c + 1) % n
+                if cut[c] and cut[d]:  # the near-plane side of a cut triangle
+                    _mark_segment(poly[c, 0] / clip * sx + 0.5 * width,
+                                  poly[c, 1] / clip * sy + 0.5 * height,
+                                  poly[d, 0] / clip * sx + 0.5 * width,
+                                  poly[d, 1] / clip * sy + 0.5 * height, width, height, mask,
+                                  _BOUNDARY)
+        # 3. The group's plane, farthest over each pixel's corners: covered pixels take it,
+        # crease pixels keep the largest over groups; scratch cleared.
+        t = ids[start]
+        nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
+        for r in range(3):  # camera-space n away from the eye, d > 0: n.x = d on the plane
+            cn[r] = -(rot[r, 0] * nx + rot[r, 1] * ny + rot[r, 2] * nz)
+        dd = nx * eye[0] + ny * eye[1] + nz * eye[2] - offsets[t]
+        a = b = c0_ = low = 0.0
+        if dd > 0:
+            a = cn[0] * tx * 2.0 / width / dd
+            b = cn[1] * ty * 2.0 / height / dd
+            c0_ = (cn[2] - cn[0] * tx - cn[1] * ty) / dd
+            low = min(a, 0.0) + min(b, 0.0)
+        for rr in range(gy0, gy1 + 1):
+            for i in range(gx0, gx1 + 1):
+                p = rr * width + i
+                m = mask[p]
+                if m == 0:
+                    continue
+                mask[p] = 0
+                if m & _CENTRE:
+                    centre[p] = 1
+                if m & _BOUNDARY:
+                    crease_far[p] = -1.0
+                    continue
+                z = np.inf
+                if dd > 0:
+                    inv = a * i + b * rr + c0_ + low
+                    if i == 0 or rr == 0 or i == width - 1 or rr == height - 1:
+                        inv = _guarded_low(a, i, width) + _guarded_low(b, rr, height) + c0_
+                    if inv > 0:
+                        z = (1.0 + DEPTH_SLACK) / inv
+                if m & _CREASE:
+                    creases = True
+                    if crease_far[p] >= 0:
+                        crease_far[p] = max(crease_far[p], z)
+                elif z < depth[p]:
+                    if depth[p] == np.inf:
+                        written += 1
+                    depth[p] = z
+        start = stop
+    # 4. Crease pixels: centre in some triangle, met by no boundary, every group near bounded.
+    if creases:
+        for p in range(width * height):
+            f = crease_far[p]
+            if f > 0 and f < depth[p] and centre[p]:
+                if depth[p] == np.inf:
+                    written += 1
+                depth[p] = f
+    centre[:] = 0
+    crease_far[:] = 0.0
+    return nearest, written
+
+
+@njit(cache=True, nogil=True)
+def stamp_near(ids, tri_points, points, eye, rot, clip, tx, ty, width, height, tw, th,
+               tile_near):
+    """Lowers tile_near (tiles of tw x th pixels) to the nearest depth of each triangle `ids`
+    clipped to depth >= clip over every tile its projected bounding box meets (clamped to the
+    screen: points off it count at the border). Contract: errs toward nearer and more tiles:
+    every point of a rasterised occluder lies over a tile whose value is <= its depth."""
+    cols = (width + tw - 1) // tw
+    tri = np.empty((3, 3))
+    poly = np.empty((4, 3))
+    cut = np.empty(4, dtype=np.bool_)
+    sx, sy = 0.5 * width / tx, 0.5 * height / ty
+    for k in range(len(ids)):
+        t = ids[k]
+        n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
+        if n == 0:
+            continue
+        x0, x1, y0, y1, z = np.inf, -np.inf, np.inf, -np.inf, np.inf
+        for c in range(n):
+            z = min(z, poly[c, 2])
+            x = poly[c, 0] / poly[c, 2] * sx + 0.5 * width
+            y = poly[c, 1] / poly[c, 2] * sy + 0.5 * height
+            x0, x1, y0, y1 = min(x0, x), max(x1, x), min(y0, y), max(y1, y)
+        c0 = int(min(max(np.floor(x0 - SLACK_PX), 0.0), width - 1.0)) // tw
+        c1 = int(min(max(np.floor(x1 + SLACK_PX), 0.0), width - 1.0)) // tw
+        r0 = int(min(max(np.floor(y0 - SLACK_PX), 0.0), height - 1.0)) // th
+        r1 = int(min(max(np.floor(y1 + SLACK_PX), 0.0), height - 1.0)) // th
+        for r in range(r0, r1 + 1):
+            for c in range(c0, c1 + 1):
+                tile_near[r * cols + c] = min(tile_near[r * cols + c], z)
