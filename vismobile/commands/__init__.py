@@ -30,3 +30,31 @@ def fix_winding(world, enabled: bool, eyes=None):
     from ..winding import fixed_world_said
 
     return fixed_world_said(world, eyes)
+
+
+# Stages that remove triangles facing away from the eye (culling.BACKFACE_STAGES; tests check).
+BACKFACE_NAMES = ("bfc", "cbfc", "cbfc_thesis", "cone", "tbfc")
+THESIS_WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6")
+
+
+def warn_winding(world, stages, source, eyes=None, fixed=False, stream=None):
+    """One stderr line when a back-face stage is among stages and closed rooms of world face
+    outward (winding.check_winding; trimesh's boxes do), so that back-face culling would blank
+    the walls seen from inside. Returns the line, or None. Skipped for the thesis worlds (their
+    winding is built right and tested) and after --fix-winding (fixed)."""
+    import sys
+
+    on = [s for s in stages if s in BACKFACE_NAMES]
+    if fixed or not on or str(source).lower() in THESIS_WORLDS:
+        return None
+    from ..winding import check_winding
+
+    report = check_winding(world, eyes)
+    if not report.room_faces_outward:
+        return None
+    line = (f"warning: {source}: {report.room_faces_outward:,} of {report.room_faces:,} room "
+            f"triangles face away from the room's interior, so back-face culling "
+            f"({'+'.join(on) if len(on) < len(BACKFACE_NAMES) else 'any back-face stage'}) removes the walls seen from inside and frames may be blank; "
+            "pass --fix-winding (`vismobile info` reports the winding)")
+    print(line, file=sys.stderr if stream is None else stream)
+    return line

@@ -99,6 +99,8 @@ def run(args) -> int:
     for path in (args.out / "runs.csv", args.out / "runs" / "x.json",
                  args.report or args.out / "report.html"):
         check_destination(path)  # before hours of runs, not after
+    if not args.fix_winding:
+        _warn_winding(specs)
     context = Context(".", args.out, args.worlds_dir, args.cache)
     reused, executed = reusable_runs(specs, context)
     shared = len(specs) - reused - executed
@@ -125,6 +127,24 @@ def run(args) -> int:
     print(f"wrote {args.out / 'runs.csv'}, {args.out / 'runs.json'} and {report}"
           + (f"; {failed} runs failed (listed in the report)" if failed else ""))
     return 1 if failed else 0
+
+
+def _warn_winding(specs) -> None:
+    """commands.warn_winding for each mesh-file world swept with a back-face stage."""
+    from . import warn_winding
+    from ..trajectory import Trajectory
+    from ..world import World
+
+    stages, paths = {}, {}
+    for spec in specs:
+        stages.setdefault(spec.world, set()).update(spec.stages)
+        paths[spec.world] = spec.trajectory
+    for world, names in stages.items():
+        if world.lower().endswith(".vmp") or world.lower() in ("w1", "w2", "w3", "w4", "w5",
+                                                                 "w6"):
+            continue
+        eyes = Trajectory.load(paths[world]).poses[:, :3] if paths[world] else None
+        warn_winding(World.from_file(world), sorted(names), world, eyes)
 
 
 def _fixed_worlds(worlds: str, trajectories: dict, out: Path) -> tuple:

@@ -1,7 +1,8 @@
 """`vismobile play WORLD --trajectory CSV ...`: cull and render a recorded path, log each frame."""
 from pathlib import Path
 
-from . import CULL_HELP, FIX_WINDING_HELP, FRAMES_HELP, PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP
+from . import (CULL_HELP, FIX_WINDING_HELP, FRAMES_HELP, PROFILE_HELP, STRUCTURE_HELP,
+               WORLD_HELP, warn_winding)
 
 
 def add_parser(sub):
@@ -36,7 +37,7 @@ def add_parser(sub):
 
 def run(args) -> int:
     from ..errors import VisMobileError
-    from ..playback import load_scene, play
+    from ..playback import load_scene, parse_stages, play
     from ..profile import get_profile
     from ..trajectory import Trajectory
 
@@ -52,6 +53,9 @@ def run(args) -> int:
         status("loading the world")
         scene = load_scene(args.world, args.structure, progress=not args.quiet,
                            fix_winding=args.fix_winding, eyes=trajectory.poses[:, :3])
+        status("checking the winding")
+        warn_winding(scene.world, parse_stages(args.cull), args.world,
+                     trajectory.poses[:, :3], args.fix_winding)
     result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.images,
                   gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,
                   adaptive=args.adaptive, frames=args.frames)

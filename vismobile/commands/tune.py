@@ -5,7 +5,8 @@ profile's device model predicts on that device; `--measured` minimises this mach
 """
 from pathlib import Path
 
-from . import FIX_WINDING_HELP, PROFILE_HELP, WORLD_HELP, WORLDS_DIR_HELP, fix_winding
+from . import (BACKFACE_NAMES, FIX_WINDING_HELP, PROFILE_HELP, WORLD_HELP, WORLDS_DIR_HELP,
+               fix_winding, warn_winding)
 
 # The same default as tune() (study/tune.py PROBE_FRAMES; tests/study/test_tune.py checks), kept
 # here so that `--help` needs no heavy import.
@@ -69,6 +70,9 @@ def run(args) -> int:
                                   else args.world, args.worlds_dir or default_cache_dir())
         trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
         world = fix_winding(world, args.fix_winding, trajectory.poses[:, :3])
+        status("checking the winding")
+        warn_winding(world, BACKFACE_NAMES, args.world, trajectory.poses[:, :3],
+                     args.fix_winding)
         status(f"{world.triangle_count:,} triangles; ground truth of {args.probe} probe frames "
                "plus the waypoints")
         result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,

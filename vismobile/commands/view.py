@@ -52,7 +52,15 @@ def run(args) -> int:
     session = Session.open(args.world, args.structure, args.cull, args.profile,
                            args.trajectory, fix_winding=args.fix_winding,
                            record_path=args.record_to)
+    from . import warn_winding
     from ..viewer.window import run as run_window
+
+    eyes = None
+    if session.trajectory_path is not None:
+        from ..trajectory import Trajectory
+
+        eyes = Trajectory.load(session.trajectory_path).poses[:, :3]
+    warn_winding(session.world, session.stages, args.world, eyes, args.fix_winding)
 
     frames = run_window(session, args.scale, script, args.screenshot)
     if script is None:
