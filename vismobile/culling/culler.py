@@ -137,11 +137,14 @@ class Culler:
         planes = conservative_planes(camera.frustum_planes(), self.arithmetic, scale)
         state = CullState(self.tree, camera, planes, np.zeros(1, dtype=np.int64),
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})
-        for stage in self.stages:
-            stage.apply(state)
-        if state.frustum_pending:  # a deferred frustum test nobody took: a wiring error
-            raise RuntimeError("vfc deferred its frustum test but no stage took it")
-        result = state.finish()
+        try:
+            for stage in self.stages:
+                stage.apply(state)
+            if state.frustum_pending:  # a deferred frustum test nobody took: a wiring error
+                raise RuntimeError("vfc deferred its frustum test but no stage took it")
+            result = state.finish()
+        finally:
+            state.filters.clear()  # they close over state: no cycle outlives the frame
         for stage in self.stages:
             observe = getattr(stage, "observe", None)
             if observe is not None:

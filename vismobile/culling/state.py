@@ -53,12 +53,16 @@ class CullState:
         """Gather the draw nodes' refs, apply the filters, and count what is sent.
 
         Filters see each referenced triangle once, and only the survivors of earlier filters.
+        The filters are consumed: they close over this state (its counters), and a state left
+        holding them is a reference cycle that keeps the whole Culler (tree, scratch, buffers)
+        alive until the cyclic collector runs (issue 28: 1.7 MB a Culler).
         """
         ids, runs = self.tree.gather(self.nodes)  # leaves share triangles: each once
-        for keep_of in self.filters:
+        filters, self.filters = self.filters, []
+        for keep_of in filters:
             kept = keep_of(ids)
             ids = ids[kept] if kept.dtype == np.bool_ else kept
-        if self.filters:
+        if filters:
             runs = run_count(ids)
         self.count("triangles_sent", len(ids))
         self.count("draw_batches", runs)
