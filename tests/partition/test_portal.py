@@ -40,10 +40,19 @@ def test_open_face_is_one_portal_and_a_solid_wall_none(rooms):
 
 
 def test_face_inside_a_closed_object_is_blocked(rooms):
-    # the fixture faces outward: a closed box, solid inside, so its middle face has no portal
+    # a closed box wound consistently facing out (trimesh's): solid inside, its middle face
+    # has no portal
+    import trimesh
+
+    solid = trimesh.creation.box(extents=(8.0, 3.0, 4.0))
+    solid.apply_translation((0.0, 1.5, 2.0))
+    box = World.from_trimesh(solid)
+    assert len(portal.build(box, 1, slabs=((0.5, 0.5), 1, 1)).extras["portal_cells"]) == 0
+    # the fixture's box is closed but wound inconsistently (4 triangles against their
+    # neighbours): no solid is assumed, so the face stays open
     keep = ~((np.abs(rooms.corners[:, :, 0]).max(axis=1) == 0))
     box = World(rooms.vertices, rooms.triangles[keep])
-    assert len(portal.build(box, 1, slabs=((0.5, 0.5), 1, 1)).extras["portal_cells"]) == 0
+    assert len(portal.build(box, 1, slabs=((0.5, 0.5), 1, 1)).extras["portal_cells"]) == 1
 
 
 def slab_world(literal, gap):
@@ -60,11 +69,25 @@ def slab_world(literal, gap):
 
 @pytest.mark.parametrize("gap", [0.2, 0.001])
 def test_hollow_slab_is_blocked_on_a_vertical_face(literal, gap):
-    w = slab_world(literal, gap)
+    # a closed box facing out (overhanging the walls, so it shares no edge with them) is solid
+    import trimesh
+
+    rooms = slab_world(literal, gap)
+    keep = ~np.isclose(rooms.centroids[:, 1], 3.0) & ~np.isclose(rooms.centroids[:, 1], 3.0 + gap)
+    slab = trimesh.creation.box(extents=(5.0, gap, 5.0))
+    slab.apply_translation((2.0, 3.0 + gap / 2, 2.0))
+    w = literal.world([(rooms.vertices, rooms.triangles[keep]), (slab.vertices, slab.faces)])
     rects = portal.face_openings(w, 0, 2.0, (0.0, 0.0), (6.0 + gap, 4.0), 1e-9)
     ys = np.concatenate([rects[:, 0, 0], rects[:, 1, 0]])
     # the two rooms are open, the slab between them is not, however thin it is
     assert len(rects) == 2 and np.allclose(np.sort(ys), [0.0, 3.0, 3.0 + gap, 6.0 + gap])
+
+
+def test_uncapped_slab_is_open(literal):
+    # without caps the slab is no closed solid: a sight line may enter it from its open sides
+    w = slab_world(literal, 0.2)
+    rects = portal.face_openings(w, 0, 2.0, (0.0, 0.0), (6.2, 4.0), 1e-9)
+    assert len(rects) == 1 and np.allclose(rects[0], [[0.0, 0.0], [6.2, 4.0]])
 
 
 def test_slab_between_walls_in_the_face_stays_open(literal):

@@ -5,9 +5,12 @@ A portal is the part of a shared cell face a sight line from free space may cros
 cut into sample cells: a uniform grid refined with the coordinates of the axis-parallel edges on
 the face, so wall ends, slabs and doorways fall on sample boundaries. A sample cell is blocked
 only when all of it lies in the walls lying in the face, or in solid space: no triangle crosses
-it and, along u or along v, the nearest triangle cut on both sides is seen from behind
-(single-sided surfaces face free space, so such a cell is inside a hollow wall, a slab or a
-closed object). Every other sample cell is open, however thin the opening. The open cells of a face
+it and, along u or along v, the nearest triangle cut on both sides is seen from behind and
+belongs to a closed, consistently wound, outward-facing part (solids.py: such a cell is inside
+that part, a hollow wall, a slab or a closed object, and every line from outside crosses its
+surface). Nothing else is assumed of winding: the inside of a room whose one-sided walls face
+out, or of any open surface, is free space. Every other sample cell is open, however thin the
+opening. The open cells of a face
 are stored as a few rectangles covering them (convex polygons). The runtime
 (culling/portals.py) leaves the portals to eyes in free space and culls without them elsewhere.
 """
@@ -18,6 +21,7 @@ import numpy as np
 from . import grid
 from .layout import make_partition
 from .octree import check_depth, chain_levels, subdivide
+from .solids import outward_solid_faces
 
 # Samples along the longer side of a shared face when classifying its coverage.
 FACE_SAMPLES = 64
@@ -441,13 +445,17 @@ class PlaneGeometry:
     """What the triangles near one grid plane leave on it, computed once for all its faces:
     in-plane triangles (flat_uv), their outline, and the oriented segments (plane_segments)."""
 
-    def __init__(self, world, corners, axis, plane, thickness, eps):
+    def __init__(self, world, corners, axis, plane, thickness, eps, solid=None):
         near = _touching(world, axis, plane, thickness)
         c = corners[near]
         cu, cv, flat, _, _, _ = plane_footprints(c, axis, plane, thickness)
         self.flat_uv = (cu[flat], cv[flat])
         self.outline = wall_outline(cu[flat], cv[flat], eps)
-        self.seg, self.side = plane_segments(c, world.normals[near], axis, plane, thickness)
+        # Only a closed outward solid's faces may close space behind them (solids.py): the
+        # others get no side (edge-on), which back_along never takes for a back face.
+        solid = outward_solid_faces(world) if solid is None else solid
+        normals = np.where(solid[near, None], world.normals[near], 0.0)
+        self.seg, self.side = plane_segments(c, normals, axis, plane, thickness)
         self.eps = eps
 
     def openings(self, lo_uv, hi_uv, samples=FACE_SAMPLES):
@@ -492,13 +500,14 @@ def find_portals(world, edges, thickness, samples=FACE_SAMPLES, eps=None):
     """
     eps = COINCIDE * float(np.ptp(world.extent, axis=0).max()) if eps is None else eps
     corners = world.corners
+    solid = outward_solid_faces(world)
     shape = [len(e) - 1 for e in edges]
     cells, polys = [], []
     for axis in range(3):
         u_axis, v_axis = (axis + 1) % 3, (axis + 2) % 3
         for b in range(1, shape[axis]):
             plane = edges[axis][b]
-            geometry = PlaneGeometry(world, corners, axis, plane, thickness, eps)
+            geometry = PlaneGeometry(world, corners, axis, plane, thickness, eps, solid)
             for iu in range(shape[u_axis]):
                 for iv in range(shape[v_axis]):
                     lo_uv = np.array([edges[u_axis][iu], edges[v_axis][iv]], dtype=np.float64)
