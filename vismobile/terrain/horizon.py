@@ -16,6 +16,19 @@ peaks at a corner). Every bound errs toward "visible", so the test never hides a
 pixel of the full-resolution terrain render would show; `lower` lowers the ground further for
 LOD meshes that sink below the samples (by their vertical error).
 
+Only drawn ground occludes (issue 30). The near plane clips a hole in ground closer than it,
+and the GPU shows what is behind the hole (the hill's far side seen from inside, objects'
+buried bases), so a ray is counted hidden only when (1) it passes below the ground in a slice
+that lies wholly beyond zclip, the largest level depth of the near rectangle (every frustum
+point the near plane clips has a smaller level depth), and (2) it is above the ground where it
+crosses the near plane: its slope beats, per band, the ceiling, the highest ground slope over
+the slices before zclip (max-mip, raised by `lower`) and, before the first slice, a bound from
+the ground under the eye and the steepest cell gradient around it. Then the ray crosses the
+ground downward between the near plane and the blocking slice: that front face is drawn, and
+the tile holding it is never hidden itself (its own ray would need an earlier crossing). A box
+is hidden when its lowest corner slope beats the ceiling of its bands and its highest is
+beaten by the horizon.
+
 Fixed point (seed 001 ran in fixed point; here on fixed16.16 profiles, `arithmetic=
 "fixed16.16"`): the same cast and test in 16.16 integers (int64 products shifted right by 16,
 as the device's int32 multiply-high). The frame is defined by the quantized eye, forward and
@@ -47,6 +60,38 @@ def min_mip(heights) -> list:
     return mips
 
 
+def max_mip(heights) -> list:
+    """min_mip with maxima: [(2^(n-k))^2 float64 maxima over blocks of 2^k cells]."""
+    h = np.asarray(heights, dtype=np.float64)
+    level = np.maximum(np.maximum(h[:-1, :-1], h[1:, :-1]), np.maximum(h[:-1, 1:], h[1:, 1:]))
+    mips = [level]
+    while level.shape[0] > 1:
+        k = level.shape[0] // 2
+        level = level.reshape(k, 2, k, 2).max(axis=(1, 3))
+        mips.append(level)
+    return mips
+
+
+def max_mip_cells(cells) -> list:
+    """[(2^(n-k))^2 maxima over blocks of 2^k cells] of a per-cell (2^n, 2^n) array."""
+    level = np.asarray(cells, dtype=np.float64)
+    mips = [level]
+    while level.shape[0] > 1:
+        k = level.shape[0] // 2
+        level = level.reshape(k, 2, k, 2).max(axis=(1, 3))
+        mips.append(level)
+    return mips
+
+
+def cell_gradients(heights, spacing: float) -> np.ndarray:
+    """(n, n) float64: the steepest |grad h| over the four triangles of each cell (both
+    diagonals, so it holds for the grid and for the 4-8 mesh)."""
+    h = np.asarray(heights, dtype=np.float64)
+    a, b, c, d = h[:-1, :-1], h[:-1, 1:], h[1:, :-1], h[1:, 1:]
+    pairs = [(b - a, d - b), (d - c, c - a), (b - a, c - a), (d - c, d - b)]
+    return np.max([np.hypot(gx, gz) for gx, gz in pairs], axis=0) / spacing
+
+
 def pack(mips) -> tuple:
     """(flat minima, offsets (levels + 1,), sizes) for the numba kernel."""
     offsets = np.r_[0, np.cumsum([m.size for m in mips])].astype(np.int64)
@@ -70,9 +115,32 @@ def _lowest_in(flat, offsets, sizes, i0, i1, j0, j1, start):
     return low
 
 
+@njit(cache=True, inline="always")
+def _highest_in(flat, offsets, sizes, i0, i1, j0, j1, start):
+    """Highest height over the map cells of rows i0..i1, columns j0..j1 clipped to the map
+    (max-mip; never below the true maximum); start when nothing of it is on the map."""
+    cells = sizes[0]
+    i0, j0 = max(i0, 0), max(j0, 0)
+    i1, j1 = min(i1, cells - 1), min(j1, cells - 1)
+    if i0 > i1 or j0 > j1:
+        return start
+    level = 0
+    while (j1 >> level) - (j0 >> level) > 1 or (i1 >> level) - (i0 >> level) > 1:
+        level += 1
+    size = sizes[level]
+    high = start
+    for i in range(i0 >> level, (i1 >> level) + 1):
+        for j in range(j0 >> level, (j1 >> level) + 1):
+            high = max(high, flat[offsets[level] + i * size + j])
+    return high
+
+
 @njit(cache=True)
-def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon):
-    """horizon[b, k]: running max over slices <= k of the lowest slope in band b, slice k."""
+def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon,
+          high_flat, zclip, ceiling):
+    """horizon[b, k]: running max over slices <= k wholly beyond zclip of the lowest slope in
+    band b, slice k; ceiling[b] (in: the bound before the first slice) raised to the highest
+    ground slope over the slices starting before zclip."""
     bands = tans.shape[0] - 1
     slices = depths.shape[0] - 1
     cells = sizes[0]
@@ -92,6 +160,14 @@ def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lowe
             j1 = int(np.floor(xmax / spacing))
             i0 = int(np.floor(wmin / spacing))
             i1 = int(np.floor(wmax / spacing))
+            if z0 < zclip:
+                # The near plane may clip this slice: its ground may not occlude, and a ray
+                # must pass above all of it (the highest slope, drawn ground raised by lower).
+                high = _highest_in(high_flat, offsets, sizes, i0, i1, j0, j1, -np.inf)
+                rise = high + lower - eye[1]
+                ceiling[b] = max(ceiling[b], rise / z0 if rise > 0 else rise / z1)
+                horizon[b, k] = best
+                continue
             if j1 < 0 or i1 < 0 or j0 >= cells or i0 >= cells:
                 horizon[b, k] = best
                 continue
@@ -116,6 +192,8 @@ class Horizon:
     tans     : (B+1,) float64 band edges as tan of the horizontal angle
     depths   : (S+1,) float64 slice boundaries along forward
     values   : (B, S) float64 running max of lowest slopes (-inf: nothing yet)
+    ceiling  : (B,) float64 a ray hidden in band b must have a slope above ceiling[b] (it then
+               passes above the ground where the near plane cuts it); +inf: nothing hidden
     """
 
     eye: np.ndarray
@@ -124,19 +202,21 @@ class Horizon:
     tans: np.ndarray
     depths: np.ndarray
     values: np.ndarray
+    ceiling: np.ndarray
 
     def hidden(self, boxes) -> np.ndarray:
-        """(K,) bool: box (K, 2, 3) entirely hidden by the ground (errs visible)."""
+        """(K,) bool: box (K, 2, 3) entirely hidden by drawn ground (errs visible)."""
         return _hidden(np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3), self.eye,
-                       self.forward, self.right, self.tans, self.depths, self.values)
+                       self.forward, self.right, self.tans, self.depths, self.values,
+                       self.ceiling)
 
 
 @njit(cache=True)
-def _hidden(boxes, eye, forward, right, tans, depths, values):
+def _hidden(boxes, eye, forward, right, tans, depths, values, ceiling):
     out = np.zeros(boxes.shape[0], dtype=np.bool_)
     bands = tans.shape[0] - 1
     for n in range(boxes.shape[0]):
-        zmin, tmin, tmax, mmax = np.inf, np.inf, -np.inf, -np.inf
+        zmin, tmin, tmax, mmin, mmax = np.inf, np.inf, -np.inf, np.inf, -np.inf
         for c in range(8):
             x = boxes[n, (c >> 0) & 1, 0] - eye[0]
             y = boxes[n, (c >> 1) & 1, 1] - eye[1]
@@ -148,7 +228,7 @@ def _hidden(boxes, eye, forward, right, tans, depths, values):
                 break
             zmin = min(zmin, z)
             tmin, tmax = min(tmin, lateral / z), max(tmax, lateral / z)
-            mmax = max(mmax, y / z)
+            mmin, mmax = min(mmin, y / z), max(mmax, y / z)
         if zmin <= depths[0] or tmin < tans[0] or tmax > tans[bands]:
             continue
         # Last slice that ends before the box's nearest depth.
@@ -159,7 +239,7 @@ def _hidden(boxes, eye, forward, right, tans, depths, values):
         b1 = np.searchsorted(tans, tmax, side="left") - 1
         hidden = True
         for b in range(max(b0, 0), min(b1, bands - 1) + 1):
-            if not values[b, k] > mmax:
+            if not (values[b, k] > mmax and mmin > ceiling[b]):
                 hidden = False
                 break
         out[n] = hidden
@@ -189,9 +269,11 @@ def _fdiv_ceil(a, b):
 
 
 @njit(cache=True)
-def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon):
-    """_cast in 16.16 raw integers: horizon[b, k] a lower bound of every ground slope in band b
-    up to slice k (-SLOPE_LIMIT - 1: nothing yet)."""
+def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon,
+                high_flat, zclip, ceiling):
+    """_cast in 16.16 raw integers: horizon[b, k] a lower bound of every drawn ground slope in
+    band b up to slice k (-SLOPE_LIMIT - 1: nothing yet), ceiling[b] an upper bound of the
+    ground slopes before zclip (SLOPE_LIMIT: everything)."""
     bands = tans.shape[0] - 1
     slices = depths.shape[0] - 1
     cells = sizes[0]
@@ -216,6 +298,14 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
             j1 = (xmax + margin) // spacing
             i0 = (wmin - margin) // spacing
             i1 = (wmax + margin) // spacing
+            if z0 < zclip:
+                high = _highest_in(high_flat, offsets, sizes, i0, i1, j0, j1, -(1 << 60))
+                if high > -(1 << 60):
+                    rise = high + lower - eye[1]
+                    up = _fdiv_ceil(rise, z0) if rise > 0 else _fdiv_ceil(rise, z1)
+                    ceiling[b] = max(ceiling[b], min(max(up, nothing), SLOPE_LIMIT))
+                horizon[b, k] = best
+                continue
             if j1 < 0 or i1 < 0 or j0 >= cells or i0 >= cells:
                 horizon[b, k] = best
                 continue
@@ -231,12 +321,12 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
 
 
 @njit(cache=True)
-def _hidden_fixed(boxes, eye, forward, right, tans, depths, values):
+def _hidden_fixed(boxes, eye, forward, right, tans, depths, values, ceiling):
     """_hidden in 16.16 raw integers (boxes (K, 2, 3) raw, low corner floored, high ceiled)."""
     out = np.zeros(boxes.shape[0], dtype=np.bool_)
     bands = tans.shape[0] - 1
     for n in range(boxes.shape[0]):
-        zmin, tmin, tmax, mmax = 1 << 60, 1 << 60, -(1 << 60), -(1 << 60)
+        zmin, tmin, tmax, mmin, mmax = 1 << 60, 1 << 60, -(1 << 60), 1 << 60, -(1 << 60)
         behind = False
         for c in range(8):
             x = boxes[n, (c >> 0) & 1, 0] - eye[0]
@@ -252,7 +342,8 @@ def _hidden_fixed(boxes, eye, forward, right, tans, depths, values):
             tmin = min(tmin, _fdiv_floor(l_lo, z_hi if l_lo >= 0 else z_lo))
             tmax = max(tmax, _fdiv_ceil(l_hi, z_lo if l_hi >= 0 else z_hi))
             mmax = max(mmax, _fdiv_ceil(y, z_lo if y >= 0 else z_hi))
-        if behind or mmax >= SLOPE_LIMIT:
+            mmin = min(mmin, _fdiv_floor(y, z_hi if y >= 0 else z_lo))
+        if behind or mmax >= SLOPE_LIMIT or mmin <= -SLOPE_LIMIT:
             continue
         if zmin <= depths[0] or tmin < tans[0] or tmax > tans[bands]:
             continue
@@ -262,9 +353,10 @@ def _hidden_fixed(boxes, eye, forward, right, tans, depths, values):
         b0 = np.searchsorted(tans, tmin, side="right") - 1
         b1 = np.searchsorted(tans, tmax, side="left") - 1
         need = mmax + ((ONE + abs(mmax)) >> 14) + 1
+        above = mmin - ((ONE + abs(mmin)) >> 14) - 1
         hidden = True
         for b in range(max(b0, 0), min(b1, bands - 1) + 1):
-            if not values[b, k] > need:
+            if not (values[b, k] > need and above > ceiling[b]):
                 hidden = False
                 break
         out[n] = hidden
@@ -281,6 +373,7 @@ class FixedHorizon:
     tans: np.ndarray
     depths: np.ndarray
     values: np.ndarray
+    ceiling: np.ndarray
     limit: float
 
     def hidden(self, boxes) -> np.ndarray:
@@ -292,7 +385,7 @@ class FixedHorizon:
         raw[:, 0] = np.floor(np.clip(boxes[:, 0], -self.limit, self.limit) * ONE)
         raw[:, 1] = np.ceil(np.clip(boxes[:, 1], -self.limit, self.limit) * ONE)
         out = _hidden_fixed(raw, self.eye, self.forward, self.right, self.tans, self.depths,
-                            self.values)
+                            self.values, self.ceiling)
         return out & inside
 
 
@@ -313,11 +406,15 @@ class HorizonCaster:
         self.step = step
         self.arithmetic = arithmetic
         self.flat, self.offsets, self.sizes = pack(min_mip(heightmap.heights))
+        self.high_flat = pack(max_mip(heightmap.heights))[0]
+        self.gradient_mip = pack(max_mip_cells(cell_gradients(heightmap.heights,
+                                                              heightmap.spacing)))[0]
         if arithmetic == "fixed16.16":
             from ..profile import to_fixed
 
             to_fixed(heightmap.bounds(), f"terrain {heightmap.name}")  # range check
             self.flat_raw = np.floor(self.flat * ONE).astype(np.int64)
+            self.high_flat_raw = np.ceil(self.high_flat * ONE).astype(np.int64)
 
     @classmethod
     def for_profile(cls, heightmap, profile, bands: int = 120, step: float = 0.01):
@@ -334,7 +431,8 @@ class HorizonCaster:
                 or eye[1] < float(self.heightmap.height_at(eye[0], eye[2])):
             # Off the map or under the ground: the ground-as-solid argument does not hold.
             return Horizon(eye, np.array([0.0, 0, -1]), np.array([1.0, 0, 0]),
-                           np.array([-1.0, 1.0]), np.array([1.0, 2.0]), np.full((1, 1), -np.inf))
+                           np.array([-1.0, 1.0]), np.array([1.0, 2.0]), np.full((1, 1), -np.inf),
+                           np.full(1, np.inf))
         yaw = np.radians(camera.yaw)
         forward = np.array([-np.sin(yaw), 0.0, -np.cos(yaw)])
         right = np.array([np.cos(yaw), 0.0, -np.sin(yaw)])
@@ -352,14 +450,39 @@ class HorizonCaster:
         near = max(camera.near, 0.5 * self.heightmap.spacing)
         count = int(np.ceil(np.log(far / near) / np.log1p(self.step)))
         depths = near * (1 + self.step) ** np.arange(count + 1)
+        # Largest level depth of the near rectangle: every point the near plane clips from
+        # the frustum (the pyramid from the eye to that rectangle) lies at a smaller one.
+        zclip = camera.near * float(max(corners @ forward)) * (1 + 1e-9)
+        ceiling = np.full(self.bands, self._first_ceiling(eye, zclip, near, span, lower))
         if self.arithmetic == "fixed16.16":
-            return self._cast_fixed(eye, forward, right, tans, depths, lower)
+            return self._cast_fixed(eye, forward, right, tans, depths, lower, zclip, ceiling)
         values = np.empty((self.bands, count))
         _cast(self.flat, self.offsets, self.sizes, self.heightmap.spacing, eye, forward, right,
-              tans, depths, float(lower), values)
-        return Horizon(eye, forward, right, tans, depths, values)
+              tans, depths, float(lower), values, self.high_flat, zclip, ceiling)
+        return Horizon(eye, forward, right, tans, depths, values, ceiling)
 
-    def _cast_fixed(self, eye, forward, right, tans, depths, lower) -> FixedHorizon:
+    def _first_ceiling(self, eye, zclip, first, span, lower) -> float:
+        """Slope a ray must beat to pass above the ground at every level depth z <= z1 =
+        min(zclip, first slice) (the near plane crosses it there when not in a slice): with
+        g0 the ground under the eye and G the steepest cell gradient within z1 sqrt(1 + span^2),
+        the ground at z is at most g0 + lower + G z sqrt(1 + span^2), so
+        m > G sqrt(1 + span^2) - (eye_y - g0 - lower) / z1 suffices; +inf when the eye is not
+        above the (raised) ground."""
+        hm = self.heightmap
+        z1 = min(zclip, first)
+        g0 = max(float(hm.height_at(eye[0], eye[2])),
+                 float(hm.height_at(eye[0], eye[2], alternating=True)))
+        clear = eye[1] - g0 - float(lower)
+        if not clear > 0:
+            return np.inf
+        reach = z1 * np.sqrt(1 + span * span)
+        i0, i1 = (int(np.floor((eye[2] + s * reach) / hm.spacing)) for s in (-1, 1))
+        j0, j1 = (int(np.floor((eye[0] + s * reach) / hm.spacing)) for s in (-1, 1))
+        steep = _highest_in(self.gradient_mip, self.offsets, self.sizes, i0, i1, j0, j1, 0.0)
+        return steep * np.sqrt(1 + span * span) - clear / z1
+
+    def _cast_fixed(self, eye, forward, right, tans, depths, lower, zclip,
+                    first_ceiling) -> FixedHorizon:
         from ..profile import FIXED_LIMIT, to_fixed
 
         depths = depths[depths <= FIXED_LIMIT]
@@ -375,6 +498,17 @@ class HorizonCaster:
             raise ProfileError(f"terrain {self.heightmap.name}: spacing "
                                f"{self.heightmap.spacing:g} is not a 16.16 number")
         values = np.empty((len(tans_raw) - 1, len(depths_raw) - 1), np.int64)
+        # The first ceiling is found in float64 (a few operations per frame) and rounded up
+        # with a margin of 2^-14 of its size plus 4 quanta (the eye's rounding).
+        start = float(first_ceiling[0])
+        if np.isfinite(start) and abs(start) < SLOPE_LIMIT / ONE / 2:
+            start_raw = int(np.ceil(start * ONE)) + ((ONE + abs(int(start * ONE))) >> 14) + 4
+        else:
+            start_raw = SLOPE_LIMIT if not start < 0 else -SLOPE_LIMIT - 1
+        ceiling = np.full(len(tans_raw) - 1, start_raw, np.int64)
+        zclip_raw = int(np.ceil(zclip * ONE)) + 2
         _cast_fixed(self.flat_raw, self.offsets, self.sizes, spacing_raw, raw[0], raw[1],
-                    raw[2], tans_raw, depths_raw, lower_raw, values)
-        return FixedHorizon(raw[0], raw[1], raw[2], tans_raw, depths_raw, values, FIXED_LIMIT)
+                    raw[2], tans_raw, depths_raw, lower_raw, values, self.high_flat_raw,
+                    zclip_raw, ceiling)
+        return FixedHorizon(raw[0], raw[1], raw[2], tans_raw, depths_raw, values, ceiling,
+                            FIXED_LIMIT)
