@@ -1,6 +1,25 @@
 """Command-line entry point: `vismobile <command> ...`; each command lives in commands/."""
 from __future__ import annotations
 
+# The top-level --help: what the tool is for and the first commands to try.
+DESCRIPTION = """\
+Which spatial structure and which visibility culling for a world on constrained hardware?
+vismobile measures it: it partitions a triangle world, culls and renders camera paths through
+it as an OpenGL ES 1.1-class device would, and reports time against an exact item-buffer
+ground truth. A WORLD is a thesis world (w1..w6, built on first use) or a mesh file."""
+EPILOG = """\
+first steps:
+  vismobile info w2                                  triangles, objects, bounds, winding
+  vismobile play w2 -o runs/w2                       the thesis's path, octree:4, vfc
+  vismobile play w2 --structure octree:5 --cull vfc+bfc+occlusion -o runs/w2b
+  vismobile tune w2                                  the fastest configuration that drops
+                                                     nothing visible
+  vismobile view w2                                  fly through it (F1 lists the keys)
+  vismobile trajectory generate room.glb -o walk.csv a camera path for your own mesh
+  vismobile compare --worlds w1,w2 --structures octree:3-5 --cull "thesis;vfc+occlusion"
+
+Stages are joined by + (vfc+bfc); compare lists combinations with ';' or repeated --cull.
+vismobile COMMAND --help lists every option and its valid values."""
 import argparse
 import sys
 import time
@@ -17,9 +36,11 @@ COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune", "trajector
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
-    parser = argparse.ArgumentParser(prog="vismobile", description=__doc__)
+    parser = argparse.ArgumentParser(prog="vismobile", description=DESCRIPTION, epilog=EPILOG,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"vismobile {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, title="commands",
+                                metavar="COMMAND")
     for name in COMMANDS:
         try:
             module = import_module(f"vismobile.commands.{name}")

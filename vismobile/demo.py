@@ -62,7 +62,7 @@ def main(argv=None) -> int:
         tunes.append(result)
         c = result.choice
         print(f"2/4 tune {world_name} ({label(PROFILE)}): --structure {c.structure} --cull "
-              f"{c.cull.replace('+', ',')}, {c.frame_ms:.1f} ms [{c.low_ms:.1f}-{c.high_ms:.1f}]"
+              f"{c.cull}, {c.frame_ms:.1f} ms [{c.low_ms:.1f}-{c.high_ms:.1f}]"
               f" = {c.fps:.1f} fps, {len(result.tied)} tied ({result.seconds:.1f} s)")
     specs = expand(",".join(WORLDS), STRUCTURES, CULLS, PROFILE, FRAMES)
     specs += [RunSpec(r.world, trajectory_for(r.world), r.choice.structure, r.choice.cull,

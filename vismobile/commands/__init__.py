@@ -8,7 +8,7 @@ WORLD_HELP = ("thesis world w1..w6 (built on first use) or a mesh file: .obj .pl
 STAGE_NAMES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
                "occlusion_thesis", "portals")
 PROFILE_NAMES = ("ipaq-hx2490b", "nokia-n82", "desktop")
-CULL_HELP = ("culling stages joined by + or , (printed with +), or none; stages: "
+CULL_HELP = ("culling stages joined by + (a , works too), or none; stages: "
              + ", ".join(STAGE_NAMES) + " (portals needs a portal structure)")
 PROFILE_HELP = "device profile: " + ", ".join(PROFILE_NAMES)
 WORLDS_DIR_HELP = ("where thesis worlds are built and kept (default: $VISMOBILE_WORLDS, worlds/ "
@@ -17,6 +17,9 @@ STRUCTURE_HELP = ("none, grid[:N], octree[:N], portal[:N], bsp, or KIND:key=valu
                   "(N: octree depth 1..8, portal depth 1..3, grid slabs per axis)")
 FRAMES_HELP = ("frames to play: all, stride:N (every Nth) or sample:N (N evenly spaced plus "
                "the waypoints)")
+# play and view start alike: the same structure and stages (issue 31).
+DEFAULT_STRUCTURE = "octree:4"
+DEFAULT_CULL = "vfc"
 FIX_WINDING_HELP = ("first reverse triangles so that triangles sharing an edge agree and closed "
                     "rooms face their interior (closed solids face out); `vismobile info` "
                     "reports what it would change")
@@ -58,3 +61,25 @@ def warn_winding(world, stages, source, eyes=None, fixed=False, stream=None):
             "pass --fix-winding (`vismobile info` reports the winding)")
     print(line, file=sys.stderr if stream is None else stream)
     return line
+
+
+def default_trajectory(world, given):
+    """The trajectory a command plays: the given path, else the thesis's path for w1..w6;
+    TrajectoryError for a mesh without one."""
+    if given is not None:
+        return given
+    if str(world).lower() in THESIS_WORLDS:
+        from ..study.thesis import trajectory_for
+
+        return trajectory_for(str(world).lower())
+    from ..errors import TrajectoryError
+
+    raise TrajectoryError(f"{world}: not a thesis world (w1..w6), so it needs --trajectory CSV; "
+                          f"`vismobile trajectory generate {world} -o walk.csv` makes one")
+
+
+def default_cull(cull, structure):
+    """--cull as given, else DEFAULT_CULL; "none" without a partition (nothing to cull with)."""
+    if cull is not None:
+        return cull
+    return "none" if str(structure).strip().lower() in ("none", "") else DEFAULT_CULL

@@ -1,4 +1,5 @@
 """`vismobile compare`: the thesis's chapter-5 matrix (SPEC §6) in one command, with a report."""
+import sys
 from pathlib import Path
 
 from . import CULL_HELP, FIX_WINDING_HELP, FRAMES_HELP, PROFILE_NAMES, WORLDS_DIR_HELP
@@ -27,10 +28,13 @@ def add_parser(sub):
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
                         help="comma-separated grid, octree[:N or A-B], portal[:N or A-B], bsp "
                              "or all (default the thesis's: grid,octree:3-6,portal:1-3,bsp)")
-    parser.add_argument("--cull", default="all",
-                        help="comma-separated combinations: all, thesis (its 8), ours, or "
-                             "combinations of " + CULL_HELP.split("; stages: ")[1]
-                             + " joined by + (default all)")
+    parser.add_argument("--cull", action="append", default=None, metavar="COMBINATIONS",
+                        help="culling combinations, each stages joined by + (as in play and "
+                             "view), several separated by ';' or given as repeated --cull "
+                             "(--cull vfc+bfc --cull vfc+occlusion): all, thesis (its 8), ours, "
+                             "none, or stages " + CULL_HELP.split("; stages: ")[1]
+                             + " (default all; the older ',' between combinations still works "
+                               "and is noted when it may have meant +)")
     parser.add_argument("--profiles", default="ipaq-hx2490b,nokia-n82",
                         help="comma-separated device profiles: " + ", ".join(PROFILE_NAMES)
                              + " (default ipaq-hx2490b,nokia-n82)")
@@ -91,10 +95,16 @@ def run(args) -> int:
         # a variant of the thesis's paths for w1..w6; world files still need a CSV
         trajectories = {w: trajectory_for(w, variant) for w in parse_worlds(args.worlds)
                         if w in WORLDS}
+    from ..study.matrix import ambiguous_commas
+
+    culls = args.cull or ["all"]
+    note = ambiguous_commas(culls)
+    if note:
+        print(f"note: {note}", file=sys.stderr)
     worlds = args.worlds
     if args.fix_winding:
         worlds, trajectories = _fixed_worlds(worlds, trajectories or {}, args.out)
-    specs = expand(worlds, args.structures, args.cull, args.profiles, args.frames or "all",
+    specs = expand(worlds, args.structures, culls, args.profiles, args.frames or "all",
                    trajectories)
     for path in (args.out / "runs.csv", args.out / "runs" / "x.json",
                  args.report or args.out / "report.html"):

@@ -1,8 +1,8 @@
 """`vismobile play WORLD --trajectory CSV ...`: cull and render a recorded path, log each frame."""
 from pathlib import Path
 
-from . import (CULL_HELP, FIX_WINDING_HELP, FRAMES_HELP, PROFILE_HELP, STRUCTURE_HELP,
-               WORLD_HELP, warn_winding)
+from . import (CULL_HELP, DEFAULT_CULL, default_cull, DEFAULT_STRUCTURE, FIX_WINDING_HELP, FRAMES_HELP,
+               PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP, default_trajectory, warn_winding)
 
 
 def add_parser(sub):
@@ -10,10 +10,15 @@ def add_parser(sub):
         "play", help="play a trajectory through a (partitioned) world; write frames.csv, "
                      "summary.json and optional images")
     parser.add_argument("world", help=WORLD_HELP + ", or a partition file (.vmp)")
-    parser.add_argument("--trajectory", type=Path, required=True, help="trajectory CSV")
-    parser.add_argument("--structure", default="none",
-                        help="partition to build for a mesh: " + STRUCTURE_HELP + " (default none)")
-    parser.add_argument("--cull", default="none", help=CULL_HELP + " (default none)")
+    parser.add_argument("--trajectory", type=Path, default=None,
+                        help="trajectory CSV (default for w1..w6: the thesis's path, indoor for "
+                             "w1-w4, outdoor for w5, w6; a mesh file needs one: `vismobile "
+                             "trajectory generate MESH -o walk.csv` makes it)")
+    parser.add_argument("--structure", default=DEFAULT_STRUCTURE,
+                        help="partition to build for a mesh: " + STRUCTURE_HELP
+                             + f" (default {DEFAULT_STRUCTURE}, as in view)")
+    parser.add_argument("--cull", default=None,
+                        help=CULL_HELP + f" (default {DEFAULT_CULL}, as in view; none with --structure none)")
     parser.add_argument("--profile", default="ipaq-hx2490b",
                         help=PROFILE_HELP + " (default ipaq-hx2490b)")
     parser.add_argument("--vertex-format", choices=("float32", "fixed16.16"),
@@ -36,6 +41,7 @@ def add_parser(sub):
 
 
 def run(args) -> int:
+    args.cull = default_cull(args.cull, args.structure)
     from ..errors import VisMobileError
     from ..playback import load_scene, parse_stages, play
     from ..profile import get_profile
@@ -46,7 +52,8 @@ def run(args) -> int:
     if args.limit is not None and args.limit < 1:
         raise VisMobileError(f"--limit must be at least 1, got {args.limit}")
     profile = get_profile(args.profile, args.vertex_format)
-    trajectory = Trajectory.load(args.trajectory, limit=args.limit)
+    trajectory = Trajectory.load(default_trajectory(args.world, args.trajectory),
+                                 limit=args.limit)
     from ..progress import Status
 
     with Status(f"play {args.world}", enabled=not args.quiet) as status:

@@ -1,7 +1,8 @@
 """`vismobile view WORLD ...`: fly through a world with the thesis's HUD, toggles and recorder."""
 from pathlib import Path
 
-from . import FIX_WINDING_HELP, WORLD_HELP
+from . import (CULL_HELP, DEFAULT_CULL, default_cull, DEFAULT_STRUCTURE, FIX_WINDING_HELP, STRUCTURE_HELP,
+               WORLD_HELP)
 
 
 def add_parser(sub):
@@ -9,17 +10,18 @@ def add_parser(sub):
         "view", help="open a window and fly through a world (joystick keys, stage toggles, "
                      "HUD, god view, trajectory recorder); F1 in the window lists the keys")
     parser.add_argument("world", help=WORLD_HELP + ", or a partition file (.vmp)")
-    parser.add_argument("--structure", default="octree:4",
-                        help="partition to start with (Tab cycles): none, octree:5, grid, "
-                             "portal:1, bsp, ... (default octree:4)")
-    parser.add_argument("--cull", default="vfc",
-                        help="stages on at start (number keys toggle), e.g. vfc,bfc,cbfc "
-                             "(default vfc)")
+    parser.add_argument("--structure", default=DEFAULT_STRUCTURE,
+                        help="partition to start with (Tab cycles): " + STRUCTURE_HELP
+                             + f" (default {DEFAULT_STRUCTURE}, as in play)")
+    parser.add_argument("--cull", default=None,
+                        help="stages on at start (number keys toggle): " + CULL_HELP
+                             + f" (default {DEFAULT_CULL}, as in play; none with --structure none)")
     parser.add_argument("--profile", default="ipaq-hx2490b",
                         help="device profile: its screen, scaled up, is the view (desktop: the "
                              "window's size); ipaq-hx2490b, nokia-n82, desktop")
     parser.add_argument("--trajectory", type=Path, help="trajectory CSV that L loads and plays; "
-                        "the camera starts at its first pose")
+                        "the camera starts at its first pose (default for w1..w6: the thesis's "
+                        "path)")
     parser.add_argument("--record-to", type=Path, default=Path("recorded.csv"),
                         help="where V saves the recorded trajectory (default recorded.csv)")
     parser.add_argument("--scale", type=int, default=2,
@@ -37,6 +39,7 @@ def argparse_suppress():
 
 
 def run(args) -> int:
+    args.cull = default_cull(args.cull, args.structure)
     from ..errors import VisMobileError
     from ..viewer import Session
     from ..viewer.keys import parse_script
@@ -49,8 +52,13 @@ def run(args) -> int:
         raise VisMobileError(f"--script: {error}") from None
     if args.screenshot is not None and script is None:
         raise VisMobileError("--screenshot needs --script")
+    from . import THESIS_WORLDS, default_trajectory
+
+    trajectory = args.trajectory
+    if trajectory is None and str(args.world).lower() in THESIS_WORLDS:
+        trajectory = default_trajectory(args.world, None)  # the thesis's path: L plays it
     session = Session.open(args.world, args.structure, args.cull, args.profile,
-                           args.trajectory, fix_winding=args.fix_winding,
+                           trajectory, fix_winding=args.fix_winding,
                            record_path=args.record_to)
     from . import warn_winding
     from ..viewer.window import run as run_window

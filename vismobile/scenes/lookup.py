@@ -16,7 +16,13 @@ def world_file(text, worlds_dir=None) -> Path:
     missing or stale (worlds_dir None: scenes.default_cache_dir()); anything else is taken as
     the path of a mesh file and returned unchecked (World.from_file reports a bad one)."""
     if not is_thesis_world(text):
-        return Path(text)
+        path = Path(text)
+        if not path.suffix and not path.exists():  # "w7", "room": neither a world nor a file
+            from ..errors import WorldError
+
+            raise WorldError(text, "unknown world: thesis worlds are w1..w6; anything else is a "
+                                   "mesh file (.obj .ply .stl .off .glb .gltf, optionally .gz)")
+        return path
     from .thesis import build_key, build_world, default_cache_dir
 
     name = str(text).strip().lower()

@@ -153,10 +153,33 @@ def parse_structures(text: str) -> list:
     return list(dict.fromkeys(labels))
 
 
-def parse_culls(text: str) -> list:
-    """'all' | 'thesis' | 'ours' | 'vfc+cbfc,none' -> canonical combination labels."""
+def cull_items(text) -> list:
+    """The combinations of a --cull list: items separated by ';' or whitespace (or, the older
+    form, ','); a list or tuple (repeated --cull options) is split item by item."""
+    if isinstance(text, (list, tuple)):
+        return [item for part in text for item in cull_items(part)]
+    return [part for part in re.split(r"[;,\s]+", str(text).strip().lower()) if part]
+
+
+def ambiguous_commas(text) -> str | None:
+    """A note when a --cull list uses ',' between single stages ('vfc,bfc'): in compare that is
+    two combinations, in play and view one; None when the text has no such comma."""
+    parts = [text] if isinstance(text, str) else list(text)
+    for part in parts:
+        items = [i.strip().lower() for i in str(part).split(",") if i.strip()]
+        singles = [i for i in items if i in STAGE_ORDER]
+        if len(items) > 1 and singles:
+            return (f"--cull {part}: ',' separates combinations in compare ({len(items)} of "
+                    f"them: {'; '.join(items)}); to run stages together join them with + "
+                    f"({'+'.join(items)}); list combinations with ';' or repeated --cull")
+    return None
+
+
+def parse_culls(text) -> list:
+    """'all' | 'thesis' | 'ours' | 'vfc+cbfc;none' (or a list of such) -> canonical combination
+    labels; items as cull_items splits them."""
     culls = []
-    for item in filter(None, (part.strip().lower() for part in text.split(","))):
+    for item in cull_items(text):
         if item in ("all", "thesis"):
             culls += THESIS_CULLS
         if item in ("all", "ours"):

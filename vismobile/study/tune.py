@@ -165,7 +165,7 @@ class TuneResult:
         if self.cost == "device" and self.model.cost.render_call_us:
             counter = self.model.cost.call_counter
             calls = f", {c.stats.get(counter, 0):,.0f} draw calls ({counter})"
-        return [f"{label}: --structure {c.structure} --cull {c.cull.replace('+', ',')}",
+        return [f"{label}: --structure {c.structure} --cull {c.cull}",
                 f"  predicted {self.where()}: {c.frame_ms:.2f} ms/frame ({c.fps:.2f} fps) = "
                 f"cull {c.cull_ms:.2f} + render {c.render_ms:.2f}; sends "
                 f"{c.triangles_sent:,.0f} triangles{calls}; 0 false negatives on the probe"
