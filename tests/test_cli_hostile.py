@@ -201,6 +201,8 @@ def test_errors_are_vismobile_errors():
     (["-s", "grid", "--slabs", "x:3000", "--slabs", "y:3000", "--slabs", "z:3000"], "cell count"),
     (["-s", "grid", "--cells", "1000000000"], "cell count"),
     (["-s", "bsp", "--candidates", "1000000000"], "candidates"),
+    (["-s", "kdtree:bins=100000"], "bins"),
+    (["-s", "kdtree", "--max-depth", "1000"], "max_depth"),
     (["-s", "portal", "--cells", "100000", "--depth", "3"], "portal cell count"),
     (["-s", "portal", "--slabs", "x:500", "--slabs", "z:500"], "portal cell count"),
 ])
@@ -241,7 +243,7 @@ def vmp_bytes(tmp_path_factory):
     world = World(corners.reshape(-1, 3), np.arange(180).reshape(60, 3), name="soup")
     out = {}
     for kind, params in (("octree", {"depth": 2}), ("portal", {"depth": 1, "cells": 8}),
-                         ("bsp", {})):
+                         ("bsp", {}), ("kdtree", {})):
         path = tmp_path_factory.mktemp("vmp") / f"{kind}.vmp"
         partition(world, kind, **params).save(path)
         out[kind] = path.read_bytes()
@@ -312,6 +314,13 @@ def test_case17_negative_child_count_is_refused(capsys, tmp_path, trajectory, vm
     counts = np.zeros(header_of(data)["fields"]["child_count"]["shape"], dtype="<i4")
     counts[0], counts[1] = 3, -2  # sums to N - 1 and first_child follows, yet negative
     play_vmp(capsys, tmp_path, trajectory, craft(data, field="child_count", values=counts),
+             "inconsistent")
+
+
+def test_case17_kdtree_split_axes_must_match_the_tree(capsys, tmp_path, trajectory, vmp_bytes):
+    data = vmp_bytes["kdtree"]
+    axes = np.full(header_of(data)["fields"]["extras.split_axis"]["shape"], 1, dtype="<i1")
+    play_vmp(capsys, tmp_path, trajectory, craft(data, field="extras.split_axis", values=axes),
              "inconsistent")
 
 

@@ -244,6 +244,27 @@ def run_combos(part, combos, cameras, world, profile, truth):
     return rows
 
 
+def structure_rows(world, cameras, stages="vfc", labels=("octree:3", "octree:4", "octree:5",
+                                                           "octree:6", "kdtree")) -> list:
+    """Rows (structure, nodes, build s, mean nodes visited, mean triangles sent, median ms) of
+    one stage combination on several structures, the cameras of one run (--structures-vfc)."""
+    from vismobile.partition.spec import parse_spec
+
+    rows = []
+    for label in labels:
+        kind, params = parse_spec(label)
+        t = time.perf_counter()
+        part = partition(world, kind, **params)
+        build_s = time.perf_counter() - t
+        culler = Culler(part, stages)
+        results = [culler.cull(cam) for cam in cameras]
+        rows.append((label, part.node_count, build_s,
+                     float(np.mean([r.stats["nodes_visited"] for r in results])),
+                     float(np.mean([len(r.triangles) for r in results])),
+                     median_ms(culler.cull, cameras)))
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--world", default="w2")
@@ -259,6 +280,9 @@ def main(argv=None) -> int:
                     help="load each tiled octree from this .vmp when it exists (a pattern with "
                          "{n} and {depth}, e.g. out/w2x{n}_d{depth}.vmp), else build and save it")
     ap.add_argument("--skip-combos", action="store_true", help="only the comparison and tiles")
+    ap.add_argument("--structures-vfc", default=None,
+                    help="only compare vfc on these structures (comma-separated specs, e.g. "
+                         "octree:3,octree:4,octree:5,octree:6,kdtree) and exit")
     ap.add_argument("--skip-routes", action="store_true", help="no item buffer / Open3D rows")
     ap.add_argument("--combos", default=None,
                     help="octree combos to run instead of the list (and on the tiled worlds), "
@@ -276,6 +300,16 @@ def main(argv=None) -> int:
     traj = Trajectory.load(args.trajectory)
     frames = np.unique(np.linspace(0, len(traj) - 1, args.frames).astype(int))
     cameras = [traj.camera(int(f), profile.aspect) for f in frames]
+    if args.structures_vfc:
+        rows = structure_rows(world, cameras, "vfc", args.structures_vfc.split(","))
+        print(f"vfc on {args.world.upper()}, {len(cameras)} frames of "
+              f"{Path(args.trajectory).name}\n\n| structure | nodes | build s | mean nodes "
+              "visited | mean triangles sent | median ms |\n| --- | ---: | ---: | ---: | ---: "
+              "| ---: |")
+        for label, nodes, build_s, visited, sent, ms in rows:
+            print(f"| {label} | {nodes:,} | {build_s:.2f} | {visited:.1f} | {sent:.0f} | "
+                  f"{ms:.3f} |")
+        return 0
     t = time.perf_counter()
     octree = partition(world, "octree", depth=args.depth)
     build_s = time.perf_counter() - t

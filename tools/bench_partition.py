@@ -40,7 +40,8 @@ THESIS_KB["BSP thesis"] = THESIS_KB["BSP"]
 STRUCTURES = [("grid", "grid", {"auto": True})] + \
     [(f"octree {d}", "octree", {"depth": d}) for d in (3, 4, 5, 6)] + \
     [(f"portal {d}", "portal", {"depth": d}) for d in (1, 2, 3)] + \
-    [("BSP", "bsp", {}), ("BSP thesis", "bsp", {"rule": "thesis", "candidates": 16})]
+    [("BSP", "bsp", {}), ("BSP thesis", "bsp", {"rule": "thesis", "candidates": 16})] + \
+    [("kdtree", "kdtree", {}), ("kdtree median", "kdtree", {"split": "median", "min_leaf": 8})]
 
 
 def timed(world, kind, params, runs):
@@ -63,6 +64,28 @@ def million_world(target=1_000_000):
     return world.subset(np.arange(target))
 
 
+def versus(names, labels, runs) -> int:
+    """Two structures' builds alternated run by run in one process (first build of each is a
+    warm-up, not timed): medians and their ratio per world."""
+    from vismobile.scenes import build_world
+
+    by_label = {label.lower(): (kind, params) for label, kind, params in STRUCTURES}
+    pair = [by_label[label.strip().lower()] for label in labels.split(",")]
+    print(f"| world | {labels.split(',')[0]} s | {labels.split(',')[1]} s | ratio |")
+    print("| --- | ---: | ---: | ---: |")
+    for name in names:
+        world = build_world(name)
+        for kind, params in pair:
+            partition(world, kind, **params)  # warm-up (numba compiles)
+        times = [[], []]
+        for _ in range(runs):
+            for i, (kind, params) in enumerate(pair):
+                times[i].append(timed(world, kind, params, 1)[0])
+        a, b = statistics.median(times[0]), statistics.median(times[1])
+        print(f"| {name.upper()} | {a:.3f} | {b:.3f} | {a / b:.2f}x |", flush=True)
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", default="w1,w2,w3,w4,w5,w6")
@@ -70,10 +93,16 @@ def main(argv=None) -> int:
                         help="comma-separated label prefixes, e.g. bsp,portal 2 (default: all)")
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--million", action="store_true")
+    parser.add_argument("--versus", default="",
+                        help="LABEL,LABEL: time these two builds interleaved (--runs each) on "
+                             "each world and print the ratio of their medians, e.g. "
+                             "'kdtree,octree 5'")
     args = parser.parse_args(argv)
     from vismobile.scenes import build_world, default_cache_dir
 
     names = args.worlds.split(",")
+    if args.versus:
+        return versus(names, args.versus, args.runs)
     prefixes = [p.strip().lower() for p in args.structures.split(",") if p.strip()]
     rows = [row for row in STRUCTURES
             if not prefixes or any(row[0].lower().startswith(p) for p in prefixes)]
@@ -91,7 +120,7 @@ def main(argv=None) -> int:
                 result.save(path)
                 kb = path.stat().st_size / 1024
                 stats = result.stats()
-                thesis = THESIS_KB[label][column]
+                thesis = THESIS_KB.get(label, (None,) * 6)[column]
                 print(f"| {name.upper()} | {label} | {seconds:.2f} | {stats['nodes']:,} | "
                       f"{stats['leaves']:,} | {stats['refs_per_triangle']:.2f} | "
                       f"{stats['max_leaf_refs']:,} | {kb:,.0f} | "

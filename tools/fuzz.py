@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT))
 MODEL = ROOT.parent / "shared" / "models" / "suzanne.obj"
 TRAJECTORY = ROOT / "trajectories" / "indoor.csv"
 STRUCTURES = (("grid", {}), ("octree", {"depth": 3}), ("portal", {"depth": 1}),
-              ("bsp", {"min_leaf": 16}))
+              ("bsp", {"min_leaf": 16}), ("kdtree", {}))
 EXTREMES = (b"1e308", b"-1e308", b"nan", b"inf", b"-0", b"0", b"1e30", b"1e31", b"9" * 400,
             b"-1", b"2147483648", b"1" + b"0" * 40, b"0x10", b"1_0", b"\xa0", b"\xc2\xa0")
 TIME_LIMIT = 30  # seconds per case

@@ -17,10 +17,11 @@ ASPECT = PROFILE.aspect
 BACKFACE_STAGES = set(BACKFACE_STAGES)
 
 # Structure parameters per world: small enough to build quickly, deep enough to cull.
-STRUCTURES = {"octree": {"depth": 4}, "portal": {"depth": 2}, "bsp": {}, "grid": {}}
+STRUCTURES = {"octree": {"depth": 4}, "portal": {"depth": 2}, "bsp": {}, "grid": {},
+              "kdtree": {}}
 BIG = {"w2", "w3", "w4"}  # 30k-100k triangles: shallower trees keep the session short
 BIG_STRUCTURES = {"octree": {"depth": 3}, "portal": {"depth": 1}, "bsp": {"min_leaf": 256},
-                  "grid": {}}
+                  "grid": {}, "kdtree": {}}
 
 _WORLDS, _PARTITIONS = {}, {}
 

@@ -19,7 +19,7 @@ SCREEN = (240, 320)
 EXTRAS = {"occlusion": {"self_occluders": 64, "screen": SCREEN}}
 OPTIONS = {"occlusion": EXTRAS, "vfc,occlusion,tbfc": EXTRAS}
 WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6")
-KINDS = ("octree", "portal", "bsp", "grid")
+KINDS = ("octree", "portal", "bsp", "grid", "kdtree")
 
 
 def check_never_drops_visible(kit, part, cameras):

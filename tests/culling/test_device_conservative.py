@@ -27,7 +27,7 @@ CASES = {"float32-offset-1e5": ("float32", 1.0, 1e5),
          "fixed-scale-1e3": ("fixed16.16", 1e3, 0.0)}
 # Each conservative stage alone, and all of them together; `portals` (plain vfc without a
 # portal structure) only on portal octrees.
-KINDS = {"octree": {"depth": 3}, "portal": {"depth": 1}, "bsp": {}, "grid": {}}
+KINDS = {"octree": {"depth": 3}, "portal": {"depth": 1}, "bsp": {}, "grid": {}, "kdtree": {}}
 COMBOS = tuple(CONSERVATIVE) + ("vfc,occlusion,occlusion_thesis,cbfc,cone,tbfc",
                                  "portals,occlusion,occlusion_thesis,cbfc,cone,tbfc")
 

@@ -33,7 +33,7 @@ def test_bad_depth_is_a_clear_error(suzanne, depth):
 
 def test_unknown_kind_and_parameter(suzanne):
     with pytest.raises(ValueError, match="unknown partition kind"):
-        vismobile.partition(suzanne, "kdtree")
+        vismobile.partition(suzanne, "quadtree")
     with pytest.raises(ValueError, match="unknown parameter"):
         vismobile.partition(suzanne, "octree", dept=3)
 

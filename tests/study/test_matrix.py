@@ -17,9 +17,11 @@ def test_structures_expand_depth_ranges():
 
 def test_structures_all_is_the_thesis_set():
     assert parse_structures("all") == parse_structures("grid,octree:3-6,portal:1-3,bsp")
+    assert parse_structures("bsp,kdtree") == ["bsp", "kdtree"]
 
 
-@pytest.mark.parametrize("bad", ["octree:0", "portal:4", "octree:5-3", "grid:2", "kd", "bsp:1"])
+@pytest.mark.parametrize("bad", ["octree:0", "portal:4", "octree:5-3", "grid:2", "kd", "bsp:1",
+                                 "kdtree:3"])
 def test_bad_structures_are_refused(bad):
     with pytest.raises(SelectionError):
         parse_structures(bad)

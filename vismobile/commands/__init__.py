@@ -13,8 +13,9 @@ CULL_HELP = ("culling stages joined by + (a , works too), or none; stages: "
 PROFILE_HELP = "device profile: " + ", ".join(PROFILE_NAMES)
 WORLDS_DIR_HELP = ("where thesis worlds are built and kept (default: $VISMOBILE_WORLDS, worlds/ "
                    "in a source checkout, else ~/.cache/vismobile/worlds)")
-STRUCTURE_HELP = ("none, grid[:N], octree[:N], portal[:N], bsp, or KIND:key=value,... "
-                  "(N: octree depth 1..8, portal depth 1..3, grid slabs per axis)")
+STRUCTURE_HELP = ("none, grid[:N], octree[:N], portal[:N], bsp, kdtree, or KIND:key=value,... "
+                  "(N: octree depth 1..8, portal depth 1..3, grid slabs per axis; "
+                  "kdtree:split=median,max_depth=N,min_leaf=N)")
 FRAMES_HELP = ("frames to play: all, stride:N (every Nth) or sample:N (N evenly spaced plus "
                "the waypoints)")
 # play and view start alike: the same structure and stages (issue 31).

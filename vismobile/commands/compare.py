@@ -26,8 +26,8 @@ def add_parser(sub):
                              "worlds are used as built), each fixed copy written to "
                              "OUT/fixed/NAME.obj and swept in its place")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
-                        help="comma-separated grid, octree[:N or A-B], portal[:N or A-B], bsp "
-                             "or all (default the thesis's: grid,octree:3-6,portal:1-3,bsp)")
+                        help="comma-separated grid, octree[:N or A-B], portal[:N or A-B], bsp, "
+                             "kdtree, or all (the thesis's set; the default)")
     parser.add_argument("--cull", action="append", default=None, metavar="COMBINATIONS",
                         help="culling combinations, each stages joined by + (as in play and "
                              "view), several separated by ';' or given as repeated --cull "

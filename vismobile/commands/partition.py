@@ -23,8 +23,8 @@ def add_parser(sub):
                              "(count); axes not given get one slab")
     parser.add_argument("--auto", action="store_true", help="grid/portal: automatic cells")
     parser.add_argument("--cells", type=int, help="grid/portal --auto: target cell count")
-    parser.add_argument("--min-leaf", type=int, help="bsp: smallest splittable node (default 8)")
-    parser.add_argument("--max-depth", type=int, help="bsp: deepest level (default 32)")
+    parser.add_argument("--min-leaf", type=int, help="bsp/kdtree: smallest splittable node (default 8/1)")
+    parser.add_argument("--max-depth", type=int, help="bsp/kdtree: deepest level (default 32/automatic)")
     parser.add_argument("--candidates", type=int, help="bsp: planes tried per node (default 64)")
     parser.add_argument("--rule", choices=("balanced", "thesis"),
                         help="bsp: balanced (default) or thesis: stop when no split has h+/h- "

@@ -22,9 +22,9 @@ def add_parser(sub):
                         help=PROFILE_HELP + " (default ipaq-hx2490b)")
     parser.add_argument("--probe", type=int, default=PROBE_FRAMES,
                         help="evenly spaced probe frames, the waypoints added (default 24)")
-    parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
+    parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp,kdtree",
                         help="comma-separated candidates: grid, octree[:N or A-B], portal[:N or "
-                             "A-B], bsp, all (default grid,octree:3-6,portal:1-3,bsp)")
+                             "A-B], bsp, kdtree, all (default grid,octree:3-6,portal:1-3,bsp,kdtree)")
     parser.add_argument("--worlds-dir", type=Path, default=None,
                         help=WORLDS_DIR_HELP)
     parser.add_argument("--cache", type=Path, default=None,

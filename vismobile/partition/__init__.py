@@ -1,5 +1,5 @@
 """The offline partitioner: `partition(world, kind, **params)` builds a Partition (base.py
-layout) as a grid, octree, portal octree or BSP tree; `load_partition` reads a .vmp file."""
+layout) as a grid, octree, portal octree, BSP tree or kd-tree; `load_partition` reads a .vmp file."""
 from __future__ import annotations
 
 import sys
@@ -17,13 +17,14 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     kind     : "grid" (slabs=..., auto=, cells=), "octree" (depth=1..8, default 5),
                "portal" (depth=1..3, slabs=, cells=, thickness=, samples=) or
                "bsp" (min_leaf=, max_depth=, candidates=, balance=, straddle_weight=, seed=)
+               or "kdtree" (split=sah|median, ratio=, bins=, min_leaf=, max_depth=)
     progress : optional callable(done, total) for long builds
     Raises ValueError on an unknown kind or parameter, or a parameter out of range.
     """
-    from . import bsp, grid, octree, portal
+    from . import bsp, grid, kdtree, octree, portal
 
     builders = {"grid": grid.build, "octree": octree.build, "portal": portal.build,
-                "bsp": bsp.build}
+                "bsp": bsp.build, "kdtree": kdtree.build}
     if kind not in builders:
         raise ValueError(f"unknown partition kind {kind!r}; expected one of {', '.join(KINDS)}")
     build = builders[kind]

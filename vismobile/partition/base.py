@@ -20,7 +20,7 @@ import numpy as np
 
 from ..world import World
 
-KINDS = ("grid", "octree", "portal", "bsp")
+KINDS = ("grid", "octree", "portal", "bsp", "kdtree")
 # The largest vertex coordinate a stage may meet (the OBJ reader's limit): squares and cross
 # products of coordinates stay finite in float64.
 MAX_COORDINATE = 1e30
@@ -200,6 +200,11 @@ class Partition:
                 raise ValueError("split_planes must be (N, 4), finite on inner nodes")
             if np.any((count != 0) & (count != 2)):
                 raise ValueError("BSP nodes must have 0 or 2 children")
+        if "split_axis" in x:  # kd-tree planes
+            axis = x["split_axis"]
+            if (axis.shape != (n,) or axis.min(initial=0) < -1 or axis.max(initial=0) > 2
+                    or np.any((axis >= 0) != (count > 0)) or np.any((count != 0) & (count != 2))):
+                raise ValueError("split_axis must be 0..2 on inner nodes (2 children), -1 on leaves")
         if "occluders" in x:  # occlusion's per-node lists (partition/occluders.py)
             lists = x["occluders"]
             if (lists.ndim != 2 or lists.shape[0] != n or lists.shape[1] < 1

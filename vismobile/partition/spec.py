@@ -1,17 +1,18 @@
 """Structure specs, the one grammar every command uses: `KIND[:N][,key=value...]`.
 
 `octree:5` (depth 5), `grid:8` (8 slabs per axis), `portal:2`, `bsp`, `bsp:min_leaf=4,seed=1`,
-`grid:slabs=4x1x4` (per axis), `none`. A bare number sets the kind's main parameter.
+`grid:slabs=4x1x4` (per axis), `kdtree`, `kdtree:split=median,max_depth=12,min_leaf=8`, `none`. A bare number sets the kind's main parameter.
 """
 from __future__ import annotations
 
 from .base import KINDS
 
 # The parameter a bare number sets, per kind.
-MAIN_PARAMETER = {"octree": "depth", "portal": "depth", "grid": "slabs", "bsp": "max_depth"}
+MAIN_PARAMETER = {"octree": "depth", "portal": "depth", "grid": "slabs", "bsp": "max_depth",
+                  "kdtree": "max_depth"}
 NONE = ("", "none")
 HELP = ("none, " + ", ".join(f"{k}[:N]" for k in KINDS) + " or KIND:key=value,... "
-        "(N: octree depth 1..8, portal depth 1..3, grid slabs per axis, bsp max depth)")
+        "(N: octree depth 1..8, portal depth 1..3, grid slabs per axis, bsp/kdtree max depth)")
 
 
 def parse_value(text: str):

@@ -42,7 +42,7 @@ STAGE_ORDER = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc"
 # The thesis's own variants, which it says may drop visible geometry: measured for their error
 # and never tune candidates, even those our tests prove conservative (vfc_thesis, occlusion_thesis).
 LOOSE_STAGES = ("vfc_thesis", "occlusion_thesis", "cbfc_thesis")
-STRUCTURE_KINDS = ("grid", "octree", "portal", "bsp")
+STRUCTURE_KINDS = ("grid", "octree", "portal", "bsp", "kdtree")
 DEPTH_RANGE = {"octree": (1, 8), "portal": (1, 3)}
 PROFILES = ("ipaq-hx2490b", "nokia-n82", "desktop")
 
@@ -134,12 +134,12 @@ def parse_structures(text: str) -> list:
         if item == "all":
             labels += parse_structures("grid,octree:3-6,portal:1-3,bsp")
             continue
-        match = re.fullmatch(r"(grid|octree|portal|bsp)(?::(\d+)(?:-(\d+))?)?", item)
+        match = re.fullmatch(r"(grid|octree|portal|bsp|kdtree)(?::(\d+)(?:-(\d+))?)?", item)
         if not match:
             raise SelectionError(f"bad structure {item!r}: use grid, octree:N, octree:A-B, "
-                                 "portal:N or bsp")
+                                 "portal:N, bsp or kdtree")
         kind, low, high = match.groups()
-        if kind in ("grid", "bsp"):
+        if kind in ("grid", "bsp", "kdtree"):
             if low is not None:
                 raise SelectionError(f"{kind} takes no depth (got {item!r})")
             labels.append(kind)

@@ -37,7 +37,7 @@ from .matrix import (LOOSE_STAGES, OUR_CULLS, THESIS_CULLS, canonical_cull, cull
                      frame_indices, parse_structures)
 from .metrics import frame_errors
 
-DEFAULT_STRUCTURES = "grid,octree:3-6,portal:1-3,bsp"
+DEFAULT_STRUCTURES = "grid,octree:3-6,portal:1-3,bsp,kdtree"
 PROBE_FRAMES = 24  # evenly spaced probe frames; `vismobile tune --probe` has the same default
 COSTS = ("device", "measured")
 
@@ -534,7 +534,7 @@ def sweep(world, trajectory, profile, frames: str = "sample:48",
 START_DEPTH = {"octree": 4, "portal": 1}
 # Simplest first: one level of slabs, a regular subdivision, planes from the world, cells and
 # portals (ties between structures go to the one with less to build and explain).
-SIMPLE_STRUCTURES = ("grid", "octree", "bsp", "portal")
+SIMPLE_STRUCTURES = ("grid", "octree", "bsp", "kdtree", "portal")
 BOOTSTRAP_SAMPLES = 2000
 # Differences below this fraction of the frame time are not worth a more complex configuration:
 # the device model's own error (27% leave-one-out) is far larger.

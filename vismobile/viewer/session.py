@@ -21,7 +21,7 @@ from .hud import hud_lines
 from .recorder import Player, Recorder
 
 # Tab cycles through these (built on first use), from the session's first structure.
-STRUCTURES = ("none", "grid", "octree:4", "octree:5", "portal:1", "bsp")
+STRUCTURES = ("none", "grid", "octree:4", "octree:5", "portal:1", "bsp", "kdtree")
 GOD_VIEWS = tuple(VIEWS) + (None,)
 
 
