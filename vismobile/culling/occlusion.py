@@ -41,6 +41,12 @@ or triangle is taken with all its moves (rectangle grown by the projection of m,
 lowered by sqrt(3) m); an occluder point at depth z >= z_occ (the nearest occluder point, at
 least the clip depth) shifts on screen by at most sqrt(3) m / z_occ (1 + tan) and recedes by at
 most sqrt(3) m, so the rectangle grows by that shift too and the depth test gains sqrt(3) m.
+The device's float32 transform also errs in depth: its normalised depth is off by up to m / z,
+so it orders two surfaces only when they are a relative depth_order(m, near) apart; occluder
+depths are pushed back by that much. When m >= 2 near (a near plane within the device's error
+of the eye: near 1e-3 at a 1e5 offset in float32) it cannot order depths at all and may leave
+any occluder undrawn: the buffer then hides nothing (`occlusion.unordered` counts such frames;
+the frustum and the screen's centre test still apply).
 
 Memory. On an in-memory World the stage slices whole-world tables (normals, areas, the
 rasteriser's mesh); on any other world (a memory-mapped .vmp, mapped.MappedWorld) it keeps
@@ -63,12 +69,12 @@ from ..partition.occluders import candidate_lists
 from ..world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
-from .hiz import (GUARD_PX, build_tiles, cull_nodes, facing_occluders, frustum_cull_nodes,
-                  gather_candidates, gather_shell_candidates, hidden_triangles, lod_ancestors,
-                  rasterise, score_candidates, shift_table_size, stamp_near,
+from .hiz import (DEPTH_SLACK, GUARD_PX, build_tiles, cull_nodes, facing_occluders,
+                  frustum_cull_nodes, gather_candidates, gather_shell_candidates, hidden_triangles,
+                  lod_ancestors, rasterise, score_candidates, shift_table_size, stamp_near,
                   tile_shifts)
 from .occluder_rows import occluder_mesh_of, score_corners, triangle_rows
-from .precision import device_move, world_scale
+from .precision import depth_order, device_move, world_scale
 from .shared import per_object
 from .state import CullResult, CullState
 from .tree import Tree
@@ -88,6 +94,7 @@ NEAR_RELATIVE = 2.0 ** -10
 LOCAL_SHIFT_PX = 0.25
 # The first round's candidate shells grow by this factor (hiz.gather_shell_candidates).
 SHELL_GROWTH = np.sqrt(2.0)
+
 
 
 def _world_tables(world) -> tuple:
@@ -428,8 +435,9 @@ class DepthBufferOcclusion:
         return reach / z * (1.0 + tangent)
 
     def _view(self, camera) -> tuple:
-        """(eye (3,), rotation (3, 3) rows right, up, forward, tx, ty, move, near clip, scale)
-        of the camera, computed once per camera (cameras are frozen; a frame asks many times)."""
+        """(eye (3,), rotation (3, 3) rows right, up, forward, tx, ty, move, near clip, scale,
+        depth_order slack) of the camera, computed once per camera (cameras are frozen; a frame
+        asks many times)."""
         if camera is self._view_of:
             return self._view_now
         tx, ty = half_tangents(camera.fov, camera.aspect)
@@ -437,7 +445,8 @@ class DepthBufferOcclusion:
         move = 2.0 * device_move(self.arithmetic, scale)
         clip = camera.near * (1.0 + NEAR_RELATIVE) + max(DEVICE_RELATIVE * scale, 2.0 * move)
         self._view_of = camera
-        self._view_now = (camera.eye, np.array(camera.axes()), tx, ty, move, clip, scale)
+        self._view_now = (camera.eye, np.array(camera.axes()), tx, ty, move, clip, scale,
+                          depth_order(move, camera.near))
         return self._view_now
 
     def mesh(self, chosen) -> tuple:
@@ -461,12 +470,12 @@ class DepthBufferOcclusion:
     def rasterise(self, camera, chosen) -> int:
         """Adds world triangles `chosen` (K,) int64 (they must certainly face the eye) to the
         depth buffer and rebuilds the tiles; returns pixels newly covered."""
-        eye, rotation, tx, ty, move, clip, _ = self._view(camera)
+        eye, rotation, tx, ty, move, clip, _, order = self._view(camera)
         self._frame += 1
         tables = self.mesh(np.ascontiguousarray(chosen, dtype=np.int64))
         nearest, written = rasterise(*tables, self._frame, eye, rotation, clip, tx, ty,
                                      self.width, self.height, self.depth, self.mask,
-                                     self.centre, self.crease_far)
+                                     self.centre, self.crease_far, DEPTH_SLACK + order)
         self.nearest = min(self.nearest, nearest)
         if self._local is None:  # the frame's first occluders: is a local shift worth it?
             pixels = self.shift(camera, move) * 0.5 * max(self.width / tx, self.height / ty)
@@ -490,6 +499,9 @@ class DepthBufferOcclusion:
         self.tile_shift.fill(np.inf)  # no local bound until the table is built
         self._local = None
         self.reach = np.inf if self.first_reach is None else self.first_reach
+        if not self._view(camera)[7] < np.inf:  # the device cannot order depths: no occluder
+            self._unordered(state, fused)
+            return
         chosen = self.select(state, reach=self.first_reach, limit=self.first_candidates)
         written = self.rasterise(camera, chosen) if len(chosen) else 0
         if not len(chosen):
@@ -522,6 +534,20 @@ class DepthBufferOcclusion:
             def keep_of(ids):
                 return ~self._hidden_triangles(state, ids, move, margin, recede, written > 0)
             state.filters.append(keep_of)
+
+    def _unordered(self, state, fused) -> None:
+        """The frame without a buffer (depth_order is inf): the deferred frustum walk, and with
+        `screen` the triangles covering no pixel centre; nothing else is dropped."""
+        state.count(f"{self.name}.unordered", 1)
+        self.tile_max.fill(np.inf)
+        self.tile_min.fill(np.inf)
+        self.tile_any.fill(False)
+        if fused:
+            state.nodes = frustum_refine(self.tree, state, "vfc")
+        if self.triangles and self.screen:
+            move = self._view(state.camera)[4]
+            state.filters.append(lambda ids: ~self._hidden_triangles(
+                state, ids, move, 0.0, np.sqrt(3.0) * move, False))
 
     def nearest_far(self, margin, recede) -> float:
         """D + margin D^2 + recede for the smallest covered depth bound D: nothing nearer than
@@ -600,7 +626,7 @@ class DepthBufferOcclusion:
         state.count("triangles_tested", len(ids))
         state.count(f"{self.name}.triangles_tested", len(ids))
         state.count(f"{self.name}.subpixel_culled", subpixel.sum())
-        if self.self_occluders:
+        if self.self_occluders and self._view(camera)[7] < np.inf:
             live = np.flatnonzero(~hidden & ~subpixel & np.isfinite(zmin))
             live = live[self.facing(ids[live], camera.eye)]
             if len(live) > self.self_occluders:  # nearest first: they hide the most

@@ -138,17 +138,18 @@ _CENTRE, _BOUNDARY, _CREASE = 1, 2, 4
 @njit(cache=True, nogil=True)
 def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, piece_end,
               piece_a, piece_b, partner, partner_any, stamp, frame, eye, rot, clip, tx, ty,
-              width, height, depth, mask, centre, crease_far):
+              width, height, depth, mask, centre, crease_far, slack=DEPTH_SLACK):
     """Rasterise occluder triangles `ids` (sorted by group) into depth (H * W,) float64 by the
     pointwise minimum; returns (nearest rasterised depth (inf if none), pixels written).
 
     Contract: errs toward "not covered" and "farther": a pixel is written only when wholly inside
     the union of the triangles clipped to depth >= clip, with a depth >= every point of that
-    union over the pixel (x (1 + DEPTH_SLACK)); a border pixel's square is taken GUARD_PX wider
-    off screen. Either one plane group covers it (its centre in a triangle of the group, no
-    unpaired piece of the group near it: that plane's farthest depth), or its centre is in some
-    triangle and only crease pieces (paired across groups) come near it: the largest of the
-    farthest depths of the groups whose pieces come near.
+    union over the pixel (x (1 + slack), slack >= DEPTH_SLACK: the device's depth-order error,
+    occlusion.depth_order); a border pixel's square is taken GUARD_PX wider off screen. Either
+    one plane group covers it (its centre in a triangle of the group, no unpaired piece of the
+    group near it: that plane's farthest depth), or its centre is in some triangle and only
+    crease pieces (paired across groups) come near it: the largest of the farthest depths of
+    the groups whose pieces come near.
     groups     : (T,) int64 exact-plane label;  tri_points : (T, 3) int64 into points (P, 3)
     normals    : (T, 3), offsets (T,) float64 exact planes n.x = offset; ids must face the eye
     piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (occlusion.occluder_mesh)
@@ -301,7 +302,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                     if i == 0 or rr == 0 or i == width - 1 or rr == height - 1:
                         inv = _guarded_low(a, i, width) + _guarded_low(b, rr, height) + c0_
                     if inv > 0:
-                        z = (1.0 + DEPTH_SLACK) / inv
+                        z = (1.0 + slack) / inv
                 if m & _CREASE:
                     creases = True
                     if crease_far[p] >= 0:
