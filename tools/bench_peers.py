@@ -1,12 +1,18 @@
-"""The engine's terrain methods against the PyPI peers pymartini and pydelatin (issue 15):
-triangles vs largest error vs PSNR along the fast lemniscate, each peer at equal triangles and
-at equal (world) error to each method and knob value.
+"""Peers. Terrain (default): the engine's terrain methods against the PyPI peers pymartini and
+pydelatin (issue 15): triangles vs largest error vs PSNR along the fast lemniscate, each peer at
+equal triangles and at equal (world) error to each method and knob value. Occlusion (--moc):
+`vfc,occlusion,tbfc` with the profile's screen against Intel's Masked Occlusion Culling driven
+hierarchically (tools/moc_peer.py), same cameras, same process, interleaved frame by frame
+(issue 32): time, sent / visible, frames and triangles dropped against the item buffer.
 
     .venv/bin/python tools/bench_peers.py [--size 1025] [--frames 3] [--taus 0.5,1,4]
         [--methods tiles,roettger,roam] [--out runs/bench_peers.md]
+    .venv/bin/python tools/bench_peers.py --moc [--worlds w2,w2x3,w2x7] [--frames 150]
+        [--start 300] [--out runs/bench_peers_moc.md]
 
-Needs the optional extra: pip install 'vismobile[peers]' (the peers that are missing are
-named and skipped).
+Terrain needs the optional extra: pip install 'vismobile[peers]' (the peers that are missing
+are named and skipped). --moc needs ../shared/peers/moc and g++ (else its rows are skipped with
+the reason); w2xN are W2 tiled N x N (tools/tile_world.py; 7 x 7 builds for minutes).
 """
 from __future__ import annotations
 
@@ -19,6 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
+from bench_moc import moc_main  # noqa: E402
 from bench_terrain import build_methods, heightmap  # noqa: E402
 from vismobile.profile import get_profile  # noqa: E402
 from vismobile.study.peers import PEERS, compare, missing  # noqa: E402
@@ -40,13 +47,23 @@ def table(rows) -> list:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--size", type=int, default=1025)
-    parser.add_argument("--frames", type=int, default=3)
+    parser.add_argument("--frames", type=int, default=None, help="3 (terrain), 150 (--moc)")
     parser.add_argument("--taus", default="0.5,1,4")
     parser.add_argument("--methods", default="tiles,roettger,roam")
     parser.add_argument("--patch", type=int, default=16)
     parser.add_argument("--C", type=float, default=8.0)
-    parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_peers.md")
+    parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--moc", action="store_true",
+                        help="occlusion against Intel MOC instead of the terrain peers")
+    parser.add_argument("--worlds", default="w2,w2x3",
+                        help="--moc: w2 and tiled w2xN worlds, comma-separated")
+    parser.add_argument("--start", type=int, default=300, help="--moc: first trajectory frame")
     args = parser.parse_args(argv)
+    if args.moc:
+        return moc_main(args.worlds, args.start, args.frames or 150,
+                        args.out or ROOT / "runs" / "bench_peers_moc.md")
+    args.out = args.out or ROOT / "runs" / "bench_peers.md"
+    args.frames = args.frames or 3
     for name in PEERS:
         reason = missing(name)
         if reason:

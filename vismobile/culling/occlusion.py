@@ -246,6 +246,7 @@ class DepthBufferOcclusion:
             raise ValueError(f"occlusion screen must be (width, height) > 0, got {screen!r}")
         self.nearest = np.inf  # nearest depth of this frame's rasterised occluder points
         self.history = np.zeros(0, dtype=np.int64)
+        self.frame_occluders = np.zeros(0, dtype=np.int64)  # this frame's rasterised ids
         self._frame = 0
         self._view_of = self._view_now = None
 
@@ -530,6 +531,7 @@ class DepthBufferOcclusion:
                 if not more:
                     break
                 self._node_pass(state, eye, rotation, tx, ty, move, margin, recede, False)
+        self.frame_occluders = chosen  # read by tools (bench_peers' MOC rows); not a copy
         if self.triangles and (written or self.self_occluders or self.screen):
             def keep_of(ids):
                 return ~self._hidden_triangles(state, ids, move, margin, recede, written > 0)
@@ -539,6 +541,7 @@ class DepthBufferOcclusion:
         """The frame without a buffer (depth_order is inf): the deferred frustum walk, and with
         `screen` the triangles covering no pixel centre; nothing else is dropped."""
         state.count(f"{self.name}.unordered", 1)
+        self.frame_occluders = np.zeros(0, dtype=np.int64)
         self.tile_max.fill(np.inf)
         self.tile_min.fill(np.inf)
         self.tile_any.fill(False)
