@@ -35,14 +35,14 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mesh", nargs="?", help="mesh file (default: a room built here)")
     parser.add_argument("--out", default="own_mesh.png", help="PNG to write")
-    parser.add_argument("--structure", default="octree:3", help="e.g. octree:3, grid:4, bsp")
+    parser.add_argument("--structure", default="octree:3", help="e.g. octree:3, grid:4, portal:1, bsp, "
+                                                              "bsp:min_leaf=8")
     parser.add_argument("--cull", default="vfc+bfc", help="culling stages joined by +")
     args = parser.parse_args(argv)
 
     world = World.from_file(args.mesh) if args.mesh else demo_room()
     print(world)
-    kind, _, depth = args.structure.partition(":")
-    tree = partition(world, kind, **({"depth": int(depth)} if depth else {}))
+    tree = partition(world, args.structure)  # the CLI's grammar: octree:3, grid:4, bsp, ...
     print(tree)
 
     low, high = world.extent

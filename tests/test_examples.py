@@ -35,3 +35,31 @@ def test_compare_two_plots_both_configurations(tmp_path):
     out = run("compare_two.py", "--frames", "6", "--out", "plot.png", cwd=tmp_path)
     assert "octree" in out and "bsp" in out
     assert Image.open(tmp_path / "plot.png").size[0] > 100
+
+
+def _example(name):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_own_mesh_runs_every_structure_and_cull_its_help_shows(tmp_path, capsys):
+    import re
+
+    module = _example("own_mesh")
+    try:
+        module.main(["--help"])
+    except SystemExit:
+        pass
+    text = " ".join(capsys.readouterr().out.split())
+    shown = re.search(r"--structure STRUCTURE e\.g\. (.*?)(?: --|$)", text).group(1)
+    structures = [s.strip() for s in shown.split(",")]
+    assert {"octree:3", "grid:4", "portal:1", "bsp"} <= set(structures)
+    for structure in structures:
+        out = tmp_path / f"{structure.replace(':', '_').replace('=', '_')}.png"
+        assert module.main(["--structure", structure, "--out", str(out)]) == 0, structure
+        assert out.is_file()
+    assert module.main(["--cull", "vfc+bfc+tbfc", "--out", str(tmp_path / "c.png")]) == 0

@@ -2,7 +2,29 @@
 
 The pipeline, one package per stage, data flowing one way:
 world -> partition/ -> culling/ -> render/ -> study/
+
+    import vismobile
+    from vismobile import World, Camera, Culler, partition, get_profile, render_rgb
+
+    world = World.from_file("room.glb")            # or build_world("w2"), open_world("w2")
+    tree = partition(world, "octree:4")            # the CLI's grammar, or ("octree", depth=4)
+    camera = Camera((0.0, 1.6, 3.0), yaw=0.0, pitch=-5.0)
+    result = Culler(tree, "vfc+bfc").cull(camera)  # result.triangles: the ids to draw
+    image = render_rgb(world, result.triangles, camera, get_profile("desktop"), result.cull_back)
+
+Public names (imported on first use; each has its own help()):
+  worlds      World, build_world, open_world, check_winding, fixed_world, Trajectory,
+              generate_trajectory, Camera
+  partitions  partition, load_partition, Partition, parse_spec, format_spec
+  culling     Culler, STAGES, AdaptiveCuller
+  devices     Profile, get_profile, PROFILES
+  rendering   render_rgb, item_buffer, Renderer
+  playback    load_scene, play, Scene
+  study       tune
+  errors      VisMobileError, WorldError, PartitionError, ProfileError, TrajectoryError
 """
+import sys
+import types
 from importlib import import_module
 
 __version__ = "0.1.0"
@@ -46,7 +68,19 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name):
-    if name in _EXPORTS:
-        return getattr(import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module 'vismobile' has no attribute {name!r}")
+class _LazyModule(types.ModuleType):
+    """The package module, resolving the public names on first use. A module class rather
+    than a module-level __getattr__, so that help(vismobile) lists the public classes and
+    functions (dir() gives them) and no __getattr__ among them."""
+
+    def __getattr__(self, name):
+        if name in _EXPORTS:
+            value = getattr(import_module(_EXPORTS[name]), name)
+            return value
+        raise AttributeError(f"module 'vismobile' has no attribute {name!r}")
+
+    def __dir__(self):
+        return sorted(set(super().__dir__()) | set(__all__))
+
+
+sys.modules[__name__].__class__ = _LazyModule

@@ -51,6 +51,16 @@ class Trajectory:
     def __len__(self) -> int:
         return len(self.poses)
 
+    def __repr__(self) -> str:
+        if not len(self.poses):
+            return "Trajectory(0 frames)"
+        low, high = self.poses[:, :3].min(axis=0), self.poses[:, :3].max(axis=0)
+        marks = ", ".join(f"{k}@{v}" for k, v in list(self.waypoints.items())[:4])
+        more = ", ..." if len(self.waypoints) > 4 else ""
+        box = ", ".join(f"{a:.4g}..{b:.4g}" for a, b in zip(low, high))
+        return (f"Trajectory({len(self.poses):,} frames, eye in ({box})"
+                + (f", waypoints {marks}{more}" if marks else "") + ")")
+
     def camera(self, frame: int, aspect: float | None = None) -> Camera:
         """The Camera at one frame (the trajectory's aspect unless given)."""
         x, y, z, yaw, pitch = self.poses[frame]

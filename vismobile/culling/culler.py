@@ -60,8 +60,8 @@ class Culler:
     """Culls a Partition for a camera with a chosen set of stages.
 
     partition : Partition (layout contract in partition/base.py)
-    stages    : list/tuple of names or a comma string, e.g. "vfc,bfc,cbfc"; "" or "none" = no
-                culling. Valid names: STAGES. Applied in order of cost: node stages (portals,
+    stages    : list/tuple of names or a string joined by + (or ,), e.g. "vfc+bfc+cbfc"; "" or
+                "none" = no culling. Valid names: STAGES. Applied in order of cost: node stages (portals,
                 vfc, vfc_thesis, cone, occlusion_thesis, occlusion) refine the set of draw nodes,
                 triangle stages (cbfc, tbfc) then filter the gathered references, bfc sets a flag.
     arithmetic: the device's arithmetic mode (float64, float32, fixed16.16); frustum planes are
@@ -99,6 +99,12 @@ class Culler:
                                  f"of map_partition") from None
         self._fuse()
         self._cover()
+
+    def __repr__(self) -> str:
+        part = self.partition
+        kind = getattr(part, "kind", type(part).__name__)
+        return (f"Culler({'+'.join(self.names) or 'none'} over {kind} of "
+                f"{part.world.triangle_count:,} triangles, {self.arithmetic})")
 
     def _cover(self) -> None:
         """vfc accepts covered nodes whole (FrustumStage cover) only when no later stage tests

@@ -25,6 +25,11 @@ class CullResult:
     stats: dict
     cull_back: bool = False
 
+    def __repr__(self) -> str:
+        flag = ", GL_CULL_FACE on" if self.cull_back else ""
+        return (f"CullResult({len(self.triangles):,} triangles from {len(self.nodes):,} draw "
+                f"nodes, {self.stats.get('nodes_visited', 0):,} nodes visited{flag})")
+
 
 @dataclass
 class CullState:

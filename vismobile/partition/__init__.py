@@ -17,11 +17,18 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     kind     : "grid" (slabs=..., auto=, cells=), "octree" (depth=1..8, default 5),
                "portal" (depth=1..3, slabs=, cells=, thickness=, samples=) or
                "bsp" (min_leaf=, max_depth=, candidates=, balance=, straddle_weight=, seed=)
-               or "kdtree" (split=sah|median, ratio=, bins=, min_leaf=, max_depth=)
+               or "kdtree" (split=sah|median, ratio=, bins=, min_leaf=, max_depth=); or the
+               CLI's structure text ("octree:4", "grid:8", "bsp:min_leaf=4"), whose
+               parameters keyword params override
     progress : optional callable(done, total) for long builds
     Raises ValueError on an unknown kind or parameter, or a parameter out of range.
     """
     from . import bsp, grid, kdtree, octree, portal
+    from .spec import parse_spec
+
+    if isinstance(kind, str) and ":" in kind:
+        kind, given = parse_spec(kind)
+        params = {**given, **params}
 
     builders = {"grid": grid.build, "octree": octree.build, "portal": portal.build,
                 "bsp": bsp.build, "kdtree": kdtree.build}
