@@ -155,7 +155,14 @@ def staged_directory(out, marker="summary.json"):
         shutil.rmtree(stage)
     make_dirs(stage)
     try:
-        yield stage
+        try:
+            yield stage
+        except OutputError as error:  # name the run folder, not the hidden staging one
+            where = Path(error.path)
+            if where != stage and stage not in where.parents:
+                raise
+            raise OutputError(out / where.relative_to(stage),
+                              str(error)[len(error.path) + 2:]) from None
         try:
             if not out.exists():
                 os.rename(stage, out)

@@ -35,12 +35,14 @@ COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune", "trajector
 
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
+    from .commands import options
 
     parser = argparse.ArgumentParser(prog="vismobile", description=DESCRIPTION, epilog=EPILOG,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"vismobile {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, title="commands",
                                 metavar="COMMAND")
+    ranged = set()
     for name in COMMANDS:
         try:
             module = import_module(f"vismobile.commands.{name}")
@@ -48,7 +50,10 @@ def build_parser() -> argparse.ArgumentParser:
             if error.name != f"vismobile.commands.{name}":
                 raise
             continue
-        module.add_parser(sub).set_defaults(handler=module.run)
+        command = module.add_parser(sub)
+        command.set_defaults(handler=module.run)
+        ranged |= options.annotate(command, name)  # each option's valid range in its help
+    parser.ranged = ranged  # (command, option) pairs annotated (tests: the whole table)
     return parser
 
 
@@ -69,6 +74,10 @@ def _run(args) -> int:
         warnings.simplefilter("default")
         warnings.formatwarning = lambda message, *rest: f"warning: {message}\n"
         try:
+            from .commands import options, overwrite
+
+            options.check(args)  # every range before anything is loaded or written
+            overwrite.check(args)  # no output is one of the inputs
             return int(args.handler(args) or 0)
         except VisMobileError as error:
             print(f"vismobile: error: {one_line(error)}", file=sys.stderr)

@@ -17,7 +17,7 @@ def test_partition_command(tmp_path, capsys):
 
 def test_bad_depth_exits_2(tmp_path, capsys):
     assert main(["partition", str(MODEL), "--depth", "9", "-o", str(tmp_path / "x.vmp")]) == 2
-    assert "octree depth" in capsys.readouterr().err
+    assert "--depth must be 1..8" in capsys.readouterr().err  # commands/options.py RANGES
 
 
 def test_structure_specs_and_options_are_one_grammar(tmp_path, capsys):

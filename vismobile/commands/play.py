@@ -42,15 +42,11 @@ def add_parser(sub):
 
 def run(args) -> int:
     args.cull = default_cull(args.cull, args.structure)
-    from ..errors import VisMobileError
     from ..playback import load_scene, parse_stages, play
     from ..profile import get_profile
     from ..trajectory import Trajectory
 
-    if args.images < 0:
-        raise VisMobileError(f"--images must be >= 0, got {args.images}")
-    if args.limit is not None and args.limit < 1:
-        raise VisMobileError(f"--limit must be at least 1, got {args.limit}")
+    check_folder(args.out)  # before loading and playing, not after (issue 28)
     profile = get_profile(args.profile, args.vertex_format)
     trajectory = Trajectory.load(default_trajectory(args.world, args.trajectory),
                                  limit=args.limit)
@@ -90,6 +86,27 @@ def run(args) -> int:
               f"{event['saving_ms']:.3f} ms, costs {event['cost_ms']:.3f} ms per frame)")
     print(f"wrote {args.out}/frames.csv and {args.out}/summary.json")
     return 0
+
+
+def check_folder(out: Path) -> None:
+    """OutputError naming out when a run folder cannot be made there: a file or special file,
+    a path under a file, or a nearest existing folder where nothing can be created (probed
+    with a temporary folder, removed at once: permissions alone do not stop root)."""
+    import os
+    import tempfile
+
+    from ..atomic import check_destination
+    from ..errors import OutputError
+
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise OutputError(out, "is not a folder; give a folder for the run")
+    check_destination(out / "summary.json")
+    existing = next((p for p in (out, *out.parents) if p.is_dir()), Path("."))
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".vismobile-probe-", dir=existing))
+    except OSError as error:
+        raise OutputError(out, f"cannot write in {existing}: {error.strerror or error}") from None
 
 
 def correlation_words(r) -> str:

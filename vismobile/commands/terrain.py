@@ -31,13 +31,15 @@ def add_parser(sub):
 def run(args) -> int:
     if args.action == "info":
         return _info(args)
-    from ..errors import WorldError
     from ..terrain import sources, store
     from ..terrain.mesh import terrain_world
     from ..terrain.placement import Placement, place_objects
 
-    if args.size is not None and sources.grid_exponent(args.size) is None:
-        raise WorldError(args.out, f"--size must be 2^n+1 (e.g. 1025), got {args.size}")
+    from ..atomic import check_destination
+
+    check_destination(args.out)
+    if args.obj is not None:
+        check_destination(args.obj)
     from ..progress import Status
 
     with Status(f"terrain build {args.source}") as status:
@@ -49,6 +51,7 @@ def run(args) -> int:
                                                spacing=args.spacing)
         else:
             heightmap = sources.load_file(args.source, args.size, args.spacing, args.vertical)
+        _check_fit(args, heightmap)  # before the first write: no .vmt without its OBJ
         status("placing objects and writing")
         placement = (place_objects(heightmap, args.objects, args.seed, args.object_height)
                      if args.objects > 0 else Placement.empty())
@@ -63,6 +66,31 @@ def run(args) -> int:
             world.to_obj(args.obj)
         print(f"wrote {args.obj}: {world.triangle_count:,} triangles")
     return 0
+
+
+# Ground triangles of an exported OBJ (a 2049^2 map at stride 1: 8.4 M, ~3 GB as a World).
+MAX_OBJ_TRIANGLES = 1 << 23
+
+
+def _check_fit(args, heightmap) -> None:
+    """Limits that need the heightmap: --obj-stride divides its cells and keeps the OBJ within
+    MAX_OBJ_TRIANGLES; objects stand inside the square (VisMobileError naming the option)."""
+    from ..errors import VisMobileError
+
+    cells = heightmap.size - 1
+    if args.obj is not None:
+        if args.obj_stride > cells:
+            raise VisMobileError(f"--obj-stride {args.obj_stride} exceeds the {cells} cells per "
+                                 f"side of a {heightmap.size}^2 terrain")
+        triangles = 2 * (cells // args.obj_stride) ** 2
+        if triangles > MAX_OBJ_TRIANGLES:
+            raise VisMobileError(f"--obj at stride {args.obj_stride} would hold {triangles:,} "
+                                 f"triangles (at most {MAX_OBJ_TRIANGLES:,}); pass a larger "
+                                 "--obj-stride")
+    height = args.object_height
+    if args.objects > 0 and height is not None and 4 * height > heightmap.extent:
+        raise VisMobileError(f"--object-height {height:g} exceeds a quarter of the terrain's "
+                             f"width ({heightmap.extent:g})")
 
 
 def _info(args) -> int:

@@ -62,6 +62,11 @@ def run(args) -> int:
     with Status(f"trajectory {args.world}", enabled=not args.quiet) as status:
         status("loading the world")
         world = fix_winding(open_world(args.world), args.fix_winding)
+        low, high = world.extent
+        wide = float(max(high[0] - low[0], high[2] - low[2]))
+        if args.clearance is not None and 2 * args.clearance >= wide:
+            raise VisMobileError(f"--clearance {args.clearance:g} blocks the whole of "
+                                 f"{args.world} ({wide:g} wide); give less than {wide / 2:g}")
         status(f"{world.triangle_count:,} triangles; free space at eye height")
         poses, kind, space = walk(world, args.length, args.seed, args.eye_height,
                                   args.clearance)

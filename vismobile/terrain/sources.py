@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import WorldError
-from .heightmap import Heightmap, grid_exponent, quantize
+from .heightmap import MAX_LEVEL, Heightmap, grid_exponent, quantize
 
 # matplotlib sample DEMs: file, array key, metres per sample (3 arc-seconds ~ 92.6 m north-south
 # for jacksboro; topobathy is a 1 arc-minute grid, ~1852 m).
@@ -19,6 +19,9 @@ DEMS = {
     "topobathy": ("topobathy.npz", "topo", 1852.0),
 }
 SYNTHETIC = "fractal"
+# A heightmap file's samples (a 4097^2 grid; float64 copies stay ~134 MB) and values.
+MAX_FILE_SAMPLES = 4097 * 4097
+MAX_HEIGHT = 1e12
 
 
 def resample(heights, size: int) -> np.ndarray:
@@ -117,18 +120,29 @@ def load_file(path, size: int | None = None, spacing: float = 1.0,
     """
     path = Path(path)
     if not path.is_file():
-        raise WorldError(path, "no such file")
+        raise WorldError(path, "no such file (or not a regular file)")
     suffix = path.suffix.lower()
     try:
         if suffix == ".npy":
-            heights = np.load(path, allow_pickle=False)
+            heights = np.load(path, allow_pickle=False, mmap_mode="r")  # shape before data
+            _check_shape(path, heights.shape, size)
+            if heights.dtype.kind not in "uif":
+                raise WorldError(path, f"heightmap values must be numbers, got dtype "
+                                       f"{heights.dtype}")
+            heights = np.array(heights)
         elif suffix in (".png", ".tif", ".tiff"):
+            import warnings
+
             from PIL import Image
 
-            with Image.open(path) as image:
-                if image.mode not in ("I;16", "I;16B", "I;16L", "I", "L", "F"):
-                    image = image.convert("L") if image.mode in ("RGB", "RGBA", "P", "LA") else image
-                heights = np.asarray(image)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # PIL's bomb warning: the shape check decides
+                with Image.open(path) as image:
+                    _check_shape(path, image.size[::-1], size)
+                    if image.mode not in ("I;16", "I;16B", "I;16L", "I", "L", "F"):
+                        image = (image.convert("L") if image.mode in ("RGB", "RGBA", "P", "LA")
+                                 else image)
+                    heights = np.asarray(image)
         else:
             raise WorldError(path, "unknown heightmap format (use .npy, .png, .tif or .vmt)")
     except WorldError:
@@ -137,5 +151,26 @@ def load_file(path, size: int | None = None, spacing: float = 1.0,
         raise WorldError(path, f"cannot read heightmap ({type(error).__name__}: {error})") from None
     if heights.dtype.kind not in "uif":
         raise WorldError(path, f"heightmap values must be numbers, got dtype {heights.dtype}")
-    return _to_grid(np.asarray(heights, dtype=np.float64) * float(vertical), size,
-                    spacing, path.stem, path)
+    heights = np.asarray(heights, dtype=np.float64)
+    with np.errstate(all="ignore"):
+        heights *= float(vertical)
+        beyond = not (np.abs(heights) <= MAX_HEIGHT).all()  # NaN too
+    if beyond:
+        raise WorldError(path, f"heights beyond +-{MAX_HEIGHT:g} world units, NaN or infinite "
+                               "(after --vertical)")
+    return _to_grid(heights, size, spacing, path.stem, path)
+
+
+def _check_shape(path, shape, size) -> None:
+    """WorldError naming path, before its samples are read, when the file's shape cannot make a
+    heightmap within MAX_FILE_SAMPLES and the grid's largest side (MAX_LEVEL)."""
+    shape = tuple(int(n) for n in shape)
+    if len(shape) != 2 or min(shape) < 2:
+        raise WorldError(path, f"a heightmap needs a 2-D array of at least 2x2, got {shape}")
+    rows, cols = shape
+    if rows * cols > MAX_FILE_SAMPLES:
+        raise WorldError(path, f"{rows:,}x{cols:,} samples, more than {MAX_FILE_SAMPLES:,}")
+    largest = (1 << MAX_LEVEL) + 1
+    if size is None and max(shape) > largest:
+        raise WorldError(path, f"{rows:,}x{cols:,} samples: the longer side is beyond the "
+                               f"largest grid ({largest:,}); pass --size")
