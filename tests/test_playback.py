@@ -302,3 +302,15 @@ def test_first_use_work_is_in_the_warm_up_not_in_any_measured_frame(tmp_path, mo
     result = play(Scene(hills()), walk(6), "bfc", "ipaq-hx2490b")
     assert first and result.summary["warmup_ms"] >= 300.0
     assert result.frames["cull_ms"].max() < 300.0 and result.summary["frames"] == 6
+
+
+def test_the_gif_does_not_follow_the_images_stride(tmp_path):
+    from PIL import Image
+
+    from vismobile.playback import GIF_FRAMES
+
+    result = play(Scene(hills(12)), walk(30), (), "desktop", tmp_path / "run", frames_every=10,
+                  gif=True)
+    assert len(result.images) == 3
+    with Image.open(tmp_path / "run" / "run.gif") as gif:
+        assert gif.n_frames == 30 <= GIF_FRAMES

@@ -170,3 +170,18 @@ def test_to_obj_writes_coordinates_exactly(tmp_path):
         tmp_path / "far.obj")
     back = World.from_obj(tmp_path / "far.obj")
     assert np.array_equal(back.vertices, vertices)
+
+
+def test_to_obj_reports_progress_and_writes_the_same_file(tmp_path, monkeypatch):
+    import vismobile.world as world_module
+    from vismobile.world import World
+
+    world = World(np.random.default_rng(0).random((50, 3)),
+                  np.arange(60).reshape(20, 3) % 50, np.repeat([0, 1], 10), ["a", "b"])
+    world.to_obj(tmp_path / "one.obj")
+    monkeypatch.setattr(world_module, "OBJ_CHUNK", 7)
+    calls = []
+    world.to_obj(tmp_path / "two.obj", progress=lambda done, total: calls.append((done, total)))
+    assert (tmp_path / "one.obj").read_bytes() == (tmp_path / "two.obj").read_bytes()
+    assert calls[-1] == (70, 70) and len(calls) > 5
+    assert [d for d, _ in calls] == sorted(d for d, _ in calls)

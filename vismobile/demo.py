@@ -40,6 +40,7 @@ def tune_gap(result, records) -> str:
 def main(argv=None) -> int:
     from .costmodel import label
     from .profile import get_profile
+    from .progress import Status
     from .study import engine
     from .study.matrix import RunSpec, expand
     from .study.report import write_report
@@ -57,8 +58,11 @@ def main(argv=None) -> int:
     for world_name in WORLDS:
         world = engine.load_world(world_name, context.worlds_dir)
         trajectory = Trajectory.load(trajectory_for(world_name))
-        result = tune(world, trajectory, get_profile(PROFILE), probe=16,
-                      cache_dir=context.cache_dir)
+        with Status(f"2/4 tune {world_name}") as status:
+            status(f"ground truth of the probe frames ({world.triangle_count:,} triangles)")
+            result = tune(world, trajectory, get_profile(PROFILE), probe=16,
+                          cache_dir=context.cache_dir,
+                          progress=lambda done, _: status(f"{done} structure(s) probed"))
         tunes.append(result)
         c = result.choice
         print(f"2/4 tune {world_name} ({label(PROFILE)}): --structure {c.structure} --cull "
@@ -67,7 +71,8 @@ def main(argv=None) -> int:
     specs = expand(",".join(WORLDS), STRUCTURES, CULLS, PROFILE, FRAMES)
     specs += [RunSpec(r.world, trajectory_for(r.world), r.choice.structure, r.choice.cull,
                       PROFILE, FRAMES) for r in tunes]
-    print(f"3/4 compare: {len(dict.fromkeys(specs))} runs on {FRAMES} frames")
+    print(f"3/4 compare: {len(dict.fromkeys(specs))} runs on {FRAMES} frames (the bar also "
+          "counts the structures and ground truths they need)")
     records = run_matrix(specs, context)
     checks = []
     for world_name in WORLDS:

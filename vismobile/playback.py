@@ -39,6 +39,8 @@ COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_
            "nodes_visited", "memory_bytes", "waypoint", "active_stages")
 SUMMARISED = COLUMNS[1:8]
 STAGES_NONE = ("none", "")
+# Frames in run.gif at most (its stride follows from the frames played).
+GIF_FRAMES = 120
 
 
 @dataclass
@@ -192,7 +194,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     profile      : Profile or profile name; the heap check runs before the first frame
     frames       : which frames to play: "all", "stride:N", "sample:N" (trajectory.select_frames)
     frames_every : save every Nth played frame as PNG (0: none)
-    gif          : write run.gif of every gif_every-th frame (default frames_every or 10)
+    gif          : write run.gif of every gif_every-th played frame (default: the stride
+                   giving at most GIF_FRAMES frames, independent of frames_every)
     hud          : draw the thesis HUD onto saved frames
     frame_limit  : play only the first frame_limit frames (>= 1), before `frames` selects
     out          : run folder; filled through a staging folder, summary.json last (atomic.py)
@@ -233,7 +236,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         raise VisMobileError(f"--frames: {error}") from None
     count = len(played)
     labels = {int(f): label for label, f in trajectory.waypoints.items()}
-    gif_every = int(gif_every or frames_every or 10)
+    # The GIF has its own stride (not --images'): about GIF_FRAMES frames over the run.
+    gif_every = int(gif_every or max(1, -(-count // GIF_FRAMES)))
     table = {name: np.zeros(count) for name in SUMMARISED}
     waypoints = [""] * count
     active = ["+".join(stages) or "none"] * count

@@ -14,6 +14,8 @@ from .errors import WorldError
 
 # Triangles whose doubled area is below this fraction of the world's squared extent are dropped.
 ZERO_AREA_RELATIVE = 1e-14
+# Rows written per np.savetxt call by World.to_obj (a progress step).
+OBJ_CHUNK = 200_000
 
 
 @dataclass(eq=False, repr=False)
@@ -197,23 +199,34 @@ class World:
                              if dropped else "no triangles")
         return world
 
-    def to_obj(self, path, digits=None) -> None:
+    def to_obj(self, path, digits=None, progress=None) -> None:
         """Write a deterministic OBJ (one `o` record per object), atomically. Coordinates with
         `digits` significant digits; None: exact (6 when those read back to the same doubles,
-        else 17)."""
+        else 17). progress: optional callable(done, total) over vertices plus triangles."""
         buffer = io.StringIO()
         buffer.write(f"# vismobile world {self.name}: {self.triangle_count} triangles\n")
         if digits is None:
             short = np.char.mod("%.6g", self.vertices).astype(np.float64)
             digits = 6 if np.array_equal(short, self.vertices) else 17
-        np.savetxt(buffer, self.vertices, fmt=f"v %.{digits}g %.{digits}g %.{digits}g")
+        total = len(self.vertices) + len(self.triangles)
+        done = 0
+
+        def rows(array, fmt):  # in chunks, so that a long export can say how far it is
+            nonlocal done
+            for first in range(0, len(array), OBJ_CHUNK):
+                np.savetxt(buffer, array[first:first + OBJ_CHUNK], fmt=fmt)
+                done += len(array[first:first + OBJ_CHUNK])
+                if progress is not None:
+                    progress(done, total)
+
+        rows(self.vertices, f"v %.{digits}g %.{digits}g %.{digits}g")
         order = np.argsort(self.object_ids, kind="stable")
         ids = self.object_ids[order]
         starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else []
         ends = list(starts[1:]) + [len(ids)]
         for start, end in zip(starts, ends):
             buffer.write(f"o {self.object_names[ids[start]]}\n")
-            np.savetxt(buffer, self.triangles[order[start:end]] + 1, fmt="f %d %d %d")
+            rows(self.triangles[order[start:end]] + 1, "f %d %d %d")
         atomic_write_bytes(path, buffer.getvalue().encode("ascii"))
 
 

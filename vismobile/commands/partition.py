@@ -109,7 +109,7 @@ def run(args) -> int:
     print(f"leaves      {stats['leaves']:,}")
     print(f"refs/tri    {stats['refs_per_triangle']:.3f}")
     print(f"file        {args.out} {size / 1024:,.1f} KB "
-          f"({size / args.world.stat().st_size:.2f} x the OBJ)")
+          f"({size / args.world.stat().st_size:.2f} x the {_input_kind(args.world)})")
     return 0
 
 
@@ -143,3 +143,13 @@ def run_out_of_core(args) -> int:
     print(f"refs/tri    {stats['references'] / world.triangle_count:.3f}")
     print(f"file        {args.out} {stats['bytes'] / 1024:,.1f} KB")
     return 0
+
+
+def _input_kind(path) -> str:
+    """'OBJ', 'GLB', 'PLY.GZ', ... : what the input file is, for the size comparison."""
+    from pathlib import Path
+
+    suffixes = [x.lstrip(".").upper() for x in Path(path).suffixes[-2:]]
+    if len(suffixes) == 2 and suffixes[1] != "GZ":
+        suffixes = suffixes[1:]
+    return ".".join(suffixes) + " input" if suffixes else "input"

@@ -29,7 +29,9 @@ def add_parser(sub):
     parser.add_argument("--images", type=int, default=0, metavar="N",
                         help="save every Nth played frame as PNG under OUT/frames/ (default 0: "
                              "none)")
-    parser.add_argument("--gif", action="store_true", help="write OUT/run.gif")
+    parser.add_argument("--gif", action="store_true",
+                        help="write OUT/run.gif (at most 120 frames evenly over the run, whatever "
+                             "--images is)")
     parser.add_argument("--hud", action="store_true",
                         help="draw algorithms, memory, triangles sent and fps onto images")
     parser.add_argument("--limit", type=int, default=None, metavar="F",

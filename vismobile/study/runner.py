@@ -301,7 +301,9 @@ def run_matrix(specs, context: Context, processes: int | None = None,
         prep = [("structure", s, context.as_tuple()) for s in structures] + \
                [("truth", s, context.as_tuple()) for s in truths]
         tasks = [(s, keyed[s], context.as_tuple()) for s in todo]
-        bar = Progress("compare", enabled=None if progress else False, total=len(prep) + len(tasks))
+        # The bar counts the preparations too; its label says so, so the totals add up.
+        bar = Progress(f"compare: {len(prep)} structures and ground truths, then {len(tasks)} "
+                       "runs", enabled=None if progress else False, total=len(prep) + len(tasks))
         if not local:
             records.update(distributed.run_tasks(prep, tasks, scheduler, processes, on_record,
                                                  bar.step))
