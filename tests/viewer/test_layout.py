@@ -12,6 +12,6 @@ def test_device_screen_scaled_by_a_whole_number_beside_the_panel():
 
 
 def test_desktop_fills_the_left_part():
-    panels = layout((1000, 600), (640, 600), fill=True)
+    panels = layout((640 + PANEL, 600), (640, 600), fill=True)
     assert panels.scale == 1 and panels.view == (0, 0, 640, 600)
-    assert view_size((1000, 600)) == (640, 600)
+    assert view_size((640 + PANEL, 600)) == (640, 600)

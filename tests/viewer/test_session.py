@@ -7,6 +7,7 @@ from vismobile.playback import Scene
 from vismobile.render import render_rgb
 from vismobile.trajectory import Trajectory
 from vismobile.viewer import Session
+from vismobile.viewer.layout import PANEL
 
 
 @pytest.fixture(scope="module")
@@ -127,6 +128,11 @@ def test_overlays_draw_over_the_frame(session):
     assert not np.array_equal(plain, culled) and not np.array_equal(plain, boxes)
     # x-ray red: culled geometry behind the walls tints the image toward red
     assert culled[..., 0].astype(int).sum() > plain[..., 0].astype(int).sum()
+    # ... by one layer however many culled triangles lie behind a pixel: each pixel is the
+    # plain one or 30% of the way to red, so the view stays readable.
+    once = 0.7 * plain + 0.3 * np.array([255, 40, 40])
+    changed = (culled != plain).any(axis=-1)
+    assert changed.any() and np.abs(culled[changed] - once[changed]).max() <= 1.0
 
 
 def test_hud_reports_the_frame(session):
@@ -144,7 +150,7 @@ def test_hud_reports_the_frame(session):
 
 
 def test_god_view_cycles_top_side_off(session):
-    assert session.render().god.shape == (360, 360, 3)
+    assert session.render().god.shape == (PANEL, PANEL, 3)
     session.key_down("G")
     assert session.god_view == "side" and session.render().god is not None
     session.key_down("G")
@@ -205,3 +211,51 @@ def test_tab_builds_on_a_thread_while_frames_go_on(scene, tmp_path):
         frames += 1
     assert frames >= 1 and session.stages == ("vfc",)
     assert session.render().stats["nodes_visited"] > 0
+
+
+def test_a_tap_of_up_moves_one_step_and_a_hold_moves_on(session):
+    from vismobile.viewer.session import TAP_SECONDS
+
+    assert session.mode == "fly"
+    start = session.pose.copy()
+    session.key_down("UP")
+    session.key_up("UP")  # no update between: a tap
+    tapped = np.linalg.norm(session.pose[[0, 2]] - start[[0, 2]])
+    assert np.isclose(tapped, session.speeds.move * TAP_SECONDS)
+    moved = session.pose.copy()
+    session.update(0.1)  # released: no further move
+    assert np.allclose(session.pose, moved)
+    hold(session, "UP", 3)  # a hold moves with each update, and not again on release
+    held = np.linalg.norm(session.pose[[0, 2]] - moved[[0, 2]])
+    assert np.isclose(held, 3 * 0.1 * session.speeds.move)
+
+
+def test_screenshot_key_saves_the_view(session, tmp_path):
+    session.key_down("K")  # before any frame: a message, no file
+    assert "no frame" in session.message
+    frame = session.render()
+    session.key_down("K")
+    session.key_down("F12")
+    shots = sorted(tmp_path.glob("vismobile-*.png"))
+    assert [p.name for p in shots] == ["vismobile-001.png", "vismobile-002.png"]
+    from PIL import Image
+
+    assert np.array_equal(np.asarray(Image.open(shots[0]).convert("RGB")), frame.image)
+    assert "saved" in session.message
+
+
+def test_a_mesh_without_a_trajectory_starts_inside_at_eye_height(tmp_path):
+    import trimesh
+
+    from vismobile.viewer.session import start_pose
+    from vismobile.world import World
+
+    room = World.from_trimesh(trimesh.creation.box(extents=(10.0, 4.0, 10.0)), name="room")
+    pose = start_pose(room)
+    low, high = room.extent
+    assert (low[[0, 2]] < pose[[0, 2]]).all() and (pose[[0, 2]] < high[[0, 2]]).all()
+    assert low[1] < pose[1] < high[1]
+    room.to_obj(tmp_path / "room.obj")
+    opened = Session.open(tmp_path / "room.obj", "none", (), "desktop",
+                          record_path=tmp_path / "r.csv")
+    assert np.allclose(opened.pose, pose)

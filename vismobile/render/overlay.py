@@ -39,6 +39,22 @@ def draw_flat(renderer, triangles, camera, rgba=(1.0, 0.1, 0.1, 0.08), xray=True
     ctx.finish()
 
 
+def flat_mask(renderer, triangles, camera) -> np.ndarray:
+    """(H, W) bool: the pixels the triangles cover, depth ignored (the culled set's footprint
+    for the viewer's one-layer tint). Overwrites the renderer's last image: read it first."""
+    render_target(renderer.profile.resolution, "rgb").clear(0.0, 0.0, 0.0, 0.0)
+    draw_flat(renderer, triangles, camera, rgba=(1.0, 1.0, 1.0, 1.0))
+    return renderer.read_rgb()[..., 0] > 0
+
+
+def tint(image, mask, rgb=(255, 40, 40), amount=0.3) -> np.ndarray:
+    """image (H, W, 3) uint8 with the masked pixels mixed toward rgb by amount, once: however
+    many culled layers lie behind a pixel, the scene stays readable through the tint."""
+    out = image.astype(np.float32)
+    out[mask] = (1.0 - amount) * out[mask] + amount * np.asarray(rgb, np.float32)
+    return np.rint(out).astype(np.uint8)
+
+
 def box_lines(boxes) -> np.ndarray:
     """(N * 24, 3) float32 line-list vertices of the 12 edges of each (N, 2, 3) box."""
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)

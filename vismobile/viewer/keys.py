@@ -32,17 +32,26 @@ PRESSED = {
     "B": "show_nodes",        # overlay the boxes of the drawn partition nodes
     "G": "god_view",          # god view: top, side, off
     "F1": "help",
+    "F12": "screenshot",      # the view as PNG (vismobile-NNN.png beside the recording)
+    "K": "screenshot",
     "ESCAPE": "quit",
 }
 
 # One line per binding for the help panel and the README.
+# Lines of at most HELP_WIDTH characters, so that the side panel never wraps them.
+HELP_WIDTH = 46
 HELP = [
-    "Up/W Down/S  forward / back      Left/A Right/D  turn",
-    "PgUp/E PgDn/Q  height            Home/End  look up/down; drag: mouse look",
-    "1-9,0  toggle " + " ".join(f"{(i + 1) % 10}:{s}" for i, s in enumerate(STAGE_KEYS)),
-    "Tab  next structure              C  culled in red     B  node boxes",
-    "R  record on/off   V  save   L  load + play   P  play/stop",
-    "Space  pause   . ,  step (paused)   G  god view   F1  help   Esc  quit",
+    "Up/W Down/S  forward/back (tap: one step)",
+    "Left/A Right/D  turn    PgUp/E PgDn/Q  height",
+    "Home/End  look up/down  drag  mouse look",
+    *("  ".join(f"{(i + 1) % 10}:{STAGE_KEYS[i]:<16}" for i in (j, j + 1)
+                if i < len(STAGE_KEYS)).rstrip()
+      for j in range(0, len(STAGE_KEYS), 2)),
+    "Tab  next structure   C  culled tint",
+    "B  node boxes   G  god view (top/side/off)",
+    "R  record on/off   V  save   L  load + play",
+    "P  play/stop   Space  pause   . ,  step",
+    "K/F12  screenshot   F1  help   Esc  quit",
 ]
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-PANEL = 360       # side panel width; the god view is PANEL x PANEL
-TEXT_HEIGHT = 260  # room for the HUD (and help) under the god view
+PANEL = 480       # side panel width; the god view is PANEL x PANEL (360 looked tiny)
+TEXT_HEIGHT = 320  # room for the HUD and the help (keys.HELP, unwrapped) under the god view
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from ..profile import get_profile
 from ..trajectory import Trajectory
 from . import keys
 from .controls import Speeds, mouse_look, overview_pose, step_pose
+from .layout import PANEL as GOD
 from .godview import VIEWS, GodView
 from .hud import hud_lines
 from .recorder import Player, Recorder
@@ -23,6 +24,22 @@ from .recorder import Player, Recorder
 # Tab cycles through these (built on first use), from the session's first structure.
 STRUCTURES = ("none", "grid", "octree:4", "octree:5", "portal:1", "bsp", "kdtree")
 GOD_VIEWS = tuple(VIEWS) + (None,)
+# A tap of a held key (down and up between two frames) moves the camera this many seconds'
+# worth, one step.
+TAP_SECONDS = 0.1
+
+
+def start_pose(world) -> np.ndarray:
+    """(5,) the first pose of the walk `vismobile trajectory generate` makes (seed 0): inside
+    an indoor world at eye height, above an outdoor one; the overview pose when there is no
+    free space to walk."""
+    from ..walk import walk
+
+    try:
+        poses, _, _ = walk(world, frames=2, seed=0)
+    except VisMobileError:
+        return overview_pose(world.extent)
+    return poses[0].copy()
 
 
 @dataclass
@@ -57,7 +74,8 @@ class Session:
     """
 
     def __init__(self, scene: Scene, stages=(), profile="ipaq-hx2490b", trajectory=None,
-                 record_path="recorded.csv", structures=STRUCTURES, god_size=(360, 360)):
+                 record_path="recorded.csv", structures=STRUCTURES, god_size=(GOD, GOD),
+                 start="overview"):
         from ..playback import parse_stages
 
         self.world = scene.world
@@ -79,6 +97,9 @@ class Session:
         self.player = None
         self._mode = "fly"  # or "play": the player drives the camera (see mode)
         self.held = set()
+        self.unmoved = set()  # held actions pressed since the last update
+        self.shots = 0
+        self.last_frame = None
         self.frame = 0
         self.running = True
         self.show_culled = False
@@ -101,7 +122,8 @@ class Session:
             first = Trajectory.load(self.trajectory_path)
             self.pose = first.poses[0].copy()
         else:
-            self.pose = overview_pose(self.world.extent)
+            self.pose = start_pose(self.world) if start == "walk" else \
+                overview_pose(self.world.extent)
 
     @classmethod
     def open(cls, world, structure="none", stages=(), profile="ipaq-hx2490b", trajectory=None,
@@ -111,6 +133,7 @@ class Session:
         eyes = None
         if fix_winding and trajectory is not None:
             eyes = Trajectory.load(trajectory).poses[:, :3]
+        options.setdefault("start", "walk")  # no trajectory: start inside, as the walk would
         return cls(load_scene(world, structure, fix_winding=fix_winding, eyes=eyes), stages,
                    profile, trajectory, **options)
 
@@ -240,14 +263,20 @@ class Session:
         held = keys.action_held(name)
         if held is not None:
             self.held.add(held)
+            self.unmoved.add(held)  # until an update moves it: a tap still moves one step
         pressed = keys.action_pressed(name)
         if pressed is not None:
             self.press(pressed)
 
     def key_up(self, name: str) -> None:
+        """A key went up: its held action stops; a tap (down and up before any update) moves
+        the camera one step of TAP_SECONDS, so a single press of Up moves."""
         held = keys.action_held(name)
         if held is not None:
             self.held.discard(held)
+            if held in self.unmoved and self.mode == "fly":
+                self.pose = step_pose(self.pose, {held}, TAP_SECONDS, self.speeds)
+            self.unmoved.discard(held)
 
     def drag(self, dx: float, dy: float) -> None:
         """Mouse look by a drag of (dx, dy) pixels (flying only)."""
@@ -295,6 +324,8 @@ class Session:
             self.god_view = GOD_VIEWS[(GOD_VIEWS.index(self.god_view) + 1) % len(GOD_VIEWS)]
         elif action == "help":
             self.show_help = not self.show_help
+        elif action == "screenshot":
+            self.save_screenshot()
         elif action == "quit":
             self.running = False
         else:
@@ -337,6 +368,26 @@ class Session:
         self.message = f"playing {path} ({len(trajectory)} frames)"
         return True
 
+    def save_screenshot(self, path=None) -> Path | None:
+        """The last frame's view (render resolution) as PNG: path, or the next free
+        vismobile-NNN.png beside the recording; the message says where."""
+        if self.last_frame is None:
+            self.message = "no frame drawn yet"
+            return None
+        from ..atomic import atomic_write_bytes
+        from ..render.images import png_bytes
+
+        if path is None:
+            while True:
+                self.shots += 1
+                path = self.record_path.parent / f"vismobile-{self.shots:03d}.png"
+                if not path.exists():
+                    break
+        path = Path(path)
+        atomic_write_bytes(path, png_bytes(self.last_frame.image, optimize=False))
+        self.message = f"saved {path}"
+        return path
+
     # ---- time and drawing ------------------------------------------------------------------
     def update(self, dt: float) -> None:
         """Move time on by dt seconds: the joystick moves the camera, or playback advances
@@ -350,6 +401,7 @@ class Session:
             self.pose = self.player.pose()
         elif self.mode == "fly":
             self.pose = step_pose(self.pose, self.held, dt, self.speeds)
+        self.unmoved.clear()
         self.recorder.add(self.pose)
         self.frame += 1
 
@@ -390,21 +442,23 @@ class Session:
             keep = np.ones(self.world.triangle_count, dtype=bool)
             keep[culled.triangles] = False
             culled_ids = np.flatnonzero(keep)
-        if self.show_culled or self.show_nodes:
-            from ..render.overlay import draw_boxes, draw_flat
+        from ..render.overlay import draw_boxes, flat_mask, tint
 
-            if self.show_culled and len(culled_ids):
-                draw_flat(renderer, culled_ids, camera)
-            if self.show_nodes and nodes is not None and len(nodes):
-                draw_boxes(renderer, self.culler.tree.node_bounds[nodes], camera)
+        if self.show_nodes and nodes is not None and len(nodes):
+            draw_boxes(renderer, self.culler.tree.node_bounds[nodes], camera)
         image = renderer.read_rgb()
+        if self.show_culled and len(culled_ids):
+            # One layer of tint where culled triangles project (stacked translucent layers
+            # turned the whole W2 view red).
+            image = tint(image, flat_mask(renderer, culled_ids, camera))
         god = None
         if self.god_view:
             boxes = self.culler.tree.node_bounds[nodes] if nodes is not None else None
             god = self._god.draw(self.god_view, camera, culled.triangles, boxes, culled_ids)
         info = self._info(culled, drawn, cull_ms)
-        return Frame(image, god, hud_lines(info), info, camera, culled.triangles,
-                     dict(culled.stats))
+        self.last_frame = Frame(image, god, hud_lines(info), info, camera, culled.triangles,
+                                dict(culled.stats))
+        return self.last_frame
 
     def _info(self, culled, drawn, cull_ms) -> dict:
         partition = self.partitions.get(self.structure)

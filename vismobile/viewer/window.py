@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import VisMobileError
 from ..render.context import make_current, release_current
 from . import keys
-from .layout import layout, view_size, window_size
+from .layout import PANEL, layout, view_size, window_size
 
 HUD_COLOUR = (255, 255, 160, 255)
 HELP_COLOUR = (200, 220, 255, 255)
@@ -79,10 +79,10 @@ def run(session, scale=2, script=None, screenshot=None, frame_rate=60.0) -> int:
     def on_close():
         session.running = False
 
-    hud = pyglet.text.Label("", font_size=10, multiline=True, width=340, color=HUD_COLOUR,
-                            anchor_y="top")
+    hud = pyglet.text.Label("", font_size=10, multiline=True, width=PANEL - 16,
+                            color=HUD_COLOUR, anchor_y="top")
     help_label = pyglet.text.Label("\n".join(keys.HELP), font_size=8, multiline=True,
-                                   width=340, color=HELP_COLOUR, anchor_y="top")
+                                   width=PANEL - 16, color=HELP_COLOUR, anchor_y="top")
     events = sorted(script or [], key=lambda e: e[0])
     last = events[-1][0] + 1 if events else None
     tick, clock = 0, time.perf_counter()
