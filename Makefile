@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python -m vismobile.demo
+	$(BIN)/python -m vismobile.app.demo
 
 test: $(STAMP) browser xvfb
 	$(BIN)/python -m pytest

@@ -2,7 +2,7 @@
 
     python examples/own_mesh.py [MESH] [--out own_mesh.png]
 
-MESH is any file World.from_file reads (.obj .ply .stl .off .glb .gltf, optionally .gz); the
+MESH is any file vismobile.load_world reads (.obj .ply .stl .off .glb .gltf, optionally .gz); the
 camera then looks at it from outside. Without MESH a small room is built with trimesh, its
 walls turned to face inward (trimesh makes boxes face outward, which back-face culling would
 remove when seen from inside), and the camera stands in it.
@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 from PIL import Image
 
-from vismobile import Camera, Culler, World, get_profile, partition, render_rgb
+from vismobile import Camera, Culler, World, get_profile, load_world, partition, render_rgb
 
 
 def demo_room() -> World:
@@ -40,7 +40,7 @@ def main(argv=None) -> int:
     parser.add_argument("--cull", default="vfc+bfc", help="culling stages joined by +")
     args = parser.parse_args(argv)
 
-    world = World.from_file(args.mesh) if args.mesh else demo_room()
+    world = load_world(args.mesh) if args.mesh else demo_room()
     print(world)
     tree = partition(world, args.structure)  # the CLI's grammar: octree:3, grid:4, bsp, ...
     print(tree)

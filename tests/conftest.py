@@ -12,7 +12,7 @@ settings.register_profile("vismobile", derandomize=True, deadline=None)
 settings.load_profile("vismobile")
 
 from vismobile.scenes import build_world
-from vismobile.world import World
+from vismobile.world.world import World
 
 # Status lines depend on how long a command runs (they start after 2 s): on a loaded machine a
 # bad-input run would print one before its error line. Tests of stderr see no status lines;
@@ -108,7 +108,7 @@ def vismobile_cli():
 @pytest.fixture(scope="session")
 def w1_world_dir(tmp_path_factory, w1):
     """W1 streamed into a world directory (vismobile.mapped) in three pieces, float32 vertices."""
-    from vismobile.mapped import write_world_dir
+    from vismobile.world.mapped import write_world_dir
 
     path = tmp_path_factory.mktemp("w1dir")
 

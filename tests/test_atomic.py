@@ -6,8 +6,8 @@ import sys
 
 import pytest
 
-from vismobile import atomic
-from vismobile.atomic import atomic_write_bytes, staged_directory
+from vismobile.files import atomic
+from vismobile.files.atomic import atomic_write_bytes, staged_directory
 from vismobile.errors import OutputError
 
 

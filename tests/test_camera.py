@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera, yaw_toward
+from vismobile.world.camera import Camera, yaw_toward
 
 
 def test_yaw_zero_looks_down_negative_z():

@@ -6,9 +6,9 @@ import pytest
 import trimesh
 
 from vismobile import __version__
-from vismobile.cli import build_parser, main
+from vismobile.app.cli import build_parser, main
 from vismobile.commands import PROFILE_NAMES, STAGE_NAMES
-from vismobile.trajectory import Trajectory
+from vismobile.world.trajectory import Trajectory
 
 
 @pytest.fixture
@@ -30,7 +30,7 @@ def test_version(capsys):
 
 def test_help_names_every_stage_and_profile():
     from vismobile.culling import STAGES
-    from vismobile.profile import PROFILES
+    from vismobile.device.profile import PROFILES
 
     assert set(STAGE_NAMES) == set(STAGES) and set(PROFILE_NAMES) == set(PROFILES)
     play_help = build_parser()._subparsers._group_actions[0].choices["play"].format_help()
@@ -44,7 +44,7 @@ def test_building_the_parser_imports_no_numpy():
     import sys
     from pathlib import Path
 
-    code = ("import sys; from vismobile.cli import build_parser; build_parser(); "
+    code = ("import sys; from vismobile.app.cli import build_parser; build_parser(); "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('numpy', 'numba')))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=Path(__file__).resolve().parents[1], timeout=120)

@@ -7,11 +7,11 @@ import zlib
 import numpy as np
 import pytest
 
-from vismobile.cli import main
+from vismobile.app.cli import main
 from vismobile.errors import TrajectoryError, VisMobileError, WorldError
-from vismobile.playback import load_scene
-from vismobile.trajectory import Trajectory
-from vismobile.world import World
+from vismobile.app.playback import load_scene
+from vismobile.world.trajectory import Trajectory
+from vismobile.world.world import World
 
 TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
 TRAJECTORY = "# waypoint A 1\nframe,x,y,z,yaw,pitch\n0,0.5,0.5,3,0,-10\n1,0.5,0.5,2,0,-10\n"
@@ -135,7 +135,7 @@ def test_case06_limit_reads_only_the_first_frames(tmp_path):
 
 
 def test_case06_too_many_frames_without_a_limit_are_refused(tmp_path, monkeypatch):
-    from vismobile import trajectory
+    from vismobile.world import trajectory
 
     monkeypatch.setattr(trajectory, "MAX_FRAMES", 3)
     path = tmp_path / "t.csv"
@@ -237,7 +237,7 @@ def test_case13_huge_frame_sample_is_refused():
 # 14-18. crafted .vmp files with valid checksums
 @pytest.fixture(scope="module")
 def vmp_bytes(tmp_path_factory):
-    from vismobile.partition import partition
+    from vismobile.partition import partition, save_partition
 
     rng = np.random.default_rng(1)
     corners = rng.uniform(0, 10, (60, 1, 3)) + rng.uniform(-1, 1, (60, 3, 3))
@@ -246,7 +246,7 @@ def vmp_bytes(tmp_path_factory):
     for kind, params in (("octree", {"depth": 2}), ("portal", {"depth": 1, "cells": 8}),
                          ("bsp", {}), ("kdtree", {})):
         path = tmp_path_factory.mktemp("vmp") / f"{kind}.vmp"
-        partition(world, kind, **params).save(path)
+        save_partition(partition(world, kind, **params), path)
         out[kind] = path.read_bytes()
     return out
 
@@ -347,7 +347,7 @@ def test_case18_files_that_would_crash_a_stage_are_refused(capsys, tmp_path, tra
         vertices[0, 0] = 1e300
 
         def digest(header):
-            from vismobile.world import World
+            from vismobile.world.world import World
 
             w = World(vertices, good.world.triangles, good.world.object_ids)
             header["world"]["digest"] = w.digest().hex()

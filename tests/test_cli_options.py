@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from vismobile.cli import build_parser, main
+from vismobile.app.cli import build_parser, main
 from vismobile.commands import options
 
 TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
@@ -38,7 +38,7 @@ def files(tmp_path):
 def test_the_table_and_the_parser_agree():
     # every range names a real option (and so reaches its --help), and mirrors its constant
     from vismobile.terrain.heightmap import MAX_LEVEL
-    from vismobile.trajectory import MAX_FRAMES
+    from vismobile.world.trajectory import MAX_FRAMES
 
     pairs = {(c, o) for c, table in options.RANGES.items() for o in table}
     assert build_parser().ranged == pairs
@@ -153,7 +153,7 @@ def test_play_checks_its_folder_before_loading(capsys, files, out):
 
 
 def test_a_full_disk_names_the_run_folder_not_the_staging_one(tmp_path, monkeypatch):
-    from vismobile.atomic import atomic_write_bytes, staged_directory
+    from vismobile.files.atomic import atomic_write_bytes, staged_directory
     from vismobile.errors import OutputError
 
     def full(_):

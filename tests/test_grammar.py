@@ -3,7 +3,7 @@ or repeated --cull, the older ',' still works with a note; aligned play/view def
 top-level help; unknown worlds."""
 import json
 
-from vismobile.cli import build_parser, main
+from vismobile.app.cli import build_parser, main
 from vismobile.commands import DEFAULT_CULL, DEFAULT_STRUCTURE, default_cull
 from vismobile.study.matrix import ambiguous_commas, cull_items, parse_culls
 

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from vismobile.cli import main
+from vismobile.app.cli import main
 from vismobile.errors import WorldError
-from vismobile.world import World
+from vismobile.world.world import World
 
 
 def box_scene():

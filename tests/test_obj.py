@@ -10,7 +10,7 @@ import pytest
 
 from vismobile.errors import WorldError
 from vismobile.scenes.objects import OBJECTS, PACKAGE_MODELS
-from vismobile.world import World
+from vismobile.world.world import World
 
 MODELS = sorted(PACKAGE_MODELS.glob("*.obj.gz"))
 

@@ -6,14 +6,14 @@ import json
 import numpy as np
 import pytest
 
-from vismobile.cli import main
+from vismobile.app.cli import main
 from vismobile.errors import ProfileError, VisMobileError
-from vismobile.playback import COLUMNS, Scene, load_scene, parse_stages, parse_structure, play
+from vismobile.app.playback import COLUMNS, Scene, load_scene, parse_stages, parse_structure, play
 from vismobile.stats import pearson
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.render.hud import hud_lines
-from vismobile.trajectory import Trajectory
-from vismobile.world import World
+from vismobile.world.trajectory import Trajectory
+from vismobile.world.world import World
 
 
 def hills(n=30):
@@ -244,7 +244,7 @@ def test_play_warns_in_one_line_when_the_path_misses_the_world(tmp_path, vismobi
     inside the room, and one outside a box looking at it (a view of an object), get none."""
     import trimesh
 
-    from vismobile.trajectory import Trajectory
+    from vismobile.world.trajectory import Trajectory
 
     room = trimesh.creation.box(extents=(4, 3, 4))
     room.invert()
@@ -280,7 +280,7 @@ def test_first_use_work_is_in_the_warm_up_not_in_any_measured_frame(tmp_path, mo
     # A stand-in for numba's first-use compile: the first cull in the process sleeps 0.3 s.
     import time
 
-    from vismobile import playback
+    from vismobile.app import playback
 
     made = playback.make_culler
     first = []
@@ -307,7 +307,7 @@ def test_first_use_work_is_in_the_warm_up_not_in_any_measured_frame(tmp_path, mo
 def test_the_gif_does_not_follow_the_images_stride(tmp_path):
     from PIL import Image
 
-    from vismobile.playback import GIF_FRAMES
+    from vismobile.app.playback import GIF_FRAMES
 
     result = play(Scene(hills(12)), walk(30), (), "desktop", tmp_path / "run", frames_every=10,
                   gif=True)

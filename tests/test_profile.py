@@ -3,11 +3,11 @@ import numpy as np
 import pytest
 
 from vismobile import Profile, ProfileError
-from vismobile.camera import Camera
-from vismobile.profile import (FIXED_LIMIT, PROFILES, from_fixed, get_profile, partition_bytes,
+from vismobile.world.camera import Camera
+from vismobile.device.profile import (FIXED_LIMIT, PROFILES, from_fixed, get_profile, partition_bytes,
                                to_fixed)
 from vismobile.render import Renderer, item_buffer
-from vismobile.world import World
+from vismobile.world.world import World
 
 MB = 1 << 20
 
@@ -119,7 +119,7 @@ def test_fixed_point_draws_the_thesis_worlds_like_float(name, path):
     from pathlib import Path
 
     from vismobile.scenes.thesis import generate
-    from vismobile.trajectory import Trajectory
+    from vismobile.world.trajectory import Trajectory
 
     world = generate(name)
     trajectory = Trajectory.load(Path(__file__).resolve().parents[1] / "trajectories" / path)

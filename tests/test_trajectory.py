@@ -7,7 +7,7 @@ import pytest
 
 from vismobile.errors import TrajectoryError
 from vismobile.open3d_import import raycast_primitive_ids
-from vismobile.trajectory import Trajectory, pitch_sweep
+from vismobile.world.trajectory import Trajectory, pitch_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 INDOOR = ROOT / "trajectories" / "indoor.csv"

@@ -6,10 +6,10 @@ import pytest
 import trimesh
 
 from vismobile.geometry.ray import ray_triangle
-from vismobile.profile import get_profile
-from vismobile.trajectory import Trajectory
-from vismobile.walk import counts, walk, waypoints
-from vismobile.world import World
+from vismobile.device.profile import get_profile
+from vismobile.world.trajectory import Trajectory
+from vismobile.app.walk import counts, walk, waypoints
+from vismobile.world.world import World
 
 
 def box(extents, centre, inward=False):

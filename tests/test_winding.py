@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from vismobile.profile import get_profile
-from vismobile.trajectory import Trajectory
-from vismobile.winding import check_winding, fixed_world
-from vismobile.world import World
+from vismobile.device.profile import get_profile
+from vismobile.world.trajectory import Trajectory
+from vismobile.world.winding import check_winding, fixed_world
+from vismobile.world.world import World
 
 CENTRE = np.array([0.0, 1.5, 0.0])
 

@@ -3,11 +3,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from vismobile.cli import main
+from vismobile.app.cli import main
 from vismobile.commands import BACKFACE_NAMES, warn_winding
 from vismobile.culling import BACKFACE_STAGES
-from vismobile.trajectory import Trajectory
-from vismobile.world import World
+from vismobile.world.trajectory import Trajectory
+from vismobile.world.world import World
 
 
 @pytest.fixture

@@ -162,7 +162,7 @@ def test_quantized_keeps_ids_and_refuses_what_the_mode_cannot_hold():
 
 def test_to_obj_writes_coordinates_exactly(tmp_path):
     """Far from the origin 6 significant digits would move vertices by up to 0.5 units."""
-    from vismobile.world import World
+    from vismobile.world.world import World
 
     vertices = np.array([[1e5 + 0.123456789, 2.5, -3.0], [1e5 + 1.0, 2.5, -3.0],
                          [1e5, 3.5, -2.0 / 3.0]])
@@ -173,8 +173,8 @@ def test_to_obj_writes_coordinates_exactly(tmp_path):
 
 
 def test_to_obj_reports_progress_and_writes_the_same_file(tmp_path, monkeypatch):
-    import vismobile.world as world_module
-    from vismobile.world import World
+    import vismobile.world.world as world_module
+    from vismobile.world.world import World
 
     world = World(np.random.default_rng(0).random((50, 3)),
                   np.arange(60).reshape(20, 3) % 50, np.repeat([0, 1], 10), ["a", "b"])

@@ -28,10 +28,10 @@ from vismobile.render.item_buffer import item_buffer_renderer  # noqa: E402
 from vismobile.culling.backface import thesis_region_count  # noqa: E402
 from vismobile.geometry.sphere_regions import direction_regions  # noqa: E402
 from vismobile.partition import partition  # noqa: E402
-from vismobile.profile import get_profile  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
-from vismobile.trajectory import Trajectory  # noqa: E402
+from vismobile.world.trajectory import Trajectory  # noqa: E402
 
 # Stage combinations, optionally "stages@preset" with the option presets below.
 COMBOS = ("vfc", "vfc_thesis", "vfc,cbfc", "vfc,cone", "vfc,tbfc", "vfc,bfc,cbfc,cone",
@@ -406,7 +406,7 @@ def main(argv=None) -> int:
     report = "\n".join(out) + "\n"
     print(report)
     if args.out:
-        from vismobile.world import atomic_write_bytes
+        from vismobile.world.world import atomic_write_bytes
 
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         atomic_write_bytes(args.out, report.encode())

@@ -26,10 +26,10 @@ sys.path.insert(0, str(ROOT / "tools"))
 from moc_peer import MocCuller, unavailable  # noqa: E402
 from vismobile.culling import Culler, device_options  # noqa: E402
 from vismobile.partition import partition  # noqa: E402
-from vismobile.profile import get_profile  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.render.item_buffer import item_buffer_renderer  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
-from vismobile.trajectory import Trajectory  # noqa: E402
+from vismobile.world.trajectory import Trajectory  # noqa: E402
 
 STEPS = ("walk_frustum", "render", "walk", "triangles")
 WARMUP = 5

@@ -40,7 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
-from vismobile.mapped import MappedWorld  # noqa: E402
+from vismobile.world.mapped import MappedWorld  # noqa: E402
 from vismobile.partition.external import CHUNK, build_octree_file  # noqa: E402
 
 
@@ -70,8 +70,8 @@ def cull(args) -> dict:
 
     from vismobile.culling import Culler
     from vismobile.partition.store import map_partition
-    from vismobile.profile import get_profile
-    from vismobile.trajectory import Trajectory
+    from vismobile.device.profile import get_profile
+    from vismobile.world.trajectory import Trajectory
 
     import_rss_mb = peak_mb()  # the interpreter and its imports, before anything is mapped
     start = time.perf_counter()

@@ -22,7 +22,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from vismobile.mapped import MappedWorld  # noqa: E402
+from vismobile.world.mapped import MappedWorld  # noqa: E402
 from vismobile.partition.external import build_octree_file  # noqa: E402
 
 PARALLEL_PHASES = ("extent", "chunks", "scatter")

@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.partition import partition  # noqa: E402
-from vismobile.world import World  # noqa: E402
+from vismobile.world.world import World  # noqa: E402
 
 THESIS_KB = {  # SPEC §4, Table 5.3
     "grid": (784, 12455, 11948, 4262, 226, 910),

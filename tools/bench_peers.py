@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 from bench_moc import moc_main  # noqa: E402
 from bench_terrain import build_methods, heightmap  # noqa: E402
-from vismobile.profile import get_profile  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.study.peers import PEERS, compare, missing  # noqa: E402
 from vismobile.terrain.paths import path_cameras  # noqa: E402
 

@@ -26,9 +26,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.errors import ProfileError  # noqa: E402
-from vismobile.playback import load_scene, play  # noqa: E402
-from vismobile.profile import get_profile  # noqa: E402
-from vismobile.trajectory import Trajectory  # noqa: E402
+from vismobile.app.playback import load_scene, play  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
+from vismobile.world.trajectory import Trajectory  # noqa: E402
 
 INDOOR = {"w1", "w2", "w3", "w4"}
 

@@ -24,7 +24,8 @@ sys.path.insert(0, str(ROOT))
 
 from vismobile.study import distributed  # noqa: E402
 from vismobile.study.matrix import expand  # noqa: E402
-from vismobile.study.runner import Context, _worker_init, prepare, run_matrix  # noqa: E402
+from vismobile.study.runner import Context, run_matrix  # noqa: E402
+from vismobile.study.tasks import _worker_init, prepare  # noqa: E402
 
 
 def cpu_s() -> float:

@@ -24,7 +24,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from vismobile.profile import get_profile  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.study.terrain import TileMethod, build_method, measure  # noqa: E402
 from vismobile.terrain import sources, store  # noqa: E402
 from vismobile.terrain.paths import path_cameras  # noqa: E402

@@ -33,11 +33,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from vismobile.camera import Camera  # noqa: E402
+from vismobile.world.camera import Camera  # noqa: E402
 from vismobile.culling import BACKFACE_STAGES, CONSERVATIVE, Culler, device_options  # noqa: E402
 from vismobile.errors import ProfileError, WorldError  # noqa: E402
 from vismobile.partition import partition  # noqa: E402
-from vismobile.profile import get_profile  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.render.device_view import device_buffers, dropped_pixels, shown_ids  # noqa: E402
 from vismobile.scenes.hard_cameras import CLASSES, hard_cameras, moved  # noqa: E402
 
@@ -60,10 +60,10 @@ class Usage(Exception):
 def load_world(name: str, worlds_dir):
     """World for a sweep name: thesis world, "stress", a package mesh (scaled to MESH_SIZE,
     standing on y = 0, centred) or a mesh file."""
-    from vismobile.scenes import is_thesis_world, open_world
+    from vismobile.files.loader import load_world as load_file, open_world
+    from vismobile.scenes import is_thesis_world
     from vismobile.scenes.objects import MODEL_FILES, model_world
     from vismobile.scenes.stress import base_world
-    from vismobile.world import World
 
     if name == "stress":
         return base_world()
@@ -78,7 +78,7 @@ def load_world(name: str, worlds_dir):
         if not path.is_file():
             raise Usage(f"{name}: no such world (thesis w1..w6, stress, "
                         f"{', '.join(MODEL_FILES)} or a mesh file)")
-        world = World.from_file(path)
+        world = load_file(path)
     world.name = name
     return world
 
@@ -250,7 +250,7 @@ def main(argv=None) -> int:
              f"{time.perf_counter() - start:.0f} s wall.")
     print(text)
     if args.out:
-        from vismobile.atomic import atomic_write_bytes
+        from vismobile.files.atomic import atomic_write_bytes
         atomic_write_bytes(args.out, (text + "\n").encode())
     bad = sum(per_stage[s].dropping + per_stage[s].crashes for s in stages
               if s not in REFERENCE)

@@ -49,7 +49,7 @@ MEMORY_LIMIT = 6 << 30  # address space cap (bytes): a runaway allocation fails 
 def seeds(folder: Path) -> dict:
     """{target: [bytes, ...]} of real inputs: the model, its partitions, a trajectory."""
     from vismobile.partition import partition
-    from vismobile.world import World
+    from vismobile.world.world import World
 
     world = World.from_obj(MODEL)
     vmps = []
@@ -144,13 +144,13 @@ def _edit_json(node, pick):
 
 # ---- entry points ----------------------------------------------------------------------------
 def load_obj(path):
-    from vismobile.world import World
+    from vismobile.world.world import World
 
     World.from_obj(path)
 
 
 def load_trajectory(path):
-    from vismobile.trajectory import Trajectory
+    from vismobile.world.trajectory import Trajectory
 
     Trajectory.load(path)
 
@@ -158,7 +158,7 @@ def load_trajectory(path):
 def load_and_cull(path):
     import numpy as np
 
-    from vismobile.camera import Camera
+    from vismobile.world.camera import Camera
     from vismobile.culling import Culler
     from vismobile.partition import load_partition
 
@@ -244,9 +244,9 @@ def atheris_main(target, argv):
     import trimesh  # noqa: F401   vismobile's own code is what guides the search)
 
     with atheris.instrument_imports():
-        import vismobile.obj  # noqa: F401
+        import vismobile.files.obj  # noqa: F401
         import vismobile.partition.store  # noqa: F401
-        import vismobile.trajectory  # noqa: F401
+        import vismobile.world.trajectory  # noqa: F401
         import vismobile.culling  # noqa: F401
     folder = Path(tempfile.mkdtemp(prefix="vismobile-fuzz-"))
     vmps = seeds(folder)["vmp"] if target == "vmp" else []

@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 
-from vismobile.camera import Camera
-from vismobile.profile import get_profile
+from vismobile.world.camera import Camera
+from vismobile.device.profile import get_profile
 from vismobile.render import SENTINEL
 from vismobile.render.terrain import TerrainRenderer
 from vismobile.terrain import sources

@@ -21,7 +21,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from vismobile.mapped import write_world_dir  # noqa: E402
+from vismobile.world.mapped import write_world_dir  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
 from vismobile.scenes.objects import placed  # noqa: E402
 

@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.scenes import building, city  # noqa: E402
-from vismobile.trajectory import Trajectory, pitch_sweep  # noqa: E402
+from vismobile.world.trajectory import Trajectory, pitch_sweep  # noqa: E402
 
 EYE = 1.7
 

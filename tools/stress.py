@@ -27,13 +27,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from vismobile.camera import Camera  # noqa: E402
+from vismobile.world.camera import Camera  # noqa: E402
 from vismobile.culling import BACKFACE_STAGES, Culler  # noqa: E402
 from vismobile.culling import precision  # noqa: E402
 from vismobile.errors import ProfileError  # noqa: E402
 from vismobile.geometry import arithmetic  # noqa: E402
 from vismobile.partition import partition  # noqa: E402
-from vismobile.profile import get_profile  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
 from vismobile.scenes.stress import partition_cameras, stress_cases  # noqa: E402
 
@@ -242,7 +242,7 @@ def main(argv=None) -> int:
           "time raw / inflated; inflation = one conservative_planes call; sent = extra "
           "triangles sent because of the inflation.")
     if args.out:
-        from vismobile.world import atomic_write_bytes
+        from vismobile.world.world import atomic_write_bytes
         body = text + "\n\nDetails:\n" + "\n".join(details) + "\n"
         atomic_write_bytes(args.out, body.encode())
     bad = sum(len(c.crashes) + c.nans + c.fn_inflated + c.fn_device for c in cells.values())

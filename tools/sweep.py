@@ -63,7 +63,7 @@ def paired_measure(world, trajectory, profile, configs, frames, rounds, cache_di
 
 def fit_devices() -> int:
     """Print every device fit (triangles alone, and with each draw-call counter) and the rows."""
-    from vismobile.profile import get_profile
+    from vismobile.device.profile import get_profile
     from vismobile.study.costmodel import best_device_fit, calibration_rows, cull_cycles
     from vismobile.study.thesis import DEVICE_HELD_OUT, DEVICE_POINTS
 
@@ -95,14 +95,14 @@ def fit_devices() -> int:
 
 def device_check(args) -> int:
     """tune against a full sweep, both under the profile's device model, on every world."""
-    from vismobile.profile import get_profile
+    from vismobile.device.profile import get_profile
     from vismobile.study import engine
     from vismobile.study.matrix import THESIS_CULLS, cull_stages, parse_worlds
     from vismobile.study.metrics import pearson
     from vismobile.study.thesis import IPAQ_BEST, N82_FPS, trajectory_for
     from vismobile.study.tune import sweep, tune
-    from vismobile.trajectory import Trajectory
-    from vismobile.world import atomic_write_bytes
+    from vismobile.world.trajectory import Trajectory
+    from vismobile.world.world import atomic_write_bytes
 
     profile = get_profile(args.profile)
     frames = args.frames if args.frames != "sample:24" else "sample:32"
@@ -165,15 +165,15 @@ def device_check(args) -> int:
 
 
 def main(argv=None) -> int:
-    from vismobile.profile import get_profile
+    from vismobile.device.profile import get_profile
     from vismobile.study import engine
     from vismobile.study.matrix import RunSpec, expand, parse_worlds
     from vismobile.study.report import pareto_png, write_report
     from vismobile.study.runner import Context, agreement, run_matrix
     from vismobile.study.thesis import trajectory_for
     from vismobile.study.tune import tune
-    from vismobile.trajectory import Trajectory
-    from vismobile.world import atomic_write_bytes
+    from vismobile.world.trajectory import Trajectory
+    from vismobile.world.world import atomic_write_bytes
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", default="all")

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 from make_big_world import tile_offset  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
-from vismobile.world import World  # noqa: E402
+from vismobile.world.world import World  # noqa: E402
 
 
 def tiled_w2(n: int, base: World | None = None) -> World:
@@ -57,7 +57,7 @@ def main(argv=None) -> int:
     print(f"{world.name}: {world.triangle_count:,} triangles, {len(world.vertices):,} vertices, "
           f"{time.perf_counter() - start:.1f} s; centre tile offset {centre_offset(args.n)}")
     if args.out is not None:
-        from vismobile.mapped import write_world_dir
+        from vismobile.world.mapped import write_world_dir
 
         def parts():
             yield (world.vertices.astype(np.float32), world.triangles, world.object_ids)

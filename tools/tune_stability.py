@@ -17,13 +17,13 @@ from pathlib import Path
 
 
 def main(argv=None) -> int:
-    from vismobile.profile import get_profile
+    from vismobile.device.profile import get_profile
     from vismobile.study import engine
     from vismobile.study.matrix import parse_worlds
     from vismobile.study.thesis import trajectory_for
     from vismobile.study.tune import tune
-    from vismobile.trajectory import Trajectory
-    from vismobile.world import atomic_write_bytes
+    from vismobile.world.trajectory import Trajectory
+    from vismobile.world.world import atomic_write_bytes
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", default="all")

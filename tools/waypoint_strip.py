@@ -18,11 +18,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from vismobile.profile import get_profile  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.render import Renderer, item_buffer_renderer  # noqa: E402
 from vismobile.render.images import labelled_strip  # noqa: E402
-from vismobile.trajectory import Trajectory  # noqa: E402
-from vismobile.world import atomic_write_bytes  # noqa: E402
+from vismobile.world.trajectory import Trajectory  # noqa: E402
+from vismobile.world.world import atomic_write_bytes  # noqa: E402
 
 ROWS = (("w2", "indoor.csv", "W2, indoor path (thesis Table 5.5)"),
         ("w6", "outdoor.csv", "W6, outdoor path (thesis Table 5.6)"))

@@ -6,16 +6,16 @@ world -> partition/ -> culling/ -> render/ -> study/
     import vismobile
     from vismobile import World, Camera, Culler, partition, get_profile, render_rgb
 
-    world = World.from_file("room.glb")            # or build_world("w2"), open_world("w2")
+    world = vismobile.load_world("room.glb")       # or build_world("w2"), open_world("w2")
     tree = partition(world, "octree:4")            # the CLI's grammar, or ("octree", depth=4)
     camera = Camera((0.0, 1.6, 3.0), yaw=0.0, pitch=-5.0)
     result = Culler(tree, "vfc+bfc").cull(camera)  # result.triangles: the ids to draw
     image = render_rgb(world, result.triangles, camera, get_profile("desktop"), result.cull_back)
 
 Public names (imported on first use; each has its own help()):
-  worlds      World, build_world, open_world, check_winding, fixed_world, Trajectory,
+  worlds      World, load_world, build_world, open_world, check_winding, fixed_world, Trajectory,
               generate_trajectory, Camera
-  partitions  partition, load_partition, Partition, parse_spec, format_spec
+  partitions  partition, load_partition, save_partition, Partition, parse_spec, format_spec
   culling     Culler, STAGES, AdaptiveCuller
   devices     Profile, get_profile, PROFILES
   rendering   render_rgb, item_buffer, Renderer
@@ -32,9 +32,9 @@ VERSION = __version__  # the old name, kept for scripts that read it
 
 # Public names, imported on first use so that `import vismobile` stays light.
 _EXPORTS = {
-    "World": "vismobile.world",
-    "Camera": "vismobile.camera",
-    "Trajectory": "vismobile.trajectory",
+    "World": "vismobile.world.world",
+    "Camera": "vismobile.world.camera",
+    "Trajectory": "vismobile.world.trajectory",
     "build_world": "vismobile.scenes",
     "VisMobileError": "vismobile.errors",
     "WorldError": "vismobile.errors",
@@ -44,25 +44,27 @@ _EXPORTS = {
     "Partition": "vismobile.partition.base",
     "partition": "vismobile.partition",
     "load_partition": "vismobile.partition",
+    "save_partition": "vismobile.partition",
     "Culler": "vismobile.culling",
-    "Profile": "vismobile.profile",
+    "Profile": "vismobile.device.profile",
     "AdaptiveCuller": "vismobile.culling.adaptive",
     "tune": "vismobile.study.tune",
-    "get_profile": "vismobile.profile",
-    "PROFILES": "vismobile.profile",
+    "get_profile": "vismobile.device.profile",
+    "PROFILES": "vismobile.device.profile",
     "STAGES": "vismobile.culling",
     "render_rgb": "vismobile.render",
     "item_buffer": "vismobile.render",
     "Renderer": "vismobile.render",
-    "open_world": "vismobile.scenes",
-    "load_scene": "vismobile.playback",
-    "play": "vismobile.playback",
-    "Scene": "vismobile.playback",
+    "open_world": "vismobile.files.loader",
+    "load_world": "vismobile.files.loader",
+    "load_scene": "vismobile.app.playback",
+    "play": "vismobile.app.playback",
+    "Scene": "vismobile.app.playback",
     "parse_spec": "vismobile.partition.spec",
     "format_spec": "vismobile.partition.spec",
-    "check_winding": "vismobile.winding",
-    "fixed_world": "vismobile.winding",
-    "generate_trajectory": "vismobile.walk",
+    "check_winding": "vismobile.world.winding",
+    "fixed_world": "vismobile.world.winding",
+    "generate_trajectory": "vismobile.app.walk",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -5,10 +5,10 @@ import types
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import BACKFACE_STAGES
 from vismobile.partition import partition
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.render import SENTINEL, item_buffer
 from vismobile.scenes import build_world
 
@@ -81,7 +81,7 @@ def streamed_octree(tmp_path_factory, world_, name, depth):
     """world_ written into a world directory (float32 vertices, three pieces) and its octree
     built streamed (partition/external.py): the path of the .vmp, for map_partition and
     load_partition."""
-    from vismobile.mapped import MappedWorld, write_world_dir
+    from vismobile.world.mapped import MappedWorld, write_world_dir
     from vismobile.partition.external import build_octree_file
 
     folder = tmp_path_factory.mktemp(f"{name}dir")
@@ -101,7 +101,7 @@ def streamed_octree(tmp_path_factory, world_, name, depth):
 @pytest.fixture(scope="session")
 def w1_streamed(tmp_path_factory, w1_world_dir):
     """W1's world directory (float32 vertices, three pieces) and its streamed octree."""
-    from vismobile.mapped import MappedWorld
+    from vismobile.world.mapped import MappedWorld
     from vismobile.partition.external import build_octree_file
 
     out = tmp_path_factory.mktemp("vmp") / "w1.vmp"

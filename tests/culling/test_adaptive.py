@@ -81,10 +81,10 @@ def test_render_cost_is_learnt_from_observed_frames():
 def test_wraps_the_real_culler():
     import trimesh
 
-    from vismobile.camera import Camera
+    from vismobile.world.camera import Camera
     from vismobile.culling import Culler
     from vismobile.partition import partition
-    from vismobile.world import World
+    from vismobile.world.world import World
 
     mesh = trimesh.creation.icosphere(subdivisions=2)
     world = World(mesh.vertices, mesh.faces)

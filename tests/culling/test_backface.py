@@ -1,7 +1,7 @@
 """cbfc and cone: they only drop triangles that no frustum ray can see the front of."""
 import numpy as np
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler
 from vismobile.culling.backface import corner_rays, thesis_region_count, unit_corner_rays
 from vismobile.geometry.sphere_regions import direction_regions

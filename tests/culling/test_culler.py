@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from vismobile import Culler
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import STAGES, parse_stages
 
 

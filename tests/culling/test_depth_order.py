@@ -5,13 +5,13 @@ back by precision.depth_order. Truth: the device's own item buffers (render/devi
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler, device_options
 from vismobile.culling.precision import depth_order, device_move
 from vismobile.partition import partition
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.render.device_view import device_buffers, dropped_pixels, shown_ids
-from vismobile.world import World
+from vismobile.world.world import World
 
 OFFSET = 1e5
 

@@ -8,15 +8,15 @@ a real mesh (the cow) moved and scaled, from the camera classes of scenes/hard_c
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import CONSERVATIVE, Culler, device_options, parse_stages
 from vismobile.partition import partition
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.render.device_view import device_buffers, shown_ids
 from vismobile.scenes.hard_cameras import CLASSES, hard_cameras, moved
 from vismobile.scenes.objects import model_world
 from vismobile.scenes.stress import ROOM_SIZE, base_world
-from vismobile.world import World
+from vismobile.world.world import World
 
 # (vertex format, scale, offset): fixed16.16 cannot hold 1e5 (its range is +-32767): 1e4.
 CASES = {"float32-offset-1e5": ("float32", 1.0, 1e5),

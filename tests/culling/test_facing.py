@@ -3,14 +3,14 @@ tbfc, cbfc and cone on a memory-mapped world (streamed .vmp) against the same wo
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler, backface, cones
 from vismobile.culling.facing import (TILT_BIAS, TILT_EXACT, backfacing, frontfacing,
                                       keep_unmarked, not_backfacing, tilt_of, tilt_scales,
                                       tilt_select)
 from vismobile.culling.triangle_backface import GAMMA_8, certainly_backfacing, triangle_cross
 from vismobile.geometry.tilt import tilt_coefficients, tilt_sine
-from vismobile.mapped import MappedWorld
+from vismobile.world.mapped import MappedWorld
 from vismobile.partition import load_partition
 from vismobile.partition.store import map_partition
 

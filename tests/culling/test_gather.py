@@ -5,7 +5,7 @@ against their definition, the output pool, and the walk's whole_below superset."
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler, gather
 from vismobile.culling.gather import (Bitmap, choose_levels, count_marked, extract_marked,
                                       first_depths, level_groups, mark_nodes)

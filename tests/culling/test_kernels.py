@@ -3,7 +3,7 @@ inputs on purpose (the distinct gather: test_gather.py)."""
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling.kernels import frustum_walk, inner_records, node_records
 from vismobile.culling.tree import Tree
 

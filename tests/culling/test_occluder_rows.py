@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vismobile.culling.occluder_rows import triangle_rows
-from vismobile.world import World
+from vismobile.world.world import World
 
 
 def random_world(count, seed, dtype):
@@ -37,7 +37,7 @@ def test_rows_give_the_bits_of_the_world_tables(dtype):
 
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_scores_from_corners_are_the_scores_of_the_world_tables(dtype):
-    from vismobile.camera import Camera
+    from vismobile.world.camera import Camera
     from vismobile.culling.hiz import score_candidates
     from vismobile.culling.occluder_rows import score_corners
 
@@ -59,7 +59,7 @@ def test_the_compiled_mesh_of_a_few_occluders_is_occluder_mesh_of_their_corners(
     # included, as occluder_mesh (numpy) of the same triangles' corners and unit normals.
     from vismobile.culling.occluder_rows import occluder_mesh_of
     from vismobile.culling.occlusion import occluder_mesh
-    from vismobile.world import unit_normals
+    from vismobile.world.world import unit_normals
 
     world = kit.world("w2")
     rng = np.random.default_rng(7)

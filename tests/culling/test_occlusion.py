@@ -4,7 +4,7 @@ door, never drops what the item buffer shows; the thesis stage skips grazing occ
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler
 from vismobile.partition import partition
 
@@ -176,7 +176,7 @@ def test_w2_indoor_frames_keep_everything_the_item_buffer_shows(kit):
     # and without the screen option, frames in order so last frame's candidates carry over.
     from pathlib import Path
 
-    from vismobile.trajectory import Trajectory
+    from vismobile.world.trajectory import Trajectory
 
     world = kit.world("w2")
     part = partition(world, "octree", depth=5)
@@ -204,7 +204,7 @@ def test_fused_walk_sends_what_the_two_passes_send_and_visits_fewer_nodes(kit):
     # fuse option is off or another node stage sits between them; same tests, same result.
     from pathlib import Path
 
-    from vismobile.trajectory import Trajectory
+    from vismobile.world.trajectory import Trajectory
 
     world = kit.world("w2")
     part = partition(world, "octree", depth=5)
@@ -229,7 +229,7 @@ def test_the_mesh_of_a_few_occluders_pairs_their_edges_as_the_worlds_mesh_does(k
     # A mapped world's frames build the rasteriser's tables for their occluders alone: same
     # planes, the same order of plane groups, and the same pieces paired among them.
     from vismobile.culling.occlusion import occluder_mesh
-    from vismobile.world import unit_normals
+    from vismobile.world.world import unit_normals
 
     world = kit.world("w2")
     whole = occluder_mesh(world.vertices, world.triangles, world.normals)
@@ -263,10 +263,10 @@ def test_occlusion_on_a_mapped_world_culls_as_in_memory_and_drops_nothing_visibl
     # buffer shows is dropped.
     from pathlib import Path
 
-    from vismobile.mapped import MappedWorld
+    from vismobile.world.mapped import MappedWorld
     from vismobile.partition import load_partition
     from vismobile.partition.store import map_partition
-    from vismobile.trajectory import Trajectory
+    from vismobile.world.trajectory import Trajectory
 
     mapped, loaded = map_partition(w2_streamed), load_partition(w2_streamed)
     assert isinstance(mapped.world, MappedWorld)
@@ -338,7 +338,7 @@ def test_first_round_candidates_come_from_the_nearest_shells(kit):
 
     from vismobile.culling.hiz import gather_candidates, gather_shell_candidates
     from vismobile.culling.occlusion import SHELL_GROWTH
-    from vismobile.trajectory import Trajectory
+    from vismobile.world.trajectory import Trajectory
 
     world = kit.world("w2")
     part = partition(world, "octree", depth=5)

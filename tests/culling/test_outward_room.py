@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from vismobile.camera import Camera, yaw_toward
+from vismobile.world.camera import Camera, yaw_toward
 from vismobile.culling import Culler
 from vismobile.partition import partition
-from vismobile.world import World
+from vismobile.world.world import World
 
 ROOM = np.array([[0.0, 0.0, 0.0], [10.0, 3.0, 10.0]])
 DOOR_Z, DOOR_TOP = (4.0, 6.0), 2.2

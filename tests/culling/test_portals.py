@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler
 from vismobile.partition import portal
 
@@ -84,7 +84,7 @@ def test_w2_frame_692_sees_a_wall_through_an_open_slab(kit):
     # pixel of the back-face-culled item buffer, seen through the uncapped floor slab; portal
     # octrees of depth 2 used to close the slab band between the walls of the face x = 24.1.
     from vismobile.partition import partition
-    from vismobile.trajectory import Trajectory
+    from vismobile.world.trajectory import Trajectory
 
     world = kit.world("w2")
     traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
@@ -121,7 +121,7 @@ def w1_offset_portals(kit):
 @pytest.mark.parametrize("index", range(len(DEVICE_CAMERAS)))
 def test_w1_offset_1e5_float32_keeps_what_the_device_shows(kit, w1_offset_portals, index):
     from vismobile.culling import device_options
-    from vismobile.profile import get_profile
+    from vismobile.device.profile import get_profile
     from vismobile.render import SENTINEL, item_buffer
 
     part = w1_offset_portals

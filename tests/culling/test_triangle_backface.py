@@ -6,7 +6,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler
 from vismobile.culling.triangle_backface import certainly_backfacing, triangle_cross
 from vismobile.partition import partition

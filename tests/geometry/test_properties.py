@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.geometry.boxes import box_corners, boxes_contain_point
 from vismobile.geometry.cones import NEVER, cluster_cones, cones_backfacing
 from vismobile.geometry.planes import (classify_boxes, planes_through_eye, points_inside,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vismobile.partition.base import gather_ranges
-from vismobile.world import World
+from vismobile.world.world import World
 
 from vismobile.scenes.objects import PACKAGE_MODELS as MODELS
 

@@ -127,7 +127,7 @@ def test_front_to_back_order_is_correct(cow):
 
 
 def test_single_triangle_is_one_leaf():
-    from vismobile.world import World
+    from vismobile.world.world import World
 
     w = World(np.eye(3), np.array([[0, 1, 2]]))
     p = bsp.build(w)

@@ -1,5 +1,5 @@
 """`vismobile partition`: builds, saves, reports; bad parameters exit 2 with one line."""
-from vismobile.cli import main
+from vismobile.app.cli import main
 
 from vismobile.scenes.objects import PACKAGE_MODELS
 

@@ -2,14 +2,14 @@
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler
 from vismobile.errors import PartitionError, WorldError
-from vismobile.mapped import MappedWorld
+from vismobile.world.mapped import MappedWorld
 from vismobile.partition import load_partition, octree
 from vismobile.partition.external import build_octree_file
-from vismobile.partition.store import map_partition
-from vismobile.world import World
+from vismobile.partition.store import map_partition, save_partition
+from vismobile.world.world import World
 
 FIELDS = ("node_bounds", "first_child", "child_count", "ref_start", "ref_end", "level_start",
           "tri_refs")
@@ -83,7 +83,7 @@ def test_a_corrupt_reference_section_is_refused(tmp_path, streamed):
 
 def test_an_encoded_file_cannot_be_mapped(tmp_path, world32):
     path = tmp_path / "encoded.vmp"
-    octree.build(world32, depth=2).save(path)
+    save_partition(octree.build(world32, depth=2), path)
     with pytest.raises(PartitionError, match="only streamed"):
         map_partition(path)
 
@@ -94,7 +94,7 @@ def test_a_missing_world_dir_names_the_file(tmp_path):
 
 
 def test_the_cli_partitions_a_world_dir(tmp_path, world_dir, streamed, capsys):
-    from vismobile.cli import main
+    from vismobile.app.cli import main
 
     out = tmp_path / "cli.vmp"
     assert main(["partition", str(world_dir), "--depth", "4", "-o", str(out)]) == 0

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 import vismobile
-from vismobile.partition import kdtree, load_partition
+from vismobile.partition import kdtree, load_partition, save_partition
 from vismobile.partition.spec import format_spec, parse_spec
-from vismobile.world import World
+from vismobile.world.world import World
 
 
 def test_cow_kdtree_covers_every_point_of_every_triangle(cow, checks):
@@ -72,7 +72,7 @@ def test_spec_round_trip_and_bad_parameters():
 
 def test_vmp_round_trip(cow, tmp_path):
     p = vismobile.partition(cow, "kdtree")
-    p.save(tmp_path / "k.vmp")
+    save_partition(p, tmp_path / "k.vmp")
     q = load_partition(tmp_path / "k.vmp")
     assert q.kind == "kdtree" and q.params == p.params
     for name in p.ARRAYS:

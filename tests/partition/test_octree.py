@@ -39,7 +39,7 @@ def test_unknown_kind_and_parameter(suzanne):
 
 
 def test_triangle_on_cell_boundary_is_in_both_cells():
-    from vismobile.world import World
+    from vismobile.world.world import World
 
     # One triangle lies in the plane x = 0.5 that splits the root: both halves reference it.
     w = World(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 1], [0.5, 0.2, 0.2], [0.5, 0.8, 0.2],

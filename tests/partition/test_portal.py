@@ -4,7 +4,7 @@ import pytest
 
 import vismobile
 from vismobile.partition import portal
-from vismobile.world import World
+from vismobile.world.world import World
 
 
 def inward(world):

@@ -8,14 +8,14 @@ import pytest
 import vismobile
 from vismobile.errors import PartitionError
 from vismobile.partition import store
-from vismobile.world import World
+from vismobile.world.world import World
 
 
 @pytest.fixture(scope="module")
 def saved(cow, tmp_path_factory):
     p = vismobile.partition(cow, "octree", depth=4)
     path = tmp_path_factory.mktemp("vmp") / "cow.vmp"
-    p.save(path)
+    store.save_partition(p, path)
     return p, path
 
 
@@ -23,7 +23,7 @@ def saved(cow, tmp_path_factory):
                                          ("bsp", {}), ("portal", {"depth": 2})])
 def test_round_trip_is_identical(suzanne, tmp_path, kind, params):
     p = vismobile.partition(suzanne, kind, **params)
-    p.save(tmp_path / "a.vmp")
+    store.save_partition(p, tmp_path / "a.vmp")
     q = vismobile.load_partition(tmp_path / "a.vmp", suzanne)
     for name in p.ARRAYS:
         assert np.array_equal(getattr(p, name), getattr(q, name)), name
@@ -36,7 +36,7 @@ def test_round_trip_is_identical(suzanne, tmp_path, kind, params):
 
 def test_same_inputs_same_bytes(cow, tmp_path):
     for name in ("a", "b"):
-        vismobile.partition(cow, "bsp").save(tmp_path / f"{name}.vmp")
+        store.save_partition(vismobile.partition(cow, "bsp"), tmp_path / f"{name}.vmp")
     assert (tmp_path / "a.vmp").read_bytes() == (tmp_path / "b.vmp").read_bytes()
 
 
@@ -47,7 +47,7 @@ def test_decimal_vertices_stored_as_float32(tmp_path):
     data = store.to_bytes(p)
     header = json.loads(data[20:20 + struct.unpack_from("<8sIII", data)[2]])
     assert header["fields"]["world.vertices"]["encoding"] == "decimal6"
-    p.save(tmp_path / "d.vmp")
+    store.save_partition(p, tmp_path / "d.vmp")
     assert np.array_equal(vismobile.load_partition(tmp_path / "d.vmp").world.vertices, v)
 
 

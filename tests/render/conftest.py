@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
-from vismobile.profile import get_profile
-from vismobile.world import World
+from vismobile.world.camera import Camera
+from vismobile.device.profile import get_profile
+from vismobile.world.world import World
 
 PROFILE = get_profile("ipaq-hx2490b")
 HALF = np.tan(np.radians(45.0) / 2.0)  # half height of the view at distance 1

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.render import Renderer, item_buffer
 from vismobile.render.batches import batch_count, batch_indices
 

@@ -2,11 +2,11 @@
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.open3d_import import raycast_primitive_ids
 from vismobile.render import SENTINEL, ItemBufferRenderer, item_buffer, render_rgb
 from vismobile.render.shaders import CLEAR_RGB
-from vismobile.world import World
+from vismobile.world.world import World
 
 from .conftest import screen_quad, terrain
 

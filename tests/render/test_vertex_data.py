@@ -4,9 +4,9 @@ import pytest
 import trimesh
 
 from vismobile.errors import ProfileError
-from vismobile.profile import VERTEX_BYTES, get_profile
+from vismobile.device.profile import VERTEX_BYTES, get_profile
 from vismobile.render.vertex_data import corner_normals, object_colors, vertex_records
-from vismobile.world import World
+from vismobile.world.world import World
 
 CUBE_VERTICES = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
 CUBE_FACES = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],

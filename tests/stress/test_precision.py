@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import precision
 from vismobile.errors import ProfileError
 from vismobile.geometry import arithmetic

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from vismobile.profile import get_profile
-from vismobile.trajectory import Trajectory
-from vismobile.world import World
+from vismobile.device.profile import get_profile
+from vismobile.world.trajectory import Trajectory
+from vismobile.world.world import World
 
 
 def _box(extents, centre, inward=False):

@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.culling import Culler
 from vismobile.partition import partition
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.study.costmodel import (CALIBRATION_ROWS, CostModel, DeviceModel, best_device_fit,
                                        cull_cycles, device_counters, fit_device, nnls)
 from vismobile.study.thesis import DEVICE_POINTS

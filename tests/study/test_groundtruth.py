@@ -1,13 +1,13 @@
 """Ray-cast ground truth against the raster item buffer, and the on-disk truth cache."""
 import numpy as np
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.render import item_buffer
 from vismobile.study.groundtruth import (camera_rays, classify_disagreements, compare_truths,
                                          load_truth, raycast_buffer, save_truth,
                                          trajectory_truth)
 from vismobile.study.metrics import SENTINEL, VisibleSet
-from vismobile.world import World
+from vismobile.world.world import World
 
 
 def test_centre_ray_is_forward_and_rows_go_down():

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.study.peers import PEERS, PeerMethod, compare, missing, peer_mesh
 from vismobile.study.terrain import RoamMethod, vertex_errors
 from vismobile.terrain import sources

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from vismobile.cli import main
+from vismobile.app.cli import main
 from vismobile.study.thesis import TRAJECTORY_VARIANTS, trajectory_for
 
 

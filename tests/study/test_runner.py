@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pytest
 
-from vismobile.study import runner
+from vismobile.study import runner, tasks
 from vismobile.study.matrix import RunSpec
 from vismobile.study.report import best_run, pareto_png, write_report
 from vismobile.study.runner import Context, run_matrix
@@ -39,14 +39,14 @@ def test_finished_runs_are_reused(study, monkeypatch):
     def refuse(*args):
         raise AssertionError("a finished run was executed again")
 
-    monkeypatch.setattr(runner, "execute", refuse)
+    monkeypatch.setattr(tasks, "execute", refuse)
     again = run_matrix(specs, context, processes=1, progress=False)
     assert [r["key"] for r in again] == [r["key"] for r in records]
     assert len(list((context.out / "runs").glob("*.json"))) == len(specs)
 
 
 def test_runs_carry_each_device_models_frame_time(study):
-    from vismobile.costmodel import DEVICES, device_model, label
+    from vismobile.device.costmodel import DEVICES, device_model, label
 
     for record in study[2]:
         model = record["summary"]["model"]
@@ -123,8 +123,8 @@ def test_profiles_measured_alike_run_once(tmp_path, world_file, trajectory_file,
                      "sample:4") for profile in ("ipaq-hx2490b", "nokia-n82", "desktop")]
     assert runner.reusable_runs(specs, context) == (0, 2)
     executed = []
-    real = runner.execute
-    monkeypatch.setattr(runner, "execute",
+    real = tasks.execute
+    monkeypatch.setattr(tasks, "execute",
                         lambda spec, ctx: executed.append(spec.profile) or real(spec, ctx))
     ipaq, n82, desktop = run_matrix(specs, context, processes=1, progress=False)
     assert executed == ["ipaq-hx2490b", "desktop"]
@@ -134,6 +134,6 @@ def test_profiles_measured_alike_run_once(tmp_path, world_file, trajectory_file,
     assert desktop["frames"]["visible_pixels"] != ipaq["frames"]["visible_pixels"]  # 640x480
     assert len(list((context.out / "runs").glob("*.json"))) == 3
     assert runner.reusable_runs(specs, context) == (3, 0)
-    monkeypatch.setattr(runner, "execute", lambda *a: pytest.fail("a finished run ran again"))
+    monkeypatch.setattr(tasks, "execute", lambda *a: pytest.fail("a finished run ran again"))
     again = run_matrix(specs, context, processes=1, progress=False)
     assert [r["key"] for r in again] == [ipaq["key"], n82["key"], desktop["key"]]

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from vismobile.errors import VisMobileError
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.study.costmodel import CostModel, DeviceModel
 from vismobile.study.matrix import LOOSE_STAGES, cull_stages
 from vismobile.study.tune import candidate_culls, stage_subsets, sweep, tune
@@ -131,7 +131,7 @@ def test_uncertainty_keeps_a_clear_winner():
 def test_python_and_cli_default_probe_frames_agree():
     import inspect
 
-    from vismobile.cli import build_parser
+    from vismobile.app.cli import build_parser
     from vismobile.commands import tune as command
 
     default = inspect.signature(tune).parameters["probe"].default

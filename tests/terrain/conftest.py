@@ -1,7 +1,7 @@
 """Small terrains shared by the terrain tests (129^2 and 257^2, built once per session)."""
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.terrain import sources
 from vismobile.terrain.tiles import TilePyramid
 

@@ -1,7 +1,7 @@
 """`vismobile compare --terrain`: the pixel-knob sweep along paths, CSV, JSON and report."""
 import csv
 
-from vismobile.cli import main
+from vismobile.app.cli import main
 
 
 def test_sweep_writes_csv_json_and_report(tmp_path, capsys):

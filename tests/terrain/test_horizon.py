@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.render import SENTINEL
 from vismobile.render.terrain import TerrainRenderer
 from vismobile.terrain.horizon import HorizonCaster, min_mip
@@ -154,7 +154,7 @@ def test_ground_the_near_plane_clips_never_occludes():
     hides, ground tile or box with a buried base, shows in the item buffer, in float64 and
     16.16. Before issue 30 the clipped ground in front of the eye counted as solid and 5 of
     these 40 cameras lost visible ground or boxes (up to 22,293 pixels)."""
-    from vismobile.camera import Camera
+    from vismobile.world.camera import Camera
     from vismobile.terrain import sources
     from vismobile.terrain.tiles import TilePyramid, drop_hidden
 

@@ -1,7 +1,7 @@
 """The terrain renderer and the image-error measurement (real EGL renders, never mocked)."""
 import numpy as np
 
-from vismobile.profile import get_profile
+from vismobile.device.profile import get_profile
 from vismobile.render import SENTINEL
 from vismobile.render.terrain import TerrainRenderer, unproject
 from vismobile.study.terrain import TileMethod, image_error, measure, pixel_height_errors

@@ -157,7 +157,7 @@ def test_measured_against_its_full_render_with_and_without_geomorph(fractal257):
     """Through the study's measure: 0.5 px keeps PSNR >= 40 dB and the pixel-height error
     near the knob; a geomorphing run draws its morphed heights (its first frame differs from
     the popping run's image, and the exact error may exceed tau while vertices rise)."""
-    from vismobile.profile import get_profile
+    from vismobile.device.profile import get_profile
     from vismobile.study.terrain import RoamMethod, measure
 
     profile = get_profile("ipaq-hx2490b")

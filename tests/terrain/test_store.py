@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from vismobile.cli import main
+from vismobile.app.cli import main
 from vismobile.errors import WorldError
 from vismobile.terrain import sources, store
 from vismobile.terrain.placement import Placement

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.viewer.controls import PITCH_LIMIT, Speeds, mouse_look, overview_pose, step_pose
 
 SPEEDS = Speeds(move=2.0, turn=90.0, climb=1.0, look=45.0, mouse=0.5)

@@ -1,6 +1,6 @@
 import numpy as np
 
-from vismobile.camera import Camera
+from vismobile.world.camera import Camera
 from vismobile.viewer.godview import FRUSTUM, NODES, OUTLINE, SENT, GodView
 
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from vismobile.trajectory import Trajectory
+from vismobile.world.trajectory import Trajectory
 from vismobile.viewer.recorder import Player, Recorder
 
 

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from vismobile.partition import partition
-from vismobile.playback import Scene
+from vismobile.app.playback import Scene
 from vismobile.render import render_rgb
-from vismobile.trajectory import Trajectory
+from vismobile.world.trajectory import Trajectory
 from vismobile.viewer import Session
 from vismobile.viewer.layout import PANEL
 
@@ -178,7 +178,7 @@ def test_saving_nothing_or_loading_nothing_is_a_message_not_an_error(scene, tmp_
 
 def test_structures_over_the_heap_are_skipped_and_worlds_refused(scene, tmp_path):
     from vismobile.errors import ProfileError
-    from vismobile.profile import get_profile
+    from vismobile.device.profile import get_profile
 
     ipaq = get_profile("ipaq-hx2490b")
     fits = ipaq.estimate_memory(scene.world, scene.partition)["total"]
@@ -248,7 +248,7 @@ def test_a_mesh_without_a_trajectory_starts_inside_at_eye_height(tmp_path):
     import trimesh
 
     from vismobile.viewer.session import start_pose
-    from vismobile.world import World
+    from vismobile.world.world import World
 
     room = World.from_trimesh(trimesh.creation.box(extents=(10.0, 4.0, 10.0)), name="room")
     pose = start_pose(room)

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from vismobile.camera import Camera
-from vismobile.profile import get_profile
+from vismobile.world.camera import Camera
+from vismobile.device.profile import get_profile
 from vismobile.render import render_rgb
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -66,7 +66,7 @@ def test_no_display_is_one_line_and_exit_2(tmp_path):
 
 
 def test_bad_script_exits_2(capsys):
-    from vismobile.cli import main
+    from vismobile.app.cli import main
 
     assert main(["view", "w1", "--script", "UP*x"]) == 2
     assert "--script" in capsys.readouterr().err

@@ -31,7 +31,7 @@ def fix_winding(world, enabled: bool, eyes=None):
     positions, if any) when enabled."""
     if not enabled:
         return world
-    from ..winding import fixed_world_said
+    from ..world.winding import fixed_world_said
 
     return fixed_world_said(world, eyes)
 
@@ -51,7 +51,7 @@ def warn_winding(world, stages, source, eyes=None, fixed=False, stream=None):
     on = [s for s in stages if s in BACKFACE_NAMES]
     if fixed or not on or str(source).lower() in THESIS_WORLDS:
         return None
-    from ..winding import check_winding
+    from ..world.winding import check_winding
 
     report = check_winding(world, eyes)
     if not report.room_faces_outward:

@@ -81,12 +81,12 @@ def run(args) -> int:
         return run_terrain(args)
     import json
 
-    from ..atomic import check_destination
+    from ..files.atomic import check_destination
     from ..study.matrix import expand, parse_worlds
     from ..study.thesis import TRAJECTORY_VARIANTS, WORLDS, trajectory_for
     from ..study.report import write_report
     from ..study.runner import Context, agreement, reusable_runs, run_matrix
-    from ..world import atomic_write_bytes
+    from ..world.world import atomic_write_bytes
 
     trajectories = ({w: str(args.trajectory.resolve()) for w in parse_worlds(args.worlds)
                      if w not in WORLDS} if args.trajectory else None)
@@ -142,8 +142,8 @@ def run(args) -> int:
 def _warn_winding(specs) -> None:
     """commands.warn_winding for each mesh-file world swept with a back-face stage."""
     from . import warn_winding
-    from ..trajectory import Trajectory
-    from ..world import World
+    from ..files.loader import load_world
+    from ..world.trajectory import Trajectory
 
     stages, paths = {}, {}
     for spec in specs:
@@ -154,7 +154,7 @@ def _warn_winding(specs) -> None:
                                                                  "w6"):
             continue
         eyes = Trajectory.load(paths[world]).poses[:, :3] if paths[world] else None
-        warn_winding(World.from_file(world), sorted(names), world, eyes)
+        warn_winding(load_world(world), sorted(names), world, eyes)
 
 
 def _fixed_worlds(worlds: str, trajectories: dict, out: Path) -> tuple:
@@ -163,9 +163,9 @@ def _fixed_worlds(worlds: str, trajectories: dict, out: Path) -> tuple:
     (<stem>_<k>.obj when another file of that name came first)."""
     from ..study.matrix import parse_worlds
     from ..study.thesis import WORLDS
-    from ..trajectory import Trajectory
-    from ..winding import fixed_world
-    from ..world import World
+    from ..world.trajectory import Trajectory
+    from ..world.winding import fixed_world
+    from ..files.loader import load_world
 
     names, trajectories = [], dict(trajectories)
     for world in parse_worlds(worlds):
@@ -174,7 +174,7 @@ def _fixed_worlds(worlds: str, trajectories: dict, out: Path) -> tuple:
             continue
         eyes = Trajectory.load(trajectories[world]).poses[:, :3] if world in trajectories \
             else None
-        fixed, report = fixed_world(World.from_file(world), eyes=eyes)
+        fixed, report = fixed_world(load_world(world), eyes=eyes)
         print(f"--fix-winding: {world}: reversed {report.to_fix:,} of {report.triangles:,} "
               "triangles", flush=True)
         if report.to_fix:
@@ -193,7 +193,7 @@ def _fixed_worlds(worlds: str, trajectories: dict, out: Path) -> tuple:
 def _terrain_options(args) -> tuple:
     """(methods, taus, paths, frames, profile) checked, or WorldError naming the bad option."""
     from ..errors import WorldError
-    from ..profile import get_profile
+    from ..device.profile import get_profile
     from ..study.terrain import METHODS
 
     def bad(option, message):
@@ -233,12 +233,12 @@ def run_terrain(args) -> int:
     import io
     import json
 
-    from ..atomic import check_destination
+    from ..files.atomic import check_destination
     from ..progress import Status
     from ..study.report import write_terrain_report
     from ..study.terrain import SWEEP_KEYS, sweep
     from ..terrain import store
-    from ..world import atomic_write_bytes
+    from ..world.world import atomic_write_bytes
 
     methods, taus, paths, frames, profile = _terrain_options(args)
     report_path = args.report or args.out / "report.html"

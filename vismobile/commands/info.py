@@ -16,18 +16,18 @@ def add_parser(sub):
 
 
 def run(args) -> int:
-    from ..atomic import check_destination
+    from ..files.atomic import check_destination
     from ..progress import Status
     from ..scenes.lookup import world_file
-    from ..winding import check_winding, fixed_world
-    from ..world import World
+    from ..world.winding import check_winding, fixed_world
+    from ..files.loader import load_world
 
     if args.out:
         check_destination(args.out)
     with Status(f"info {args.world}") as status:
         status("loading the world")
         path = world_file(args.world)
-        world = World.from_file(path)
+        world = load_world(path)
         status("checking the winding")
         report = check_winding(world)
         if args.fix_winding:

@@ -55,13 +55,13 @@ def parse_slabs(items):
 
 
 def run(args) -> int:
-    from ..atomic import check_destination
+    from ..files.atomic import check_destination
     from ..errors import PartitionError
-    from ..partition import partition
+    from ..partition import partition, save_partition
     from ..partition.spec import HELP, format_spec, parse_spec
     from ..progress import Progress
     from ..scenes.lookup import world_file
-    from ..world import World
+    from ..files.loader import load_world
 
     check_destination(args.out)  # before a long build, not after
     if Path(args.world).is_dir():
@@ -72,7 +72,7 @@ def run(args) -> int:
     with Status(f"partition {args.world}") as status:
         status("loading the world")
         args.world = world_file(args.world)
-        world = fix_winding(World.from_file(args.world), args.fix_winding)
+        world = fix_winding(load_world(args.world), args.fix_winding)
     try:
         kind, params = parse_spec(args.structure)
         if kind is None:
@@ -100,7 +100,7 @@ def run(args) -> int:
     except ValueError as error:
         raise PartitionError(f"{args.world}: {error}") from None
     elapsed = time.perf_counter() - start
-    result.save(args.out)
+    save_partition(result, args.out)
     stats = result.stats()
     size = args.out.stat().st_size
     print(f"structure   {format_spec(kind, result.params)}")
@@ -116,7 +116,7 @@ def run(args) -> int:
 def run_out_of_core(args) -> int:
     """Octree of a memory-mapped world directory, built in chunks and streamed to the file."""
     from ..errors import PartitionError
-    from ..mapped import MappedWorld
+    from ..world.mapped import MappedWorld
 
     if args.fix_winding:
         raise PartitionError(f"{args.world}: --fix-winding needs a mesh file, not a world "

@@ -44,9 +44,9 @@ def add_parser(sub):
 
 def run(args) -> int:
     args.cull = default_cull(args.cull, args.structure)
-    from ..playback import load_scene, parse_stages, play
-    from ..profile import get_profile
-    from ..trajectory import Trajectory
+    from ..app.playback import load_scene, parse_stages, play
+    from ..device.profile import get_profile
+    from ..world.trajectory import Trajectory
 
     check_folder(args.out)  # before loading and playing, not after (issue 28)
     profile = get_profile(args.profile, args.vertex_format)
@@ -97,7 +97,7 @@ def check_folder(out: Path) -> None:
     import os
     import tempfile
 
-    from ..atomic import check_destination
+    from ..files.atomic import check_destination
     from ..errors import OutputError
 
     out = Path(out)

@@ -37,7 +37,7 @@ def run(args) -> int:
     from ..terrain.mesh import terrain_world
     from ..terrain.placement import Placement, place_objects
 
-    from ..atomic import check_destination
+    from ..files.atomic import check_destination
 
     check_destination(args.out)
     if args.obj is not None:

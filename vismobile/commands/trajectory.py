@@ -43,13 +43,13 @@ def add_parser(sub):
 def run(args) -> int:
     import numpy as np
 
-    from ..atomic import check_destination
+    from ..files.atomic import check_destination
     from ..errors import VisMobileError
-    from ..profile import get_profile
+    from ..device.profile import get_profile
     from ..progress import Status
-    from ..scenes.lookup import open_world
-    from ..trajectory import MAX_FRAMES, Trajectory
-    from ..walk import counts, walk, waypoints
+    from ..files.loader import open_world
+    from ..world.trajectory import MAX_FRAMES, Trajectory
+    from ..app.walk import counts, walk, waypoints
 
     if not 2 <= args.length <= MAX_FRAMES:
         raise VisMobileError(f"--length must be 2..{MAX_FRAMES:,} frames, got {args.length}")

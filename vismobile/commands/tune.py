@@ -45,14 +45,14 @@ def add_parser(sub):
 def run(args) -> int:
     import json
 
-    from ..atomic import check_destination
+    from ..files.atomic import check_destination
     from ..errors import TrajectoryError
-    from ..profile import get_profile
+    from ..device.profile import get_profile
     from ..study import engine
     from ..study.thesis import WORLDS, trajectory_for
     from ..study.tune import tune
-    from ..trajectory import Trajectory
-    from ..world import atomic_write_bytes
+    from ..world.trajectory import Trajectory
+    from ..world.world import atomic_write_bytes
 
     if args.out:
         check_destination(args.out)  # before tuning, not after

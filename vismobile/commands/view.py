@@ -65,7 +65,7 @@ def run(args) -> int:
 
     eyes = None
     if session.trajectory_path is not None:
-        from ..trajectory import Trajectory
+        from ..world.trajectory import Trajectory
 
         eyes = Trajectory.load(session.trajectory_path).poses[:, :3]
     warn_winding(session.world, session.stages, args.world, eyes, args.fix_winding)

@@ -30,8 +30,8 @@ from functools import lru_cache
 import numpy as np
 
 from ..geometry.sphere_regions import caps_within, direction_regions, region_caps
-from ..mapped import corner_chunks
-from ..world import unit_normals
+from ..world.mapped import corner_chunks
+from ..world.world import unit_normals
 from .facing import region_spare, tilt_scales, tilt_select
 from .precision import device_move, world_scale
 from .state import CullState

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.cones import cluster_cones, cone_rounding, cones_backfacing
-from ..mapped import triangle_corners
+from ..world.mapped import triangle_corners
 from ..partition.base import gather_ranges
-from ..world import unit_normals
+from ..world.world import unit_normals
 from .facing import keep_unmarked
 from .precision import device_move, world_scale
 from .shared import per_object

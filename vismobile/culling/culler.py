@@ -5,7 +5,7 @@ import numpy as np
 
 from ..geometry.arithmetic import MODES
 from ..partition.base import Partition
-from ..world import World
+from ..world.world import World
 from .backface import BackfaceFlag, ConservativeBackface, ThesisBackface
 from .cones import NormalConeStage
 from .frustum import FrustumStage, ThesisFrustumStage

@@ -66,7 +66,7 @@ import numpy as np
 
 from ..partition.base import gather_ranges
 from ..partition.occluders import candidate_lists
-from ..world import World
+from ..world.world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
 from .hiz import (DEPTH_SLACK, GUARD_PX, build_tiles, cull_nodes, facing_occluders,

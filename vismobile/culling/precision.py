@@ -17,7 +17,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..camera import Camera
+from ..world.camera import Camera
 from ..errors import ProfileError
 from ..geometry import arithmetic
 

@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..camera import Camera
+from ..world.camera import Camera
 from .kernels import run_count
 from .tree import Tree
 

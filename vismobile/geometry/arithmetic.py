@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import ProfileError
 # The 16.16 format and its range are the device's (profile.py): one definition, used here.
-from ..profile import FIXED_LIMIT, FIXED_ONE, to_fixed
+from ..device.profile import FIXED_LIMIT, FIXED_ONE, to_fixed
 
 MODES = ("float64", "float32", "fixed16.16")
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import yaw_toward
+from .angles import yaw_toward
 
 # Boundary samples per region edge when bounding a region by a cap.
 EDGE_SAMPLES = 129

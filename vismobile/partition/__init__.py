@@ -1,14 +1,15 @@
 """The offline partitioner: `partition(world, kind, **params)` builds a Partition (base.py
-layout) as a grid, octree, portal octree, BSP tree or kd-tree; `load_partition` reads a .vmp file."""
+layout) as a grid, octree, portal octree, BSP tree or kd-tree; `save_partition` writes a .vmp
+file and `load_partition` reads one."""
 from __future__ import annotations
 
 import sys
 import types
 
 from .base import KINDS, Partition
-from .store import load_partition
+from .store import load_partition, save_partition
 
-__all__ = ["partition", "load_partition", "Partition", "KINDS"]
+__all__ = ["partition", "load_partition", "save_partition", "Partition", "KINDS"]
 
 
 def partition(world, kind: str, progress=None, **params) -> Partition:

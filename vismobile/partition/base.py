@@ -18,9 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..world import World
+from ..world.world import World
+from .spec import KINDS, format_spec  # noqa: F401  (KINDS re-exported: its older home)
 
-KINDS = ("grid", "octree", "portal", "bsp", "kdtree")
 # The largest vertex coordinate a stage may meet (the OBJ reader's limit): squares and cross
 # products of coordinates stay finite in float64.
 MAX_COORDINATE = 1e30
@@ -64,8 +64,6 @@ class Partition:
         return len(self.first_child)
 
     def __repr__(self) -> str:
-        from .spec import format_spec
-
         return (f"Partition({format_spec(self.kind, self.params)} of {self.world.name!r}: "
                 f"{self.node_count:,} nodes, {int(self.is_leaf.sum()):,} leaves, "
                 f"{len(self.tri_refs) / max(self.world.triangle_count, 1):.2f} refs/triangle)")
@@ -101,12 +99,6 @@ class Partition:
             "refs_per_triangle": len(self.tri_refs) / max(self.world.triangle_count, 1),
             "max_leaf_refs": int(leaf_refs.max()) if len(leaves) else 0,
         }
-
-    def save(self, path) -> None:
-        """Write this partition to a .vmp file, atomically (see store.py)."""
-        from .store import save_partition
-
-        save_partition(self, path)
 
     def check(self) -> None:
         """Raise ValueError when the layout contract above, or any invariant a culling stage

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import check_destination, make_dirs, sweep_stale, temp_path
+from ..files.atomic import check_destination, make_dirs, sweep_stale, temp_path
 from .layout import outward_f32
 from .octree import DEFAULT_DEPTH, check_depth, child_boxes, subdivide
 from .occluders import STORED, candidate_lists

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..winding import _merged, _orient
+from ..world.winding import _merged, _orient
 
 
 def outward_solid_faces(world) -> np.ndarray:

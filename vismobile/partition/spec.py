@@ -5,7 +5,7 @@
 """
 from __future__ import annotations
 
-from .base import KINDS
+KINDS = ("grid", "octree", "portal", "bsp", "kdtree")
 
 # The parameter a bare number sets, per kind.
 MAIN_PARAMETER = {"octree": "depth", "portal": "depth", "grid": "slabs", "bsp": "max_depth",

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PartitionError
-from ..world import World, atomic_write_bytes
+from ..world.world import World, atomic_write_bytes
 from .base import KINDS, Partition
 
 MAGIC = b"\x89VMP\r\n\x1a\n"
@@ -233,7 +233,7 @@ def map_partition(path, verify: bool = True) -> Partition:
              is taken from the header. Raises PartitionError naming the file when it is not a
              mappable partition, or is truncated, corrupt or inconsistent.
     """
-    from ..mapped import MappedWorld
+    from ..world.mapped import MappedWorld
 
     path, buffer = _open_mapped(path)
     try:

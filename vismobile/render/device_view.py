@@ -21,7 +21,7 @@ KINDS = ("device", "rounded", "exact")
 def eye_relative(world, camera, profile, cull_back: bool) -> np.ndarray:
     """(H, W) uint32 item buffer of `world` seen from `camera`, rendered relative to the eye
     (float64 shift first) in float32 vertices at the profile's resolution."""
-    from ..profile import get_profile
+    from ..device.profile import get_profile
 
     local = world.transformed(1.0, -camera.eye)
     at_origin = camera.with_(position=(0.0, 0.0, 0.0))

@@ -5,7 +5,7 @@ import io
 
 import numpy as np
 
-from ..world import atomic_write_bytes
+from ..world.world import atomic_write_bytes
 
 
 def png_bytes(image, optimize=True) -> bytes:

@@ -101,7 +101,7 @@ def _set_lights(prog) -> None:
 def render_rgb(world, triangles, camera, profile, cull_back=False) -> np.ndarray:
     """(H, W, 3) uint8 shaded image of the given triangles at the profile's resolution, seen
     through `camera` with the profile's aspect (so a 640x480 image is not stretched)."""
-    from ..profile import get_profile
+    from ..device.profile import get_profile
 
     profile = get_profile(profile)
     return Renderer(world, profile).render_rgb(triangles, camera.with_(aspect=profile.aspect),

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from ..profile import MAX_INDEX_VERTICES
+from ..device.profile import MAX_INDEX_VERTICES
 from .context import gl_context, render_target
 from .renderer import SENTINEL, DrawStats, _set_lights
 from .shaders import CLEAR_RGB

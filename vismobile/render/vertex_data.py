@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..profile import to_fixed
+from ..device.profile import to_fixed
 
 CREASE_DEGREES = 30.0
 MAX_FAN = 64

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Camera, yaw_toward
+from ..world.camera import Camera, yaw_toward
 
 CLASSES = ("box", "pitch", "wall", "narrow", "wide")
 ASPECTS = (9 / 16, 0.75, 1.0, 2.5)

@@ -14,7 +14,7 @@ def is_thesis_world(text) -> bool:
 def world_file(text, worlds_dir=None) -> Path:
     """Path of a world argument: a thesis name gives <worlds_dir>/<name>.obj, (re)built when
     missing or stale (worlds_dir None: scenes.default_cache_dir()); anything else is taken as
-    the path of a mesh file and returned unchecked (World.from_file reports a bad one)."""
+    the path of a mesh file and returned unchecked (files.loader.load_world reports a bad one)."""
     if not is_thesis_world(text):
         path = Path(text)
         if not path.suffix and not path.exists():  # "w7", "room": neither a world nor a file
@@ -32,10 +32,3 @@ def world_file(text, worlds_dir=None) -> Path:
             and key_path.read_text().strip() == build_key(name)):
         build_world(name, path.parent)
     return path
-
-
-def open_world(text, worlds_dir=None):
-    """World of a world argument (thesis name or mesh file path); WorldError names a bad file."""
-    from ..world import World
-
-    return World.from_file(world_file(text, worlds_dir))

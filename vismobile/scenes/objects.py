@@ -133,7 +133,7 @@ def load_object(kind: str, directory: str | None = None) -> tuple:
 
     Raises WorldError naming the model file if it is missing or unreadable.
     """
-    from ..world import World
+    from ..world.world import World
 
     filename, target = OBJECTS[kind]
     world = World.from_obj(model_path(filename, directory))
@@ -173,7 +173,7 @@ def model_world(name: str, size: float = 10.0, directory=None):
     """A shipped model at full resolution (MODEL_FILES) as a World of one object: longest side
     `size`, base centred on the origin, standing on y = 0. Raises WorldError naming a missing or
     bad file; KeyError lists the names."""
-    from ..world import World
+    from ..world.world import World
 
     if name not in MODEL_FILES:
         raise KeyError(f"unknown model {name!r}; valid: {', '.join(MODEL_FILES)}")

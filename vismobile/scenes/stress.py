@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..camera import Camera
-from ..world import World
+from ..world.camera import Camera
+from ..world.world import World
 
 # Base world: rooms [0, 8] x [0, 3] x [0, 12], split at z = 6 by a wall with a doorway.
 ROOM_SIZE = np.array([8.0, 3.0, 12.0])

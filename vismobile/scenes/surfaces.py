@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..world import World
+from ..world.world import World
 
 
 def tiled_rect(origin, u, v, nu: int, nv: int, facing) -> tuple:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..world import World, atomic_write_bytes
+from ..world.world import World, atomic_write_bytes
 from . import building, city, objects
 
 # W2 and W3: Table 5.4 counts cannot give 17 objects summing to 102,232 - 6,199 = 96,033
@@ -132,7 +132,8 @@ def _source_digest() -> bytes:
     """Hash of the generator's own sources and library versions, as imported by this process."""
     import trimesh
 
-    from .. import open3d_import, world
+    from .. import open3d_import
+    from ..world import world
 
     h = hashlib.sha256()
     for module in (building, city, objects, world, open3d_import):

@@ -6,7 +6,7 @@ CostModel, this machine, fitted from stage counters (hardware-independent) to me
   Coefficients are non-negative (Lawson-Hanson NNLS) and fitted in the same process that uses
   them, so they describe this machine; the model prices configurations from counters alone.
 The device model (the iPaq and the N82: DeviceModel, fit_device, cull_cycles) lives one level
-down, in vismobile/costmodel.py, so playback uses it too; it is re-exported here. This module
+down, in vismobile/device/costmodel.py, so playback uses it too; it is re-exported here. This module
 adds calibration_rows and CALIBRATION_ROWS: our counters for the thesis's configurations, which
 the device figures are fitted to.
 """
@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..costmodel import (CULL_OPERATIONS, DEVICES, DeviceModel, best_device_fit,  # noqa: F401
+from ..device.costmodel import (CULL_OPERATIONS, DEVICES, DeviceModel, best_device_fit,  # noqa: F401
                          cull_cycles, design, device_counters, device_model, fit_device, label,
                          nnls)
 
@@ -100,8 +100,8 @@ def calibration_rows(points, worlds_dir=None, cache_dir=None, frames="sample:24"
                      profile_name="ipaq-hx2490b") -> list:
     """Mean device counters (device_counters) of our run of each (world, structure, culling,
     ...) point of thesis.DEVICE_POINTS, over a frame selection of the world's thesis path."""
-    from ..profile import get_profile
-    from ..trajectory import Trajectory
+    from ..device.profile import get_profile
+    from ..world.trajectory import Trajectory
     from . import engine
     from .matrix import cull_stages, frame_indices
     from .thesis import trajectory_for

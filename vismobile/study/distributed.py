@@ -57,7 +57,7 @@ def open_client(scheduler: str, workers: int | None, timeout: str = "15s"):
 def _resume_or_execute(task, *ready) -> tuple:
     """Run task: the finished result file when one exists (an earlier attempt wrote it before
     its worker died), else execute the run. `ready` are the prepare results it waited for."""
-    from .runner import Context, _execute_task, _worker_init, result_path
+    from .tasks import Context, _execute_task, _worker_init, result_path
 
     _worker_init()
     spec, key, context_tuple = task
@@ -71,7 +71,7 @@ def _resume_or_execute(task, *ready) -> tuple:
 
 
 def _prepare(task) -> str:
-    from .runner import _worker_init, prepare
+    from .tasks import _worker_init, prepare
 
     _worker_init()
     return prepare(task)
@@ -86,7 +86,7 @@ def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None) -
     """
     from dask.distributed import as_completed
 
-    from .runner import prep_key
+    from .tasks import prep_key
 
     if hasattr(scheduler, "submit"):
         client, cluster, own = scheduler, None, False
@@ -131,6 +131,6 @@ def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None) -
 
 def absolute(context):
     """The context with absolute paths, so workers in other directories find the same files."""
-    from .runner import Context
+    from .tasks import Context
 
     return Context(*(Path(p).resolve() for p in context.as_tuple()))

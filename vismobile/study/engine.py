@@ -39,14 +39,14 @@ def ensure_world_file(name: str, worlds_dir) -> Path:
 
 def load_world(name: str, worlds_dir):
     """World of a thesis world name (or a mesh file path), cached per process."""
-    from ..world import World
+    from ..files.loader import load_world as load_file
 
     path = ensure_world_file(name, worlds_dir)
     key = str(path.resolve())
     if key in _WORLDS:
         _WORLDS.move_to_end(key)
         return _WORLDS[key]
-    world = World.from_file(path)
+    world = load_file(path)
     return _remember(_WORLDS, key, world)
 
 
@@ -60,7 +60,7 @@ def load_structure(world, label: str, cache_dir=None):
 
     Returns (partition, build_seconds); build_seconds is 0.0 when it was loaded from the cache.
     """
-    from ..partition import load_partition, partition
+    from ..partition import load_partition, partition, save_partition
 
     key = (world.digest().hex()[:16], label)
     if key in _PARTITIONS:
@@ -82,7 +82,7 @@ def load_structure(world, label: str, cache_dir=None):
     seconds = time.perf_counter() - start
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        built.save(path)
+        save_partition(built, path)
     return _remember(_PARTITIONS, key, built), seconds
 
 

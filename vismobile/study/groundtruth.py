@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..open3d_import import raycast_primitive_ids
-from ..world import World, atomic_write_bytes
+from ..world.world import World, atomic_write_bytes
 from .metrics import SENTINEL, VisibleSet
 
 # A ray re-cast past a back face moves on by this fraction of the hit distance (plus a floor).

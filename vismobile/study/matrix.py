@@ -219,7 +219,7 @@ def parse_profiles(text: str) -> list:
 
 def parse_frames(text: str) -> str:
     """Canonical frame selection: "all", "stride:N" or "sample:N"; SelectionError otherwise."""
-    from ..trajectory import MAX_FRAMES
+    from ..world.trajectory import MAX_FRAMES
 
     text = text.strip().lower()
     match = re.fullmatch(r"(stride|sample):([1-9]\d{0,8})", text)
@@ -258,6 +258,6 @@ def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
 
 def frame_indices(selection: str, count: int, waypoints: dict) -> list:
     """Frame numbers of a selection over a trajectory of `count` frames (sorted, unique)."""
-    from ..trajectory import select_frames
+    from ..world.trajectory import select_frames
 
     return select_frames(selection, count, waypoints)

@@ -16,211 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..costmodel import DEVICES, device_counters, frame_model_ms, model_block
+from ..device.costmodel import DEVICES
 from ..progress import Progress
-from ..stats import summarize
-from ..world import atomic_write_bytes
+from ..world.world import atomic_write_bytes
 from . import engine
-from .groundtruth import trajectory_truth
-from .matrix import RunSpec, frame_indices
-from .metrics import frame_errors, pearson
-
-FRAME_COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
-                 "nodes_visited", "plane_tests", "triangles_tested", "visible",
-                 "false_negatives", "fn_pixels", "tightness", "visible_pixels")
-# Per frame, the modelled frame ms on each device (costmodel.frame_model_ms of the counters).
-MODEL_COLUMNS = tuple(f"model_ms:{device}" for device in DEVICES)
-RESULT_VERSION = "4"  # 4: visible_pixels per frame
-RENDER_REPEATS = 2
-
-
-class Context:
-    """Where a study reads and writes: repo root (trajectory paths), worlds, cache, results."""
-
-    def __init__(self, root=".", out="out/compare", worlds_dir=None, cache_dir=None):
-        from ..scenes.thesis import default_cache_dir
-
-        self.root = Path(root)
-        self.out = Path(out)
-        self.worlds_dir = Path(worlds_dir) if worlds_dir else default_cache_dir()
-        self.cache_dir = Path(cache_dir) if cache_dir else Path("out/cache")
-
-    def trajectory_path(self, spec: RunSpec) -> Path:
-        path = Path(spec.trajectory)
-        return path if path.is_absolute() else self.root / path
-
-    def as_tuple(self) -> tuple:
-        return str(self.root), str(self.out), str(self.worlds_dir), str(self.cache_dir)
-
-    @classmethod
-    def from_tuple(cls, values) -> "Context":
-        return cls(*values)
-
-
-def salts(specs, context: Context) -> dict:
-    """{spec: key salt} from the sha256 of each world OBJ and trajectory file (built if missing)."""
-    digests = {}
-    result = {}
-    for spec in specs:
-        world_file = engine.ensure_world_file(spec.world, context.worlds_dir)
-        for path in (world_file, context.trajectory_path(spec)):
-            if path not in digests:
-                if not path.is_file():
-                    from ..errors import TrajectoryError
-
-                    raise TrajectoryError(f"{path}: no such trajectory file")
-                digests[path] = engine.file_digest(path)
-        result[spec] = (f"{RESULT_VERSION}:{digests[world_file]}:"
-                        f"{digests[context.trajectory_path(spec)]}")
-    return result
-
-
-def result_path(context: Context, key: str) -> Path:
-    """<out>/runs/<key>.json: one run's result file."""
-    return context.out / "runs" / f"{key}.json"
-
-
-def _load_frames(spec: RunSpec, context: Context):
-    from ..profile import get_profile
-    from ..trajectory import Trajectory
-
-    world = engine.load_world(spec.world, context.worlds_dir)
-    trajectory = Trajectory.load(context.trajectory_path(spec))
-    profile = get_profile(spec.profile)
-    frames = frame_indices(spec.frames, len(trajectory), trajectory.waypoints)
-    cameras = [trajectory.camera(f, profile.aspect) for f in frames]
-    return world, trajectory, profile, frames, cameras
-
-
-def truth_for(spec: RunSpec, context: Context, cull_back=None):
-    """The ground-truth VisibleSets of a run's frames (cached in <cache>/truth)."""
-    world, trajectory, profile, frames, cameras = _load_frames(spec, context)
-    cull_back = spec.truth_cull_back if cull_back is None else cull_back
-    return trajectory_truth(world, cameras, frames,
-                            engine.item_buffer_fn(world, profile, cull_back),
-                            profile.resolution, trajectory.poses, cull_back,
-                            context.cache_dir / "truth")
-
-
-def prep_key(task) -> tuple:
-    """What a prepare task makes: ("structure", world, structure) or ("truth", world,
-    trajectory, profile, frames, cull_back); run tasks wait for the two of their spec."""
-    what, spec, _ = task
-    if what == "structure":
-        return what, spec.world, spec.structure
-    return what, spec.world, spec.trajectory, spec.profile, spec.frames, spec.truth_cull_back
-
-
-def prepare(task) -> str:
-    """Worker task: build one partition or one ground truth so runs find them cached."""
-    what, spec, context_tuple = task
-    context = Context.from_tuple(context_tuple)
-    try:
-        if what == "structure":
-            world = engine.load_world(spec.world, context.worlds_dir)
-            engine.load_structure(world, spec.structure, context.cache_dir)
-        else:
-            truth_for(spec, context)
-    except Exception as error:  # the run needing it fails again and records the error
-        return f"{what}: {type(error).__name__}: {error}"
-    return what
-
-
-def execute(spec: RunSpec, context: Context) -> dict:
-    """Play one run: per frame cull (timed), render (timed, glFinish), error against the truth.
-
-    Returns {"spec", "summary", "frames": {column: list}}: FRAME_COLUMNS measured here, plus
-    MODEL_COLUMNS (each device's modelled frame ms); summary["model"] is costmodel.model_block.
-    """
-    world, trajectory, profile, frames, cameras = _load_frames(spec, context)
-    truth = truth_for(spec, context)
-    partition, build_seconds = engine.load_structure(world, spec.structure, context.cache_dir)
-    renderer = engine.renderer(world, profile)
-    # Warm-up frame (first-use uploads and shader compiles are not part of any frame).
-    warm = engine.make_culler(partition, spec.stages, profile).cull(cameras[0])
-    renderer.draw(engine.sent_triangles(warm), cameras[0], spec.cull_back)
-    culler = engine.make_culler(partition, spec.stages, profile)
-    table = {name: np.zeros(len(frames)) for name in FRAME_COLUMNS}
-    counters = []
-    for row, (frame, camera, visible) in enumerate(zip(frames, cameras, truth)):
-        result, cull_ms = engine.timed_cull(culler, camera)
-        sent = engine.sent_triangles(result)
-        # Min of RENDER_REPEATS draws: drawing is stateless, and the minimum drops the frames
-        # where another process took the core (llvmpipe rasterises on the CPU).
-        drawn = min((renderer.draw(sent, camera, spec.cull_back) for _ in range(RENDER_REPEATS)),
-                    key=lambda d: d.render_ms)
-        errors = frame_errors(visible, sent)
-        stats = result.stats
-        counters.append(device_counters(result, culler.tree))
-        values = {
-            "frame": frame, "cull_ms": cull_ms, "render_ms": drawn.render_ms,
-            "frame_ms": cull_ms + drawn.render_ms, "triangles_sent": len(sent),
-            "draw_batches": drawn.draw_batches,
-            "nodes_visited": stats.get("nodes_visited", 0),
-            "plane_tests": stats.get("plane_tests", 0),
-            "triangles_tested": stats.get("triangles_tested", 0), **errors,
-            "visible_pixels": int(visible.pixels.sum()),
-        }
-        for name in FRAME_COLUMNS:
-            table[name][row] = values[name]
-    for device, column in zip(DEVICES, MODEL_COLUMNS):
-        table[column] = frame_model_ms(counters, device)
-    summary = summarize_run(table, trajectory, frames, partition, profile, world, build_seconds)
-    summary["model"] = model_block(counters)
-    return {"spec": spec.to_dict(), "summary": summary,
-            "frames": {name: table[name].tolist() for name in FRAME_COLUMNS + MODEL_COLUMNS}}
-
-
-def summarize_run(table, trajectory, frames, partition, profile, world, build_seconds) -> dict:
-    """The per-run row: timings, fps, correlation, error totals, structure size."""
-    summary = {name: summarize(table[name])
-               for name in ("cull_ms", "render_ms", "frame_ms", "triangles_sent",
-                            "draw_batches", "nodes_visited", "tightness")}
-    frame_ms = table["frame_ms"]
-    summary.update({
-        "frames": len(frames),
-        "mean_ms": float(frame_ms.mean()),
-        "fps": 1000.0 / float(frame_ms.mean()),
-        "mean_fps": float(np.mean(1000.0 / np.maximum(frame_ms, 1e-9))),
-        "correlation": pearson(frame_ms, table["triangles_sent"]),
-        "false_negatives_total": int(table["false_negatives"].sum()),
-        "frames_with_fn": int((table["false_negatives"] > 0).sum()),
-        "fn_pixels_mean": float(table["fn_pixels"].mean()),
-        "fn_pixels_max": int(table["fn_pixels"].max(initial=0)),
-        "fn_pixel_fraction": float(table["fn_pixels"].mean() / np.prod(profile.resolution)),
-        # of the pixels that show some triangle: over the whole path, and the worst frame
-        "fn_visible_fraction": float(table["fn_pixels"].sum()
-                                     / max(float(table["visible_pixels"].sum()), 1.0)),
-        "fn_visible_fraction_max": float((table["fn_pixels"]
-                                          / np.maximum(table["visible_pixels"], 1.0))
-                                         .max(initial=0.0)),
-        "conservative": bool((table["false_negatives"] == 0).all()),
-        "visible_mean": float(table["visible"].mean()),
-        "world_triangles": int(world.triangle_count),
-        "partition": partition.stats(),
-        "build_seconds": build_seconds,
-        "waypoints": {label: f for label, f in trajectory.waypoints.items() if f in set(frames)},
-    })
-    return summary
-
-
-def _worker_init() -> None:
-    """One llvmpipe rasteriser thread in every process that measures runs (the single process,
-    pool and Dask workers): parallel runs must not fight for cores, and a run's render_ms must
-    not depend on the scheduler. Mesa reads it when the process opens its first GL context."""
-    os.environ.setdefault("LP_NUM_THREADS", "1")
-
-
-def _execute_task(task) -> tuple:
-    spec, key, context_tuple = task
-    context = Context.from_tuple(context_tuple)
-    try:
-        record = execute(spec, context)
-    except Exception as error:  # one failed run must not end the sweep; it is reported
-        return key, {"spec": spec.to_dict(), "error": f"{type(error).__name__}: {error}"}
-    record["key"] = key
-    atomic_write_bytes(result_path(context, key), json.dumps(record).encode())
-    return key, record
+from .matrix import RunSpec
+from .tasks import (MODEL_COLUMNS, Context, _execute_task, _worker_init, prepare, result_path,
+                    salts)
 
 
 def _finished(specs, context: Context) -> tuple:
@@ -240,7 +42,7 @@ def _finished(specs, context: Context) -> tuple:
 def _measured_as(spec: RunSpec) -> tuple:
     """A run's identity without its profile's name: the profile counts only as it is measured."""
     from ..errors import ProfileError
-    from ..profile import get_profile
+    from ..device.profile import get_profile
 
     try:
         measured = get_profile(spec.profile).measured_as
@@ -332,7 +134,7 @@ def run_matrix(specs, context: Context, processes: int | None = None,
 
 
 # mean_ms .. render_ms are measured here; model_ms:<device> is that device's model
-# (vismobile/costmodel.py) of the same frames' counters.
+# (vismobile/device/costmodel.py) of the same frames' counters.
 SUMMARY_COLUMNS = ("world", "structure", "cull", "profile", "frames", "mean_ms", "fps",
                    "mean_fps", "cull_ms", "render_ms") + MODEL_COLUMNS + (
                    "triangles_sent", "correlation", "false_negatives_total", "frames_with_fn",
@@ -380,8 +182,8 @@ def agreement(world_name: str, context: Context, profile: str = "ipaq-hx2490b",
               samples: int = 3, trajectory=None) -> list:
     """Raster-against-ray-cast agreement on `samples` evenly spaced frames, back faces culled
     and not: a list of compare_truths dicts with world, frame and cull_back added."""
-    from ..profile import get_profile
-    from ..trajectory import Trajectory
+    from ..device.profile import get_profile
+    from ..world.trajectory import Trajectory
     from .groundtruth import compare_truths
     from .thesis import trajectory_for
 

@@ -410,7 +410,7 @@ class HorizonCaster:
         self.gradient_mip = pack(max_mip_cells(cell_gradients(heightmap.heights,
                                                               heightmap.spacing)))[0]
         if arithmetic == "fixed16.16":
-            from ..profile import to_fixed
+            from ..device.profile import to_fixed
 
             to_fixed(heightmap.bounds(), f"terrain {heightmap.name}")  # range check
             self.flat_raw = np.floor(self.flat * ONE).astype(np.int64)
@@ -483,7 +483,7 @@ class HorizonCaster:
 
     def _cast_fixed(self, eye, forward, right, tans, depths, lower, zclip,
                     first_ceiling) -> FixedHorizon:
-        from ..profile import FIXED_LIMIT, to_fixed
+        from ..device.profile import FIXED_LIMIT, to_fixed
 
         depths = depths[depths <= FIXED_LIMIT]
         raw = [to_fixed(a, "horizon").astype(np.int64) for a in (eye, forward, right, tans, depths)]

@@ -42,7 +42,7 @@ def terrain_world(heightmap: Heightmap, placement=None, stride: int = 1):
     Any command that takes a World can then cull and draw a terrain. At stride 1 a 1025^2 map is
     2.1 M triangles; pass a larger stride for a lighter stand-in.
     """
-    from ..world import World
+    from ..world.world import World
 
     vertices, triangles = grid_mesh(heightmap, stride)
     parts = [World(vertices, triangles, np.zeros(len(triangles), np.int32), ["terrain"],

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Camera, yaw_toward
+from ..world.camera import Camera, yaw_toward
 
 SPEEDS = {("circle", "slow"): 0.1, ("circle", "fast"): 1.0,
           ("lemniscate", "slow"): 0.22, ("lemniscate", "fast"): 2.2,

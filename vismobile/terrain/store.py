@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import WorldError
-from ..atomic import atomic_write_bytes
+from ..files.atomic import atomic_write_bytes
 from .heightmap import Heightmap, grid_exponent
 from .placement import Placement
 

@@ -1,7 +1,7 @@
 """The HUD of the thesis's runtime (SPEC §1) with the viewer's additions: one text line each."""
 from __future__ import annotations
 
-from ..costmodel import label
+from ..device.costmodel import label
 
 MB = 1 << 20
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..trajectory import Trajectory
+from ..world.trajectory import Trajectory
 
 
 class Recorder:

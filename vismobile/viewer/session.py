@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import Camera
+from ..world.camera import Camera
 from ..errors import ProfileError, VisMobileError
-from ..playback import Scene, load_scene, make_culler, parse_structure, _describe
-from ..profile import get_profile
-from ..trajectory import Trajectory
+from ..app.playback import Scene, load_scene, make_culler, parse_structure, _describe
+from ..device.profile import get_profile
+from ..world.trajectory import Trajectory
 from . import keys
 from .controls import Speeds, mouse_look, overview_pose, step_pose
 from .layout import PANEL as GOD
@@ -33,7 +33,7 @@ def start_pose(world) -> np.ndarray:
     """(5,) the first pose of the walk `vismobile trajectory generate` makes (seed 0): inside
     an indoor world at eye height, above an outdoor one; the overview pose when there is no
     free space to walk."""
-    from ..walk import walk
+    from ..app.walk import walk
 
     try:
         poses, _, _ = walk(world, frames=2, seed=0)
@@ -76,7 +76,7 @@ class Session:
     def __init__(self, scene: Scene, stages=(), profile="ipaq-hx2490b", trajectory=None,
                  record_path="recorded.csv", structures=STRUCTURES, god_size=(GOD, GOD),
                  start="overview"):
-        from ..playback import parse_stages
+        from ..app.playback import parse_stages
 
         self.world = scene.world
         self.profile = get_profile(profile)
@@ -115,7 +115,7 @@ class Session:
         self._renderer = None
         self._model = None
         if self.profile.cost is not None:
-            from ..costmodel import device_model
+            from ..device.costmodel import device_model
 
             self._model = device_model(self.profile.name)
         if self.trajectory_path is not None:
@@ -374,7 +374,7 @@ class Session:
         if self.last_frame is None:
             self.message = "no frame drawn yet"
             return None
-        from ..atomic import atomic_write_bytes
+        from ..files.atomic import atomic_write_bytes
         from ..render.images import png_bytes
 
         if path is None:
@@ -465,7 +465,7 @@ class Session:
         memory = self.profile.estimate_memory(self.world, partition)["total"]
         device_fps = None
         if self._model is not None:
-            from ..costmodel import device_counters
+            from ..device.costmodel import device_counters
 
             stats = device_counters(culled, getattr(self.culler, "tree", None))
             device_fps = 1000.0 / self._model.frame_ms(stats, bool(culled.cull_back))

@@ -145,7 +145,7 @@ def _draw(pyglet, gl, window, panels, frame, hud, help_label) -> None:
 def _save_screenshot(pyglet, path, frame, panels, window) -> None:
     """The back buffer as PNG (row 0 = top) and a JSON of what the view shows."""
     from ..render.images import png_bytes
-    from ..atomic import atomic_write_bytes
+    from ..files.atomic import atomic_write_bytes
 
     buffer = pyglet.image.get_buffer_manager().get_color_buffer().get_image_data()
     pixels = np.frombuffer(buffer.get_data("RGB", buffer.width * 3), dtype=np.uint8)

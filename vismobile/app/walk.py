@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .camera import yaw_toward
-from .errors import WorldError
+from ..world.camera import yaw_toward
+from ..errors import WorldError
 
 GRID = 128          # cells along the longer horizontal side of the world
 EYE_HEIGHT = 1.7    # world units above the floor (capped at half the world's height)
@@ -63,7 +63,7 @@ def _cell_pairs(lo, hi):
 
 def free_space(world, eye_height=None, clearance=None, grid=GRID) -> FreeSpace:
     """The blocked and covered cells of a world at eye height (see the module docstring)."""
-    from .geometry.triangle_box import triangles_overlap_boxes
+    from ..geometry.triangle_box import triangles_overlap_boxes
 
     low3, high3 = world.extent
     size = high3 - low3
@@ -301,7 +301,7 @@ def _fly_over(world, frames, seed) -> np.ndarray:
 def counts(world, trajectory, profile, sampled=SAMPLED_FRAMES):
     """(in_frustum (F,) int64 triangles whose box meets the frustum, every frame;
     frames (S,) the sampled frames; visible (S,) int64 distinct ids in their item buffers)."""
-    from .render import item_buffer_renderer
+    from ..render import item_buffer_renderer
 
     centre = world.bounds.mean(axis=1)
     half = (world.bounds[:, 1] - world.bounds[:, 0]) / 2
@@ -317,7 +317,7 @@ def counts(world, trajectory, profile, sampled=SAMPLED_FRAMES):
                        .round().astype(int))
     renderer = item_buffer_renderer(world, profile)
     ids = np.arange(world.triangle_count)
-    from .render import SENTINEL
+    from ..render import SENTINEL
 
     visible = np.array([len(np.unique(buffer[buffer != SENTINEL])) for buffer in
                         (renderer.render(ids, trajectory.camera(int(f), profile.aspect), False)
@@ -346,8 +346,8 @@ def generate_trajectory(world, frames=600, seed=0, profile="ipaq-hx2490b", eye_h
     """Trajectory of `frames` poses through a world (walk() then the waypoints from counts());
     what `vismobile trajectory generate` writes. profile: name or Profile whose screen counts
     the visible triangles."""
-    from .profile import Profile, get_profile
-    from .trajectory import Trajectory
+    from ..device.profile import Profile, get_profile
+    from ..world.trajectory import Trajectory
 
     profile = profile if isinstance(profile, Profile) else get_profile(profile)
     poses, _, _ = walk(world, frames, seed, eye_height, clearance)

@@ -24,7 +24,7 @@ PROFILE = "ipaq-hx2490b"
 
 def tune_gap(result, records) -> str:
     """Where tune's device choice landed in this machine's measured comparison of the world."""
-    from .study.report import best_run, find_run
+    from ..study.report import best_run, find_run
 
     choice = result.choice
     run = find_run(records, result.world, choice.structure, choice.cull, PROFILE)
@@ -38,16 +38,16 @@ def tune_gap(result, records) -> str:
 
 
 def main(argv=None) -> int:
-    from .costmodel import label
-    from .profile import get_profile
-    from .progress import Status
-    from .study import engine
-    from .study.matrix import RunSpec, expand
-    from .study.report import write_report
-    from .study.runner import Context, agreement, run_matrix
-    from .study.thesis import trajectory_for
-    from .study.tune import tune
-    from .trajectory import Trajectory
+    from ..device.costmodel import label
+    from ..device.profile import get_profile
+    from ..progress import Status
+    from ..study import engine
+    from ..study.matrix import RunSpec, expand
+    from ..study.report import write_report
+    from ..study.runner import Context, agreement, run_matrix
+    from ..study.thesis import trajectory_for
+    from ..study.tune import tune
+    from ..world.trajectory import Trajectory
 
     start = time.perf_counter()
     out = Path("out")

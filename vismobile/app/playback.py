@@ -26,14 +26,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .costmodel import DEVICES, device_counters, device_model, label, model_block
-from .errors import VisMobileError
-from .profile import get_profile
-from .progress import Progress
-from .stats import pearson, summarize
-from .trajectory import select_frames
-from .atomic import atomic_write_bytes, check_destination, staged_directory
-from .world import World
+from ..device.costmodel import DEVICES, device_counters, device_model, label, model_block
+from ..errors import VisMobileError
+from ..device.profile import get_profile
+from ..progress import Progress
+from ..stats import pearson, summarize
+from ..world.trajectory import select_frames
+from ..files.atomic import atomic_write_bytes, check_destination, staged_directory
+from ..world.world import World
 
 COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
            "nodes_visited", "memory_bytes", "waypoint", "active_stages")
@@ -77,7 +77,7 @@ def parse_stages(text) -> tuple:
 def parse_structure(text) -> tuple:
     """'octree:5' -> ('octree', {'depth': 5}); 'grid:8' -> ('grid', {'slabs': 8});
     'none' -> (None, {}): partition/spec.py's grammar; VisMobileError on a bad spec."""
-    from .partition.spec import parse_spec
+    from ..partition.spec import parse_spec
 
     try:
         return parse_spec(text)
@@ -95,7 +95,7 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
     """
     path_text = str(path)
     if path_text.lower().endswith(".vmp"):
-        from .partition import load_partition
+        from ..partition import load_partition
 
         if fix_winding:
             raise VisMobileError(f"{path_text}: --fix-winding applies to a mesh; a partition "
@@ -103,17 +103,17 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
 
         partition = load_partition(path_text)
         return Scene(partition.world, partition, _describe(partition.kind, partition.params))
-    from .scenes.lookup import open_world
+    from ..files.loader import open_world
 
     world = open_world(path_text)
     if fix_winding:
-        from .winding import fixed_world_said
+        from ..world.winding import fixed_world_said
 
         world = fixed_world_said(world, eyes)
     kind, params = parse_structure(structure)
     if kind is None:
         return Scene(world, None, "none")
-    from .partition import partition as build_partition
+    from ..partition import partition as build_partition
 
     bar = Progress(f"partition {kind}", enabled=None if progress else False)
     try:
@@ -127,7 +127,7 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
 
 def _describe(kind, params) -> str:
     """'octree:5' style label of a structure (partition/spec.py's canonical text)."""
-    from .partition.spec import format_spec
+    from ..partition.spec import format_spec
 
     return format_spec(kind, dict(params))
 
@@ -167,8 +167,8 @@ def make_culler(scene: Scene, stages, profile=None, adaptive=False):
     if "portals" in parse_stages(stages) and scene.partition.kind != "portal":
         raise VisMobileError(f"--cull portals needs a portal structure (--structure portal:N); "
                              f"this one is {scene.structure}")
-    from .culling import Culler, device_options
-    from .culling.adaptive import AdaptiveCuller
+    from ..culling import Culler, device_options
+    from ..culling.adaptive import AdaptiveCuller
 
     options = device_options(profile) if profile is not None else {}
 
@@ -205,9 +205,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
                    ("adaptive_events") and frames.csv (active_stages)
     Raises ProfileError (heap, fixed16.16 range) before playing.
     """
-    from .render import Renderer
-    from .render.hud import draw_hud, hud_lines
-    from .render.images import png_bytes, save_gif
+    from ..render import Renderer
+    from ..render.hud import draw_hud, hud_lines
+    from ..render.images import png_bytes, save_gif
 
     profile = get_profile(profile)
     stages = parse_stages(stages)
@@ -218,7 +218,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     renderer = Renderer(world, profile)
     tree = getattr(culler, "tree", None)
     if tree is None and scene.partition is not None:  # the adaptive culler holds several
-        from .culling.tree import Tree
+        from ..culling.tree import Tree
 
         tree = Tree(scene.partition)
     # The HUD's fps: the profile's device model when it has one, else this machine.
@@ -293,7 +293,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         "resolution": list(profile.resolution), "memory": profile.estimate_memory(
             world, scene.partition), "heap_bytes": profile.heap_bytes,
         # frame_ms, fps above are measured here; "model" is each device's model of the same
-        # frames' counters (vismobile/costmodel.py).
+        # frames' counters (vismobile/device/costmodel.py).
         "timing": label(None), "model": model_block(counters),
         "adaptive": bool(adaptive), "adaptive_events": list(getattr(culler, "events", [])),
         # Untimed frames before the first measured one (numba's first-use compile, uploads).
@@ -322,7 +322,7 @@ def warm_up(scene, stages, profile, renderer, cameras, progress=False, name="") 
     holds numba's first-use compile (tens of seconds on a fresh clone), lazy tables or the first
     uploads; the measured culler starts cold in its frame-to-frame state. Says "compiling
     (first run)" on stderr when it runs past progress.QUIET_SECONDS. Returns its wall ms."""
-    from .progress import Status
+    from ..progress import Status
 
     start = time.perf_counter()
     with Status(f"play {name}", enabled=bool(progress)) as status:

@@ -7,13 +7,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..geometry.angles import yaw_toward  # noqa: F401  (re-exported: its older home)
+
 PLANE_NAMES = ("left", "right", "bottom", "top", "near", "far")
-
-
-def yaw_toward(dx, dz):
-    """Camera yaw in degrees, in (-180, 180], that looks along (dx, dz) on the ground plane."""
-    return np.degrees(np.arctan2(-np.asarray(dx, dtype=np.float64),
-                                 -np.asarray(dz, dtype=np.float64)))
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ import shutil
 import stat
 from pathlib import Path
 
-from .errors import OutputError
+from ..errors import OutputError
 
 TEMP_NAME = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d{1,10})\.tmp$")
 # Directories already swept of stale temporary files by this process.

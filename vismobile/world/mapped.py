@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_write_bytes, make_dirs, temp_path
-from .errors import WorldError
+from ..files.atomic import atomic_write_bytes, make_dirs, temp_path
+from ..errors import WorldError
 from .world import World
 
 FILES = ("vertices.npy", "triangles.npy", "object_ids.npy", "world.json")

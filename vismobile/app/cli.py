@@ -26,7 +26,7 @@ import time
 import warnings
 from importlib import import_module
 
-from .errors import VisMobileError, one_line
+from ..errors import VisMobileError, one_line
 
 # Each module in commands/ offers add_parser(subparsers) and run(args) -> int.
 COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune", "trajectory", "terrain",
@@ -34,8 +34,8 @@ COMMANDS = ("worlds", "info", "partition", "play", "compare", "tune", "trajector
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import __version__
-    from .commands import options
+    from .. import __version__
+    from ..commands import options
 
     parser = argparse.ArgumentParser(prog="vismobile", description=DESCRIPTION, epilog=EPILOG,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -58,7 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    from . import progress
+    from .. import progress
 
     started = time.perf_counter()
     args = build_parser().parse_args(argv)
@@ -74,7 +74,7 @@ def _run(args) -> int:
         warnings.simplefilter("default")
         warnings.formatwarning = lambda message, *rest: f"warning: {message}\n"
         try:
-            from .commands import options, overwrite
+            from ..commands import options, overwrite
 
             options.check(args)  # every range before anything is loaded or written
             overwrite.check(args)  # no output is one of the inputs

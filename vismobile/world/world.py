@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_write_bytes  # noqa: F401  (re-exported: older imports)
-from .errors import WorldError
+from ..files.atomic import atomic_write_bytes  # noqa: F401  (re-exported: older imports)
+from ..errors import WorldError
 
 # Triangles whose doubled area is below this fraction of the world's squared extent are dropped.
 ZERO_AREA_RELATIVE = 1e-14
@@ -104,7 +104,7 @@ class World:
 
         Raises ProfileError (arithmetic.check_resolution) when the mode cannot hold or resolve it.
         """
-        from .geometry import arithmetic
+        from ..geometry import arithmetic
 
         what = f"world {self.name}"
         arithmetic.check_resolution(self.vertices[np.unique(self.triangles)], mode, what)
@@ -134,7 +134,7 @@ class World:
         Raises WorldError naming the file (and line) on missing, empty, unparsable, non-finite,
         out-of-range or fully degenerate input. Zero-area triangles are dropped with a warning.
         """
-        from .obj import load_obj  # trimesh stays out of the import path of the runtime
+        from ..files.obj import load_obj  # trimesh stays out of the import path of the runtime
 
         path = Path(path)
         vertices, triangles, object_ids, names = load_obj(path)
@@ -142,19 +142,15 @@ class World:
 
     @classmethod
     def from_file(cls, path) -> "World":
-        """Load a mesh file: OBJ, PLY, STL, OFF, glTF or GLB, each optionally gzip-compressed,
-        or a terrain .vmt (its ground at a bounded stride plus its objects, terrain/mesh.py).
+        """Load a mesh file: OBJ, PLY, STL, OFF, glTF or GLB, each optionally gzip-compressed
+        (a terrain .vmt too: files.loader.load_world, which sits above both World and terrain/).
 
         OBJ groups (o/g) and the meshes of a scene (moved by their node transforms) become
         objects. Raises WorldError naming the file on unknown formats and bad input.
         """
-        from .meshfile import load_mesh, mesh_format
+        from ..files.meshfile import load_mesh, mesh_format
 
         path = Path(path)
-        if path.suffix.lower() == ".vmt":
-            from .terrain.mesh import terrain_world_file
-
-            return terrain_world_file(path)
         if mesh_format(path) == "obj":
             return cls.from_obj(path)
         return cls.from_arrays(*load_mesh(path), path)
@@ -163,7 +159,7 @@ class World:
     def from_trimesh(cls, geometry, name="world") -> "World":
         """World of a trimesh.Trimesh (one object) or trimesh.Scene (one object per mesh node,
         moved by the node's transform); zero-area triangles dropped with a warning."""
-        from .meshfile import flatten
+        from ..files.meshfile import flatten
 
         vertices, triangles, object_ids, names = flatten(geometry, f"<{name}>")
         world = cls.from_arrays(vertices, triangles, object_ids, names, f"<{name}>")

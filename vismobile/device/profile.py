@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .errors import ProfileError
+from ..errors import ProfileError
 
 __all__ = ["Profile", "ProfileError", "PROFILES", "get_profile", "VERTEX_FORMATS",
            "to_fixed", "from_fixed", "FIXED_ONE", "FIXED_LIMIT", "DeviceCost"]
@@ -34,7 +34,7 @@ MB = 1 << 20
 
 @dataclass(frozen=True)
 class DeviceCost:
-    """Frame-time figures of one device, priced by vismobile/costmodel.py's DeviceModel.
+    """Frame-time figures of one device, priced by vismobile/device/costmodel.py's DeviceModel.
 
     render ms = render_base_ms + render_triangle_us * triangles_sent / 1000
                 + render_call_us * <call_counter> / 1000
@@ -215,7 +215,7 @@ def from_fixed(raw) -> np.ndarray:
     return np.asarray(raw, dtype=np.float64) / FIXED_ONE
 
 
-# Device cost figures (vismobile/costmodel.py explains the model). The render figures are least
+# Device cost figures (vismobile/device/costmodel.py explains the model). The render figures are least
 # squares (non-negative) of the thesis's own device frame times (study/thesis.DEVICE_POINTS) on
 # our counters for the same configurations on our worlds (costmodel.CALIBRATION_ROWS); the
 # per-call term is kept only where it lowers the leave-one-out error. The cull figures are

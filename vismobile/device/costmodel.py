@@ -16,7 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 from .profile import PROFILES, get_profile
-from .stats import summarize
+from ..stats import summarize
 
 # Profiles with device cost figures, in the thesis's order (Table 5.1).
 DEVICES = tuple(name for name, profile in PROFILES.items() if profile.cost is not None)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .camera import Camera
-from .errors import TrajectoryError
+from ..errors import TrajectoryError
 from .world import atomic_write_bytes
 
 HEADER = "frame,x,y,z,yaw,pitch,waypoint"

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import WorldError
+from ..errors import WorldError
 
 # Suffix (without .gz) -> trimesh file type; .obj goes through the validating reader in obj.py.
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".glb": "glb",

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import WorldError
+from ..errors import WorldError
 
 # Statements of the OBJ format (geometry, grouping, display and free-form); anything else is garbage.
 KNOWN_STATEMENTS = frozenset(

@@ -1,0 +1,27 @@
+"""The one place a world file is dispatched on its type: a terrain .vmt (terrain/), else a mesh
+file (World.from_file: OBJ, PLY, STL, OFF, glTF, GLB, optionally .gz). It sits above both
+world/ and terrain/, so neither needs the other."""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def load_world(path):
+    """World of a mesh file or of a terrain .vmt (its ground at a bounded stride plus its
+    objects, terrain/mesh.py). Raises WorldError naming the file on unknown formats and bad
+    input."""
+    path = Path(path)
+    if path.suffix.lower() == ".vmt":
+        from ..terrain.mesh import terrain_world_file
+
+        return terrain_world_file(path)
+    from ..world.world import World
+
+    return World.from_file(path)
+
+
+def open_world(text, worlds_dir=None):
+    """World of a world argument (thesis name or world file path); WorldError names a bad file."""
+    from ..scenes.lookup import world_file
+
+    return load_world(world_file(text, worlds_dir))

@@ -1,0 +1,440 @@
+"""ROAM's frame in numba (roam.py describes the method): frustum flags and priorities of the
+diamonds, the split and merge queues (binary heaps over flat arrays), one frame's merges and
+splits within tau or the budget, and the triangles it emits."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .bintree import _box, _candidate, _geometry, _mergeable, _triangles_of
+from .quadtree import box_visible
+
+OUT, PARTIAL, IN = 0, 1, 2
+
+
+@njit(cache=True)
+def _flag(planes, x0, y0, z0, x1, y1, z1):
+    """OUT when the box is outside one plane, IN when inside all, else PARTIAL (exact for the
+    box, in float64; the box itself errs large)."""
+    inside = True
+    for p in range(planes.shape[0]):
+        a, b, c_, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
+        hi = (a * (x1 if a >= 0 else x0) + b * (y1 if b >= 0 else y0)
+              + c_ * (z1 if c_ >= 0 else z0) + d)
+        if hi < 0:
+            return OUT
+        lo = (a * (x0 if a >= 0 else x1) + b * (y0 if b >= 0 else y1)
+              + c_ * (z0 if c_ >= 0 else z1) + d)
+        if lo < 0:
+            inside = False
+    return IN if inside else PARTIAL
+
+
+@njit(cache=True, inline="always")
+def _score(wedge, spacing, v, N, eye, planes, lam, cull):
+    """Priority in pixels of diamond v (0 when its box is outside the frustum and cull)."""
+    x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
+    x0, x1, z0, z1 = x0 * spacing, x1 * spacing, z0 * spacing, z1 * spacing
+    if cull and _flag(planes, x0, y0, z0, x1, y1, z1) == OUT:
+        return 0.0
+    e = wedge[v, 2]
+    if e <= 0.0:
+        return 0.0
+    dx = max(x0 - eye[0], 0.0, eye[0] - x1)
+    dy = max(y0 - eye[1], 0.0, eye[1] - y1)
+    dz = max(z0 - eye[2], 0.0, eye[2] - z1)
+    d = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if d <= 0.0:
+        return np.inf
+    return lam * e / d
+
+
+@njit(cache=True, inline="always")
+def _slack(wedge, spacing, v, N, eye, lam, tau):
+    """How far the eye may travel (any direction, any turn) before diamond v's priority can
+    exceed tau: d - lambda_b e / tau with d the distance to its wedgie box (errs short)."""
+    x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
+    dx = max(x0 * spacing - eye[0], 0.0, eye[0] - x1 * spacing)
+    dy = max(y0 - eye[1], 0.0, eye[1] - y1)
+    dz = max(z0 * spacing - eye[2], 0.0, eye[2] - z1 * spacing)
+    return np.sqrt(dx * dx + dy * dy + dz * dz) - lam * wedge[v, 2] / tau
+
+
+# Binary min-heaps on parallel arrays (keys float64, values int64); _reserve grows them.
+@njit(cache=True)
+def _reserve(keys, vals, size, extra):
+    if size + extra <= keys.shape[0]:
+        return keys, vals
+    nk = np.empty(2 * (size + extra), np.float64)
+    nv = np.empty(2 * (size + extra), np.int64)
+    nk[:size] = keys[:size]
+    nv[:size] = vals[:size]
+    return nk, nv
+
+
+@njit(cache=True, inline="always")
+def _push(keys, vals, size, key, val):
+    i = size
+    keys[i], vals[i] = key, val
+    while i > 0:
+        p = (i - 1) >> 1
+        if keys[p] < keys[i] or (keys[p] == keys[i] and vals[p] <= vals[i]):
+            break
+        keys[p], keys[i] = keys[i], keys[p]
+        vals[p], vals[i] = vals[i], vals[p]
+        i = p
+    return size + 1
+
+
+@njit(cache=True)
+def _pop(keys, vals, size):
+    size -= 1
+    keys[0], vals[0] = keys[size], vals[size]
+    i = 0
+    while True:
+        lft = 2 * i + 1
+        if lft >= size:
+            break
+        m = lft
+        rgt = lft + 1
+        if rgt < size and (keys[rgt] < keys[lft]
+                           or (keys[rgt] == keys[lft] and vals[rgt] < vals[lft])):
+            m = rgt
+        if keys[i] < keys[m] or (keys[i] == keys[m] and vals[i] <= vals[m]):
+            break
+        keys[m], keys[i] = keys[i], keys[m]
+        vals[m], vals[i] = vals[i], vals[m]
+        i = m
+    return size
+
+
+@njit(cache=True)
+def _compact(alive, count, split, head):
+    """Keep the split entries of alive[:count], sorted and unique; alive[:head] is already
+    sorted (last frame's list), so only the new tail is sorted and merged in (a full sort of
+    a sorted list with a short random tail degenerates: 6-9 ms for 49k entries). Returns the
+    new count."""
+    k = 0
+    for i in range(head):
+        if split[alive[i]]:
+            alive[k] = alive[i]
+            k += 1
+    tail = np.empty(count - head, np.int64)
+    t = 0
+    for i in range(head, count):
+        if split[alive[i]]:
+            tail[t] = alive[i]
+            t += 1
+    tail = np.sort(tail[:t])
+    merged = np.empty(k + t, np.int64)
+    i = j = m = 0
+    last = -1
+    while i < k or j < t:
+        if j >= t or (i < k and alive[i] <= tail[j]):
+            x = alive[i]
+            i += 1
+        else:
+            x = tail[j]
+            j += 1
+        if x != last:
+            merged[m] = x
+            m += 1
+            last = x
+    alive[:m] = merged[:m]
+    return m
+
+
+@njit(cache=True)
+def _push_children(wedge, spacing, n, N, split, qs, stamp, x, eye, planes, lam, tau,
+                   cull, every, sk, sv, ns, low, g):
+    """Queue x's unsplit children for splitting, each once per frame; only those above tau
+    unless every (budget mode). Returns the queue and the largest priority left out."""
+    h, sq = _geometry(x // N, x % N, n, g)
+    if sq or h > 1:
+        for k in range(2):
+            if g[k, 0] < 0:
+                continue
+            for e in range(2, 4):
+                m = ((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2
+                if split[m] == 0 and qs[m] != stamp:
+                    q = _score(wedge, spacing, m, N, eye, planes, lam, cull)
+                    qs[m] = stamp
+                    if every or q > tau:
+                        ns = _push(sk, sv, ns, -q, m)
+                    else:
+                        low = max(low, q)
+    return ns, low
+
+
+@njit(cache=True)
+def _merge(wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau,
+           cull, every, sk, sv, ns, mk, mv, nm, low, g, g2):
+    """Merge diamond v (priority p): it rejoins the split queue, its parents may become
+    mergeable. Returns the queues, the largest left-out priority and the leaves removed."""
+    split[v] = 0
+    if qs[v] != stamp:
+        qs[v] = stamp
+        if every or p > tau:
+            ns = _push(sk, sv, ns, -p, v)
+        else:
+            low = max(low, p)
+    _geometry(v // N, v % N, n, g)
+    removed = 0
+    for k in range(2):
+        if g[k, 0] < 0:
+            continue
+        removed += 1
+        a = g[k, 0] * N + g[k, 1]
+        if qm[a] != stamp and _mergeable(split, a, n, N, g2):
+            q = _score(wedge, spacing, a, N, eye, planes, lam, cull)
+            if every or q <= tau:
+                nm = _push(mk, mv, nm, q, a)
+                qm[a] = stamp
+    return ns, nm, low, removed
+
+
+@njit(cache=True)
+def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
+           eye, planes, lam, tau, budget, leaves, cull, born, stats, until, travel):
+    """One ROAM frame from last frame's mesh. Returns (alive_count, leaves, born_count).
+
+    budget < 0: no budget (queues then hold only diamonds that can move: split candidates
+    above tau, merge candidates at or below it). stats (float64): [splits, merges, forced,
+    largest split priority left (an upper bound), exchanges, stopped by the budget, alive
+    full, candidates deferred]. qs/qm/mark are stamps per sample; stamp is this call's number (> 0). When alive
+    fills up, returns early with stats[6] = 1 (the mesh is consistent; grow alive, call
+    again). Deferred priorities (no budget only): travel is the eye's path length so far and
+    until[v] the travel up to which candidate v is known to stay <= tau (float32 rounded
+    down); such candidates are not re-scored (the seed's wait-lists, from distance alone,
+    so turning the camera needs no re-scoring either)."""
+    N = int(np.sqrt(wedge.shape[0]))
+    S = N - 1
+    every = budget >= 0
+    if not every:
+        budget = np.iinfo(np.int64).max
+    g = np.empty((4, 2), np.int64)
+    g2 = np.empty((4, 2), np.int64)
+    sk = np.empty(1024, np.float64)  # split queue: keys -p, unsplit diamonds in the mesh
+    sv = np.empty(1024, np.int64)
+    mk = np.empty(1024, np.float64)  # merge queue: keys p, split diamonds with leaf children
+    mv = np.empty(1024, np.int64)
+    ns = 0
+    nm = 0
+    low = 0.0
+    for i in range(8):
+        stats[i] = 0.0
+    centre = (S // 2) * N + S // 2
+    head = alive_count  # alive[:head] is sorted (compacted at the end of the last call)
+    deferred = 0
+    # Queues from last frame's mesh with this frame's priorities.
+    # (The children loop is written out here: a call per diamond costs as much again in
+    # reference counting of its array arguments.)
+    for i in range(alive_count):
+        v = alive[i]
+        h, sq = _geometry(v // N, v % N, n, g)
+        virtual = (not sq) and h == 1
+        mergeable = True
+        for k in range(2):
+            if g[k, 0] < 0:
+                continue
+            for e in range(2, 4):
+                if virtual:
+                    continue
+                m = ((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2
+                if split[m]:
+                    mergeable = False
+                elif qs[m] != stamp:
+                    qs[m] = stamp
+                    if not every and travel < until[m]:
+                        deferred += 1  # the eye has not travelled far enough to matter
+                        continue
+                    q = _score(wedge, spacing, m, N, eye, planes, lam, cull)
+                    if every or q > tau:
+                        sk, sv = _reserve(sk, sv, ns, 1)
+                        ns = _push(sk, sv, ns, -q, m)
+                    else:
+                        low = max(low, q)
+                        far = travel + _slack(wedge, spacing, m, N, eye, lam, tau)
+                        f32 = np.float32(far)
+                        if f32 > far:
+                            f32 = np.nextafter(f32, np.float32(-np.inf))
+                        until[m] = f32
+        if mergeable:
+            q = _score(wedge, spacing, v, N, eye, planes, lam, cull)
+            if every or q <= tau:
+                mk, mv = _reserve(mk, mv, nm, 1)
+                nm = _push(mk, mv, nm, q, v)
+                qm[v] = stamp
+    if split[centre] == 0:
+        q = _score(wedge, spacing, centre, N, eye, planes, lam, cull)
+        sk, sv = _reserve(sk, sv, ns, 1)
+        ns = _push(sk, sv, ns, -q, centre)
+        qs[centre] = stamp
+    splits = merges = forced = exchanges = 0
+    blocked = 0
+    # Merge phase: diamonds whose own priority meets tau, and any while over the budget.
+    while nm > 0 and (mk[0] <= tau or leaves > budget):
+        p, v = mk[0], mv[0]
+        nm = _pop(mk, mv, nm)
+        qm[v] = 0
+        if not _mergeable(split, v, n, N, g):
+            continue
+        sk, sv = _reserve(sk, sv, ns, 1)
+        mk, mv = _reserve(mk, mv, nm, 2)
+        ns, nm, low, removed = _merge(
+            wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau, cull,
+            every, sk, sv, ns, mk, mv, nm, low, g, g2)
+        leaves -= removed
+        merges += 1
+    # Split phase: the highest-priority leaf diamond, after its forced chain, while > tau.
+    order = np.empty(64 * (n + 2), np.int64)
+    stack = np.empty(64 * (n + 2), np.int64)
+    born_count = 0
+    op = 0
+    exchange_cap = 2 * alive_count + 4096
+    while ns > 0 and -sk[0] > tau:
+        p, v = -sk[0], sv[0]
+        if not _candidate(split, v, n, N, g):
+            ns = _pop(sk, sv, ns)
+            qs[v] = 0
+            continue
+        if alive_count + 64 * (n + 2) > alive.shape[0]:
+            alive_count = _compact(alive, alive_count, split, head)
+            head = alive_count
+            if alive_count + 64 * (n + 2) > alive.shape[0]:
+                stats[6] = 1.0
+                break
+        # Forced chain: unsplit ancestors first (post-order over the parent DAG).
+        op += 1
+        token = (stamp << 32) + op
+        count = 0
+        cost = 0
+        top = 1
+        stack[0] = v
+        while top > 0:
+            x = stack[top - 1]
+            _geometry(x // N, x % N, n, g)
+            pushed = False
+            for k in range(2):
+                if g[k, 0] < 0:
+                    continue
+                a = g[k, 0] * N + g[k, 1]
+                if split[a] == 0 and mark[a] != token:
+                    stack[top] = a
+                    top += 1
+                    pushed = True
+                    break
+            if not pushed:
+                top -= 1
+                mark[x] = token
+                order[count] = x
+                count += 1
+                cost += _triangles_of(x, n, N, g)
+        if leaves + cost > budget:
+            # Budget: trade the cheapest split diamond for this one (ROAM's
+            # max(Qs) > min(Qm) exchange), else stop.
+            if nm > 0 and mk[0] < p and exchanges < exchange_cap:
+                q, w = mk[0], mv[0]
+                nm = _pop(mk, mv, nm)
+                qm[w] = 0
+                if _mergeable(split, w, n, N, g):
+                    sk, sv = _reserve(sk, sv, ns, 1)
+                    mk, mv = _reserve(mk, mv, nm, 2)
+                    ns, nm, low, removed = _merge(
+                        wedge, spacing, n, N, split, qs, qm, stamp, w, q, eye, planes, lam,
+                        tau, cull, every, sk, sv, ns, mk, mv, nm, low, g, g2)
+                    leaves -= removed
+                    merges += 1
+                    exchanges += 1
+                continue
+            blocked = 1
+            break
+        ns = _pop(sk, sv, ns)
+        qs[v] = 0
+        for i in range(count):
+            x = order[i]
+            split[x] = 1
+            alive[alive_count] = x
+            alive_count += 1
+            if born_count < born.shape[0]:
+                born[born_count] = x
+                born_count += 1
+            leaves += _triangles_of(x, n, N, g)
+            splits += 1
+            if i < count - 1:
+                forced += 1
+            sk, sv = _reserve(sk, sv, ns, 4)
+            ns, low = _push_children(wedge, spacing, n, N, split, qs, stamp, x, eye,
+                                     planes, lam, tau, cull, every, sk, sv, ns, low, g)
+            if every and qm[x] != stamp:  # newly mergeable (for the budget exchange)
+                mk, mv = _reserve(mk, mv, nm, 1)
+                nm = _push(mk, mv, nm, _score(wedge, spacing, x, N, eye, planes,
+                                              lam, cull), x)
+                qm[x] = stamp
+    # Largest priority left among leaf diamonds: the frame's screen-error bound (pixels).
+    remaining = low
+    while ns > 0:
+        if _candidate(split, sv[0], n, N, g):
+            remaining = max(remaining, -sk[0])
+            break
+        ns = _pop(sk, sv, ns)
+    alive_count = _compact(alive, alive_count, split, head)
+    stats[0], stats[1], stats[2] = splits, merges, forced
+    if deferred:
+        remaining = max(remaining, tau)  # the deferred ones are known to be <= tau only
+    stats[3], stats[4], stats[5] = remaining, exchanges, blocked
+    stats[7] = deferred
+    return alive_count, leaves, born_count
+
+
+@njit(cache=True)
+def _emit(wedge, spacing, n, split, alive, alive_count, planes, cull, out):
+    """Leaf triangles (sample ids, counter-clockwise from +y) of the mesh, frustum-culled by
+    diamond flags (IN: all, OUT: none, PARTIAL: per triangle). Returns the count (-1: out is
+    too small)."""
+    N = int(np.sqrt(wedge.shape[0]))
+    S = N - 1
+    g = np.empty((4, 2), np.int64)
+    count = 0
+    centre = (S // 2) * N + S // 2
+    if split[centre] == 0:
+        if out.shape[0] < 2:
+            return -1
+        out[0, 0], out[0, 1], out[0, 2] = 0, S * N + S, S  # (0,0) (S,S) (0,S)
+        out[1, 0], out[1, 1], out[1, 2] = 0, S * N, S * N + S
+        return 2
+    for i in range(alive_count):
+        v = alive[i]
+        r, c = v // N, v % N
+        x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
+        flag = IN
+        if cull:
+            flag = _flag(planes, x0 * spacing, y0, z0 * spacing, x1 * spacing, y1, z1 * spacing)
+            if flag == OUT:
+                continue
+        h, sq = _geometry(r, c, n, g)
+        virtual = (not sq) and h == 1
+        for k in range(2):
+            if g[k, 0] < 0:
+                continue
+            for e in range(2, 4):
+                if not virtual:
+                    m = ((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2
+                    if split[m]:
+                        continue
+                ar, ac, er, ec = g[k, 0], g[k, 1], g[e, 0], g[e, 1]
+                if flag == PARTIAL:
+                    if not box_visible(planes, min(c, ac, ec) * spacing, y0,
+                                       min(r, ar, er) * spacing, max(c, ac, ec) * spacing, y1,
+                                       max(r, ar, er) * spacing):
+                        continue
+                if count == out.shape[0]:
+                    return -1
+                cross = (ar - r) * (ec - c) - (ac - c) * (er - r)
+                out[count, 0] = v
+                if cross > 0:
+                    out[count, 1], out[count, 2] = ar * N + ac, er * N + ec
+                else:
+                    out[count, 1], out[count, 2] = er * N + ec, ar * N + ac
+                count += 1
+    return count
