@@ -65,6 +65,10 @@ def test_frames_csv_and_summary_are_consistent(tmp_path):
         assert values.min() - 1e-3 <= summary[column]["p95"] <= values.max() + 1e-3
     assert summary["fps"] == pytest.approx(1000.0 / summary["frame_ms"]["mean"])
     assert summary["pearson_frame_ms_triangles"] is None  # constant triangle count
+    # render_ms split into the index upload and the rest (clear, draws, glFinish)
+    upload, draw = summary["upload_ms"], summary["draw_ms"]
+    assert upload["mean"] > 0 and draw["mean"] > 0
+    assert upload["mean"] + draw["mean"] == pytest.approx(summary["render_ms"]["mean"], abs=1e-6)
 
 
 def test_images_are_identical_across_runs(tmp_path):

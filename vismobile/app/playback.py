@@ -7,6 +7,8 @@ column, the fps and the Pearson correlation of frame_ms with triangles_sent.
 
 frames.csv columns:
 - cull_ms: Culler.cull wall time; render_ms: clear + index upload + draws + glFinish;
+  summary.json also splits render_ms into upload_ms (index data built and written) and draw_ms
+  (the rest: clear, draws, glFinish);
   frame_ms = cull_ms + render_ms (image read-back and file output are not timed);
 - triangles_sent: triangles in this frame's index buffers;
 - draw_batches: glDrawElements calls actually made (uint16 batches touched), not the
@@ -243,6 +245,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     active = ["+".join(stages) or "none"] * count
     gif_images, saved = [], {}
     hud_ms = 0.0
+    upload_ms = np.zeros(count)
     warmup_ms = warm_up(scene, stages, profile, renderer,
                         [trajectory.camera(played[i], profile.aspect)
                          for i in sorted({0, count // 2, count - 1})] if count else [],
@@ -259,6 +262,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
             culler.observe_render(drawn.render_ms, culled.stats)
             active[index] = culled.stats.get("active_stages", active[index])
         frame_ms = cull_ms + drawn.render_ms
+        upload_ms[index] = drawn.upload_ms
         counters.append(device_counters(culled, tree))
         hud_ms += hud_model.frame_ms(counters[-1]) if hud_model else frame_ms
         row = (cull_ms, drawn.render_ms, frame_ms, drawn.triangles, drawn.draw_batches,
@@ -287,6 +291,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     frames = {"frame": np.asarray(played, dtype=np.int64), **table, "waypoint": np.array(waypoints, dtype=object),
               "active_stages": np.array(active, dtype=object)}
     summary = summarise(frames)
+    if count:
+        summary["upload_ms"] = summarize(upload_ms)
+        summary["draw_ms"] = summarize(table["render_ms"] - upload_ms)
     summary.update({
         "world": world.name, "triangles": world.triangle_count, "structure": scene.structure,
         "stages": list(stages), "profile": profile.name, "vertex_format": profile.vertex_format,

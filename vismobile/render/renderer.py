@@ -2,7 +2,7 @@
 
 Per frame: clear, build this frame's uint16 index data with numpy, one write to the dynamic
 index buffer, one glDrawElements per non-empty batch, then glFinish; render_ms covers all of
-that. GL_CULL_FACE (back faces, counter-clockwise front) is on when cull_back is set.
+that, upload_ms the index data's build and write within it. GL_CULL_FACE (back faces, counter-clockwise front) is on when cull_back is set.
 """
 from __future__ import annotations
 
@@ -20,11 +20,14 @@ SENTINEL = np.uint32(0xFFFFFFFF)
 
 @dataclass(frozen=True)
 class DrawStats:
-    """render_ms: wall time from clear to glFinish; draw_batches: glDrawElements calls made."""
+    """render_ms: wall time from clear to glFinish; draw_batches: glDrawElements calls made;
+    upload_ms: the part of render_ms spent building and writing the frame's index data (the
+    rest is clear, state, draws and glFinish; 0 where a renderer does not split it)."""
 
     render_ms: float
     draw_batches: int
     triangles: int
+    upload_ms: float = 0.0
 
 
 class Renderer:
@@ -60,7 +63,9 @@ class Renderer:
         prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
         if kind == "shaded":
             _set_lights(prog)
+        upload = time.perf_counter()
         starts = self.buffers.upload_indices(triangles)
+        upload = time.perf_counter() - upload
         counts = np.diff(starts)
         batches = np.flatnonzero(counts)
         for batch in batches:  # a handful of batches, never a loop over triangles
@@ -70,7 +75,8 @@ class Renderer:
                                         first=3 * int(starts[batch]))
         ctx.finish()
         elapsed = (time.perf_counter() - start) * 1000.0
-        return DrawStats(elapsed, int(len(batches)), int(starts[-1] - starts[0]))
+        return DrawStats(elapsed, int(len(batches)), int(starts[-1] - starts[0]),
+                         upload * 1000.0)
 
     def read_rgb(self) -> np.ndarray:
         """(H, W, 3) uint8 image of the last shaded draw, row 0 = top."""
