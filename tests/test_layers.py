@@ -12,7 +12,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "vismobile"
 # the longest match wins) imports only units of a strictly lower layer, or itself.
 LAYERS = (
     # leaves any module may use; the package's __init__ looks its public names up by string
-    ("__init__", "errors", "stats", "progress", "open3d_import"),
+    ("__init__", "errors", "stats", "progress", "timing", "open3d_import"),
     ("files",),                    # atomic writes, OBJ and the other mesh formats
     ("device",),                   # profiles, fixed point, the cost model
     ("geometry",),                 # predicates with error contracts

@@ -79,7 +79,9 @@ def run(args) -> int:
     print(f"  {s['timing']:>20}: {s['frame_ms']['median']:8.2f} ms/frame median "
           f"(mean {s['frame_ms']['mean']:.2f}, {s['fps']:.1f} fps; this machine, not the device)")
     print(f"  {'warm-up':>20}: {s['warmup_ms'] / 1000:8.2f} s before the first measured frame "
-          "(numba's first-use compile, uploads; in no figure)")
+          "(numba's first-use compile, uploads; in no figure)"
+          + (f"; {s['compile_ms'] / 1000:.2f} s more compiling during frames, those timed "
+             "again" if s.get("compile_ms") else ""))
     memory = s["memory"]["total"] / (1 << 20)
     print(f"  memory {memory:.1f} MB of the {s['profile']} heap of "
           f"{s['heap_bytes'] / (1 << 20):.0f} MB")
