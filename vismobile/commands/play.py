@@ -43,6 +43,11 @@ def add_parser(sub):
 
 
 def run(args) -> int:
+    import os
+
+    # One llvmpipe thread, as every compare and tune run measures (study/tasks.py): on a
+    # loaded machine the render threads' contention made the median swing several-fold.
+    os.environ.setdefault("LP_NUM_THREADS", "1")
     args.cull = default_cull(args.cull, args.structure)
     from ..app.playback import load_scene, parse_stages, play
     from ..device.profile import get_profile

@@ -233,6 +233,11 @@ def _toggle_stages(structure: str) -> list:
         (["portals"] if structure.startswith("portal") else [])
 
 
+def _signed(value, positive, negative, fmt) -> str:
+    """'12 fewer' / '3 more': a signed difference in words (no minus signs in the prose)."""
+    return f"{format(abs(value), fmt)} {positive if value >= 0 else negative}"
+
+
 def explain(result: TuneResult) -> list:
     """One line per stage on the chosen structure: kept or dropped, with its cost and saving."""
     choice = result.choice
@@ -260,8 +265,11 @@ def explain(result: TuneResult) -> list:
             continue
         if stage == "bfc":
             delta = without.render_ms - with_.render_ms
-            lines.append(f"{stage:9s} {'kept' if kept else 'dropped'}: GL_CULL_FACE changes "
-                         f"modelled render time by {-delta:+.3f} ms/frame (a render flag: the "
+            change = ("does not change modelled render time" if abs(delta) < 5e-4 else
+                      "makes modelled rendering "
+                      + _signed(delta, "ms/frame faster", "ms/frame slower", ".3f"))
+            lines.append(f"{stage:9s} {'kept' if kept else 'dropped'}: GL_CULL_FACE {change} "
+                         f"(a render flag: the "
                          "same triangles are sent"
                          + ("; the device model prices it as neutral, so it is left off"
                             if device and not kept and delta == 0 else "") + ")")
@@ -270,14 +278,21 @@ def explain(result: TuneResult) -> list:
         removed = without.triangles_sent - with_.triangles_sent
         saved = without.render_ms - with_.render_ms
         net = saved - added
-        reason = f"it pays {net:+.3f} ms/frame" if kept else \
-            f"it costs {-net:.3f} ms/frame more than it saves"
+        if kept:
+            reason = (f"it saves {net:.3f} ms/frame more than it costs" if net >= 0 else
+                      f"it costs {-net:.3f} ms/frame more than it saves, a difference too "
+                      "small to tell (statistically tied)")
+        else:
+            reason = (f"it costs {-net:.3f} ms/frame more than it saves" if net < 0 else
+                      f"it would save {net:.3f} ms/frame, too little to tell from the "
+                      "simpler configuration (statistically tied)")
         calls = ""
         if counter:
             fewer = without.stats.get(counter, 0) - with_.stats.get(counter, 0)
-            calls = f" and {fewer:,.0f} draw calls"
-        lines.append(f"{stage:9s} {'kept' if kept else 'dropped'}: {reason} (cull {added:+.3f} "
-                     f"ms, removes {removed:,.0f} triangles{calls} = {saved:.3f} ms of "
-                     f"rendering at {model.render_saving_ms(1, 0, with_.cull_back) * 1e3:.3g} "
+            calls = f", {_signed(fewer, 'fewer', 'more', ',.0f')} draw calls"
+        lines.append(f"{stage:9s} {'kept' if kept else 'dropped'}: {reason} (culling takes "
+                     f"{_signed(added, 'ms more', 'ms less', '.3f')}; it sends "
+                     f"{_signed(removed, 'fewer', 'more', ',.0f')} triangles{calls}, so rendering "
+                     f"takes {_signed(saved, 'ms less', 'ms more', '.3f')} at {model.render_saving_ms(1, 0, with_.cull_back) * 1e3:.3g} "
                      "us/triangle)")
     return lines + list(result.notes)
