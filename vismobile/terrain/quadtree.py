@@ -36,8 +36,11 @@ def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, s
            eye, planes, mode, a, b, cull, lists, counts):
     """Top-down refinement, then balancing.
 
-    mode ROETTGER: refine while l1(eye, centre) < d * a * max(b * error, 1) (a = C, b = c,
-      error = d2); mode BOUND: refine while a * error > b * dist(eye, box) (a = lambda, b = tau).
+    mode ROETTGER: refine while l1(eye, centre) < d * a (Röttger's minimum resolution, a = C)
+      or dist(eye, box) < d * a * b * error (b = c, error = d2, with d * d2 a strict bound of
+      the block's vertical error: the roughness branch measured to the nearest point of the
+      block's box instead of the L1 distance to its centre, so the bound holds everywhere);
+      mode BOUND: refine while a * error > b * dist(eye, box) (a = lambda, b = tau).
     Nodes outside the frustum are not refined when cull. lists gets level l's subdivided nodes
     at lists[offsets[l]:offsets[l] + counts[l]]. Returns the nodes whose criterion ran.
     """
@@ -60,16 +63,17 @@ def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, s
         tested += 1
         if cull and not box_visible(planes, x0, hmin[index], z0, x1, hmax[index], z1):
             continue
+        dx = max(x0 - eye[0], 0.0, eye[0] - x1)
+        dy = max(hmin[index] - eye[1], 0.0, eye[1] - hmax[index])
+        dz = max(z0 - eye[2], 0.0, eye[2] - z1)
+        dist = np.sqrt(dx * dx + dy * dy + dz * dz)
         if mode == ROETTGER:
             cx, cz = 0.5 * (x0 + x1), 0.5 * (z0 + z1)
             l1 = abs(eye[0] - cx) + abs(eye[1] - centre_heights[index]) + abs(eye[2] - cz)
             d = s * spacing
-            split = l1 < d * a * max(b * error[index], 1.0)
+            split = l1 < d * a or dist < d * a * b * error[index]
         else:
-            dx = max(x0 - eye[0], 0.0, eye[0] - x1)
-            dy = max(hmin[index] - eye[1], 0.0, eye[1] - hmax[index])
-            dz = max(z0 - eye[2], 0.0, eye[2] - z1)
-            split = a * error[index] > b * np.sqrt(dx * dx + dy * dy + dz * dz)
+            split = a * error[index] > b * dist
         if split:
             stamp[index] = frame
             lists[offsets[l] + counts[l]] = bi * m + bj
@@ -79,8 +83,14 @@ def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, s
                 stack[top, 1] = 2 * bi + (k >> 1)
                 stack[top, 2] = 2 * bj + (k & 1)
                 top += 1
-    # Balance, fine to coarse: a subdivided node and its edge neighbours must exist (their
-    # parents subdivided). Splitting at level l-1 only adds leaves at level l, so one pass.
+    balance(offsets, levels, stamp, frame, lists, counts)
+    return tested
+
+
+@njit(cache=True)
+def balance(offsets, levels, stamp, frame, lists, counts):
+    """Fine to coarse: a subdivided node's edge neighbours must exist (their parents
+    subdivided). Splitting at level l-1 only adds leaves at level l, so one pass."""
     for l in range(levels - 1, 0, -1):
         m = 1 << l
         pm = m >> 1
@@ -106,7 +116,6 @@ def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, s
                     stamp[offsets[l - 1] + parent] = frame
                     lists[offsets[l - 1] + counts[l - 1]] = parent
                     counts[l - 1] += 1
-    return tested
 
 
 @njit(cache=True, inline="always")
@@ -168,3 +177,56 @@ def leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cu
         out[count, 3] = coarser_sides(stamp, offsets, frame, l, bi, bj)
         count += 1
     return count, total
+
+
+@njit(cache=True)
+def unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, counts, skip_error,
+                    hmin, hmax, eye, planes, lam, tau, cull):
+    """Leaves of the finest level cannot refine, yet drop the odd vertices of a side beside a
+    coarser leaf (Röttger's skipped midpoints, the tiles' reduced sides). For each visible
+    finest leaf whose error with such a side, skip_error (per node, the finest level's
+    entries read), is over tau from its box (lam * E > tau * dist), subdivide every coarser
+    neighbour so the side keeps its vertices. Children of newly subdivided nodes are checked in
+    the same loop. Returns the nodes subdivided (balance again afterwards)."""
+    L = levels
+    m = 1 << L
+    pm = m >> 1
+    s = cells >> L
+    added = 0
+    k = 0
+    while k < counts[L - 1]:
+        node = lists[offsets[L - 1] + k]
+        k += 1
+        pi, pj = node // pm, node % pm
+        for q in range(4):
+            bi, bj = 2 * pi + (q >> 1), 2 * pj + (q & 1)
+            index = offsets[L] + bi * m + bj
+            x0, z0 = bj * s * spacing, bi * s * spacing
+            x1, z1 = x0 + s * spacing, z0 + s * spacing
+            if cull and not box_visible(planes, x0, hmin[index], z0, x1, hmax[index], z1):
+                continue
+            dx = max(x0 - eye[0], 0.0, eye[0] - x1)
+            dy = max(hmin[index] - eye[1], 0.0, eye[1] - hmax[index])
+            dz = max(z0 - eye[2], 0.0, eye[2] - z1)
+            if not lam * skip_error[index] > tau * np.sqrt(dx * dx + dy * dy + dz * dz):
+                continue
+            sides = coarser_sides(stamp, offsets, frame, L, bi, bj)
+            for bit in range(4):
+                if not sides & (1 << bit):
+                    continue
+                ni, nj = bi, bj
+                if bit == 0:
+                    ni -= 1
+                elif bit == 1:
+                    nj += 1
+                elif bit == 2:
+                    ni += 1
+                else:
+                    nj -= 1
+                parent = (ni >> 1) * pm + (nj >> 1)
+                if stamp[offsets[L - 1] + parent] != frame:
+                    stamp[offsets[L - 1] + parent] = frame
+                    lists[offsets[L - 1] + counts[L - 1]] = parent
+                    counts[L - 1] += 1
+                    added += 1
+    return added

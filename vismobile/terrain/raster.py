@@ -38,15 +38,47 @@ def _scan(heights, r0, c0, r1, c1, r2, c2, h0, h1, h2, out, mode):
     return worst
 
 
+@njit(cache=True, inline="always")
+def _grid_height(heights, r, c):
+    """Height of the grid surface (cells cut along (i, j)-(i+1, j+1)) at real (row, col)."""
+    n = heights.shape[0]
+    i = min(int(np.floor(r)), n - 2)
+    j = min(int(np.floor(c)), n - 2)
+    fr, fc = r - i, c - j
+    h00, h01, h10, h11 = heights[i, j], heights[i, j + 1], heights[i + 1, j], heights[i + 1, j + 1]
+    if fc >= fr:
+        return h00 + fc * (h01 - h00) + fr * (h11 - h01)
+    return h00 + fr * (h10 - h00) + fc * (h11 - h10)
+
+
+@njit(cache=True)
+def _edge_error(heights, r0, c0, r1, c1):
+    """Largest |grid surface - segment| along the segment between samples (r0, c0) and
+    (r1, c1), where the grid surface along it bends: where it crosses a row, a column or a
+    cell diagonal (t = k / |dr|, k / |dc|, k / |dc - dr|)."""
+    h0, h1 = heights[r0, c0], heights[r1, c1]
+    dr, dc = r1 - r0, c1 - c0
+    worst = 0.0
+    for span in (abs(dr), abs(dc), abs(dc - dr)):
+        for k in range(1, span):
+            t = k / span
+            e = abs(_grid_height(heights, r0 + t * dr, c0 + t * dc) - (h0 + t * (h1 - h0)))
+            worst = max(worst, e)
+    return worst
+
+
 @njit(cache=True)
 def tile_statistics(heights, patch, stride, local):
     """Per tile of one level: (error, hmin, hmax), each (m, m) float64, m = (N-1)/(patch*stride).
 
     heights : (N, N) float64 full-resolution samples
     local   : (K, 3, 2) int64 (row, col) template corners in local grid units
-    error is the largest vertical distance between any sample of the tile and any of the K
-    triangles covering it (exact for the piecewise-linear surfaces: both are linear on every
-    full-resolution triangle, so the maximum is at a sample).
+    error is the largest vertical distance between the grid surface and any of the K
+    triangles over the tile. Exact: the difference is linear on each piece where a template
+    triangle meets a full-resolution triangle, so its maximum is at a sample inside or at a
+    point where a template edge crosses a full-resolution edge. The second kind matters for
+    templates with a reduced side, whose snapped edges run across the cells' diagonals (the
+    samples alone missed up to 1.54 E there, issue 30).
     """
     span = patch * stride
     m = (heights.shape[0] - 1) // span
@@ -74,6 +106,8 @@ def tile_statistics(heights, patch, stride, local):
                 c2 = c_org + local[k, 2, 1] * stride
                 e = _scan(heights, r0, c0, r1, c1, r2, c2, heights[r0, c0], heights[r1, c1],
                           heights[r2, c2], dummy, 0)
+                e = max(e, _edge_error(heights, r0, c0, r1, c1),
+                        _edge_error(heights, r1, c1, r2, c2), _edge_error(heights, r2, c2, r0, c0))
                 worst = max(worst, e)
             error[ti, tj] = worst
     return error, hmin, hmax

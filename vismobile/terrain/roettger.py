@@ -6,12 +6,28 @@ s = (N-1) / 2^l cells from (bi*s, bj*s). Per frame a block is refined while
     f = l1 / (d * C * max(c * d2, 1)) < 1
 
 with l1 the L1 distance from the eye to the block centre, d the block's edge length, C the
-minimum global resolution and c the desired global resolution. d2 is the block's roughness
-(the largest of its six one-level height changes over d), propagated upward with
-K = C / (2 (C - 1)) from the finer blocks inside and around it, which keeps neighbouring
-leaves within one level of each other. One pixel knob tau sets c: the roughness branch refines
-while l1 < C * c * e with e = d * d2 a height error, i.e. while lambda * e / l1 > tau for
-c = lambda / (tau * C) (lambda with the off-axis bound of tiles.pixel_scale).
+minimum global resolution and c the desired global resolution. d2 is the block's roughness,
+propagated upward with K = C / (2 (C - 1)) from the finer blocks inside and around it, which
+keeps neighbouring leaves within one level of each other. One pixel knob tau sets c: the
+roughness branch refines while dist < C * c * e with e = d * d2 a height error, i.e. while
+lambda * e / dist > tau for c = lambda / (tau * C) (lambda with the off-axis bound of
+tiles.pixel_scale).
+
+Strict bound (issue 30). Röttger's d2 is the largest one-level height change over d; it is not
+a bound of the fan's error against the full-resolution surface (errors add up over levels:
+1.23 tau at samples on jacksboro, more on a Takagi-like map), and the L1 distance to the block
+centre overshoots the distance to the block's nearest point. Here e = d * d2 is at least the
+block's exact vertical error E: the largest |h - fan| over the block's samples for the fan with
+every edge midpoint and for the fan with none (every fan triangle, skipped or not, is a 4-8
+mesh triangle that the full-resolution 4-8 mesh refines, so the maximum is at a sample, and
+each quarter's error is one of those two), nested so a block's E holds its descendants'; and
+the roughness branch measures dist, the Euclidean distance to the block's box. The minimum
+resolution branch (l1 < d C) stays Röttger's. Leaves of the finest level cannot refine, yet
+skip a midpoint beside a coarser neighbour (at the frustum's edge, a culled block is such a
+neighbour: the skipped midpoint lies outside the view while its triangle reaches the screen);
+when the skip's error is over tau for that leaf, its neighbour is subdivided instead
+(`quadtree.unreduce_finest`), then the tree is balanced again. Every drawn leaf is then
+within tau pixels (measured by tools/terrain_check.py, independent of this argument).
 
 Each leaf is drawn as a closed fan of up to 8 triangles around its centre; the midpoint of an
 edge is skipped when the neighbour across it is coarser. A balancing pass after refinement
@@ -31,16 +47,52 @@ import numpy as np
 from numba import njit
 
 from .heightmap import Heightmap
-from .quadtree import ROETTGER, leaves, level_offsets, refine
+from .quadtree import ROETTGER, balance, leaves, level_offsets, refine, unreduce_finest
+from .raster import _scan
 from .tiles import pixel_scale
 
 CHUNK_CELLS = 32  # chunk size in cells (a "display list"): at most 32^2 * 2 triangles
 
 
+@njit(cache=True)
+def fan_errors(heights, s):
+    """(m, m) float64 per block of s cells: the largest |h - fan| over the block's samples,
+    for the fan with all four edge midpoints and for the fan with none, whichever is larger
+    (the largest error of any of its fans: each quarter is one of the two)."""
+    n = heights.shape[0]
+    m = (n - 1) // s
+    half = s // 2
+    out = np.zeros((m, m))
+    ring_r = np.empty(9, np.int64)
+    ring_c = np.empty(9, np.int64)
+    dummy = np.zeros((1, 1))
+    for bi in range(m):
+        for bj in range(m):
+            r0, c0 = bi * s, bj * s
+            rc, cc = r0 + half, c0 + half
+            k = 0
+            for dr, dc in ((0, 0), (half, 0), (s, 0), (s, half), (s, s), (half, s), (0, s),
+                           (0, half), (0, 0)):
+                ring_r[k], ring_c[k] = r0 + dr, c0 + dc
+                k += 1
+            worst = 0.0
+            for step in (1, 2):  # 1: every midpoint; 2: corners only
+                for t in range(0, 8, step):
+                    ra, ca = ring_r[t], ring_c[t]
+                    rb, cb = ring_r[t + step], ring_c[t + step]
+                    e = _scan(heights, rc, cc, ra, ca, rb, cb, heights[rc, cc],
+                              heights[ra, ca], heights[rb, cb], dummy, 0)
+                    worst = max(worst, e)
+            out[bi, bj] = worst
+    return out
+
+
 def roughness(heightmap: Heightmap, C: float) -> tuple:
     """(d2, hmin, hmax, centre heights, levels): flat float64 per block, d2 K-propagated.
 
-    d2 of a block = max(local, K * max(d2 of the 4x4 finer blocks over and around it)).
+    d2 of a block = max(E / d, K * max(d2 of the 4x4 finer blocks over and around it)), E the
+    block's nested exact fan error (fan_errors; module doc). On the finest level d2 = E / d is
+    the error of skipping midpoints (its full fan is exact), used by unreduce_finest only.
     """
     h = heightmap.heights.astype(np.float64)
     cells = heightmap.size - 1
@@ -53,20 +105,17 @@ def roughness(heightmap: Heightmap, C: float) -> tuple:
     centres = np.zeros(offsets[-1])
     below = None
     lo_fine = hi_fine = None
+    nested = None
     for level in range(levels, -1, -1):
         s = cells >> level
         half = s // 2
         m = 1 << level
-        corners = h[0::s, 0::s]
-        a, b = corners[:-1, :-1], corners[:-1, 1:]   # (r0, c0), (r0, c0 + s)
-        c_, d = corners[1:, 1:], corners[1:, :-1]     # (r0 + s, c0 + s), (r0 + s, c0)
         centre = h[half::s, half::s]
-        top, bottom = h[0:-1:s, half::s], h[s::s, half::s]
-        left, right = h[half::s, 0:-1:s], h[half::s, s::s]
-        dh = np.stack([np.abs(top - (a + b) / 2), np.abs(bottom - (d + c_) / 2),
-                       np.abs(left - (a + d) / 2), np.abs(right - (b + c_) / 2),
-                       np.abs(centre - (a + c_) / 2), np.abs(centre - (b + d) / 2)]).max(axis=0)
-        local = dh / (s * heightmap.spacing)
+        exact = fan_errors(h, s)
+        if nested is not None:
+            exact = np.maximum(exact, nested.reshape(m, 2, m, 2).max(axis=(1, 3)))
+        nested = exact
+        local = exact / (s * heightmap.spacing)
         if below is not None:
             padded = np.pad(below, 1)
             window = np.lib.stride_tricks.sliding_window_view(padded, (4, 4))[::2, ::2]
@@ -184,6 +233,10 @@ class Roettger:
         self.d2, self.hmin, self.hmax, self.centres, self.levels = roughness(heightmap, self.C)
         self.build_seconds = time.perf_counter() - start
         self.offsets = level_offsets(self.levels)
+        # Finest blocks (2 cells): d2 = E / d with E the error of their fans' skips.
+        self.skip_error = np.zeros(self.offsets[-1])
+        self.skip_error[self.offsets[self.levels]:] = \
+            self.d2[self.offsets[self.levels]:] * (2 * heightmap.spacing)
         self.heights = heightmap.heights
         self.stamp = np.zeros(self.offsets[-1], np.int64)
         self.lists = np.zeros(self.offsets[-1], np.int64)
@@ -213,6 +266,13 @@ class Roettger:
         tested = refine(self.heightmap.size - 1, self.heightmap.spacing, self.centres, self.d2,
                         self.hmin, self.hmax, self.offsets, self.levels, self.stamp, self.frame,
                         camera.eye, planes, ROETTGER, C, c, cull, self.lists, self.counts)
+        if not full and self.levels > 0:
+            if unreduce_finest(self.heightmap.size - 1, self.heightmap.spacing, self.levels,
+                       self.offsets, self.stamp, self.frame, self.lists, self.counts,
+                       self.skip_error, self.hmin, self.hmax, camera.eye, planes, lam,
+                       float(tau), cull):
+                balance(self.offsets, self.levels, self.stamp, self.frame, self.lists,
+                        self.counts)
         while True:
             leaf_count, _ = leaves(self.heightmap.size - 1, self.heightmap.spacing, self.hmin,
                                    self.hmax, self.offsets, self.levels, self.stamp, self.frame,

@@ -162,9 +162,11 @@ def select_tiles(pyramid: TilePyramid, camera, resolution, tau: float,
                  cull: bool = True) -> TileSelection:
     """Tiles to draw for camera at a pixel tolerance tau (seed 002's TRAVERSE, balanced).
 
-    Contract: every full-resolution sample inside the frustum lies on a drawn tile whose
+    Contract: every point of the grid surface inside the frustum lies on a drawn tile whose
     surface is within tau pixels of it vertically (the bound errs high: it assumes the worst
-    direction and the nearest point of the box). cull=False draws tiles outside the frustum too.
+    direction and the nearest point of the box). Finest tiles cannot refine: where one with a
+    reduced side would be over tau, its coarser neighbour is subdivided instead
+    (quadtree.unreduce_finest). cull=False draws tiles outside the frustum too.
     """
     _, lam = pixel_scale(camera, resolution)
     planes = camera.frustum_planes()
@@ -175,6 +177,12 @@ def select_tiles(pyramid: TilePyramid, camera, resolution, tau: float,
                              pyramid.flat_hmin, pyramid.flat_hmax, pyramid.offsets,
                              pyramid.levels, pyramid.stamp, pyramid.frame, camera.eye, planes,
                              quadtree.BOUND, lam, float(tau), cull, pyramid.lists, pyramid.counts)
+    if pyramid.levels > 0 and quadtree.unreduce_finest(
+            cells, spacing, pyramid.levels, pyramid.offsets, pyramid.stamp, pyramid.frame,
+            pyramid.lists, pyramid.counts, pyramid.flat_error, pyramid.flat_hmin,
+            pyramid.flat_hmax, camera.eye, planes, lam, float(tau), cull):
+        quadtree.balance(pyramid.offsets, pyramid.levels, pyramid.stamp, pyramid.frame,
+                         pyramid.lists, pyramid.counts)
     count, total = quadtree.leaves(cells, spacing, pyramid.flat_hmin, pyramid.flat_hmax,
                                    pyramid.offsets, pyramid.levels, pyramid.stamp, pyramid.frame,
                                    planes, cull, pyramid.out)
