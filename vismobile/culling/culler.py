@@ -12,13 +12,14 @@ from .frustum import FrustumStage, ThesisFrustumStage
 from .occlusion import DepthBufferOcclusion
 from .occlusion_thesis import ThesisOcclusion
 from .portals import PortalStage
+from .pvs import PVSStage
 from .precision import conservative_planes, world_scale
 from .state import CullResult, CullState
 from .tree import Tree
 from .triangle_backface import TriangleBackface
 
 # name -> stage class. Each has `name`, `cost` (order of application), prepare(tree), apply(state).
-STAGES = {cls.name: cls for cls in (PortalStage, FrustumStage, ThesisFrustumStage,
+STAGES = {cls.name: cls for cls in (PVSStage, PortalStage, FrustumStage, ThesisFrustumStage,
                                     NormalConeStage, ThesisOcclusion, DepthBufferOcclusion,
                                     ConservativeBackface, ThesisBackface, TriangleBackface,
                                     BackfaceFlag)}
@@ -29,7 +30,7 @@ BACKFACE_STAGES = ("bfc", "cbfc", "cbfc_thesis", "cone", "tbfc")
 # Stages that never drop a triangle the full world's item buffer shows (proved by the tests);
 # cbfc_thesis is the one stage outside it: the thesis's 2D rule drops front faces.
 CONSERVATIVE = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "tbfc", "occlusion",
-                "occlusion_thesis", "portals")
+                "occlusion_thesis", "portals", "pvs")
 
 
 # Stages that test the nodes vfc hands on: vfc's cover would change what they decide.
@@ -122,7 +123,7 @@ class Culler:
         conservativeness; fewer nodes visited."""
         by_name = {stage.name: stage for stage in self.stages}
         vfc, occlusion = by_name.get("vfc"), by_name.get("occlusion")
-        others = set(self.names) & {"portals", "vfc_thesis", "cone", "occlusion_thesis"}
+        others = set(self.names) & {"portals", "pvs", "vfc_thesis", "cone", "occlusion_thesis"}
         if vfc is not None and occlusion is not None and not others \
                 and getattr(occlusion, "fuse", False):
             vfc.deferred = True

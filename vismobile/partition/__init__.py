@@ -20,7 +20,8 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                "bsp" (min_leaf=, max_depth=, candidates=, balance=, straddle_weight=, seed=)
                or "kdtree" (split=sah|median, ratio=, bins=, min_leaf=, max_depth=); or the
                CLI's structure text ("octree:4", "grid:8", "bsp:min_leaf=4"), whose
-               parameters keyword params override
+               parameters keyword params override;
+               pvs="conservative" (portal only) bakes the view cells' visible sets (pvs.py)
     progress : optional callable(done, total) for long builds
     Raises ValueError on an unknown kind or parameter, or a parameter out of range.
     """
@@ -36,12 +37,29 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     if kind not in builders:
         raise ValueError(f"unknown partition kind {kind!r}; expected one of {', '.join(KINDS)}")
     build = builders[kind]
+    params = dict(params)
+    pvs_mode = params.pop("pvs", None)
     known = set(build.__code__.co_varnames[1:build.__code__.co_argcount]) - {"progress"}
     unknown = sorted(set(params) - known)
     if unknown:
         raise ValueError(f"unknown parameter(s) for {kind}: {', '.join(unknown)}; "
-                         f"expected {', '.join(sorted(known))}")
-    return build(world, progress=progress, **params)
+                         f"expected {', '.join(sorted(known | {'pvs'}))}")
+    if pvs_mode is not None and kind != "portal":
+        raise ValueError(f"pvs={pvs_mode} needs the portal structure (its cells are the view "
+                         f"cells); {kind} has none yet")
+    if pvs_mode is not None:
+        from .pvs import MODES
+
+        if pvs_mode not in MODES:
+            raise ValueError(f"unknown pvs mode {pvs_mode!r}; valid: {', '.join(MODES)}")
+    result = build(world, progress=progress, **params)
+    if pvs_mode is not None:
+        from .pvs import bake
+
+        extras, _ = bake(result, pvs_mode, progress=progress)
+        result.extras.update(extras)
+        result.params["pvs"] = pvs_mode
+    return result
 
 
 class _CallableModule(types.ModuleType):

@@ -1,0 +1,144 @@
+"""`pvs`: the baked from-cell sets never drop a triangle the item buffer shows, from random
+cameras inside the view cells (on their boundaries and in their corners too), any fov and
+pitch, in float64, float32 and fixed16.16; the `.vmp` keeps them and refuses corrupt ones."""
+import numpy as np
+import pytest
+
+from vismobile.culling import Culler, device_options
+from vismobile.device.profile import get_profile
+from vismobile.partition import load_partition, partition
+from vismobile.partition.pvs import ids_of
+from vismobile.render import SENTINEL, item_buffer
+from vismobile.world.camera import Camera
+
+MODES = ("float64", "float32", "fixed16.16")
+
+
+def zigzag_world(kit):
+    """Five rooms 3 high and 4 deep in a row along x (faces in), split by hollow walls 0.2 thick
+    at x = 4k (k = 1..4) whose doorways alternate between the two ends of each wall: from the
+    first room the fourth and fifth are hidden. The cells are the rooms (cell faces x = 4k)."""
+    rect, end = kit.rect, 20.2
+    parts = [rect(1, 0.0, (0, 4), (0, end), 1), rect(1, 3.0, (0, 4), (0, end), -1),
+             rect(2, 0.0, (0, end), (0, 3), 1), rect(2, 4.0, (0, end), (0, 3), -1),
+             rect(0, 0.0, (0, 3), (0, 4), 1), rect(0, end, (0, 3), (0, 4), -1)]
+    for k in range(1, 5):
+        z0, z1 = (0.2, 1.0) if k % 2 else (3.0, 3.8)
+        for x, facing in ((4.0 * k, -1), (4.0 * k + 0.2, 1)):
+            parts += [rect(0, x, (0, 3), (0, z0), facing), rect(0, x, (0, 3), (z1, 4), facing),
+                      rect(0, x, (2, 3), (z0, z1), facing)]
+    return kit.literal_world(parts, name="zigzag")
+
+
+SLABS = ((4 / 20.2, 4 / 20.2, 4 / 20.2, 4 / 20.2, 4.2 / 20.2), 1, 1)
+
+
+def in_cell_cameras(part, count, seed):
+    """Cameras inside random view cells: uniform, on a face, on an edge or in a corner (each a
+    quarter), yaw and pitch (up to +-89) and fov (10-120) at random, near 0.1 or 0.01."""
+    rng = np.random.default_rng(seed)
+    boxes = part.extras["pvs_cells"]
+    cams = []
+    for i in range(count):
+        lo, hi = boxes[rng.integers(len(boxes))]
+        t = rng.uniform(0, 1, 3)
+        snap = rng.permutation(3)[:i % 4]  # 0..3 coordinates on the box's boundary
+        t[snap] = rng.integers(0, 2, len(snap))
+        pos = lo + t * (hi - lo)
+        cams.append(Camera(pos, yaw=rng.uniform(0, 360), pitch=rng.uniform(-89, 89),
+                           fov=rng.uniform(10, 120), near=float(rng.choice([0.1, 0.01])),
+                           aspect=4 / 3))
+    return cams
+
+
+@pytest.fixture(scope="module")
+def zigzag(kit):
+    world = zigzag_world(kit)
+    return partition(world, "portal", depth=1, slabs=SLABS, pvs="conservative")
+
+
+def test_first_room_does_not_see_the_fourth(zigzag):
+    x = zigzag.extras
+    world = zigzag.world
+    ids = ids_of(x["pvs_runs"][x["pvs_start"][0]:x["pvs_start"][1]])
+    walls = ids[np.abs(world.normals[ids, 0]) > 0.9]
+    seen = np.unique(np.round(world.centroids[walls, 0], 3))
+    assert seen.max() <= 12.2 and 12.0 in seen  # walls at 16 and beyond (rooms 4, 5) hidden
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_pvs_keeps_what_cameras_in_the_cells_see(kit, zigzag, mode):
+    profile = kit.PROFILE if mode == "float64" else get_profile(kit.PROFILE, mode)
+    options = {"arithmetic": "float64"} if mode == "float64" else device_options(profile)
+    cullers = {s: Culler(zigzag, s, **options) for s in ("pvs", "pvs,vfc")}
+    used = 0
+    for cam in in_cell_cameras(zigzag, 60, 7):
+        shown = np.unique(item_buffer(zigzag.world, None, cam, profile, cull_back=False))
+        shown = shown[shown != SENTINEL].astype(np.int64)
+        for stages, culler in cullers.items():
+            result = culler.cull(cam)
+            missing = np.setdiff1d(shown, result.triangles)
+            assert not len(missing), f"{stages} ({mode}) dropped {missing}: {cam}"
+            used += "pvs.fallbacks" not in result.stats
+    assert used >= 20  # cameras off the walls used the baked sets (on them: fallback)
+
+
+def test_w1_pvs_keeps_what_cameras_in_the_cells_see(kit):
+    part = partition(kit.world("w1"), "portal", depth=1, pvs="conservative")
+    culler = Culler(part, "pvs,vfc")
+    sent = visible = 0
+    for cam in in_cell_cameras(part, 40, 3):
+        shown = kit.visible_ids(part.world, cam, False)
+        result = culler.cull(cam)
+        missing = np.setdiff1d(shown, result.triangles)
+        assert not len(missing), f"dropped {missing}: {cam}"
+        sent, visible = sent + len(result.triangles), visible + len(shown)
+    assert sent >= visible
+
+
+def test_vmp_keeps_the_pvs_and_refuses_a_corrupt_one(zigzag, tmp_path):
+    from vismobile.errors import PartitionError
+
+    from vismobile.partition import save_partition
+
+    path = tmp_path / "z.vmp"
+    save_partition(zigzag, path)
+    loaded = load_partition(path)
+    for name in ("pvs_cells", "pvs_start", "pvs_runs", "pvs_grow"):
+        assert np.array_equal(loaded.extras[name], zigzag.extras[name])
+    assert loaded.params["pvs"] == "conservative"
+    import json
+
+    from vismobile.partition.store import ALIGN, PREFIX
+
+    data = bytearray(path.read_bytes())
+    length = PREFIX.unpack_from(data, 0)[2]
+    header = json.loads(bytes(data[PREFIX.size:PREFIX.size + length]))
+    base = PREFIX.size + length
+    base += -base % ALIGN
+    section = next(s for s in header["sections"] if s["name"].startswith("extras.pvs_runs"))
+    data[base + section["offset"]] ^= 0xFF  # one bit pattern in the PVS's runs
+    bad = tmp_path / "bad.vmp"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(PartitionError, match="checksum of section extras.pvs_runs"):
+        load_partition(bad)
+    # a run out of order within a cell fails the check, whatever its CRC
+    x = dict(zigzag.extras)
+    runs = x["pvs_runs"].copy()
+    runs[[0, 1]] = runs[[1, 0]]
+    from vismobile.partition.pvs import check_pvs
+
+    with pytest.raises(ValueError):
+        check_pvs({**x, "pvs_runs": runs}, zigzag.world.triangle_count)
+
+
+def test_pvs_needs_a_portal_structure(zigzag):
+    with pytest.raises(ValueError, match="portal"):
+        partition(zigzag.world, "octree", depth=2, pvs="conservative")
+    with pytest.raises(ValueError, match="pvs mode"):
+        partition(zigzag.world, "portal", depth=1, pvs="sometimes")
+
+
+def test_spec_grammar_bakes(zigzag):
+    part = partition(zigzag.world, "portal:depth=1,pvs=conservative", slabs=SLABS)
+    assert np.array_equal(part.extras["pvs_runs"], zigzag.extras["pvs_runs"])

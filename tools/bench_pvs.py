@@ -1,0 +1,129 @@
+"""PVS benchmark (issue 29): bake time, size, and what `pvs` saves and drops, per world.
+
+    .venv/bin/python tools/bench_pvs.py [--worlds w1,w2] [--frames 40] [--random 2000]
+
+Per world: the portal structure (depth 2) with pvs=conservative; bake seconds; the PVS's bytes
+in the .vmp (file with minus file without) against the OBJ; the mean share of the world in a
+cell's set; along the world's thesis path (--frames evenly spaced frames) the triangles sent by
+vfc+tbfc and pvs+vfc+tbfc and the frames that fell back; dropped triangles (pvs+vfc against the
+item buffer without back-face culling) on those frames and on --random cameras inside random
+view cells (a quarter each uniform, on a face, an edge, a corner; pitch +-89, fov 10-120) in
+float64, float32 and fixed16.16 (cycled); on W2, pvs+vfc against vfc cull time, interleaved,
+medians after a warm-up.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from vismobile.culling import Culler, device_options  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
+from vismobile.partition import partition, save_partition  # noqa: E402
+from vismobile.partition.pvs import bake, ids_of  # noqa: E402
+from vismobile.render import SENTINEL, item_buffer  # noqa: E402
+from vismobile.scenes import build_world  # noqa: E402
+from vismobile.world.camera import Camera  # noqa: E402
+from vismobile.world.trajectory import Trajectory  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+PROFILE = get_profile("ipaq-hx2490b")
+MODES = ("float64", "float32", "fixed16.16")
+
+
+def shown(world, cam, profile):
+    ids = np.unique(item_buffer(world, None, cam, profile, cull_back=False))
+    return ids[ids != SENTINEL].astype(np.int64)
+
+
+def in_cell_cameras(part, count, seed):
+    rng = np.random.default_rng(seed)
+    boxes = part.extras["pvs_cells"]
+    for i in range(count):
+        lo, hi = boxes[rng.integers(len(boxes))]
+        t = rng.uniform(0, 1, 3)
+        snap = rng.permutation(3)[:i % 4]
+        t[snap] = rng.integers(0, 2, len(snap))
+        yield Camera(lo + t * (hi - lo), yaw=rng.uniform(0, 360), pitch=rng.uniform(-89, 89),
+                     fov=rng.uniform(10, 120), aspect=PROFILE.aspect)
+
+
+def run(name, frames, randoms):
+    world = build_world(name)
+    part = partition(world, "portal", depth=2)
+    extras, stats = bake(part)
+    with tempfile.TemporaryDirectory() as tmp:
+        save_partition(part, Path(tmp) / "a.vmp")
+        before = os.path.getsize(Path(tmp) / "a.vmp")
+        part.extras.update(extras)
+        part.params["pvs"] = "conservative"
+        save_partition(part, Path(tmp) / "b.vmp")
+        pvs_bytes = os.path.getsize(Path(tmp) / "b.vmp") - before
+    obj = os.path.getsize(ROOT / "worlds" / f"{name}.obj")
+    start = extras["pvs_start"]
+    share = np.mean([len(ids_of(extras["pvs_runs"][start[c]:start[c + 1]]))
+                     for c in range(len(start) - 1)]) / world.triangle_count
+    traj = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
+                                                    else "indoor.csv"))
+    picks = np.linspace(0, len(traj) - 1, frames).astype(int)
+    base, pvs, check = (Culler(part, s) for s in ("vfc+tbfc", "pvs+vfc+tbfc", "pvs+vfc"))
+    sent_base = sent_pvs = fallbacks = dropped_path = 0
+    for f in picks:
+        cam = traj.camera(int(f), PROFILE.aspect)
+        sent_base += len(base.cull(cam).triangles)
+        r = pvs.cull(cam)
+        sent_pvs += len(r.triangles)
+        fallbacks += r.stats.get("pvs.fallbacks", 0)
+        dropped_path += len(np.setdiff1d(shown(world, cam, PROFILE), check.cull(cam).triangles))
+    cullers = {m: Culler(part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
+                                               else device_options(get_profile(PROFILE, m))))
+               for m in MODES}
+    dropped_random = used = 0
+    for i, cam in enumerate(in_cell_cameras(part, randoms, 1)):
+        mode = MODES[i % 3]
+        profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
+        r = cullers[mode].cull(cam)
+        used += "pvs.fallbacks" not in r.stats
+        dropped_random += len(np.setdiff1d(shown(world, cam, profile), r.triangles))
+    timing = ""
+    if name == "w2":
+        vfc, pv = Culler(part, "vfc"), Culler(part, "pvs+vfc")
+        cams = [traj.camera(int(f), PROFILE.aspect) for f in picks]
+        for c in cams:
+            vfc.cull(c), pv.cull(c)
+        t_v, t_p = [], []
+        for c in cams:
+            for culler, out in ((vfc, t_v), (pv, t_p)):
+                t = time.perf_counter()
+                culler.cull(c)
+                out.append(time.perf_counter() - t)
+        timing = (f" | W2 cull ms median: vfc {1e3 * np.median(t_v):.3f}, pvs+vfc "
+                  f"{1e3 * np.median(t_p):.3f} ({np.median(t_p) / np.median(t_v):.2f}x)")
+    print(f"{name}: cells {stats['cells']}, bake {stats['seconds']:.1f} s "
+          f"(overflowed {stats['overflowed']}), PVS {pvs_bytes / 1024:.0f} KB = "
+          f"{pvs_bytes / obj:.3f}x OBJ ({pvs_bytes / stats['cells']:.0f} B/cell), mean set "
+          f"{100 * share:.1f}% of the world | path {frames} frames: vfc+tbfc {sent_base}, "
+          f"pvs+vfc+tbfc {sent_pvs} ({sent_pvs / max(sent_base, 1):.3f}x), fallbacks "
+          f"{fallbacks}, dropped {dropped_path} | random {randoms} in-cell cameras "
+          f"({used} used the PVS): dropped {dropped_random}{timing}", flush=True)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--worlds", default="w1,w2,w3,w4,w5,w6")
+    parser.add_argument("--frames", type=int, default=40)
+    parser.add_argument("--random", type=int, default=2000)
+    args = parser.parse_args()
+    for name in args.worlds.split(","):
+        run(name.strip(), args.frames, args.random)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,149 @@
+"""`pvs`: precomputed visibility (partition/pvs.py) looked up per frame.
+
+The stage finds the view cells holding the eye (grown by the device's reach), checks that the
+eye is in free space (the same test as `portals`: no triangle's box within the near plane's
+reach, the axis rays meet front faces), and hands on only those cells' sets: the draw nodes
+become the largest subtrees whose leaves all hold a triangle of the set (or none at all), and a
+triangle filter keeps the set's triangles. The sets are decoded once per cell (per combination
+of cells on a boundary) and kept; a frame's own work is the cell lookup (searchsorted on the
+grid), the free-space test and the filter over what is gathered, nothing proportional to the
+world.
+
+Falls back (hands on everything, counted in `pvs.fallbacks`) when the partition holds no PVS,
+the eye is in no view cell, not in free space, its near plane is within the device's move, or
+the device's reach exceeds the bake's growth (pvs_grow).
+
+Contract: conservative against the item buffer without back-face culling, for eyes it does not
+fall back on, as partition/pvs.py bakes it (the portals' contract; with back faces culled the
+portals' known limit applies: a one-sided wall lying in a cell face, seen from behind).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.boxes import boxes_contain_point
+from ..partition.pvs import ids_of
+from .portals import EXTRAS as PORTAL_EXTRAS
+from .portals import MAX_ESCAPES, free_space
+from .precision import device_move, world_scale
+from .state import CullState
+from .tree import Tree
+
+EXTRAS = ("pvs_cells", "pvs_start", "pvs_runs", "pvs_grow")
+KEEP = 64  # decoded cell combinations kept
+
+
+class PVSStage:
+    """`pvs`: the eye's view-cell set from the baked PVS; runs before the other node stages."""
+
+    name = "pvs"
+    cost = 4
+    arithmetic = "float64"
+
+    def prepare(self, tree: Tree) -> None:
+        self.tree = tree
+        extras = tree.partition.extras or {}
+        self.available = all(k in extras for k in EXTRAS) and all(
+            k in extras for k in PORTAL_EXTRAS)
+        self.cache = {}
+        if not self.available:
+            return
+        self.cells = np.asarray(extras["pvs_cells"], dtype=np.float64)
+        self.start = np.asarray(extras["pvs_start"], dtype=np.int64)
+        self.runs = np.asarray(extras["pvs_runs"])
+        self.grow = float(np.asarray(extras["pvs_grow"])[0])
+        self.cell_bounds = np.asarray(extras["cell_bounds"], dtype=np.float64)
+        self.cell_node = np.asarray(extras["cell_node"], dtype=np.int64)
+        world = tree.world
+        self.corners, self.normals, self.bounds = world.corners, world.normals, world.bounds
+        self.magnitude = world_scale(world.vertices)
+
+    def reach(self, camera) -> float:
+        """2 sqrt(3) device_move at the world's and the eye's magnitude (portals.device_reach)."""
+        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
+        return 2.0 * np.sqrt(3.0) * device_move(self.arithmetic, scale)
+
+    def eye_cells(self, camera, grow: float) -> np.ndarray:
+        """(K,) int64 view cells whose box grown by the tree's slack plus grow holds the eye."""
+        return np.flatnonzero(boxes_contain_point(self.cells, camera.eye, self.tree.tol + grow))
+
+    def visible(self, cells) -> tuple:
+        """(keep (T,) bool, draw nodes (D,) int64) of the union of the cells' sets, cached."""
+        key = tuple(int(c) for c in cells)
+        hit = self.cache.get(key)
+        if hit is not None:
+            return hit
+        tree = self.tree
+        keep = np.zeros(tree.world.triangle_count, dtype=bool)
+        for c in key:
+            keep[ids_of(self.runs[self.start[c]:self.start[c + 1]])] = True
+        nodes = cover_nodes(tree, keep)
+        if len(self.cache) >= KEEP:
+            self.cache.pop(next(iter(self.cache)))
+        self.cache[key] = (keep, nodes)
+        return keep, nodes
+
+    def apply(self, state: CullState) -> None:
+        camera = state.camera
+        found = self.lookup(camera)
+        if found is None:
+            state.count(f"{self.name}.fallbacks", 1)
+            return
+        keep, nodes = self.visible(found)
+        state.count(f"{self.name}.cells", len(found))
+        state.nodes = nodes
+        state.filters.append(lambda ids, keep=keep: keep[ids])
+
+    def lookup(self, camera):
+        """The view cells whose sets cover this camera, or None (fall back)."""
+        if not self.available:
+            return None
+        grow = self.reach(camera)
+        if grow > self.grow or camera.near <= grow / (2.0 * np.sqrt(3.0)):
+            return None
+        found = self.eye_cells(camera, grow)
+        if not len(found):
+            return None
+        ty = np.tan(np.radians(camera.fov) / 2.0)
+        reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2)) + grow
+        tree = self.tree
+        if not free_space(np.asarray(camera.eye, dtype=np.float64), reach + tree.tol, tree.tol,
+                          MAX_ESCAPES, self.cell_bounds, self.cell_node, tree.ref_start,
+                          tree.ref_end, tree.tri_refs, self.bounds, self.corners, self.normals):
+            return None
+        return found
+
+
+def cover_nodes(tree: Tree, keep) -> np.ndarray:
+    """(D,) int64 the topmost nodes whose every non-empty leaf references a kept triangle and
+    that hold at least one; computed level by level from the leaves up.
+
+    keep : (T,) bool the kept triangles
+    """
+    n = tree.node_count
+    refs = np.asarray(tree.tri_refs, dtype=np.int64)
+    count, first = tree.child_count, tree.first_child
+    leaf = count == 0
+    hits = np.zeros(n, dtype=np.int64)
+    if len(refs):
+        csum = np.concatenate([[0], np.cumsum(keep[refs])])
+        hits[leaf] = csum[tree.ref_end[leaf]] - csum[tree.ref_start[leaf]]
+    full = leaf & ((hits > 0) | (tree.ref_end == tree.ref_start))
+    some = hits > 0
+    level_start = np.asarray(tree.partition.level_start, dtype=np.int64)
+    for level in range(len(level_start) - 2, -1, -1):
+        nodes = np.arange(level_start[level], level_start[level + 1])
+        inner = nodes[count[nodes] > 0]
+        if not len(inner):
+            continue
+        lo, hi = first[inner], first[inner] + count[inner]
+        c_full = np.concatenate([[0], np.cumsum(full)])
+        c_some = np.concatenate([[0], np.cumsum(some)])
+        full[inner] = c_full[hi] - c_full[lo] == count[inner]
+        some[inner] = c_some[hi] - c_some[lo] > 0
+    full &= some
+    inner = np.flatnonzero(count > 0)
+    kids, _ = tree.children(inner)
+    parent_full = np.zeros(n, dtype=bool)
+    parent_full[kids] = np.repeat(full[inner], count[inner])
+    return np.flatnonzero(full & ~parent_full).astype(np.int64)

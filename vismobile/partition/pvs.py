@@ -1,0 +1,174 @@
+"""Precomputed visibility (PVS): for each view cell, the triangles some eye inside it may see.
+
+`bake(partition)` works on a portal structure (portal.py): its grid cells are the view cells,
+and `pvs_kernels.from_cell` walks the portal sequences out of each (separating planes,
+conservative). The result is stored with the partition as extras, so it travels in the `.vmp`
+(CRC'd sections, checked on load by `check`):
+
+    pvs_cells  (V, 2, 3) float64  view-cell boxes (the portal grid's cells)
+    pvs_start  (V + 1,)  int64    offsets into pvs_runs, two per run
+    pvs_runs   (R,)      int32    per cell, ascending [first, end) pairs of triangle ids
+    pvs_grow   (1,)      float64  how far eyes and portals were grown (device rounding)
+
+Contract (conservative): for an eye in free space (culling/pvs.py checks it, as `portals`
+does) inside a view cell grown by pvs_grow, every triangle the item buffer without back-face
+culling shows is in the cell's set, provided the portals cover every opening (portal.py).
+Errs toward visible: separating planes only remove lines that cannot exist, sides within the
+tolerance count, and a source whose sequences exceed the step budget keeps every connected cell.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from . import pvs_kernels
+
+MODES = ("conservative",)
+BUDGET = 200_000  # cell walks per source cell before it keeps every connected cell
+GROW_RELATIVE, GROW_ABSOLUTE = 2.0 ** -20, 2.0 ** -16  # a device move (culling/precision.py)
+TOLERANCE = 1e-9  # relative to the world's size: plane sides within it count as on it
+
+
+def bake_grow(world) -> float:
+    """How far eyes and portals are grown: 2 sqrt(3) times a device move (culling/precision.py's
+    bound, fixed16.16: 2^-20 x the magnitude + 2^-16) at twice the world's coordinate magnitude.
+    The runtime stage checks that its own reach fits inside it, else it falls back."""
+    vertices = np.asarray(world.vertices)
+    scale = 2.0 * float(max(-vertices.min(), vertices.max())) if vertices.size else 0.0
+    return 2.0 * np.sqrt(3.0) * (GROW_RELATIVE * scale + GROW_ABSOLUTE)
+
+
+def _connected(source, portal_cells, cell_portal_start, cell_portals, cells):
+    """(C,) bool cells joined to the source by portals."""
+    seen = np.zeros(cells, dtype=bool)
+    seen[source] = True
+    stack = [source]
+    while stack:
+        c = stack.pop()
+        for p in cell_portals[cell_portal_start[c]:cell_portal_start[c + 1]]:
+            a, b = portal_cells[p]
+            m = b if a == c else a
+            if not seen[m]:
+                seen[m] = True
+                stack.append(m)
+    return seen
+
+
+def runs_of(visible) -> np.ndarray:
+    """(2R,) int64 ascending [first, end) pairs of the True runs of a (T,) bool array."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], visible.astype(np.int8), [0]])))
+    return edges.astype(np.int64)
+
+
+def ids_of(runs) -> np.ndarray:
+    """(S,) int64 sorted ids of [first, end) pairs (runs_of inverted)."""
+    runs = np.asarray(runs, dtype=np.int64)
+    first, end = runs[0::2], runs[1::2]
+    lengths = end - first
+    if not len(lengths) or lengths.sum() == 0:
+        return np.zeros(0, dtype=np.int64)
+    return np.repeat(first - np.cumsum(lengths) + lengths, lengths) + np.arange(lengths.sum())
+
+
+def bake_cells(partition, sources, grow, tol, budget=BUDGET):
+    """[(runs (2R,) int64, steps or -1)] for the given source cells of a portal partition."""
+    x = partition.extras
+    cells = len(x["cell_node"])
+    node = np.asarray(x["cell_node"], dtype=np.int64)
+    ref_start = np.asarray(partition.ref_start, dtype=np.int64)[node]
+    ref_end = np.asarray(partition.ref_end, dtype=np.int64)[node]
+    quads = np.asarray(x["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3)
+    pcells = np.asarray(x["portal_cells"], dtype=np.int64)
+    cps = np.asarray(x["cell_portal_start"], dtype=np.int64)
+    cp = np.asarray(x["cell_portals"], dtype=np.int64)
+    bounds = np.asarray(x["cell_bounds"], dtype=np.float64)
+    refs = np.asarray(partition.tri_refs, dtype=np.int64)
+    corners = partition.world.corners
+    out = []
+    for s in sources:
+        visible = np.zeros(partition.world.triangle_count, dtype=np.bool_)
+        seen = np.zeros(cells, dtype=np.bool_)
+        steps = pvs_kernels.flow_from_cell(int(s), bounds, pcells, quads, cps, cp, ref_start,
+                                      ref_end, refs, corners, grow, tol, budget, visible, seen)
+        if steps < 0:  # too many sequences: every connected cell, whole
+            for c in np.flatnonzero(_connected(int(s), pcells, cps, cp, cells)):
+                visible[refs[ref_start[c]:ref_end[c]]] = True
+        out.append((runs_of(visible), int(steps)))
+    return out
+
+
+def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET) -> dict:
+    """The PVS extras (module docstring) of a portal partition, and bake statistics.
+
+    progress : optional callable(done, total) per source cell
+    jobs     : processes (>1: source cells split over a process pool)
+    returns  : (extras dict, stats dict: seconds, cells, overflowed cells, steps)
+    """
+    if mode not in MODES:
+        raise ValueError(f"unknown pvs mode {mode!r}; valid: {', '.join(MODES)}")
+    x = partition.extras or {}
+    if "cell_node" not in x or "portal_cells" not in x:
+        raise ValueError("pvs=conservative needs a portal structure's cells and portals")
+    began = time.perf_counter()
+    world = partition.world
+    grow = bake_grow(world)
+    tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
+    cells = len(x["cell_node"])
+    sources = np.arange(cells)
+    results = []
+    if jobs > 1 and cells > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        chunks = np.array_split(sources, min(cells, 4 * jobs))
+        with ProcessPoolExecutor(jobs) as pool:
+            futures = [pool.submit(bake_cells, partition, c, grow, tol, budget) for c in chunks]
+            for f in futures:
+                results.extend(f.result())
+                if progress is not None:
+                    progress(len(results), cells)
+    else:
+        for s in sources:
+            results.extend(bake_cells(partition, [s], grow, tol, budget))
+            if progress is not None:
+                progress(len(results), cells)
+    runs = [r for r, _ in results]
+    start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
+    extras = {"pvs_cells": np.asarray(x["cell_bounds"], dtype=np.float64).copy(),
+              "pvs_start": start,
+              "pvs_runs": (np.concatenate(runs) if runs else np.zeros(0)).astype(np.int32),
+              "pvs_grow": np.array([grow], dtype=np.float64)}
+    stats = {"seconds": time.perf_counter() - began, "cells": cells,
+             "overflowed": int(sum(s < 0 for _, s in results)),
+             "steps": int(sum(max(s, 0) for _, s in results))}
+    return extras, stats
+
+
+def check_pvs(x, triangles) -> None:
+    """Raise ValueError when the PVS extras are inconsistent (loaded files are checked)."""
+    names = ("pvs_cells", "pvs_start", "pvs_runs", "pvs_grow")
+    present = [n for n in names if n in x]
+    if not present:
+        return
+    if len(present) != len(names):
+        raise ValueError(f"pvs extras missing: {', '.join(n for n in names if n not in x)}")
+    cells, start, runs, grow = (np.asarray(x[n]) for n in names)
+    if cells.ndim != 3 or cells.shape[1:] != (2, 3) or not np.isfinite(cells).all() \
+            or np.any(cells[:, 0] > cells[:, 1]):
+        raise ValueError("pvs_cells must be (V, 2, 3) finite boxes")
+    if grow.shape != (1,) or not np.isfinite(grow).all() or grow[0] < 0:
+        raise ValueError("pvs_grow must be one finite non-negative value")
+    start = start.astype(np.int64)
+    if (start.shape != (len(cells) + 1,) or start[0] != 0 or start[-1] != len(runs)
+            or np.any(np.diff(start) < 0) or np.any(start % 2)):
+        raise ValueError("pvs_start must be even ascending offsets from 0 to len(pvs_runs)")
+    runs = runs.astype(np.int64)
+    if runs.ndim != 1 or (len(runs) and (runs.min() < 0 or runs.max() > triangles)):
+        raise ValueError("pvs_runs must be triangle ids")
+    # within each cell: first < end, and each run after the previous one
+    step = np.diff(runs)
+    inner = np.ones(len(step), dtype=bool)
+    cut = start[1:-1]
+    inner[cut[(cut > 0) & (cut < len(runs))] - 1] = False  # no order across a cell boundary
+    if len(step) and np.any(step[inner] <= 0):
+        raise ValueError("pvs_runs must be ascending, non-touching runs within each cell")

@@ -1,0 +1,344 @@
+"""Compiled kernels of the conservative PVS bake (pvs.py): separating planes between convex
+point sets, polygon clipping, and the walk over portal sequences from one source cell.
+
+A sight line from an eye in the source cell S to a point in a cell m crosses, in order, the
+portals R1..Rk of a sequence of cells (cells are convex boxes: a line enters each at most once).
+For any two items X before Y of [S, R1, ..., Rk] and any plane with X on its negative side and
+Y on its positive side (a separating plane), the line beyond Y stays on the positive side
+(Quake's vis, after Teller and Sequin 1991). So each next portal is clipped to the positive
+side of the separators of (S, Rk) and of (Rj, Rk) for the last few j, and a cell whose entry
+portal clips away is not reached along that sequence. Every plane kept is a true separator, so
+the test never removes a line that exists: it errs toward visible.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# Box vertex k has x from bit 0, y from bit 1, z from bit 2.
+BOX_EDGES = np.array([[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7],
+                      [0, 4], [1, 5], [2, 6], [3, 7]], dtype=np.int64)
+MAX_VERTS = 48      # vertices of a clipped portal polygon (more: kept unclipped)
+MAX_PLANES = 192    # separating planes kept per sequence step (more are dropped: looser)
+WINDOW = 8          # earlier portals paired with the newest one
+
+
+@njit(cache=True, inline="always")
+def _side(plane, p):
+    return plane[0] * p[0] + plane[1] * p[1] + plane[2] * p[2] + plane[3]
+
+
+@njit(cache=True)
+def box_vertices(lo, hi, out):
+    """out (8, 3) float64 <- the corners of the box [lo, hi] (vertex k: bit 0 x, 1 y, 2 z)."""
+    for k in range(8):
+        out[k, 0] = hi[0] if k & 1 else lo[0]
+        out[k, 1] = hi[1] if k & 2 else lo[1]
+        out[k, 2] = hi[2] if k & 4 else lo[2]
+
+
+@njit(cache=True)
+def _try(p, q, r, a, na, b, nb, out, count):
+    """Plane through p, q, r kept when it separates a[:na] (negative) from b[:nb] (positive),
+    moved to the middle of the gap; returns the new count."""
+    e0, e1, e2 = q[0] - p[0], q[1] - p[1], q[2] - p[2]
+    w0, w1, w2 = r[0] - p[0], r[1] - p[1], r[2] - p[2]
+    n0, n1, n2 = e1 * w2 - e2 * w1, e2 * w0 - e0 * w2, e0 * w1 - e1 * w0
+    length = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    scale = np.sqrt((e0 * e0 + e1 * e1 + e2 * e2) * (w0 * w0 + w1 * w1 + w2 * w2))
+    if length <= 1e-9 * scale or length == 0.0:
+        return count
+    n0, n1, n2 = n0 / length, n1 / length, n2 / length
+    d = -(n0 * p[0] + n1 * p[1] + n2 * p[2])
+    amin, amax, bmin, bmax = np.inf, -np.inf, np.inf, -np.inf
+    for i in range(na):
+        f = n0 * a[i, 0] + n1 * a[i, 1] + n2 * a[i, 2] + d
+        amin, amax = min(amin, f), max(amax, f)
+    for i in range(nb):
+        f = n0 * b[i, 0] + n1 * b[i, 1] + n2 * b[i, 2] + d
+        bmin, bmax = min(bmin, f), max(bmax, f)
+    if amax <= bmin:
+        out[count, 0], out[count, 1], out[count, 2] = n0, n1, n2
+        out[count, 3] = d - 0.5 * (amax + bmin)
+        return count + 1
+    if bmax <= amin:
+        out[count, 0], out[count, 1], out[count, 2] = -n0, -n1, -n2
+        out[count, 3] = -d + 0.5 * (amin + bmax)
+        return count + 1
+    return count
+
+
+@njit(cache=True)
+def separators(a, na, a_box, b, nb, out, count, b_box=False):
+    """Append to out[count:] the planes through an edge of one set and a vertex of the other
+    that separate a[:na] (negative side) from b[:nb] (positive side); returns the new count.
+
+    a_box : a holds the 8 corners of a box (its 12 edges), else a convex polygon in order.
+    b likewise (b_box). Stops at len(out) (fewer planes: looser, still sound).
+    """
+    limit = len(out)
+    ea = 12 if a_box else na
+    for k in range(ea):
+        if a_box:
+            i, j = BOX_EDGES[k, 0], BOX_EDGES[k, 1]
+        else:
+            i, j = k, (k + 1) % na
+        for r in range(nb):
+            if count >= limit:
+                return count
+            count = _try(a[i], a[j], b[r], a, na, b, nb, out, count)
+    eb = 12 if b_box else nb
+    for k in range(eb):
+        if b_box:
+            i, j = BOX_EDGES[k, 0], BOX_EDGES[k, 1]
+        else:
+            i, j = k, (k + 1) % nb
+        for r in range(na):
+            if count >= limit:
+                return count
+            count = _try(b[i], b[j], a[r], a, na, b, nb, out, count)
+    return count
+
+
+@njit(cache=True)
+def clip_polygon(poly, n, planes, np_, tol, scratch):
+    """Clip poly[:n] (convex, in order) in place to every plane's side >= -tol; returns the new
+    vertex count (0: nothing left). A polygon that would outgrow MAX_VERTS is left as it was
+    before that plane (larger: sound)."""
+    for k in range(np_):
+        plane = planes[k]
+        m = 0
+        inside_all = True
+        for i in range(n):
+            if _side(plane, poly[i]) < -tol:
+                inside_all = False
+                break
+        if inside_all:
+            continue
+        for i in range(n):
+            p, q = poly[i], poly[(i + 1) % n]
+            fp, fq = _side(plane, p) + tol, _side(plane, q) + tol
+            if fp >= 0.0:
+                if m >= MAX_VERTS:
+                    m = -1
+                    break
+                scratch[m] = p
+                m += 1
+            if (fp >= 0.0) != (fq >= 0.0):
+                if m >= MAX_VERTS:
+                    m = -1
+                    break
+                t = fp / (fp - fq)
+                for c in range(3):
+                    scratch[m, c] = p[c] + t * (q[c] - p[c])
+                m += 1
+        if m < 0:
+            continue
+        if m < 3:
+            return 0
+        for i in range(m):
+            poly[i] = scratch[i]
+        n = m
+    return n
+
+
+@njit(cache=True)
+def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, tol, visible):
+    """Mark the cell's triangles not wholly on the negative side of one of the planes."""
+    for r in range(cell_ref_start[cell], cell_ref_end[cell]):
+        t = tri_refs[r]
+        if visible[t]:
+            continue
+        seen = True
+        for k in range(np_):
+            best = -np.inf
+            for i in range(3):
+                best = max(best, _side(planes[k], corners[t, i]))
+            if best < -tol:
+                seen = False
+                break
+        if seen:
+            visible[t] = True
+
+
+@njit(cache=True)
+def from_cell(source, cell_bounds, portal_cells, portal_quads, cell_portal_start,
+              cell_portals, cell_ref_start, cell_ref_end, tri_refs, corners, grow, tol,
+              budget, visible, cell_seen):
+    """Walk every portal sequence from the source cell, marking in visible (T,) bool the
+    triangles a line from the source cell grown by `grow` may reach, and in cell_seen (C,) bool
+    the cells reached. Portal quads are grown by `grow` in their plane; sides within tol count.
+
+    Errs toward visible. Returns the sequence steps taken, or -1 when more than `budget` were
+    needed (the caller then takes every cell connected to the source as seen).
+    """
+    cells = len(cell_bounds)
+    depth_max = cells + 1
+    polys = np.empty((depth_max, MAX_VERTS, 3))
+    nverts = np.zeros(depth_max, dtype=np.int64)
+    planes = np.empty((depth_max, MAX_PLANES, 4))
+    nplanes = np.zeros(depth_max, dtype=np.int64)
+    path = np.empty(depth_max, dtype=np.int64)
+    cursor = np.empty(depth_max, dtype=np.int64)
+    on_path = np.zeros(cells, dtype=np.bool_)
+    src = np.empty((8, 3))
+    lo = cell_bounds[source, 0] - grow
+    hi = cell_bounds[source, 1] + grow
+    box_vertices(lo, hi, src)
+    scratch = np.empty((MAX_VERTS, 3))
+    cand = np.empty((MAX_VERTS, 3))
+    # the source's own triangles
+    for r in range(cell_ref_start[source], cell_ref_end[source]):
+        visible[tri_refs[r]] = True
+    cell_seen[source] = True
+    path[0] = source
+    cursor[0] = cell_portal_start[source]
+    on_path[source] = True
+    nplanes[0] = 0
+    depth = 0
+    steps = 0
+    while depth >= 0:
+        c = path[depth]
+        if cursor[depth] >= cell_portal_start[c + 1]:
+            on_path[c] = False
+            depth -= 1
+            continue
+        p = cell_portals[cursor[depth]]
+        cursor[depth] += 1
+        m = portal_cells[p, 1] if portal_cells[p, 0] == c else portal_cells[p, 0]
+        if on_path[m]:
+            continue
+        steps += 1
+        if steps > budget:
+            return -1
+        # the portal quad, grown by `grow` along its two in-plane axes
+        n = 4
+        for i in range(4):
+            for a in range(3):
+                cand[i, a] = portal_quads[p, i, a]
+        for a in range(3):
+            qlo = min(cand[0, a], cand[1, a], cand[2, a], cand[3, a])
+            qhi = max(cand[0, a], cand[1, a], cand[2, a], cand[3, a])
+            if qhi > qlo:
+                for i in range(4):
+                    cand[i, a] = qlo - grow if cand[i, a] == qlo else qhi + grow
+        n = clip_polygon(cand, n, planes[depth], nplanes[depth], tol, scratch)
+        if n == 0:
+            continue
+        k = depth + 1
+        for i in range(n):
+            polys[k, i] = cand[i]
+        nverts[k] = n
+        count = separators(src, 8, True, polys[k], n, planes[k], 0)
+        for j in range(max(1, k - WINDOW), k):
+            count = separators(polys[j], nverts[j], False, polys[k], n, planes[k], count)
+        nplanes[k] = count
+        _mark(m, cell_ref_start, cell_ref_end, tri_refs, corners, planes[k], count, tol,
+              visible)
+        cell_seen[m] = True
+        path[k] = m
+        cursor[k] = cell_portal_start[m]
+        on_path[m] = True
+        depth = k
+    return steps
+
+
+@njit(cache=True)
+def _grown_quad(portal_quads, p, grow, cand):
+    """cand[:4] <- portal p's quad grown by `grow` along its in-plane axes."""
+    for i in range(4):
+        for a in range(3):
+            cand[i, a] = portal_quads[p, i, a]
+    for a in range(3):
+        qlo = min(cand[0, a], cand[1, a], cand[2, a], cand[3, a])
+        qhi = max(cand[0, a], cand[1, a], cand[2, a], cand[3, a])
+        if qhi > qlo:
+            for i in range(4):
+                cand[i, a] = qlo - grow if cand[i, a] == qlo else qhi + grow
+
+
+@njit(cache=True)
+def flow_from_cell(source, cell_bounds, portal_cells, portal_quads, cell_portal_start,
+                   cell_portals, cell_ref_start, cell_ref_end, tri_refs, corners, grow, tol,
+                   budget, visible, cell_seen):
+    """Like from_cell, but each portal crossing (portal, direction) keeps one box holding every
+    point where a line from the source may cross it (the union over all sequences), so the walk
+    is a fixed point instead of an enumeration: the exit portals of the cell a crossing enters
+    are clipped by the separators of (source box, crossing box), the surviving parts grow those
+    exits' boxes, and a crossing whose box grew is walked again. The entered cell's triangles
+    are marked against the same planes.
+
+    Sound: a line from the source crossing portals p1, p2, ... crosses each at a point of its
+    box (induction: its exit point lies beyond its entry point and the source, so on the
+    positive side of every separator of the two, and survives the clip). Errs toward visible.
+    Returns the crossings walked, or -1 past `budget` (the caller keeps every connected cell).
+    """
+    crossings = 2 * len(portal_cells)
+    box = np.empty((crossings, 2, 3))
+    for d in range(crossings):
+        for a in range(3):
+            box[d, 0, a] = np.inf
+            box[d, 1, a] = -np.inf
+    queued = np.zeros(crossings, dtype=np.bool_)
+    queue = np.empty(max(crossings, 1), dtype=np.int64)
+    head, size = 0, 0
+    src = np.empty((8, 3))
+    box_vertices(cell_bounds[source, 0] - grow, cell_bounds[source, 1] + grow, src)
+    entry = np.empty((8, 3))
+    planes = np.empty((MAX_PLANES, 4))
+    scratch = np.empty((MAX_VERTS, 3))
+    cand = np.empty((MAX_VERTS, 3))
+    for r in range(cell_ref_start[source], cell_ref_end[source]):
+        visible[tri_refs[r]] = True
+    cell_seen[source] = True
+    walks = 0
+    current = -1  # the crossing being walked; -1: the source itself
+    while True:
+        if current < 0:
+            cell, count, came = source, 0, -1
+        else:
+            p = current // 2
+            cell = portal_cells[p, 1] if current % 2 == 0 else portal_cells[p, 0]
+            came = p
+            box_vertices(box[current, 0], box[current, 1], entry)
+            count = separators(src, 8, True, entry, 8, planes, 0, True)
+            _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, count, tol,
+                  visible)
+            cell_seen[cell] = True
+        for q in range(cell_portal_start[cell], cell_portal_start[cell + 1]):
+            p = cell_portals[q]
+            if p == came:
+                continue
+            forward = portal_cells[p, 0] == cell
+            m = portal_cells[p, 1] if forward else portal_cells[p, 0]
+            if m == source:
+                continue
+            _grown_quad(portal_quads, p, grow, cand)
+            n = clip_polygon(cand, 4, planes, count, tol, scratch)
+            if n == 0:
+                continue
+            d = 2 * p + (0 if forward else 1)
+            grew = False
+            for a in range(3):
+                lo, hi = np.inf, -np.inf
+                for i in range(n):
+                    lo, hi = min(lo, cand[i, a]), max(hi, cand[i, a])
+                if lo < box[d, 0, a]:
+                    box[d, 0, a] = lo
+                    grew = True
+                if hi > box[d, 1, a]:
+                    box[d, 1, a] = hi
+                    grew = True
+            if grew and not queued[d]:
+                queued[d] = True
+                queue[(head + size) % crossings] = d
+                size += 1
+        if size == 0:
+            return walks
+        current = queue[head]
+        head = (head + 1) % crossings
+        size -= 1
+        queued[current] = False
+        walks += 1
+        if walks > budget:
+            return -1
