@@ -5,19 +5,17 @@ instance of a scene, moved by its node's transform, becomes one object.
 """
 from __future__ import annotations
 
-import gzip
 import io
-import zlib
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import WorldError
+from ..errors import WorldError, one_line
+from .limits import MAX_COORDINATE, MAX_TRIANGLES, read_input
 
 # Suffix (without .gz) -> trimesh file type; .obj goes through the validating reader in obj.py.
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".glb": "glb",
            ".gltf": "gltf"}
-MAX_BYTES = 1 << 30
 
 
 def mesh_format(path) -> str:
@@ -34,29 +32,31 @@ def mesh_format(path) -> str:
 
 def load_mesh(path) -> tuple:
     """(vertices (V,3) f8, triangles (T,3) i4, object_ids (T,) i4, names) of a PLY, STL, OFF,
-    glTF or GLB file (optionally gzip-compressed). Raises WorldError naming the file."""
+    glTF or GLB file (optionally gzip-compressed). Raises WorldError naming the file.
+
+    Before trimesh parses: only a regular file is read, within MAX_BYTES (a .gz inflated with
+    a running limit); PLY and OFF headers may not declare more elements than the file can hold
+    or than MAX_TRIANGLES; a glTF's node graph must be a tree, its instanced triangles within
+    MAX_TRIANGLES and its buffer and image URIs regular files beside it (meshcheck.py)."""
     import trimesh
+
+    from . import meshcheck
 
     path = Path(path)
     file_type = mesh_format(path)
-    if not path.is_file():
-        raise WorldError(path, "no such file" if not path.exists() else "not a file")
-    if path.stat().st_size == 0:
-        raise WorldError(path, "file is empty")
-    if path.stat().st_size > MAX_BYTES:
-        raise WorldError(path, f"file is over the {MAX_BYTES} byte limit")
+    data = read_input(path)
+    meshcheck.check(path, file_type, data)
     if path.name.lower().endswith(".gz"):
-        try:
-            source = io.BytesIO(gzip.decompress(path.read_bytes()))
-        except (OSError, EOFError, zlib.error) as error:
-            raise WorldError(path, f"not a readable gzip file ({error})") from None
+        source = io.BytesIO(data)
     else:
-        source = str(path)  # a path lets trimesh find a .gltf's external buffers
+        source = str(path)  # a path lets trimesh find a .gltf's external buffers (checked)
+    del data
     try:
-        scene = trimesh.load(source, file_type=file_type, force="scene", process=False)
+        with np.errstate(all="ignore"):  # overflow is caught below, as a coordinate limit
+            scene = trimesh.load(source, file_type=file_type, force="scene", process=False)
     except Exception as error:  # trimesh raises assorted types on malformed input
         raise WorldError(path, f"unparsable {file_type.upper()} ({type(error).__name__}: "
-                         f"{error})") from None
+                         f"{one_line(error)[:200]})") from None
     return flatten(scene, path)
 
 
@@ -74,20 +74,37 @@ def flatten(geometry, origin="<trimesh>") -> tuple:
         parts = [(str(geometry.metadata.get("name") or "mesh"), geometry, np.eye(4))]
     elif isinstance(geometry, trimesh.Scene):
         parts = []
-        for node in sorted(geometry.graph.nodes_geometry, key=str):
-            transform, geometry_name = geometry.graph[node]
-            mesh = geometry.geometry.get(geometry_name)
-            if isinstance(mesh, trimesh.Trimesh):
-                parts.append((str(node), mesh, np.asarray(transform, float)))
+        with np.errstate(all="ignore"):  # transforms that overflow are refused below
+            for node in sorted(geometry.graph.nodes_geometry, key=str):
+                transform, geometry_name = geometry.graph[node]
+                mesh = geometry.geometry.get(geometry_name)
+                if isinstance(mesh, trimesh.Trimesh):
+                    parts.append((str(node), mesh, np.asarray(transform, float)))
     else:
         raise WorldError(origin, f"expected a trimesh.Trimesh or Scene, got {type(geometry).__name__}")
+    total = sum(len(mesh.faces) for _, mesh, _ in parts)
+    if total > MAX_TRIANGLES:
+        raise WorldError(origin, f"{total:,} triangles in its mesh instances, over the limit of "
+                                 f"{MAX_TRIANGLES:,}")
     vertices, triangles, ids, names, offset = [], [], [], [], 0
     for name, mesh, transform in parts:
         if not len(mesh.faces):
             continue
-        v = np.asarray(mesh.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
         faces = np.asarray(mesh.faces, np.int64)
-        if np.linalg.det(transform[:3, :3]) < 0:
+        local = np.asarray(mesh.vertices, float)
+        if faces.min() < 0 or faces.max() >= len(local):  # trimesh keeps them as read
+            bad = faces[(faces < 0) | (faces >= len(local))][0]
+            raise WorldError(origin, f"mesh {name!r}: face index {bad} outside its "
+                                     f"{len(local):,} vertices")
+        with np.errstate(all="ignore"):  # an overflowing transform is refused just below
+            v = local @ transform[:3, :3].T + transform[:3, 3]
+            flip = np.linalg.det(transform[:3, :3]) < 0 if np.isfinite(transform).all() else False
+        if not (np.abs(v) <= MAX_COORDINATE).all():  # NaN and infinity too
+            what = "NaN or infinite" if not np.isfinite(v).all() else \
+                f"beyond +-{MAX_COORDINATE:g}"
+            raise WorldError(origin, f"mesh {name!r}: vertex coordinate {what} (after its "
+                                     "node's transform)")
+        if flip:
             faces = faces[:, ::-1]
         vertices.append(v)
         triangles.append(faces + offset)
@@ -97,6 +114,4 @@ def flatten(geometry, origin="<trimesh>") -> tuple:
     if not names:
         raise WorldError(origin, "no triangles (only empty meshes, points or lines)")
     vertices = np.concatenate(vertices)
-    if not np.isfinite(vertices).all():
-        raise WorldError(origin, "vertex coordinate is NaN or infinite")
     return vertices, np.concatenate(triangles).astype(np.int32), np.concatenate(ids), names

@@ -1,28 +1,25 @@
 """OBJ input: a line-level validator for clear errors, then trimesh for the parsing itself."""
 from __future__ import annotations
 
-import gzip
 import io
 import itertools
 import math
 import re
-import zlib
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import WorldError
+from .limits import MAX_COORDINATE, read_input
 
 # Statements of the OBJ format (geometry, grouping, display and free-form); anything else is garbage.
 KNOWN_STATEMENTS = frozenset(
     "v vt vn vp f l p o g s mtllib usemtl usemap maplib shadow_obj trace_obj lod bevel "
     "c_interp d_interp ctech stech cstype deg bmat step curv curv2 surf parm trim hole "
     "scrv sp end con mg call csh".split())
-MAX_BYTES = 1 << 30
 # Limits that keep a small file from costing minutes or gigabytes downstream: coordinates whose
 # squares and cross products stay finite in float64, polygons trimesh fans out cheaply, and
 # groups (each a trimesh mesh of its own).
-MAX_COORDINATE = 1e30
 MAX_CORNERS = 256
 MAX_GROUPS = 4096
 # Characters trimesh and str.split treat differently (non-ASCII white space, line separators,
@@ -208,25 +205,9 @@ def _check_groups(path, text, face_starts):
 def read_text(path: Path) -> str:
     """File contents as text (a .gz file decompressed), or WorldError for missing, unreadable,
     empty or binary files."""
-    if not path.exists():
-        raise WorldError(path, "no such file")
     if path.is_dir():
         raise WorldError(path, "is a directory, not an OBJ file")
-    size = path.stat().st_size
-    if size == 0:
-        raise WorldError(path, "file is empty")
-    if size > MAX_BYTES:
-        raise WorldError(path, f"file is {size} bytes, over the {MAX_BYTES} byte limit")
-    data = path.read_bytes()
-    if path.suffix.lower() == ".gz":
-        try:
-            data = gzip.decompress(data)
-        except (OSError, EOFError, zlib.error) as error:
-            raise WorldError(path, f"not a readable gzip file ({error})") from None
-        if not data:
-            raise WorldError(path, "file is empty once decompressed")
-        if len(data) > MAX_BYTES:
-            raise WorldError(path, f"decompresses to over the {MAX_BYTES} byte limit")
+    data = read_input(path)  # a regular file; a .gz inflated with a running limit
     if b"\x00" in data:
         raise WorldError(path, "binary content, not an OBJ text file",
                          data[: data.index(b"\x00")].count(b"\n") + 1)

@@ -213,7 +213,10 @@ def load_partition(path, world: World | None = None) -> Partition:
 
 def _open_mapped(path):
     """(path, read-only mmap of the file), or PartitionError naming the file."""
+    from ..files.limits import regular_file
+
     path = Path(path)
+    regular_file(path, lambda p, why: PartitionError(f"{p}: {why}"))  # a FIFO would block open
     try:
         with open(path, "rb") as handle:
             size = path.stat().st_size

@@ -7,6 +7,7 @@ import numpy as np
 
 from ..errors import WorldError
 
+MAX_OBJECTS = 1000  # ~2,000 triangles each: a .vmt's objects stay a small world
 FOOTPRINT_SAMPLES = 5  # per side: the base sits at the lowest ground point under its footprint
 
 
@@ -77,6 +78,8 @@ def place_objects(heightmap, count: int, seed: int = 0, height: float | None = N
     """
     from ..scenes.objects import OBJECTS
 
+    if not 0 <= count <= MAX_OBJECTS:
+        raise ValueError(f"object count must be from 0 to {MAX_OBJECTS}, got {count}")
     kinds = tuple(kinds or OBJECTS)
     height = float(height if height is not None else 8 * heightmap.spacing)
     rng = np.random.default_rng(seed)

@@ -8,6 +8,7 @@ A 1025^2 fractal is ~1.3 MB against 2.1 MB raw. Writes go through a temporary fi
 from __future__ import annotations
 
 import json
+import math
 import struct
 import zlib
 from pathlib import Path
@@ -16,11 +17,14 @@ import numpy as np
 
 from ..errors import WorldError
 from ..files.atomic import atomic_write_bytes
-from .heightmap import Heightmap, grid_exponent
-from .placement import Placement
+from ..files.limits import inflate, read_bytes
+from .heightmap import MAX_LEVEL, Heightmap, grid_exponent
+from .placement import MAX_OBJECTS, Placement
 
 MAGIC = b"VMT1"
 VERSION = 1
+MAX_FILE_BYTES = 1 << 28  # an 8193^2 terrain's samples are 134 MB before compression
+MAX_EXTENT = 1e12  # world units: the terrain's width, heights and object positions
 
 
 def save(path, heightmap: Heightmap, placement: Placement | None = None) -> None:
@@ -52,10 +56,7 @@ def load(path) -> tuple:
     newer-version file.
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        raise WorldError(path, f"cannot read terrain file ({error.strerror or error})") from None
+    data = read_bytes(path, MAX_FILE_BYTES, what="terrain file")  # regular files only
     if data[:4] != MAGIC:
         raise WorldError(path, "not a vismobile terrain file (bad magic)")
     try:
@@ -67,20 +68,13 @@ def load(path) -> tuple:
         offset = 12 + head_len
         pay_len, pay_crc = struct.unpack_from("<QI", data, offset)
         payload = data[offset + 12:offset + 12 + pay_len]
-    except (struct.error, UnicodeDecodeError, json.JSONDecodeError):
+    except (struct.error, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
         raise WorldError(path, "terrain file is truncated or corrupt") from None
-    if header.get("version", 0) > VERSION:
-        raise WorldError(path, f"terrain file version {header.get('version')} is newer than "
-                               f"this vismobile ({VERSION})")
+    size = check_header(path, header)
     if len(payload) != pay_len or zlib.crc32(payload) != pay_crc:
         raise WorldError(path, "terrain samples are truncated or corrupt (CRC mismatch)")
-    size = int(header["size"])
-    if grid_exponent(size) is None:
-        raise WorldError(path, f"terrain size {size} is not 2^n+1")
-    try:
-        raw = zlib.decompress(payload)
-    except zlib.error:
-        raise WorldError(path, "terrain samples do not decompress") from None
+    del data
+    raw = inflate(payload, 2 * size * size, path, wbits=15, what="terrain samples decompress")
     if len(raw) != 2 * size * size:
         raise WorldError(path, "terrain samples have the wrong length")
     deltas = np.frombuffer(raw, dtype="<u2").reshape(size, size)
@@ -93,3 +87,55 @@ def load(path) -> tuple:
     if heightmap.digest().hex() != header.get("digest"):
         raise WorldError(path, "terrain digest mismatch (samples do not match the header)")
     return heightmap, Placement.from_json(header.get("objects", []), path)
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) \
+        and math.isfinite(value)
+
+
+def check_header(path, header) -> int:
+    """The terrain size of a .vmt header, or WorldError naming the file when a field has the
+    wrong type or range (like .vmp headers): version, size (2^n+1 up to 2^MAX_LEVEL+1),
+    spacing and z_scale (finite, > 0, extent within MAX_EXTENT), z_offset, and at most
+    MAX_OBJECTS objects with finite positions (within MAX_EXTENT) and heights (> 0)."""
+    def bad(message):
+        return WorldError(path, f"bad terrain header: {message}")
+
+    if not isinstance(header, dict):
+        raise bad(f"a JSON object expected, got {type(header).__name__}")
+    version = header.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise bad(f"version must be a whole number >= 1, got {version!r}")
+    if version > VERSION:
+        raise WorldError(path, f"terrain file version {version} is newer than this vismobile "
+                               f"({VERSION})")
+    size = header.get("size")
+    if isinstance(size, bool) or not isinstance(size, int) or grid_exponent(size) is None \
+            or grid_exponent(size) > MAX_LEVEL:
+        raise bad(f"size must be 2^n+1 from 3 to {(1 << MAX_LEVEL) + 1}, got {size!r}")
+    for key in ("spacing", "z_scale", "z_offset"):
+        value = header.get(key)
+        if not _number(value) or (key != "z_offset" and not value > 0):
+            raise bad(f"{key} must be a finite number{'' if key == 'z_offset' else ' > 0'}, "
+                      f"got {value!r}")
+    extent = max(header["spacing"] * (size - 1), header["z_scale"] * 65535,
+                 abs(header["z_offset"]))
+    if extent > MAX_EXTENT:
+        raise bad(f"the terrain spans {extent:g} world units, beyond {MAX_EXTENT:g}")
+    if not isinstance(header.get("name", ""), str) or not isinstance(header.get("digest"), str):
+        raise bad("name and digest must be strings")
+    objects = header.get("objects", [])
+    if not isinstance(objects, list) or len(objects) > MAX_OBJECTS:
+        raise bad(f"objects must be a list of at most {MAX_OBJECTS} records")
+    for k, record in enumerate(objects):
+        position = record.get("position") if isinstance(record, dict) else None
+        fine = (isinstance(record, dict) and isinstance(record.get("kind"), str)
+                and isinstance(position, list) and len(position) == 3
+                and all(_number(c) and abs(c) <= MAX_EXTENT for c in position)
+                and _number(record.get("yaw")) and _number(record.get("height"))
+                and 0 < record["height"] <= MAX_EXTENT)
+        if not fine:
+            raise bad(f"object {k} needs a kind, a position of 3 finite numbers within "
+                      f"+-{MAX_EXTENT:g}, a finite yaw and a height > 0")
+    return size

@@ -86,8 +86,9 @@ class Trajectory:
         path = Path(path)
         if limit is not None and (isinstance(limit, bool) or int(limit) < 1):
             raise TrajectoryError(f"{path}: frame limit must be at least 1, got {limit}")
-        if not path.is_file():
-            raise TrajectoryError(f"{path}: no such trajectory file")
+        from ..files.limits import regular_file
+
+        regular_file(path, lambda p, why: TrajectoryError(f"{p}: {why}"))  # no FIFO, no device
         try:
             with open(path, "rb") as handle:
                 waypoints, rows = _read(path, handle, limit)

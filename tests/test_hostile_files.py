@@ -1,0 +1,94 @@
+"""Issue 28's hostile files through the CLI, in this process: every case of tools/hostile.py
+(mesh formats, glTF graphs and URIs, .gz, .vmt, .vmp and trajectories as special files,
+heightmap files) exits 2 with one stderr line naming the file, no traceback, nothing left
+behind. The decompression bombs run here against a lowered limit (the tool runs them at full
+size in a child and reports its peak RSS: docs/hardening.md)."""
+import gzip
+import importlib.util
+import zlib
+from pathlib import Path
+
+import pytest
+
+from vismobile.app.cli import main
+from vismobile.errors import WorldError
+from vismobile.files import limits
+
+_SPEC = importlib.util.spec_from_file_location(
+    "hostile", Path(__file__).resolve().parents[1] / "tools" / "hostile.py")
+hostile = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(hostile)
+
+BOMBS = {name for name in hostile.CASES if name.endswith("_bomb")}
+
+
+@pytest.mark.parametrize("name", sorted(set(hostile.CASES) - BOMBS))
+def test_a_hostile_file_is_one_clean_line(capsys, tmp_path, monkeypatch, name):
+    monkeypatch.setenv("VISMOBILE_STATUS", "off")
+    monkeypatch.chdir(tmp_path)
+    argv, named = hostile.CASES[name](tmp_path)
+    before = hostile.listing(tmp_path)
+    assert main([str(a) for a in argv]) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert str(named) in lines[0], lines[0]
+    assert hostile.listing(tmp_path) == before
+
+
+@pytest.mark.parametrize("name, data", [
+    ("m.obj.gz", gzip.compress(b"v 0 0 0\n") + gzip.compress(b" " * (8 << 20))),
+    ("m.ply.gz", gzip.compress(hostile.ply(hostile.CUBE_V, hostile.CUBE_F)[:-2])
+     + gzip.compress(b"\0" * (8 << 20))),
+    ("m.stl.gz", gzip.compress(b"solid s\n" + b" " * (8 << 20))),
+])
+def test_a_gzip_bomb_stops_at_the_limit(capsys, tmp_path, monkeypatch, name, data):
+    monkeypatch.setattr(limits, "MAX_BYTES", 1 << 20)
+    path = tmp_path / name
+    path.write_bytes(data)
+    assert main(["info", str(path)]) == 2
+    line = capsys.readouterr().err.strip()
+    assert str(path) in line and "decompression bomb" in line and "\n" not in line
+    assert hostile.listing(tmp_path) == [name]
+
+
+def test_a_zlib_bomb_in_a_vmt_stops_at_its_samples(capsys, tmp_path):
+    path = tmp_path / "t.vmt"
+    path.write_bytes(hostile.vmt(hostile.vmt_header(size=3), zlib.compress(b"\0" * (8 << 20))))
+    assert main(["terrain", "info", str(path)]) == 2
+    line = capsys.readouterr().err.strip()
+    assert str(path) in line and "over the 18 byte limit" in line
+
+
+def test_inflate_streams_every_gzip_member_and_refuses_what_is_past_them(tmp_path):
+    two = gzip.compress(b"ab") + gzip.compress(b"cd")
+    assert limits.inflate(two, 4, "x") == b"abcd"
+    with pytest.raises(WorldError, match="over the 3 byte limit"):
+        limits.inflate(two, 3, "x")
+    with pytest.raises(WorldError, match="truncated"):
+        limits.inflate(two[:-5], 4, "x")
+    with pytest.raises(WorldError, match="garbage"):
+        limits.inflate(two + b"zz", 4, "x")
+    big = zlib.compress(bytes(range(256)) * 9000)  # several chunks in, several out
+    assert limits.inflate(big, 256 * 9000, "x", wbits=15) == bytes(range(256)) * 9000
+
+
+def test_the_object_limit_is_one_number():
+    from vismobile.commands.options import MAX_OBJECTS
+    from vismobile.terrain.placement import MAX_OBJECTS as placement_limit
+    from vismobile.terrain.store import MAX_OBJECTS as store_limit
+
+    assert MAX_OBJECTS == placement_limit == store_limit
+
+
+def test_a_well_formed_gltf_with_a_buffer_beside_it_loads(tmp_path):
+    import json
+
+    from vismobile.world import World
+
+    doc, binary = hostile.gltf()
+    doc["buffers"][0]["uri"] = "buffer.bin"
+    (tmp_path / "buffer.bin").write_bytes(binary)
+    (tmp_path / "m.gltf").write_text(json.dumps(doc))
+    world = World.from_file(tmp_path / "m.gltf")
+    assert world.triangle_count == 12
