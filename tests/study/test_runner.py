@@ -6,7 +6,7 @@ import pytest
 
 from vismobile.study import runner, tasks
 from vismobile.study.matrix import RunSpec
-from vismobile.study.report import best_run, pareto_png, write_report
+from vismobile.study.report import best_run, find_run, pareto_png, write_report
 from vismobile.study.runner import Context, run_matrix
 
 
@@ -108,7 +108,18 @@ def test_the_report_answers_what_to_use_per_device_first(study, tmp_path):
         "tied": [{"structure": "octree:2", "cull": "vfc+occlusion"}]}}
     rows, _ = answer_rows(records, world, [tuned])
     assert "bsp vfc+occlusion" in rows[0][2] and "tied: octree:2 vfc+occlusion" in rows[0][2]
-    assert rows[0][3] == "tune, 3 probe frames" and "[95.0–104.0]" in rows[0][4]
+    # One figure per pick: the compared run's mean with its own interval, not tune's estimate.
+    run = find_run(records, world, "bsp", "vfc+occlusion", "ipaq-hx2490b")
+    ms = run["summary"]["model"]["ipaq-hx2490b"]["frame_ms"]["mean"]
+    assert rows[0][3].startswith("tune, 3 probe frames; timed over 4 compared frames")
+    assert f">{ms:,.1f} <span" in rows[0][4] and "[95.0–104.0]" not in rows[0][4]
+    # A pick the comparison did not run keeps tune's estimate and says so.
+    unrun = {**tuned, "result": {**tuned["result"], "choice": {
+        **tuned["result"]["choice"], "structure": "octree:2", "cull": "vfc+bfc"}}}
+    rows, _ = answer_rows(records, world, [unrun])
+    assert rows[0][3] == "tune, 3 probe frames (not compared)" and "[95.0–104.0]" in rows[0][4]
+    # Every row has an interval: the N82 and this machine's too.
+    assert all("[" in row[4] for row in rows)
     text = write_report(records, tmp_path / "r.html", tunes=[tuned]).read_text()
     # The answer table comes before any figure; no missed pixels: a sentence, not a plot.
     assert text.index("ms per frame [95% interval]") < text.index("<img")
@@ -137,3 +148,27 @@ def test_profiles_measured_alike_run_once(tmp_path, world_file, trajectory_file,
     monkeypatch.setattr(tasks, "execute", lambda *a: pytest.fail("a finished run ran again"))
     again = run_matrix(specs, context, processes=1, progress=False)
     assert [r["key"] for r in again] == [ipaq["key"], n82["key"], desktop["key"]]
+
+
+def test_the_report_shows_one_figure_per_pick_in_the_table_and_the_tune_section(
+        study, tmp_path, world, trajectory, profile):
+    from vismobile.study.report import _picks, pick_mismatches
+    from vismobile.study.tune import tune
+
+    _, _, records = study
+    name = records[0]["spec"]["world"]
+    result = tune(world, trajectory, profile, probe=4, structures="octree:2,bsp")
+    result.world = name
+    item = {"world": name, "text": result.report(), "result": result.to_dict()}
+    page = write_report(records, tmp_path / "r.html", tunes=[item]).read_text()
+    picks = _picks(page)
+    key = f"{name}|ipaq-hx2490b"
+    figures = [text for k, text in picks if k == key]
+    # The summary table, the world's table and the tune section: the same figure, three times.
+    assert len(figures) == 3 and len(set(figures)) == 1 and "[" in figures[0]
+    assert pick_mismatches(page) == []
+    assert "<h2>Automatic configuration" in page and "tune's full output" in page
+    assert "<td class='l'>vfc</td>" in page or "<td class='l'>occlusion</td>" in page
+    # The check finds a page that contradicts itself.
+    broken = page.replace(figures[0], "1.0", 1)
+    assert pick_mismatches(broken) and key in pick_mismatches(broken)[0]

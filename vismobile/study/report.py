@@ -20,10 +20,11 @@ from ..world.world import atomic_write_bytes
 from . import thesis
 from .page import STYLE, _fmt, _table
 from .records import (_config, best_run, device_pool, find_run,  # noqa: F401  (re-exported)
-                      ok_records, recommendation, run_ms, world_title)
+                      ok_records, pick_figure, recommendation, run_ms, world_title)
 from .report_figures import (_along_path, _front, _triangles_along,  # noqa: F401
                              pareto_png, thesis_figures)
 from .terrain_report import write_terrain_report  # noqa: F401  (re-exported)
+from .tune_report import tune_section
 
 
 def _error_text(rec) -> str:
@@ -72,9 +73,7 @@ def answer_rows(records, world, tunes=None) -> tuple:
         if rec is None:
             continue
         ms = rec["ms"]
-        predicted = _fmt(ms, 1 if device else 2)
-        if rec["low"] is not None:
-            predicted += f" <span class='note'>[{rec['low']:,.1f}–{rec['high']:,.1f}]</span>"
+        predicted = pick_figure(rec, world, device)
         use = f"<b>{_config(rec['structure'], rec['cull'])}</b>"
         if rec["tied"]:
             use += ("<br><span class='note'>statistically tied: "
@@ -185,14 +184,35 @@ def agreement_section(agreement) -> str:
                              "seen only by rays"], rows))
 
 
-def tune_section(tunes) -> str:
-    if not tunes:
-        return ""
-    parts = ["<h2>Automatic configuration (vismobile tune)</h2>"]
-    for item in tunes:
-        parts.append(f"<h3>{html.escape(world_title(item['world']))}</h3><pre>"
-                     f"{html.escape(item['text'])}</pre>")
-    return "\n".join(parts)
+def pick_mismatches(page: str) -> list:
+    """The report check: every figure tagged data-pick (the answer tables' and the tune
+    section's) must read the same for one world and device; returns "key: a != b" for each
+    that does not (empty: consistent)."""
+    seen, wrong = {}, []
+    for key, text in _picks(page):
+        first = seen.setdefault(key, text)
+        if text != first:
+            wrong.append(f"{key}: {first} != {text}")
+    return wrong
+
+
+def _picks(page: str) -> list:
+    """(key, figure text) of every data-pick span, in page order."""
+    import re
+
+    out = []
+    for match in re.finditer(r"<span class='pick' data-pick='([^']*)'>", page):
+        start = match.end()
+        depth, i = 1, start
+        while depth:  # the figure may hold a nested span (its interval)
+            opening = page.find("<span", i)
+            closing = page.find("</span>", i)
+            if opening != -1 and opening < closing:
+                depth, i = depth + 1, opening + 5
+            else:
+                depth, i = depth - 1, closing + 7
+        out.append((html.unescape(match.group(1)), page[start:i - 7]))
+    return out
 
 
 def write_report(records, path, agreement=None, tunes=None, title="vismobile comparison",
@@ -214,7 +234,7 @@ def write_report(records, path, agreement=None, tunes=None, title="vismobile com
             summary_table(records, tunes), f"<nav>worlds: {nav}</nav>"]
     for world in worlds:
         body.append(world_section(records, world, tunes))
-    body.append(tune_section(tunes))
+    body.append(tune_section(tunes, records))
     body.append(agreement_section(agreement))
     if failed:
         body.append("<h2>Failed runs</h2><pre>" + html.escape("\n".join(
@@ -223,6 +243,9 @@ def write_report(records, path, agreement=None, tunes=None, title="vismobile com
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             f"<title>{html.escape(title)}</title><style>{STYLE}</style></head><body>"
             f"{''.join(body)}</body></html>")
+    wrong = pick_mismatches(page)
+    if wrong:  # one pick, one figure: a page contradicting itself is a bug, said at once
+        raise AssertionError("report shows two figures for one pick: " + "; ".join(wrong))
     path = Path(path)
     atomic_write_bytes(path, page.encode("utf-8"))
     return path
