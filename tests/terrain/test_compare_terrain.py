@@ -25,6 +25,15 @@ def test_sweep_writes_csv_json_and_report(tmp_path, capsys):
     assert float(rows[4]["triangles"]) <= 2000
     page = (out / "report.html").read_text()
     assert "pixel knob" in page and "roam/2000" in page and "data:image/png" in page
+    # A recommendation first (the fastest within 1 px of exact error) and a picture.
+    assert page.index("What to use") < page.index("pixel knob")
+    assert "the terrain from above with the camera paths" in page
+    printed = capsys.readouterr().out
+    within = [r for r in rows if float(r["sample_error_max"]) <= 1.0]
+    best = min(within, key=lambda r: (float(r["lod_ms"]) + float(r["render_ms"]),
+                                      float(r["triangles"])))
+    assert f"use on the circle fast path: {best['method']}, tau {float(best['tau']):g} px" \
+        in printed
     assert (out / "terrain.json").stat().st_size > 0
 
 

@@ -268,10 +268,21 @@ def run_terrain(args) -> int:
         atomic_write_bytes(args.out / "terrain.json", json.dumps(
             {"terrain": str(args.terrain), "profile": profile.name, "frames": frames,
              "rows": rows, "peers": peers}, indent=1).encode())
+        from ..study.terrain import path_frames
+        from ..study.terrain_report import recommend, terrain_picture
+
+        picture = terrain_picture(heightmap, [(f"{kind} {speed}",
+                                               path_frames(heightmap, kind, speed, frames))
+                                              for kind, speed in paths])
         report = write_terrain_report(
             rows, report_path, title=f"vismobile terrain comparison: {heightmap.name}",
             notes=f"{args.terrain}: {heightmap.size}^2 samples; {profile.name} "
                   f"({profile.resolution[0]}x{profile.resolution[1]}); frames {frames} of each "
-                  "path.", peers=peers)
+                  "path.", peers=peers, picture=picture)
+    for path, row, met in recommend(rows):
+        print(f"use on the {path} path: {row['method']}, tau {row['tau']:g} px "
+              f"({row['triangles']:,.0f} triangles, {row['lod_ms'] + row['render_ms']:.2f} ms "
+              f"LOD + render here, sample error {row['sample_error_max']:.2f} px"
+              + ("" if met else "; none stays within 1 px: the smallest error") + ")")
     print(f"wrote {args.out / 'terrain.csv'}, {args.out / 'terrain.json'} and {report}")
     return 0

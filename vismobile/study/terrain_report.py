@@ -5,6 +5,8 @@ from __future__ import annotations
 import html
 from pathlib import Path
 
+import numpy as np
+
 from ..world.world import atomic_write_bytes
 from .page import STYLE, _fmt, _table
 from .plots import figure_png, legend_outside, log_axis, pyplot, style
@@ -70,12 +72,70 @@ def terrain_section(rows, peers=None, heading="Terrain: the pixel knob against i
     return "\n".join(parts)
 
 
+# The recommendation's error target: the largest exact sample error, in pixels, a pick may show.
+TARGET_PIXELS = 1.0
+
+
+def recommend(rows, target: float = TARGET_PIXELS) -> list:
+    """Per path, the sweep row to use: among rows whose largest exact sample error is at most
+    target pixels on every frame, the lowest LOD + render ms (median), then fewer triangles;
+    when none meets it, the row with the smallest sample error. Returns [(path, row, met)]."""
+    out = []
+    for path in sorted({r["path"] for r in rows}, key=[r["path"] for r in rows].index):
+        mine = [r for r in rows if r["path"] == path]
+        good = [r for r in mine if r["sample_error_max"] <= target]
+        if good:
+            best = min(good, key=lambda r: (r["lod_ms"] + r["render_ms"], r["triangles"]))
+        else:
+            best = min(mine, key=lambda r: (r["sample_error_max"], r["triangles"]))
+        out.append((path, best, bool(good)))
+    return out
+
+
+def recommendation_section(rows, target: float = TARGET_PIXELS) -> str:
+    """The page's first screen: what to use on each path, and the rule that chose it."""
+    table = [[html.escape(path), f"<b>{html.escape(r['method'])}, tau {_fmt(r['tau'], 2)} px</b>",
+              _fmt(r["lod_ms"] + r["render_ms"], 2), _fmt(r["triangles"], 0),
+              _fmt(100 * r["triangles"] / max(r["full_triangles"], 1), 1),
+              _fmt(r["sample_error_max"], 2), _fmt(r["psnr_min"], 1),
+              "yes" if met else "no: the smallest error instead"]
+             for path, r, met in recommend(rows, target)]
+    return ("<h2>What to use</h2>" + _table(
+        ["path", "use", "LOD + render ms (median, here)", "triangles", "% of full",
+         "sample error max px", "PSNR min", f"within {target:g} px"], table, left=2)
+        + f"<p class='note'>Rule: among the runs whose exact sample error stays within "
+        f"{target:g} pixel on every frame, the fastest (LOD plus render time measured here), "
+        "then the fewest triangles.</p>")
+
+
+def terrain_picture(heightmap, paths) -> str:
+    """<img> of the terrain from above (heights coloured) with each path's camera positions:
+    what was swept, where. paths: [(label, cameras)]."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(5.5, 5.0))
+    extent = heightmap.extent
+    shown = ax.imshow(heightmap.heights, cmap="terrain", extent=(0, extent, extent, 0))
+    fig.colorbar(shown, ax=ax, label="height (world units)", shrink=0.8)
+    for k, (name, cameras) in enumerate(paths):
+        eyes = np.array([c.eye for c in cameras]) if cameras else np.zeros((0, 3))
+        ax.plot(eyes[:, 0], eyes[:, 2], **{**style(k + 3), "marker": "o", "ms": 3, "lw": 1},
+                label=name)
+    ax.set_xlabel("x")
+    ax.set_ylabel("z")
+    ax.set_title(f"{heightmap.name}: {heightmap.size}^2 samples, the swept paths")
+    if paths:
+        ax.legend(loc="upper right", fontsize=8)
+    return figure_png(fig, "the terrain from above with the camera paths")
+
+
 def write_terrain_report(rows, path, title="vismobile terrain comparison", notes="",
-                         peers=None) -> Path:
-    """Write the terrain sweep's HTML report; returns its path."""
+                         peers=None, picture="") -> Path:
+    """Write the terrain sweep's HTML report (recommendation first; picture: an <img> from
+    terrain_picture, optional); returns its path."""
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             f"<title>{html.escape(title)}</title><style>{STYLE}</style></head><body>"
             f"<h1>{html.escape(title)}</h1><p class='note'>{html.escape(notes)}</p>"
+            f"{recommendation_section(rows) if rows else ''}{picture}"
             f"{terrain_section(rows, peers)}</body></html>")
     path = Path(path)
     atomic_write_bytes(path, page.encode("utf-8"))
