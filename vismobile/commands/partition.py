@@ -91,12 +91,16 @@ def run(args) -> int:
             params[key] = value
         if kind == "grid" and "slabs" not in params:
             params["auto"] = True
+        sampled = str(params.get("pvs", "")).startswith("sampled")
+        samples = _samples(params.pop("pvs")) if sampled else 0
         bar = Progress(f"{kind} {args.world.name}")
         start = time.perf_counter()
         try:
             result = partition(world, kind, progress=bar, **params)
         finally:
             bar.close()
+        if sampled:
+            result = _bake_sampled(result, samples, args.world.name)
     except ValueError as error:
         raise PartitionError(f"{args.world}: {error}") from None
     elapsed = time.perf_counter() - start
@@ -111,6 +115,30 @@ def run(args) -> int:
     print(f"file        {args.out} {size / 1024:,.1f} KB "
           f"({size / args.world.stat().st_size:.2f} x the {_input_kind(args.world)})")
     return 0
+
+
+def _samples(text) -> int:
+    """'sampled:64' -> 64 (ValueError naming the grammar otherwise)."""
+    _, _, count = str(text).partition(":")
+    if not count.isdigit() or int(count) < 1:
+        raise ValueError(f"pvs={text}: expected pvs=sampled:N with N >= 1 sample points per cell")
+    return int(count)
+
+
+def _bake_sampled(result, samples, name):
+    """The partition with a sampled PVS (render/pvs_sampled.py), a progress bar per cell."""
+    from ..device.profile import get_profile
+    from ..progress import Progress
+    from ..render.pvs_sampled import bake_sampled
+
+    bar = Progress(f"pvs sampled:{samples} {name}")
+    try:
+        extras, _ = bake_sampled(result, samples, get_profile("desktop"), progress=bar)
+    finally:
+        bar.close()
+    result.extras.update(extras)
+    result.params["pvs"] = f"sampled:{samples}"
+    return result
 
 
 def run_out_of_core(args) -> int:

@@ -1,20 +1,22 @@
 """`pvs`: precomputed visibility (partition/pvs.py) looked up per frame.
 
-The stage finds the view cells holding the eye (grown by the device's reach), checks that the
-eye is in free space (the same test as `portals`: no triangle's box within the near plane's
-reach, the axis rays meet front faces), and hands on only those cells' sets: the draw nodes
-become the largest subtrees whose leaves all hold a triangle of the set (or none at all), and a
-triangle filter keeps the set's triangles. The sets are decoded once per cell (per combination
-of cells on a boundary) and kept; a frame's own work is the cell lookup (searchsorted on the
-grid), the free-space test and the filter over what is gathered, nothing proportional to the
-world.
+The stage finds the view cells holding the eye (grown by the device's reach) and hands on only
+their sets: the draw nodes become the topmost subtrees whose leaves all hold a triangle of the
+set (or none at all), and a triangle filter keeps the set's triangles. The sets are decoded
+once per cell (per combination of cells on a boundary) and kept; a frame's own work is the cell
+lookup and the filter over what is gathered, nothing proportional to the world. No free-space
+test: the cells taken are all those within the near plane's reach (plus the device's) of the
+eye, since sight lines start on the near plane, perhaps beyond a wall next to the eye; the bake
+put the inside of every solid near a cell in its set (partition/pvs.py).
 
-Falls back (hands on everything, counted in `pvs.fallbacks`) when the partition holds no PVS,
-the eye is in no view cell, not in free space, its near plane is within the device's move, or
-the device's reach exceeds the bake's growth (pvs_grow).
+Hands on everything when the cells see the whole world (`pvs.everything`); falls back (hands
+on everything, counted in `pvs.fallbacks`) when the partition holds no PVS, the eye is in no
+view cell, its near plane is within the device's move, or the device's reach exceeds the
+bake's growth.
 
-Contract: conservative against the item buffer without back-face culling, for eyes it does not
-fall back on, as partition/pvs.py bakes it (the portals' contract; with back faces culled the
+Contract: with pvs=sampled:N (render/pvs_sampled.py) aggressive, it misses what no sample
+point saw. With pvs=conservative: conservative against the item buffer without back-face
+culling, for eyes it does not fall back on, as partition/pvs.py bakes it (the portals' contract; with back faces culled the
 portals' known limit applies: a one-sided wall lying in a cell face, seen from behind).
 """
 from __future__ import annotations
@@ -23,8 +25,6 @@ import numpy as np
 
 from ..geometry.boxes import boxes_contain_point
 from ..partition.pvs import ids_of
-from .portals import EXTRAS as PORTAL_EXTRAS
-from .portals import MAX_ESCAPES, free_space
 from .precision import device_move, world_scale
 from .state import CullState
 from .tree import Tree
@@ -43,8 +43,7 @@ class PVSStage:
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
         extras = tree.partition.extras or {}
-        self.available = all(k in extras for k in EXTRAS) and all(
-            k in extras for k in PORTAL_EXTRAS)
+        self.available = all(k in extras for k in EXTRAS)
         self.cache = {}
         if not self.available:
             return
@@ -52,11 +51,9 @@ class PVSStage:
         self.start = np.asarray(extras["pvs_start"], dtype=np.int64)
         self.runs = np.asarray(extras["pvs_runs"])
         self.grow = float(np.asarray(extras["pvs_grow"])[0])
-        self.cell_bounds = np.asarray(extras["cell_bounds"], dtype=np.float64)
-        self.cell_node = np.asarray(extras["cell_node"], dtype=np.int64)
-        world = tree.world
-        self.corners, self.normals, self.bounds = world.corners, world.normals, world.bounds
-        self.magnitude = world_scale(world.vertices)
+        # a sampled PVS (render/pvs_sampled.py) is aggressive: no growth to check against
+        self.sampled = str(tree.partition.params.get("pvs", "")).startswith("sampled")
+        self.magnitude = world_scale(tree.world.vertices)
 
     def reach(self, camera) -> float:
         """2 sqrt(3) device_move at the world's and the eye's magnitude (portals.device_reach)."""
@@ -64,11 +61,13 @@ class PVSStage:
         return 2.0 * np.sqrt(3.0) * device_move(self.arithmetic, scale)
 
     def eye_cells(self, camera, grow: float) -> np.ndarray:
-        """(K,) int64 view cells whose box grown by the tree's slack plus grow holds the eye."""
+        """(K,) int64 view cells whose box grown by the tree's slack plus grow holds the eye
+        (a superset of the cells within grow of the eye: boxes grown, not rounded)."""
         return np.flatnonzero(boxes_contain_point(self.cells, camera.eye, self.tree.tol + grow))
 
     def visible(self, cells) -> tuple:
-        """(keep (T,) bool, draw nodes (D,) int64) of the union of the cells' sets, cached."""
+        """(keep (T,) bool, draw nodes (D,) int64, everything: bool) of the union of the
+        cells' sets, cached."""
         key = tuple(int(c) for c in cells)
         hit = self.cache.get(key)
         if hit is not None:
@@ -80,8 +79,8 @@ class PVSStage:
         nodes = cover_nodes(tree, keep)
         if len(self.cache) >= KEEP:
             self.cache.pop(next(iter(self.cache)))
-        self.cache[key] = (keep, nodes)
-        return keep, nodes
+        self.cache[key] = (keep, nodes, bool(keep.all()))
+        return self.cache[key]
 
     def apply(self, state: CullState) -> None:
         camera = state.camera
@@ -89,29 +88,26 @@ class PVSStage:
         if found is None:
             state.count(f"{self.name}.fallbacks", 1)
             return
-        keep, nodes = self.visible(found)
+        keep, nodes, everything = self.visible(found)
         state.count(f"{self.name}.cells", len(found))
+        if everything:  # the cells see the whole world: nothing to hand on
+            state.count(f"{self.name}.everything", 1)
+            return
         state.nodes = nodes
         state.filters.append(lambda ids, keep=keep: keep[ids])
 
     def lookup(self, camera):
-        """The view cells whose sets cover this camera, or None (fall back)."""
+        """The view cells whose sets cover this camera (grown by the device's reach), or None
+        (fall back): no PVS, no cell, or the device's reach beyond the bake's growth."""
         if not self.available:
             return None
         grow = self.reach(camera)
-        if grow > self.grow or camera.near <= grow / (2.0 * np.sqrt(3.0)):
-            return None
-        found = self.eye_cells(camera, grow)
-        if not len(found):
+        if not self.sampled and (grow > self.grow or camera.near <= grow / (2.0 * np.sqrt(3.0))):
             return None
         ty = np.tan(np.radians(camera.fov) / 2.0)
-        reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2)) + grow
-        tree = self.tree
-        if not free_space(np.asarray(camera.eye, dtype=np.float64), reach + tree.tol, tree.tol,
-                          MAX_ESCAPES, self.cell_bounds, self.cell_node, tree.ref_start,
-                          tree.ref_end, tree.tri_refs, self.bounds, self.corners, self.normals):
-            return None
-        return found
+        reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
+        found = self.eye_cells(camera, grow + reach)
+        return found if len(found) else None
 
 
 def cover_nodes(tree: Tree, keep) -> np.ndarray:

@@ -44,6 +44,10 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     if unknown:
         raise ValueError(f"unknown parameter(s) for {kind}: {', '.join(unknown)}; "
                          f"expected {', '.join(sorted(known | {'pvs'}))}")
+    if str(pvs_mode).startswith("sampled"):
+        raise ValueError(f"pvs={pvs_mode} renders item buffers: bake it with "
+                         "vismobile.render.pvs_sampled.bake_sampled(partition, N, profile), or "
+                         "with the partition command (--structure KIND,pvs=sampled:N)")
     if pvs_mode is not None and kind != "portal":
         raise ValueError(f"pvs={pvs_mode} needs the portal structure (its cells are the view "
                          f"cells); {kind} has none yet")

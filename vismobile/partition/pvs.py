@@ -10,11 +10,17 @@ conservative). The result is stored with the partition as extras, so it travels 
     pvs_runs   (R,)      int32    per cell, ascending [first, end) pairs of triangle ids
     pvs_grow   (1,)      float64  how far eyes and portals were grown (device rounding)
 
-Contract (conservative): for an eye in free space (culling/pvs.py checks it, as `portals`
-does) inside a view cell grown by pvs_grow, every triangle the item buffer without back-face
-culling shows is in the cell's set, provided the portals cover every opening (portal.py).
-Errs toward visible: separating planes only remove lines that cannot exist, sides within the
-tolerance count, and a source whose sequences exceed the step budget keeps every connected cell.
+A sight line starts where the near plane cuts it, within the near plane's reach of the eye,
+perhaps beyond a wall next to it: the runtime stage takes the union of the sets of every cell
+within that reach (plus the device's) of the eye. An eye may sit inside a closed solid (the
+portals close its inside): each cell's set holds every triangle of the closed outward parts
+(solids.py) whose box comes within pvs_grow of the cell.
+
+Contract (conservative): for every eye in a view cell grown by pvs_grow, every triangle the
+item buffer without back-face culling shows along a line starting in that cell is in the
+cell's set, provided the portals cover every opening (portal.py). Errs toward visible:
+separating planes only remove lines that cannot exist, sides within the tolerance count, and a
+source whose walk exceeds the budget keeps every connected cell.
 """
 from __future__ import annotations
 
@@ -89,12 +95,38 @@ def bake_cells(partition, sources, grow, tol, budget=BUDGET):
     for s in sources:
         visible = np.zeros(partition.world.triangle_count, dtype=np.bool_)
         seen = np.zeros(cells, dtype=np.bool_)
-        steps = pvs_kernels.flow_from_cell(int(s), bounds, pcells, quads, cps, cp, ref_start,
-                                      ref_end, refs, corners, grow, tol, budget, visible, seen)
+        steps = pvs_kernels.flow_from_cell(int(s), bounds[s, 0], bounds[s, 1], bounds, pcells,
+                                           quads, cps, cp, ref_start, ref_end, refs, corners,
+                                           grow, tol, budget, visible, seen)
         if steps < 0:  # too many sequences: every connected cell, whole
             for c in np.flatnonzero(_connected(int(s), pcells, cps, cp, cells)):
                 visible[refs[ref_start[c]:ref_end[c]]] = True
         out.append((runs_of(visible), int(steps)))
+    return out
+
+
+def with_solids(partition, masks, grow) -> list:
+    """Each cell's mask ORed with every closed outward part (solids.py) whose box comes within
+    grow (plus the tolerance) of the cell: an eye inside a solid sees its inside.
+
+    masks : list of C (T,) bool from-cell sets; returns a new list
+    """
+    from .solids import outward_solid_parts
+
+    boxes = np.asarray(partition.extras["cell_bounds"], dtype=np.float64)
+    pad = grow + TOLERANCE * float(np.ptp(partition.world.extent, axis=0).max())
+    parts = outward_solid_parts(partition.world)
+    solid = np.flatnonzero(parts >= 0)
+    count = int(parts.max()) + 1 if len(solid) else 0
+    lo = np.full((count, 3), np.inf)
+    hi = np.full((count, 3), -np.inf)
+    bounds = partition.world.bounds
+    np.minimum.at(lo, parts[solid], bounds[solid, 0])
+    np.maximum.at(hi, parts[solid], bounds[solid, 1])
+    out = []
+    for c, mask in enumerate(masks):
+        close = np.flatnonzero(((lo <= boxes[c, 1] + pad) & (hi >= boxes[c, 0] - pad)).all(axis=1))
+        out.append(mask | np.isin(parts, close) if len(close) else mask)
     return out
 
 
@@ -132,7 +164,13 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET) -
             results.extend(bake_cells(partition, [s], grow, tol, budget))
             if progress is not None:
                 progress(len(results), cells)
-    runs = [r for r, _ in results]
+    triangles = partition.world.triangle_count
+    masks = []
+    for r, _ in results:
+        mask = np.zeros(triangles, dtype=bool)
+        mask[ids_of(r)] = True
+        masks.append(mask)
+    runs = [runs_of(m) for m in with_solids(partition, masks, grow)]
     start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
     extras = {"pvs_cells": np.asarray(x["cell_bounds"], dtype=np.float64).copy(),
               "pvs_start": start,

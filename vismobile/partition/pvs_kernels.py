@@ -258,12 +258,13 @@ def _grown_quad(portal_quads, p, grow, cand):
 
 
 @njit(cache=True)
-def flow_from_cell(source, cell_bounds, portal_cells, portal_quads, cell_portal_start,
-                   cell_portals, cell_ref_start, cell_ref_end, tri_refs, corners, grow, tol,
-                   budget, visible, cell_seen):
+def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
+                   cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
+                   corners, grow, tol, budget, visible, cell_seen):
     """Like from_cell, but each portal crossing (portal, direction) keeps one box holding every
     point where a line from the source may cross it (the union over all sequences), so the walk
-    is a fixed point instead of an enumeration: the exit portals of the cell a crossing enters
+    is a fixed point instead of an enumeration. The eyes are the box [src_lo, src_hi] (grown
+    by `grow`) inside the source cell (the whole cell, or a part of it). The exit portals of the cell a crossing enters
     are clipped by the separators of (source box, crossing box), the surviving parts grow those
     exits' boxes, and a crossing whose box grew is walked again. The entered cell's triangles
     are marked against the same planes.
@@ -283,7 +284,7 @@ def flow_from_cell(source, cell_bounds, portal_cells, portal_quads, cell_portal_
     queue = np.empty(max(crossings, 1), dtype=np.int64)
     head, size = 0, 0
     src = np.empty((8, 3))
-    box_vertices(cell_bounds[source, 0] - grow, cell_bounds[source, 1] + grow, src)
+    box_vertices(src_lo - grow, src_hi + grow, src)
     entry = np.empty((8, 3))
     planes = np.empty((MAX_PLANES, 4))
     scratch = np.empty((MAX_VERTS, 3))

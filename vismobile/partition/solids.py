@@ -19,10 +19,16 @@ from ..world.winding import _merged, _orient
 
 def outward_solid_faces(world) -> np.ndarray:
     """(T,) bool: the triangle belongs to a closed, consistently wound, outward-facing part."""
+    return outward_solid_parts(world) >= 0
+
+
+def outward_solid_parts(world) -> np.ndarray:
+    """(T,) int64: the closed, consistently wound, outward-facing part each triangle belongs to
+    (0, 1, ... in order of first triangle), -1 for triangles in no such part."""
     t = _merged(world)
     count = len(t)
     if not count:
-        return np.zeros(0, dtype=bool)
+        return np.zeros(0, dtype=np.int64)
     degenerate = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 2] == t[:, 0])
     directed = np.stack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]], axis=1).reshape(-1, 2)
     edge_face = np.repeat(np.arange(count), 3)
@@ -48,4 +54,6 @@ def outward_solid_faces(world) -> np.ndarray:
     corners = world.corners - (low + high) / 2
     volume = np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])) / 6
     signed = np.bincount(label, weights=volume, minlength=parts)
-    return (~bad & (signed > 0))[label]
+    good = ~bad & (signed > 0)
+    number = np.where(good, np.cumsum(good) - 1, -1)
+    return number[label].astype(np.int64)
