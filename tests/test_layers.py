@@ -19,7 +19,9 @@ LAYERS = (
     ("world",),                    # the scene model: world, camera, trajectory, mapped worlds
     ("scenes",),                   # the thesis worlds and their objects
     ("terrain",),                  # heightmap worlds
-    ("files.loader",),             # a world file dispatched on its type: above world, terrain
+    # a world file dispatched on its type (above world, terrain); level-of-detail chains and
+    # their per-frame selection (lod/, reads terrain's pixel scale)
+    ("files.loader", "lod"),
     ("partition",),
     ("culling", "render"),         # side by side: neither imports the other
     ("study",),

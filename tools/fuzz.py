@@ -48,15 +48,22 @@ MEMORY_LIMIT = 6 << 30  # address space cap (bytes): a runaway allocation fails 
 # ---- seeds -----------------------------------------------------------------------------------
 def seeds(folder: Path) -> dict:
     """{target: [bytes, ...]} of real inputs: the model, its partitions, a trajectory."""
-    from vismobile.partition import partition
+    from vismobile.partition import partition, save_partition
     from vismobile.world.world import World
 
     world = World.from_obj(MODEL)
     vmps = []
     for kind, params in STRUCTURES:
         path = folder / f"seed-{kind}.vmp"
-        partition(world, kind, **params).save(path)
+        save_partition(partition(world, kind, **params), path)
         vmps.append(path.read_bytes())
+    # A partition carrying level-of-detail chains (extras lod_*, checked on load).
+    from vismobile.lod.simplify import build_chains
+
+    tree = partition(world, "octree", depth=3)
+    tree.extras.update(build_chains(world).to_extras())
+    save_partition(tree, folder / "seed-lod.vmp")
+    vmps.append((folder / "seed-lod.vmp").read_bytes())
     lines = TRAJECTORY.read_bytes().splitlines(keepends=True)
     return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])]}
 
@@ -160,6 +167,7 @@ def load_and_cull(path):
 
     from vismobile.world.camera import Camera
     from vismobile.culling import Culler
+    from vismobile.lod import LodChains, LodSelector
     from vismobile.partition import load_partition
 
     partition = load_partition(path)
@@ -169,8 +177,13 @@ def load_and_cull(path):
     for names in (stages[:1], stages):
         culler = Culler(partition, [s for s in names if not (s == "vfc" and "portals" in names)])
         for yaw in (0.0, 135.0):
-            culler.cull(Camera(tuple(eye), yaw, -10.0, 45.0, 0.75, 0.01,
-                               float(np.ptp([low, high], axis=0).max()) * 4 + 1))
+            camera = Camera(tuple(eye), yaw, -10.0, 45.0, 0.75, 0.01,
+                            float(np.ptp([low, high], axis=0).max()) * 4 + 1)
+            culled = culler.cull(camera)
+            chains = LodChains.from_extras(partition.extras)
+            if chains is not None:  # the level selection reads every table of the chains
+                LodSelector(partition.world, chains, (240, 320)).select(culled.triangles,
+                                                                        camera, 1.0)
 
 
 ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),

@@ -41,6 +41,8 @@ from ..world.world import World
 COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", "draw_batches",
            "nodes_visited", "memory_bytes", "waypoint", "active_stages")
 SUMMARISED = COLUMNS[1:8]
+# Extra frames.csv columns of a run with level of detail (play --lod-tau).
+LOD_COLUMNS = ("lod_ms", "triangles_full", "psnr_db", "max_diff", "changed")
 STAGES_NONE = ("none", "")
 # Frames culled and drawn, untimed, before the first measured one (spread over the run).
 WARM_FRAMES = 9
@@ -192,7 +194,7 @@ def make_culler(scene: Scene, stages, profile=None, adaptive=False):
 
 def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
          frames_every=0, gif=False, hud=False, progress=False, frame_limit=None,
-         gif_every=None, adaptive=False, frames="all") -> PlaybackResult:
+         gif_every=None, adaptive=False, frames="all", lod_tau=None) -> PlaybackResult:
     """Play trajectory through the scene; write outputs to out (if given) atomically.
 
     stages       : culling stage names (see vismobile.culling), () for none
@@ -208,6 +210,10 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     adaptive     : switch stages off (and back on) while they cost more than they save; a dict
                    is passed to AdaptiveCuller as options; the switches go to summary.json
                    ("adaptive_events") and frames.csv (active_stages)
+    lod_tau      : draw objects at the coarsest level whose error projects below lod_tau pixels
+                   (the partition's LOD chains, built when it has none) and measure each
+                   frame against the full-detail frame of the same culling (docs/lod.md);
+                   None: no level of detail
     Raises ProfileError (heap, fixed16.16 range) before playing.
     """
     from ..render import Renderer
@@ -218,9 +224,10 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     stages = parse_stages(stages)
     world = scene.world
     profile.check_range(world.extent, f"world {world.name!r}")
+    lod_view = _lod_view(scene, profile, lod_tau, progress)
     memory = profile.check_memory(world, scene.partition)
     culler = make_culler(scene, stages, profile, adaptive)
-    renderer = Renderer(world, profile)
+    renderer = lod_view.renderer if lod_view else Renderer(world, profile)
     tree = getattr(culler, "tree", None)
     if tree is None and scene.partition is not None:  # the adaptive culler holds several
         from ..culling.tree import Tree
@@ -243,7 +250,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     labels = {int(f): label for label, f in trajectory.waypoints.items()}
     # The GIF has its own stride (not --images'): about GIF_FRAMES frames over the run.
     gif_every = int(gif_every or max(1, -(-count // GIF_FRAMES)))
-    table = {name: np.zeros(count) for name in SUMMARISED}
+    table = {name: np.zeros(count) for name in SUMMARISED + (LOD_COLUMNS if lod_view else ())}
     waypoints = [""] * count
     active = ["+".join(stages) or "none"] * count
     gif_images, saved = [], {}
@@ -262,13 +269,25 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         # A cull that compiled a code path the warm-up missed is timed again (timing.timed).
         culled, cull_ms, compiled = timed(culler.cull, camera)
         compile_ms += compiled
-        drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
+        if lod_view:
+            lod = lod_view.draw(culled.triangles, camera, bool(culled.cull_back))
+            drawn = lod.drawn
+            for name, value in (("lod_ms", lod.lod_ms), ("triangles_full", lod.full_triangles),
+                                ("psnr_db", lod.error["psnr_db"]),
+                                ("max_diff", lod.error["max_diff"]),
+                                ("changed", lod.error["changed"])):
+                table[name][index] = value
+            cull_ms += lod.lod_ms  # selection is part of the frame's CPU work
+        else:
+            drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
         if adaptive and hasattr(culler, "observe_render"):
             culler.observe_render(drawn.render_ms, culled.stats)
             active[index] = culled.stats.get("active_stages", active[index])
         frame_ms = cull_ms + drawn.render_ms
         upload_ms[index] = drawn.upload_ms
         counters.append(device_counters(culled, tree))
+        if lod_view:  # the device sends the levels' triangles
+            counters[-1]["triangles_sent"] = drawn.triangles
         hud_ms += hud_model.frame_ms(counters[-1]) if hud_model else frame_ms
         row = (cull_ms, drawn.render_ms, frame_ms, drawn.triangles, drawn.draw_batches,
                culled.stats.get("nodes_visited", 0), memory)
@@ -314,6 +333,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         # again, and this is what the first tries took.
         "compile_ms": compile_ms,
     })
+    if lod_view:
+        summary.update(lod_summary(table, lod_tau))
     summary["warnings"] = path_warnings(world, trajectory, played, table["triangles_sent"])
     if summary["warnings"]:
         warnings.warn("; ".join(summary["warnings"]), stacklevel=2)
@@ -347,6 +368,51 @@ def warm_up(scene, stages, profile, renderer, cameras, progress=False, name="") 
             culled = culler.cull(camera)
             renderer.draw(culled.triangles, camera, bool(culled.cull_back))
     return (time.perf_counter() - start) * 1000.0
+
+
+def _lod_view(scene, profile, tau, progress):
+    """A render.lod_view.LodView at tau pixels over the partition's LOD chains (built and
+    attached to the partition when it has none, so the heap check counts them), or None."""
+    if tau is None:
+        return None
+    tau = float(tau)
+    if not np.isfinite(tau) or tau < 0:
+        raise VisMobileError(f"--lod-tau must be a finite number of pixels >= 0, got {tau}")
+    if scene.partition is None:
+        raise VisMobileError("--lod-tau needs a partition (its LOD chains live beside it); "
+                             "pass --structure (e.g. octree:5)")
+    from ..lod.chains import LodChains
+    from ..lod.simplify import build_chains
+    from ..render.lod_view import LodView
+
+    chains = LodChains.from_extras(scene.partition.extras)
+    if chains is None:
+        bar = Progress("lod chains", enabled=None if progress else False)
+        try:
+            chains = build_chains(scene.world, progress=bar)
+        finally:
+            bar.close()
+        scene.partition.extras.update(chains.to_extras())
+    return LodView(scene.world, chains, profile, tau)
+
+
+def lod_summary(table, tau) -> dict:
+    """summary.json's level-of-detail block: lod_tau, psnr_db_min, psnr_db_mean (PSNR of the
+    mean squared error over the frames; null when every frame is bit-identical to the full-
+    detail frame), the largest pixel difference, the mean fraction of pixels changed, the
+    mean triangles of the full-detail frames and lod_ms statistics."""
+    psnr = np.asarray(table["psnr_db"], dtype=np.float64)
+    mse = np.where(np.isfinite(psnr), 255.0 ** 2 / 10.0 ** (psnr / 10.0), 0.0)
+    mean_mse = float(mse.mean()) if len(mse) else 0.0
+    finite = psnr[np.isfinite(psnr)]
+    return {"lod_tau": float(tau),
+            "psnr_db_min": float(finite.min()) if len(finite) else None,
+            "psnr_db_mean": 10.0 * np.log10(255.0 ** 2 / mean_mse) if mean_mse > 0 else None,
+            "frames_identical": int(np.isinf(psnr).sum()),
+            "max_diff": int(np.max(table["max_diff"], initial=0)),
+            "changed_mean": float(np.mean(table["changed"])) if len(psnr) else 0.0,
+            "triangles_full": summarize(table["triangles_full"]) if len(psnr) else None,
+            "lod_ms": summarize(table["lod_ms"]) if len(psnr) else None}
 
 
 def path_warnings(world, trajectory, played, sent) -> list:
@@ -394,13 +460,20 @@ def summarise(frames: dict) -> dict:
 
 
 def frames_csv(frames: dict) -> str:
-    """frames.csv text: the COLUMNS header and one row per frame."""
+    """frames.csv text: the COLUMNS header and one row per frame (then LOD_COLUMNS, for a run
+    with level of detail; psnr_db "inf" on frames identical to the full-detail frame)."""
     buffer = io.StringIO()
-    buffer.write(",".join(COLUMNS) + "\n")
+    lod = "psnr_db" in frames
+    buffer.write(",".join(COLUMNS + (LOD_COLUMNS if lod else ())) + "\n")
     for i in range(len(frames["frame"])):
         buffer.write(f"{frames['frame'][i]},{frames['cull_ms'][i]:.4f},{frames['render_ms'][i]:.4f},"
                      f"{frames['frame_ms'][i]:.4f},{int(frames['triangles_sent'][i])},"
                      f"{int(frames['draw_batches'][i])},{int(frames['nodes_visited'][i])},"
                      f"{int(frames['memory_bytes'][i])},{frames['waypoint'][i]},"
-                     f"{frames['active_stages'][i]}\n")
+                     f"{frames['active_stages'][i]}")
+        if lod:
+            buffer.write(f",{frames['lod_ms'][i]:.4f},{int(frames['triangles_full'][i])},"
+                         f"{frames['psnr_db'][i]:.3f},{int(frames['max_diff'][i])},"
+                         f"{frames['changed'][i]:.6f}")
+        buffer.write("\n")
     return buffer.getvalue()

@@ -98,6 +98,7 @@ RANGES = {
         "--jobs": Range(1, MAX_JOBS),
     },
     "play": {"--images": Range(0, MAX_FRAMES), "--limit": Range(1, None),
+             "--lod-tau": Range(0.0, 1e6, float),
              "--cull": NOT_EMPTY, "--frames": NOT_EMPTY},
     "compare": {
         "--jobs": Range(1, MAX_JOBS),

@@ -35,6 +35,9 @@ def add_parser(sub):
                              "(default 1)")
     parser.add_argument("--fix-winding", action="store_true",
                         help=FIX_WINDING_HELP + "; the .vmp carries the fixed world")
+    parser.add_argument("--lod", action="store_true",
+                        help="also build each object's level-of-detail chain (meshoptimizer) "
+                             "and store it in the .vmp (play --lod-tau uses it)")
     return parser
 
 
@@ -104,6 +107,17 @@ def run(args) -> int:
     except ValueError as error:
         raise PartitionError(f"{args.world}: {error}") from None
     elapsed = time.perf_counter() - start
+    if args.lod:
+        from ..lod.simplify import build_chains
+
+        bar = Progress(f"lod chains {args.world.name}")
+        try:
+            chains = build_chains(world, progress=bar)
+        finally:
+            bar.close()
+        result.extras.update(chains.to_extras())
+        print(f"lod chains  {chains.level_count:,} levels, {chains.triangle_count:,} "
+              f"triangles, {chains.nbytes / 1024:,.1f} KB, {chains.build_seconds:.2f} s")
     save_partition(result, args.out)
     stats = result.stats()
     size = args.out.stat().st_size

@@ -38,6 +38,12 @@ def add_parser(sub):
                         help="play only the first F frames")
     parser.add_argument("--adaptive", action="store_true",
                         help="switch stages off while they cost more than they save")
+    parser.add_argument("--lod-tau", type=float, default=None, metavar="PX",
+                        help="level of detail: draw each object at its coarsest level whose "
+                             "error projects below PX pixels (0: full detail), and measure "
+                             "every frame against the full-detail frame (PSNR in summary.json); "
+                             "needs --structure or a .vmp (its LOD chains are built when it "
+                             "has none: partition --lod stores them)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
@@ -68,13 +74,19 @@ def run(args) -> int:
                      trajectory.poses[:, :3], args.fix_winding)
     result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.images,
                   gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,
-                  adaptive=args.adaptive, frames=args.frames)
+                  adaptive=args.adaptive, frames=args.frames, lod_tau=args.lod_tau)
     s = result.summary
     corr = s["pearson_frame_ms_triangles"]
     print(f"{s['frames']} frames of {s['world']} ({s['structure']}, cull "
           f"{'+'.join(s['stages']) or 'none'}, {s['profile']}): "
           f"{s['triangles_sent']['mean']:,.0f} triangles sent per frame on average; "
           f"{correlation_words(corr)}")
+    if s.get("lod_tau") is not None:
+        low, mean = s["psnr_db_min"], s["psnr_db_mean"]
+        print(f"  level of detail at {s['lod_tau']:g} px: "
+              f"{s['triangles_full']['mean']:,.0f} triangles at full detail; PSNR "
+              + ("identical on every frame" if low is None else
+                 f"min {low:.1f} dB, mean {mean:.1f} dB, largest difference {s['max_diff']}"))
     # The profile's own device first; every figure says whether it is measured or modelled.
     devices = sorted(s["model"], key=lambda d: d != s["profile"])
     for device in devices:

@@ -156,15 +156,24 @@ class Profile:
         index_buffers    : worst case, every triangle in this frame's uint16 index buffers
         culling_geometry : per-triangle data the culler reads: corners index (3 x int32),
                            normal and box (9 x 4 bytes), and the vertex array (3 x 4 bytes)
-        partition        : every array of the partition (nodes, references, extras) as held
+        partition        : every array of the partition (nodes, references, extras) as held,
+                           level-of-detail chains included (extras lod_*)
+        lod_buffers      : with LOD chains, the level triangles' vertex and index buffers and
+                           the selector's tables (a rank per triangle, a stamp per level
+                           triangle, 4 bytes each)
         """
         triangles = int(world.triangle_count)
+        extras = getattr(partition, "extras", None) or {}
+        levels = len(extras["lod_triangles"]) if "lod_triangles" in extras else 0
         parts = {
             "vertex_buffers": 3 * triangles * VERTEX_BYTES,
             "index_buffers": 3 * triangles * INDEX_BYTES,
             "culling_geometry": triangles * (12 + 36) + len(world.vertices) * 12,
             "partition": partition_bytes(partition),
         }
+        if levels:
+            parts["lod_buffers"] = (3 * levels * (VERTEX_BYTES + INDEX_BYTES)
+                                    + 4 * (triangles + levels))
         parts["total"] = sum(parts.values())
         return parts
 

@@ -186,6 +186,10 @@ class Partition:
                                       or not np.isfinite(edges).all()
                                       or np.any(np.diff(edges) < 0)):
                 raise ValueError(f"grid_{axis} must be at least 2 finite ascending boundaries")
+        if "lod_triangles" in x:
+            from ..lod.chains import LodChains
+
+            LodChains.from_extras(x).check(self.world)
         if "split_planes" in x:
             planes = x["split_planes"]
             if planes.shape != (n, 4) or not np.isfinite(planes[count > 0]).all():
