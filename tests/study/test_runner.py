@@ -172,3 +172,22 @@ def test_the_report_shows_one_figure_per_pick_in_the_table_and_the_tune_section(
     # The check finds a page that contradicts itself.
     broken = page.replace(figures[0], "1.0", 1)
     assert pick_mismatches(broken) and key in pick_mismatches(broken)[0]
+
+
+def test_pareto_labels_do_not_overlap():
+    from vismobile.study.report_figures import place_labels
+
+    # Six front points crowded into one corner of a 500 x 250 pt axes.
+    xs = np.array([0.10, 0.11, 0.12, 0.13, 0.115, 0.125])
+    ys = np.array([0.50, 0.51, 0.49, 0.50, 0.52, 0.48])
+    texts = ["1", "2–3", "4", "5", "6–9", "10"]
+    offsets = place_labels(xs, ys, texts, (500.0, 250.0))
+    boxes = []
+    for x, y, text, (dx, dy) in zip(xs, ys, texts, offsets):
+        left, bottom = x * 500 + dx, y * 250 + dy
+        boxes.append((left, bottom, left + 5.5 * len(text) + 4, bottom + 11))
+    for i in range(len(boxes)):
+        for j in range(i):
+            a, b = boxes[i], boxes[j]
+            assert a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1], (i, j)
+    assert offsets[0] == (4, 4)  # an uncrowded label stays beside its point

@@ -111,6 +111,32 @@ def _label_groups(xs, ys, threshold=0.05) -> list:
     return groups
 
 
+# Offsets (points) tried in turn for a point's label: beside it first, then further out.
+LABEL_OFFSETS = [(4, 4), (4, -13), (-6, 4), (-6, -13), (4, 17), (4, -26), (-6, 17), (-6, -26),
+                 (16, 4), (16, -13), (-18, 4), (-18, -13), (4, 30), (4, -39), (28, 4), (-30, 4)]
+
+
+def place_labels(xs, ys, texts, size_pt) -> list:
+    """(dx, dy) offsets in points of each label so that no two label boxes overlap (greedy,
+    in order; a label that finds no free place keeps the last offset tried). xs, ys: anchors
+    as axes fractions; size_pt: (width, height) of the axes in points. A box is about 5.5 pt
+    per character plus 4 wide and 11 pt high, drawn right of and above its offset
+    (negative x offsets are counted from the box's right edge)."""
+    placed, out = [], []
+    for x, y, text in zip(xs, ys, texts):
+        width, height = 5.5 * len(text) + 4.0, 11.0
+        px, py = x * size_pt[0], y * size_pt[1]
+        for dx, dy in LABEL_OFFSETS:
+            left = px + dx if dx >= 0 else px + dx - width
+            box = (left, py + dy, left + width, py + dy + height)
+            if all(box[2] <= b[0] or b[2] <= box[0] or box[3] <= b[1] or b[3] <= box[1]
+                   for b in placed):
+                break
+        placed.append(box)
+        out.append((dx, dy) if dx >= 0 else (dx - width, dy))
+    return out
+
+
 def _front(world, records) -> str:
     """Run time (the first device's model) against over-estimation, with the Pareto front's
     points numbered (close ones share one label) and listed below; lossy runs' missed pixels
@@ -135,17 +161,29 @@ def _front(world, records) -> str:
     front = np.flatnonzero(pareto_front(cost, over) & safe) if safe.any() else np.array([], int)
     front = front[np.argsort(cost[front])]
     ax.step(cost[front], over[front], where="post", c="k", lw=1, label="Pareto front")
-    listed = []
+    listed, labels = [], []
     for group in _label_groups(cost[front], over[front]):
         numbers = [len(listed) + k + 1 for k in range(len(group))]
         listed += [front[g] for g in group]
-        text = str(numbers[0]) if len(numbers) == 1 else f"{numbers[0]}–{numbers[-1]}"
-        ax.annotate(text, (cost[front[group[0]]], over[front[group[0]]]), fontsize=8,
-                    xytext=(4, 4), textcoords="offset points", color="k",
-                    bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none",
-                          "alpha": 0.8})
+        labels.append((front[group[0]], str(numbers[0]) if len(numbers) == 1
+                       else f"{numbers[0]}–{numbers[-1]}"))
     log_axis(ax, "x")
     log_axis(ax, "y")
+    if labels:  # placed after the axes' limits are final, so no two labels overlap
+        fig.canvas.draw()
+        to_axes = ax.transData + ax.transAxes.inverted()
+        anchors = to_axes.transform([(cost[i], over[i]) for i, _ in labels])
+        box = ax.get_window_extent()
+        size = (box.width * 72.0 / fig.dpi, box.height * 72.0 / fig.dpi)
+        for (i, text), offset in zip(labels, place_labels(anchors[:, 0], anchors[:, 1],
+                                                          [t for _, t in labels], size)):
+            far = abs(offset[0]) > 10 or abs(offset[1]) > 14
+            ax.annotate(text, (cost[i], over[i]), fontsize=8, xytext=offset,
+                        textcoords="offset points", color="k",
+                        bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none",
+                              "alpha": 0.8},
+                        arrowprops={"arrowstyle": "-", "lw": 0.5, "color": "grey"}
+                        if far else None)
     ax.set_xlabel(f"mean ms per frame ({label(device)}, log)")
     ax.set_ylabel("triangles sent / visible (log)")
     ax.set_title(f"{world_title(world)}: run time against over-estimation, {len(runs)} runs", pad=8)
