@@ -5,6 +5,7 @@ against the full-resolution render for a sweep of the pixel knob on a smaller on
     .venv/bin/python tools/bench_terrain.py [--size 4097] [--frames 60] [--render-size 1025]
         [--taus 0.25,0.5,0.7,1,2,4,8] [--error-frames 4] [--methods tiles,roettger,roam]
         [--out runs/bench_terrain.md]
+    .venv/bin/python tools/bench_terrain.py --display-lists --size 1025 --frames 60
 
 Heightmaps are deterministic diamond-square maps (seed 1, roughness 0.5, relief 0.12 of the
 width, unit spacing), cached as out/terrain/fractal-N.vmt. Times are medians over consecutive
@@ -157,6 +158,63 @@ def horizon(hm, frames, profile, patch, eye_height, objects, arithmetic="float64
     return rows
 
 
+def display_lists(hm, frames, tau, profile, C, speed_name="slow") -> dict:
+    """Pires's cached chunks against rebuilding, on the circle path (frames consecutive, after
+    a warm-up), interleaved in one process: per frame, the cached variant (DisplayLists +
+    ChunkRenderer: only changed chunks are emitted and uploaded), the same path with the cache
+    off (every visible chunk emitted and uploaded each frame) and the engine's plain path
+    (Roettger.update + TerrainRenderer.draw_samples: every triangle's vertices gathered and
+    uploaded). A frame is LOD + index build + upload + draw + glFinish (llvmpipe); its CPU
+    part is LOD + index build + the index uploads (the plain path's gathering and upload of
+    vertices is inside its draw, so its CPU column is LOD + emission only)."""
+    from vismobile.render.chunks import ChunkRenderer
+    from vismobile.render.terrain import TerrainRenderer
+    from vismobile.terrain.display_lists import DisplayLists
+    from vismobile.terrain.roettger import Roettger
+
+    cameras = path_cameras(hm, "circle", speed_name, frames=frames + 3)
+    cached = DisplayLists(Roettger(hm, C))
+    rebuilt = DisplayLists(Roettger(hm, C), cache=False)
+    renderers = {"cached": ChunkRenderer(cached, profile),
+                 "rebuilt": ChunkRenderer(rebuilt, profile)}
+    plain, plain_renderer = Roettger(hm, C), TerrainRenderer(hm, profile)
+    times = {"cached": [], "rebuilt": [], "plain": []}
+    cpu = {"cached": [], "rebuilt": [], "plain": []}
+    uploads = {"cached": [], "rebuilt": []}
+    churn = []
+    for k, camera in enumerate(cameras):
+        order = [("cached", cached), ("rebuilt", rebuilt)]
+        if k % 2:
+            order.reverse()
+        for name, lists in order:
+            frame = lists.update(camera, profile.resolution, tau)
+            stats = renderers[name].draw(frame, camera)
+            if k >= 3:
+                times[name].append(frame.lod_ms + frame.build_ms + stats.render_ms)
+                cpu[name].append(frame.lod_ms + frame.build_ms + renderers[name].upload_ms)
+                uploads[name].append(renderers[name].uploaded_bytes)
+                if name == "cached":
+                    churn.append((frame.rebuilt, frame.reused, frame.triangles))
+        result = plain.update(camera, profile.resolution, tau)
+        stats = plain_renderer.draw_samples(result.triangles, camera)
+        if k >= 3:
+            times["plain"].append(result.lod_ms + stats.render_ms)
+            cpu["plain"].append(result.lod_ms)
+    med = {k: float(np.median(v)) for k, v in times.items()}
+    ratio = float(np.median(np.array(times["cached"]) / np.array(times["rebuilt"])))
+    return {"speed": speed_name, "frames": frames, "frame_ms": med,
+            "cpu_ms": {k: float(np.median(v)) for k, v in cpu.items()},
+            "ratio_cached_over_rebuilt": ratio,
+            "cpu_ratio_cached_over_rebuilt": float(np.median(np.array(cpu["cached"])
+                                                             / np.array(cpu["rebuilt"]))),
+            "ratio_cached_over_plain": float(np.median(np.array(times["cached"])
+                                                       / np.array(times["plain"]))),
+            "upload_bytes": {k: float(np.median(v)) for k, v in uploads.items()},
+            "rebuilt_mean": float(np.mean([c[0] for c in churn])),
+            "reused_mean": float(np.mean([c[1] for c in churn])),
+            "triangles_median": float(np.median([c[2] for c in churn]))}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--size", type=int, default=4097)
@@ -177,10 +235,32 @@ def main(argv=None) -> int:
     parser.add_argument("--methods", default="tiles,roettger,roam")
     parser.add_argument("--arithmetic", default="float64", choices=("float64", "fixed16.16"),
                         help="the horizon's arithmetic (fixed16.16: a fixed-point profile's)")
+    parser.add_argument("--display-lists", action="store_true",
+                        help="only Pires's cached chunks against rebuilding (circle paths)")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_terrain.md")
     args = parser.parse_args(argv)
     profile = get_profile("ipaq-hx2490b")
     lines, record = [], {}
+    if args.display_lists:
+        hm = heightmap(args.size)
+        lines += [f"## Display lists (Pires), Röttger C = {args.C:g}, {args.size}^2, tau = "
+                  f"{args.tau} px, {args.frames} frames per path, medians", "",
+                  "| circle | frame ms cached | cache off | plain Röttger | cached / cache off "
+                  "| cached / plain | CPU ms cached / off / plain | CPU cached / off | bytes uploaded "
+                  "cached / off | chunks rebuilt / reused | triangles |", "|---|" + "---:|" * 10]
+        for name in ("slow", "fast"):
+            r = display_lists(hm, args.frames, args.tau, profile, args.C, name)
+            record.setdefault("display_lists", []).append(r)
+            f, c, u = r["frame_ms"], r["cpu_ms"], r["upload_bytes"]
+            lines.append(f"| {name} | {f['cached']:.2f} | {f['rebuilt']:.2f} | {f['plain']:.2f} "
+                         f"| {r['ratio_cached_over_rebuilt']:.2f} | "
+                         f"{r['ratio_cached_over_plain']:.2f} | {c['cached']:.2f} / "
+                         f"{c['rebuilt']:.2f} / {c['plain']:.2f} | "
+                         f"{r['cpu_ratio_cached_over_rebuilt']:.2f} | {u['cached']:,.0f} / "
+                         f"{u['rebuilt']:,.0f} | {r['rebuilt_mean']:.1f} / "
+                         f"{r['reused_mean']:.1f} | {r['triangles_median']:,.0f} |")
+            print(lines[-1], flush=True)
+        args.skip_speed = args.skip_errors = args.skip_horizon = True
     if not args.skip_speed:
         hm = heightmap(args.size)
         rows, builds = speed(hm, args.frames, args.tau, profile, args.patch, args.C,

@@ -257,11 +257,33 @@ class Roettger:
                full: bool = False) -> RoettgerFrame:
         """Refine for this camera and emit the leaves' fans (full: every block to the finest
         level, the method's own full-resolution mesh)."""
+        start = time.perf_counter()
+        tested, leaf_count = self.select(camera, resolution, tau, cull, full)
+        while True:
+            count = _emit(self.heights, self.leaf_rows, leaf_count, self.offsets,
+                          self.chunk_level, self.out, self.signatures)
+            if count >= 0:
+                break
+            self.out = np.zeros((2 * len(self.out), 3), np.int64)
+        lod_ms = (time.perf_counter() - start) * 1000.0
+        changed = reused = 0
+        if self.previous is not None:
+            same = self.signatures == self.previous
+            live = (self.signatures != 0) | (self.previous != 0)
+            changed, reused = int((live & ~same).sum()), int((live & same).sum())
+        self.previous = self.signatures.copy()
+        return RoettgerFrame(self.out[:count].copy(), int(tested), int(self.counts.sum()),
+                             lod_ms, changed, reused)
+
+    def select(self, camera, resolution, tau: float, cull: bool = True,
+               full: bool = False) -> tuple:
+        """Refine and balance for this camera; the visible leaves go to self.leaf_rows (rows
+        level, bi, bj, sides, depth-first, so each chunk's leaves are contiguous). Returns
+        (blocks tested, leaf count)."""
         _, lam = pixel_scale(camera, resolution)
         c = self.c_for(tau, lam)
         C = 1e300 if full else self.C
         self.frame += 1
-        start = time.perf_counter()
         planes = camera.frustum_planes()
         tested = refine(self.heightmap.size - 1, self.heightmap.spacing, self.centres, self.d2,
                         self.hmin, self.hmax, self.offsets, self.levels, self.stamp, self.frame,
@@ -280,18 +302,4 @@ class Roettger:
             if leaf_count >= 0:
                 break
             self.leaf_rows = np.zeros((2 * len(self.leaf_rows), 4), np.int64)
-        while True:
-            count = _emit(self.heights, self.leaf_rows, leaf_count, self.offsets,
-                          self.chunk_level, self.out, self.signatures)
-            if count >= 0:
-                break
-            self.out = np.zeros((2 * len(self.out), 3), np.int64)
-        lod_ms = (time.perf_counter() - start) * 1000.0
-        changed = reused = 0
-        if self.previous is not None:
-            same = self.signatures == self.previous
-            live = (self.signatures != 0) | (self.previous != 0)
-            changed, reused = int((live & ~same).sum()), int((live & same).sum())
-        self.previous = self.signatures.copy()
-        return RoettgerFrame(self.out[:count].copy(), int(tested), int(self.counts.sum()),
-                             lod_ms, changed, reused)
+        return tested, leaf_count
