@@ -88,3 +88,28 @@ def test_local_cluster_workers_render_on_one_thread_and_keep_glibcs_trim(monkeyp
         client.close()
         cluster.close()
     assert list(seen.values()) == [("1", None, False)]
+
+
+def test_dask_tracebacks_are_one_line(capsys):
+    # a killed worker makes Dask log CommClosedError tracebacks on stderr: one line each
+    import io
+    import logging
+
+    stream = io.StringIO()
+    handler = logging.StreamHandler(stream)
+    logger = logging.getLogger("distributed")
+    logger.addHandler(handler)
+    try:
+        distributed.quiet_dask_logs()
+        try:
+            raise OSError("in <TCP (closed) ConnectionPool.gather local=tcp://127.0.0.1:1>")
+        except OSError:
+            logging.getLogger("distributed.worker").error("Worker stream died", exc_info=True)
+        logging.getLogger("distributed.nanny").warning("Traceback (most recent call last):\n"
+                                                       "  File x\nCommClosedError: gone")
+    finally:
+        logger.removeHandler(handler)
+    lines = stream.getvalue().splitlines()
+    assert lines == ["Worker stream died (OSError: in <TCP (closed) ConnectionPool.gather "
+                     "local=tcp://127.0.0.1:1>)",
+                     "Traceback (most recent call last): (CommClosedError: gone)"]

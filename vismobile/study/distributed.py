@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 from pathlib import Path
 
@@ -24,6 +25,34 @@ ALLOWED_FAILURES = 3
 
 class SchedulerError(VisMobileError):
     """A Dask scheduler that cannot be reached or started."""
+
+
+class OneLine(logging.Filter):
+    """Dask's log records as one line each: a worker killed mid-sweep is expected (its runs
+    are redone, nothing is lost), so the tracebacks Dask logs about it (CommClosedError from
+    the scheduler, the nanny and the other workers) are reduced to their exception's name and
+    message."""
+
+    def filter(self, record) -> bool:
+        text = record.getMessage().strip().splitlines()
+        line = text[0] if text else ""
+        if record.exc_info and record.exc_info[1] is not None:
+            error = record.exc_info[1]
+            line += f" ({type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''})"
+        elif len(text) > 1:  # a traceback formatted into the message itself
+            line += f" ({text[-1].strip()})"
+        record.msg, record.args = line, ()
+        record.exc_info, record.exc_text, record.stack_info = None, None, None
+        return True
+
+
+def quiet_dask_logs() -> None:
+    """OneLine on every handler of the "distributed" logger (Dask's own stderr handler), in
+    this process; workers call it too (their tasks start with it)."""
+    handlers = logging.getLogger("distributed").handlers or logging.getLogger().handlers
+    for handler in handlers:
+        if not any(isinstance(f, OneLine) for f in handler.filters):
+            handler.addFilter(OneLine())
 
 
 def _worker_env() -> dict:
@@ -60,6 +89,7 @@ def _resume_or_execute(task, *ready) -> tuple:
     from .tasks import Context, _execute_task, _worker_init, result_path
 
     _worker_init()
+    quiet_dask_logs()
     spec, key, context_tuple = task
     path = result_path(Context.from_tuple(context_tuple), key)
     if path.is_file():
@@ -74,6 +104,7 @@ def _prepare(task) -> str:
     from .tasks import _worker_init, prepare
 
     _worker_init()
+    quiet_dask_logs()
     return prepare(task)
 
 
@@ -88,6 +119,7 @@ def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None) -
 
     from .tasks import prep_key
 
+    quiet_dask_logs()  # a killed worker's tracebacks: one line each
     if hasattr(scheduler, "submit"):
         client, cluster, own = scheduler, None, False
     else:
