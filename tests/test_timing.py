@@ -24,3 +24,17 @@ def test_a_call_that_compiles_is_timed_again():
     assert result == 6.0 and len(calls) == 3 and compile_ms == 0.0
     timed(work, np.arange(4, dtype=np.int64))  # a new signature compiles again
     assert len(calls) == 5
+
+
+def test_fresh_compiles_count_compiles_not_calls():
+    from vismobile.timing import fresh_compiles
+
+    @njit
+    def double(x):
+        return 2 * x
+
+    before = fresh_compiles()
+    double(1.5)
+    assert fresh_compiles() == before + 1
+    double(2.5)
+    assert fresh_compiles() == before + 1

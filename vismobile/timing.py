@@ -8,30 +8,47 @@ from __future__ import annotations
 
 import time
 
-_COUNT = [0]
+_COUNTS = {"numba:compiler_lock": 0, "numba:compile": 0}
 _LISTENING = []
 
 
-def compiles() -> int:
-    """Times numba's compiler lock was taken in this process since the first call."""
-    if not _LISTENING:
-        try:
-            from numba.core import event
-        except ImportError:  # no numba: nothing compiles
-            _LISTENING.append(None)
-            return 0
+def _listen() -> None:
+    if _LISTENING:
+        return
+    try:
+        from numba.core import event
+    except ImportError:  # no numba: nothing compiles
+        _LISTENING.append(None)
+        return
 
-        class Counter(event.Listener):
-            def on_start(self, _event):
-                _COUNT[0] += 1
+    class Counter(event.Listener):
+        def __init__(self, kind):
+            self.kind = kind
 
-            def on_end(self, _event):
-                pass
+        def on_start(self, _event):
+            _COUNTS[self.kind] += 1
 
-        listener = Counter()
-        event.register("numba:compiler_lock", listener)
+        def on_end(self, _event):
+            pass
+
+    for kind in _COUNTS:
+        listener = Counter(kind)
+        event.register(kind, listener)
         _LISTENING.append(listener)
-    return _COUNT[0]
+
+
+def compiles() -> int:
+    """Times numba's compiler lock was taken in this process since the first call (a compile
+    or a load from numba's cache: anything a plain call would not do)."""
+    _listen()
+    return _COUNTS["numba:compiler_lock"]
+
+
+def fresh_compiles() -> int:
+    """Functions numba compiled (not loaded from its cache) in this process since the first
+    call: what makes a first run slow."""
+    _listen()
+    return _COUNTS["numba:compile"]
 
 
 def timed(fn, *args) -> tuple:

@@ -97,6 +97,9 @@ def run(args) -> int:
         sampled = str(params.get("pvs", "")).startswith("sampled")
         samples = _samples(params.pop("pvs")) if sampled else 0
         bar = Progress(f"{kind} {args.world.name}")
+        from ..timing import fresh_compiles
+
+        compiled = fresh_compiles()
         start = time.perf_counter()
         try:
             result = partition(world, kind, progress=bar, **params)
@@ -107,6 +110,7 @@ def run(args) -> int:
     except ValueError as error:
         raise PartitionError(f"{args.world}: {error}") from None
     elapsed = time.perf_counter() - start
+    compiled = fresh_compiles() != compiled  # numba compiled code during the build
     if args.lod:
         from ..lod.simplify import build_chains
 
@@ -122,7 +126,8 @@ def run(args) -> int:
     stats = result.stats()
     size = args.out.stat().st_size
     print(f"structure   {format_spec(kind, result.params)}")
-    print(f"build time  {elapsed:.2f} s")
+    print(f"build time  {elapsed:.2f} s" + (" (includes numba's first-use compile: run "
+                                             "again for the build alone)" if compiled else ""))
     print(f"nodes       {stats['nodes']:,}")
     print(f"leaves      {stats['leaves']:,}")
     print(f"refs/tri    {stats['refs_per_triangle']:.3f}")
