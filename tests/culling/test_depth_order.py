@@ -20,9 +20,10 @@ def two_quads(depth, gap):
     """A large quad facing the eye at `depth` and a small one `gap` behind it, both within the
     large one on screen, at the 1e5 offset (front faces toward +z: the camera looks along -z)."""
     big, small = 0.6 * depth, 0.2 * depth
+    back = -depth - gap
     v = np.array([[-big, -big, -depth], [big, -big, -depth], [big, big, -depth],
-                  [-big, big, -depth], [-small, -small, -depth - gap], [small, -small, -depth - gap],
-                  [small, small, -depth - gap], [-small, small, -depth - gap]])
+                  [-big, big, -depth], [-small, -small, back], [small, -small, back],
+                  [small, small, back], [-small, small, back]])
     t = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
     return World(v + [OFFSET, 1.5, OFFSET], t, np.zeros(4, np.int32), ["quads"], "quads")
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vismobile.culling.hiz import build_tiles, covers_no_sample, rasterise, screen_rect
-from vismobile.culling.occlusion import occluder_mesh
+from vismobile.culling.occluder_mesh import occluder_mesh
 
 W, H, TX, TY = 24, 32, 0.4, 0.5
 TILE = (8, 4)

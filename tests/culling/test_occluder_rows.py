@@ -58,7 +58,7 @@ def test_the_compiled_mesh_of_a_few_occluders_is_occluder_mesh_of_their_corners(
     # A mapped world's frames build their occluders' mesh in one kernel: the same arrays, bits
     # included, as occluder_mesh (numpy) of the same triangles' corners and unit normals.
     from vismobile.culling.occluder_rows import occluder_mesh_of
-    from vismobile.culling.occlusion import occluder_mesh
+    from vismobile.culling.occluder_mesh import occluder_mesh
     from vismobile.world.world import unit_normals
 
     world = kit.world("w2")

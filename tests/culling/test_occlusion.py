@@ -228,7 +228,7 @@ def test_fused_walk_sends_what_the_two_passes_send_and_visits_fewer_nodes(kit):
 def test_the_mesh_of_a_few_occluders_pairs_their_edges_as_the_worlds_mesh_does(kit):
     # A mapped world's frames build the rasteriser's tables for their occluders alone: same
     # planes, the same order of plane groups, and the same pieces paired among them.
-    from vismobile.culling.occlusion import occluder_mesh
+    from vismobile.culling.occluder_mesh import occluder_mesh
     from vismobile.world.world import unit_normals
 
     world = kit.world("w2")
@@ -318,7 +318,7 @@ def test_occlusion_on_a_mapped_world_culls_as_in_memory_and_drops_nothing_visibl
 
 
 def test_unique_rows_are_numpys_unique_rows():
-    from vismobile.culling.occlusion import unique_rows
+    from vismobile.culling.occluder_mesh import unique_rows
 
     rng = np.random.default_rng(2)
     rows = rng.integers(-2, 3, (500, 3)).astype(np.float64) * 0.5

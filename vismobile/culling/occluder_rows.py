@@ -145,7 +145,7 @@ def _runs(keys, order):
 
 @njit(cache=True, nogil=True)
 def _partners(tri, a, b, groups, points):
-    """occlusion.piece_partners: per piece a -> b of triangle tri, the triangle of the first
+    """occluder_mesh.piece_partners: per piece a -> b of triangle tri, the triangle of the first
     piece (lowest index) of the same group holding b -> a, or -1. Pieces are grouped by one
     int64 key (group, low, high point) sorted; within a key, lowest index first as lexsort's
     stable order has it. points : the number of distinct points (key radix)."""
@@ -178,8 +178,8 @@ def _partners(tri, a, b, groups, points):
 
 @njit(cache=True, nogil=True)
 def occluder_mesh_of(ids, vertices, triangles):
-    """occlusion.occluder_mesh of the triangles ids (K,) alone, local ids 0..K-1, in one compiled
-    pass: (points, tri_points, normals, offsets, groups, piece_start, piece_end, piece_a,
+    """occluder_mesh.occluder_mesh of the triangles ids (K,) alone, local ids 0..K-1, in one
+    compiled pass: (points, tri_points, normals, offsets, groups, piece_start, piece_end, piece_a,
     piece_b, partner, partner_any), the same arrays (bits included) as occluder_mesh of their
     corners with unit_normals (tests). Exact: points and planes match by value."""
     k = len(ids)

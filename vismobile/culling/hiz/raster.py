@@ -152,7 +152,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     the groups whose pieces come near.
     groups     : (T,) int64 exact-plane label;  tri_points : (T, 3) int64 into points (P, 3)
     normals    : (T, 3), offsets (T,) float64 exact planes n.x = offset; ids must face the eye
-    piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (occlusion.occluder_mesh)
+    piece_start, piece_end : (T,) int64 ranges of edge pieces a -> b (occluder_mesh.occluder_mesh)
     partner    : (S,) int64 triangle holding the reverse piece in the same group, or -1
     partner_any: (S,) int64 triangle holding the reverse piece in any group, or -1
     stamp      : (T,) int64 scratch; stamp[t] == frame marks this call's triangles (set here)
