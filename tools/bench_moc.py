@@ -138,7 +138,7 @@ def moc_main(worlds: str, start: int, frames: int, out: Path) -> int:
     profile = get_profile("ipaq-hx2490b")
     load0 = os.getloadavg()
     table = ["| world (triangles) | method | median ms (ours: cull; MOC: C++) | median ms "
-             "(MOC: + driver) | p90 ms | max ms | ours' speed over it (per-frame ratio, median) "
+             "(MOC: + driver) | p90 ms | max ms | ours' time / its time (per frame, median) "
              "| sent | visible | sent / visible | frames dropping | triangles dropped "
              "| occluders | triangles tested |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
