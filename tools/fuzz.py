@@ -1,5 +1,5 @@
-"""Fuzz the three readers of outside input (issue 11): OBJ worlds, .vmp partition files and
-trajectory CSVs. Every input must load or end in a VisMobileError (one clean line from the
+"""Fuzz the readers of outside input (issue 11): OBJ worlds, .vmp partition files (with
+level-of-detail chains too), trajectory CSVs and textured GLB scenes (issue 27). Every input must load or end in a VisMobileError (one clean line from the
 CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
 Two modes:
@@ -12,8 +12,8 @@ Two modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory] [--cases 300] [--seed 0]
-  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory [-max_total_time=600 ...]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb] [--cases 300] [--seed 0]
+  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb [-max_total_time=600 ...]
 Prints one line per target: cases, loaded, clean errors, failures (with the first failures'
 tracebacks and the seed that reproduces each).
 """
@@ -65,7 +65,8 @@ def seeds(folder: Path) -> dict:
     save_partition(tree, folder / "seed-lod.vmp")
     vmps.append((folder / "seed-lod.vmp").read_bytes())
     lines = TRAJECTORY.read_bytes().splitlines(keepends=True)
-    return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])]}
+    return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])],
+            "glb": [textured_glb()]}
 
 
 # ---- mutations (driven by pick(n) -> int in [0, n), so random and atheris share them) -------
@@ -186,8 +187,45 @@ def load_and_cull(path):
                                                                         camera, 1.0)
 
 
+def load_textured(path):
+    """A textured GLB: the world, its base-colour textures and UVs (issue 27), drawn once."""
+    import numpy as np
+
+    from vismobile.device.profile import get_profile
+    from vismobile.files.loader import load_world
+    from vismobile.render.textured import renderer_for
+    from vismobile.world.camera import Camera
+
+    world = load_world(path)
+    profile = get_profile("ipaq-hx2490b")
+    profile.check_memory(world)
+    low, high = world.extent
+    renderer_for(world, profile).draw(np.arange(world.triangle_count),
+                                      Camera(tuple(high + (high - low) + 1.0), 45.0, -30.0))
+
+
+def textured_glb() -> bytes:
+    """A quad with a checker base-colour texture and an untextured box, as GLB bytes."""
+    import numpy as np
+    import trimesh
+    from PIL import Image
+
+    quad = trimesh.Trimesh([[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]],
+                           [[0, 1, 2], [0, 2, 3]], process=False)
+    rows, cols = np.indices((24, 40)) // 4
+    image = np.where(((rows + cols) % 2 == 0)[..., None], (230, 30, 30), (30, 30, 230))
+    material = trimesh.visual.material.PBRMaterial(
+        baseColorTexture=Image.fromarray(image.astype(np.uint8)))
+    quad.visual = trimesh.visual.TextureVisuals(uv=[[0, 0], [8, 0], [8, 8], [0, 8]],
+                                                material=material)
+    scene = trimesh.Scene()
+    scene.add_geometry(quad, node_name="a_quad", geom_name="quad")
+    scene.add_geometry(trimesh.creation.box(extents=(0.5, 0.5, 0.5)), node_name="b_box")
+    return scene.export(file_type="glb")
+
+
 ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
-         "trajectory": (load_trajectory, ".csv")}
+         "trajectory": (load_trajectory, ".csv"), "glb": (load_textured, ".glb")}
 
 
 def run_case(target, data, folder):
@@ -288,13 +326,13 @@ def main(argv=None):
         return 2
     if argv[0] == "atheris":
         if len(argv) < 2 or argv[1] not in ENTRY:
-            print("target: obj, vmp or trajectory")
+            print("target: obj, vmp, trajectory or glb")
             return 2
         return atheris_main(argv[1], argv[2:])
     import argparse
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
-    parser.add_argument("--target", default="obj,vmp,trajectory")
+    parser.add_argument("--target", default="obj,vmp,trajectory,glb")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

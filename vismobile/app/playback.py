@@ -216,7 +216,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
                    None: no level of detail
     Raises ProfileError (heap, fixed16.16 range) before playing.
     """
-    from ..render import Renderer
+    from ..render.textured import renderer_for
     from ..render.hud import draw_hud, hud_lines
     from ..render.images import png_bytes, save_gif
 
@@ -227,7 +227,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     lod_view = _lod_view(scene, profile, lod_tau, progress)
     memory = profile.check_memory(world, scene.partition)
     culler = make_culler(scene, stages, profile, adaptive)
-    renderer = lod_view.renderer if lod_view else Renderer(world, profile)
+    renderer = lod_view.renderer if lod_view else renderer_for(world, profile)
     tree = getattr(culler, "tree", None)
     if tree is None and scene.partition is not None:  # the adaptive culler holds several
         from ..culling.tree import Tree

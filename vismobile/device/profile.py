@@ -68,6 +68,9 @@ class Profile:
     index_type         : "uint16" (OpenGL ES 1.1 has no 32-bit indices)
     max_batch_vertices : vertices one draw batch may address (65,535 for uint16)
     cost               : DeviceCost frame-time model, or None: measured on this machine
+    max_texture_size   : largest texture side (power of two); the iPaq's software ES 1.1 and
+                         the N82's PowerVR MBX Lite are taken as 1024 and 2048 (assumed,
+                         not from the thesis)
     """
 
     name: str
@@ -80,6 +83,7 @@ class Profile:
     index_type: str = "uint16"
     max_batch_vertices: int = MAX_INDEX_VERTICES
     cost: DeviceCost | None = None
+    max_texture_size: int = 1024
 
     def __post_init__(self):
         if self.vertex_format not in VERTEX_FORMATS:
@@ -158,6 +162,8 @@ class Profile:
                            normal and box (9 x 4 bytes), and the vertex array (3 x 4 bytes)
         partition        : every array of the partition (nodes, references, extras) as held,
                            level-of-detail chains included (extras lod_*)
+        textures         : a textured world's (world.textures) mip chains, RGBA8, after the
+                           top levels check_memory dropped (texture LOD)
         lod_buffers      : with LOD chains, the level triangles' vertex and index buffers and
                            the selector's tables (a rank per triangle, a stamp per level
                            triangle, 4 bytes each)
@@ -171,6 +177,9 @@ class Profile:
             "culling_geometry": triangles * (12 + 36) + len(world.vertices) * 12,
             "partition": partition_bytes(partition),
         }
+        textures = getattr(world, "textures", None)
+        if textures is not None:
+            parts["textures"] = textures.nbytes(self.max_texture_size)
         if levels:
             parts["lod_buffers"] = (3 * levels * (VERTEX_BYTES + INDEX_BYTES)
                                     + 4 * (triangles + levels))
@@ -178,8 +187,16 @@ class Profile:
         return parts
 
     def check_memory(self, world, partition=None) -> int:
-        """Total bytes of estimate_memory; ProfileError naming both sizes when over the heap."""
+        """Total bytes of estimate_memory; ProfileError naming both sizes when over the heap.
+
+        A textured world over the heap first loses top mip levels (world.textures.drop, one
+        level at a time, down to 1x1 textures): texture LOD under memory pressure."""
         parts = self.estimate_memory(world, partition)
+        textures = getattr(world, "textures", None)
+        while (textures is not None and parts["total"] > self.heap_bytes
+               and textures.drop < textures.levels(self.max_texture_size) - 1):
+            textures.drop += 1
+            parts = self.estimate_memory(world, partition)
         total = parts["total"]
         if total > self.heap_bytes:
             what = getattr(world, "name", "world")
@@ -249,9 +266,9 @@ PROFILES = {
         Profile("ipaq-hx2490b", "HP iPaq hx2490b (Windows Mobile 5)", "520 MHz Intel PXA270",
                 gpu=False, heap_bytes=64 * MB, cost=IPAQ_COST),
         Profile("nokia-n82", "Nokia N82 (Symbian S60)", "332 MHz ARM11",
-                gpu=True, heap_bytes=128 * MB, cost=N82_COST),
+                gpu=True, heap_bytes=128 * MB, cost=N82_COST, max_texture_size=2048),
         Profile("desktop", "desktop reference", "x86-64", gpu=True, heap_bytes=4096 * MB,
-                resolution=(640, 480)),
+                resolution=(640, 480), max_texture_size=8192),
     )
 }
 

@@ -15,6 +15,10 @@ def load_world(path):
         from ..terrain.mesh import terrain_world_file
 
         return terrain_world_file(path)
+    if path.suffix.lower() in (".glb", ".gltf"):
+        from ..world.textures import textured_world  # base-colour textures, when it has any
+
+        return textured_world(path)
     from ..world.world import World
 
     return World.from_file(path)
