@@ -52,3 +52,20 @@ def test_top_level_help_and_unknown_world(capsys):
     assert main(["info", "w7"]) == 2
     err = capsys.readouterr().err
     assert "w7: unknown world" in err and "unsupported mesh format" not in err
+
+
+def test_hostile_cull_lists_end_in_one_clean_error():
+    import random
+
+    from vismobile.errors import VisMobileError
+
+    rng = random.Random(31)
+    alphabet = "vfcbotlusinpre_+,; \n\t\x00é" + "".join(chr(c) for c in range(33, 127, 7))
+    for _ in range(400):
+        text = "".join(rng.choice(alphabet) for _ in range(rng.randrange(0, 40)))
+        ambiguous_commas(text)
+        try:
+            for label in parse_culls(text) + parse_culls(text.split("\n")):
+                assert label == "none" or all(s.isidentifier() for s in label.split("+"))
+        except VisMobileError:
+            pass

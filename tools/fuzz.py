@@ -1,6 +1,7 @@
 """Fuzz the readers of outside input (issue 11): OBJ worlds, .vmp partition files (with
-level-of-detail chains too), trajectory CSVs and textured GLB scenes (issue 27). Every input must load or end in a VisMobileError (one clean line from the
-CLI); any other exception, a run over the time limit or memory over the cap is a failure.
+level-of-detail chains too), trajectory CSVs, textured GLB scenes (issue 27) and compare's
+--cull lists (issue 31). Every input must load or end in a VisMobileError (one clean line from
+the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
 Two modes:
 - mutate: seeded mutation of real files (a shared model, .vmp files of every structure built
@@ -12,8 +13,8 @@ Two modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb] [--cases 300] [--seed 0]
-  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb [-max_total_time=600 ...]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,cull] [--cases 300] [--seed 0]
+  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|cull [-max_total_time=600 ...]
 Prints one line per target: cases, loaded, clean errors, failures (with the first failures'
 tracebacks and the seed that reproduces each).
 """
@@ -66,7 +67,9 @@ def seeds(folder: Path) -> dict:
     vmps.append((folder / "seed-lod.vmp").read_bytes())
     lines = TRAJECTORY.read_bytes().splitlines(keepends=True)
     return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])],
-            "glb": [textured_glb()]}
+            "glb": [textured_glb()],
+            "cull": [b"vfc+bfc;vfc+occlusion", b"thesis,ours", b"vfc,bfc",
+                     b"vfc+cbfc+tbfc none; portals+vfc"]}
 
 
 # ---- mutations (driven by pick(n) -> int in [0, n), so random and atheris share them) -------
@@ -163,6 +166,17 @@ def load_trajectory(path):
     Trajectory.load(path)
 
 
+def load_cull_list(path):
+    """compare's --cull text (issue 31's grammar: + joins stages, ';' or ',' separates
+    combinations): parsed, and the ambiguity note computed."""
+    from vismobile.study.matrix import ambiguous_commas, parse_culls
+
+    text = path.read_bytes()[:4096].decode("utf-8", errors="replace")
+    ambiguous_commas(text)
+    parse_culls(text)
+    parse_culls(text.split("\n"))  # as repeated --cull options
+
+
 def load_and_cull(path):
     import numpy as np
 
@@ -225,7 +239,8 @@ def textured_glb() -> bytes:
 
 
 ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
-         "trajectory": (load_trajectory, ".csv"), "glb": (load_textured, ".glb")}
+         "trajectory": (load_trajectory, ".csv"), "glb": (load_textured, ".glb"),
+         "cull": (load_cull_list, ".txt")}
 
 
 def run_case(target, data, folder):
@@ -332,7 +347,7 @@ def main(argv=None):
     import argparse
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
-    parser.add_argument("--target", default="obj,vmp,trajectory,glb")
+    parser.add_argument("--target", default="obj,vmp,trajectory,glb,cull")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])
