@@ -3,7 +3,10 @@
 The Controller of the thesis's runtime replaying a recorded path (SPEC §1, §6): per frame the
 Culler picks the triangles (cull_ms), the Renderer draws them and waits on glFinish
 (render_ms), and one row goes to frames.csv. summary.json holds mean, median and p95 of each
-column, the fps and the Pearson correlation of frame_ms with triangles_sent.
+column, the fps and the Pearson correlation of frame_ms with triangles_sent. No figure holds
+numba's first-use compile: WARM_FRAMES frames spread over the run are culled and drawn untimed
+first (summary warmup_ms), and a cull that still compiles a path the warm-up missed is timed
+again (timing.timed; summary compile_ms, what those first tries took).
 
 frames.csv columns:
 - cull_ms: Culler.cull wall time; render_ms: clear + index upload + draws + glFinish;
