@@ -92,3 +92,27 @@ def test_a_well_formed_gltf_with_a_buffer_beside_it_loads(tmp_path):
     (tmp_path / "m.gltf").write_text(json.dumps(doc))
     world = World.from_file(tmp_path / "m.gltf")
     assert world.triangle_count == 12
+
+
+def test_the_parsers_own_log_records_are_silenced(capsys, caplog):
+    import logging
+
+    with limits.quiet_parser():
+        logging.getLogger("trimesh").warning("failed to extract face_normals", exc_info=True)
+    logging.getLogger("trimesh").warning("after")
+    assert [r.getMessage() for r in caplog.records] == ["after"]
+
+
+def test_fuzz_has_a_seed_and_an_entry_for_every_surface(tmp_path):
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    import fuzz
+    from vismobile.world import World
+
+    cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
+    seeds = fuzz.format_seeds(cube, tmp_path)
+    assert set(seeds) | {"obj", "vmp", "trajectory", "cull"} == set(fuzz.ENTRY)
+    for target, datas in seeds.items():
+        for data in datas:  # every seed loads as it is
+            assert fuzz.run_case(target, data, tmp_path) == "ok", target

@@ -1,19 +1,25 @@
-"""Fuzz the readers of outside input (issue 11): OBJ worlds, .vmp partition files (with
-level-of-detail chains too), trajectory CSVs, textured GLB scenes (issue 27) and compare's
---cull lists (issue 31). Every input must load or end in a VisMobileError (one clean line from
+"""Fuzz the readers of outside input: OBJ worlds, .vmp partition files (with level-of-detail
+chains too) and trajectory CSVs (issue 11); textured GLB scenes (issue 27); compare's --cull
+lists (issue 31); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
+heightmaps (issue 28). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
-Two modes:
+Three modes:
 - mutate: seeded mutation of real files (a shared model, .vmp files of every structure built
   from it, a thesis trajectory): byte flips, insertions, deletions, repeats, truncation, extreme
   numbers swapped into tokens, and for .vmp crafted edits of the JSON header and of sections
   with their CRC32s recomputed, so the checks behind the checksums are reached. A .vmp that
   loads is also culled (vfc, occlusion, portals) from a camera inside its world.
+- hostile: issue 28's crafted cases (tools/hostile.py: bad indices, node graphs, instancing,
+  URIs, bombs, special files, .vmt headers, heightmap shapes), each through the CLI in a child
+  process: exit 2, one line naming the file, nothing left behind, peak RSS under 2 GiB.
 - atheris: coverage-guided fuzzing (pip install '.[fuzz]') of one entry point; arguments after
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,cull] [--cases 300] [--seed 0]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,cull,ply,stl,off,gz,vmt,npy]
+                                        [--cases 300] [--seed 0]
+  .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|cull [-max_total_time=600 ...]
 Prints one line per target: cases, loaded, clean errors, failures (with the first failures'
 tracebacks and the seed that reproduces each).
@@ -35,6 +41,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tools"))  # hostile.py: writers of the formats
 
 MODEL = ROOT.parent / "shared" / "models" / "suzanne.obj"
 TRAJECTORY = ROOT / "trajectories" / "indoor.csv"
@@ -67,9 +74,46 @@ def seeds(folder: Path) -> dict:
     vmps.append((folder / "seed-lod.vmp").read_bytes())
     lines = TRAJECTORY.read_bytes().splitlines(keepends=True)
     return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])],
-            "glb": [textured_glb()],
             "cull": [b"vfc+bfc;vfc+occlusion", b"thesis,ours", b"vfc,bfc",
-                     b"vfc+cbfc+tbfc none; portals+vfc"]}
+                     b"vfc+cbfc+tbfc none; portals+vfc"],
+            **format_seeds(world, folder, [textured_glb()])}
+
+
+def format_seeds(world, folder: Path, glbs=()) -> dict:
+    """Seeds of the issue 28 surfaces: the model as PLY (ASCII, both binary byte orders), STL
+    (binary, ASCII), OFF and GLB (one node, and two nodes with transforms), a .gz PLY, a small
+    .vmt terrain with objects, .npy heightmaps. glbs: GLB seeds put first (the textured one)."""
+    import gzip
+    import io
+
+    import numpy as np
+    import trimesh
+
+    import hostile
+    from vismobile.terrain import sources, store
+    from vismobile.terrain.placement import place_objects
+
+    mesh = trimesh.Trimesh(world.vertices, world.triangles, process=False)
+    v, f = mesh.vertices.tolist(), mesh.faces.tolist()
+    plys = [hostile.ply(v, f, fmt) for fmt in ("ascii", "binary_little_endian",
+                                               "binary_big_endian")]
+    doc, binary = hostile.gltf(v, f)
+    nodes = [{"children": [1], "matrix": [2, 0, 0, 0, 0, 0, -1, 0, 0, 1, 0, 0, 3, 4, 5, 1]},
+             {"mesh": 0, "translation": [1, 2, 3], "scale": [1, -1, 1]}]
+    two, _ = hostile.gltf(v, f, nodes=nodes)
+    heightmap = sources.diamond_square(17, seed=1)
+    store.save(folder / "seed.vmt", heightmap, place_objects(heightmap, 3, 1, 2.0))
+    arrays = []
+    for array in (heightmap.heights, np.arange(12, dtype=np.uint16).reshape(3, 4)):
+        buffer = io.BytesIO()
+        np.save(buffer, array)
+        arrays.append(buffer.getvalue())
+    return {"ply": plys, "stl": [mesh.export(file_type="stl"),
+                                 mesh.export(file_type="stl_ascii").encode()],
+            "off": [hostile.off(v, f)],
+            "glb": [*glbs, hostile.glb(doc, binary), hostile.glb(two, binary)],
+            "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes()],
+            "npy": arrays}
 
 
 # ---- mutations (driven by pick(n) -> int in [0, n), so random and atheris share them) -------
@@ -238,9 +282,31 @@ def textured_glb() -> bytes:
     return scene.export(file_type="glb")
 
 
+
+def load_mesh(path):
+    from vismobile.world.world import World
+
+    World.from_file(path)
+
+
+def load_vmt(path):
+    from vismobile.files.loader import load_world
+
+    load_world(path)  # the terrain's ground and objects as a World
+
+
+def load_heightmap(path):
+    from vismobile.terrain.sources import load_file
+
+    load_file(path)
+
+
 ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "trajectory": (load_trajectory, ".csv"), "glb": (load_textured, ".glb"),
-         "cull": (load_cull_list, ".txt")}
+         "cull": (load_cull_list, ".txt"), "ply": (load_mesh, ".ply"),
+         "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
+         "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
+         "npy": (load_heightmap, ".npy")}
 
 
 def run_case(target, data, folder):
@@ -336,9 +402,13 @@ def atheris_main(target, argv):
 
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] not in ("mutate", "atheris"):
+    if not argv or argv[0] not in ("mutate", "atheris", "hostile"):
         print(__doc__)
         return 2
+    if argv[0] == "hostile":
+        import hostile
+
+        return hostile.main(argv[1:])
     if argv[0] == "atheris":
         if len(argv) < 2 or argv[1] not in ENTRY:
             print("target: obj, vmp, trajectory or glb")
@@ -347,7 +417,7 @@ def main(argv=None):
     import argparse
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
-    parser.add_argument("--target", default="obj,vmp,trajectory,glb,cull")
+    parser.add_argument("--target", default="obj,vmp,trajectory,glb,cull,ply,stl,off,gz,vmt,npy")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

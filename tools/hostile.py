@@ -182,6 +182,9 @@ CASES["stl_coordinate_inf"] = lambda folder: _info(
     folder, "m.stl", stl_ascii([[(0, 0, 0), (1, 0, 0), (0, float("inf"), 0)]]))
 CASES["stl_binary_count_2e9"] = lambda folder: _info(
     folder, "m.stl", b"\0" * 80 + struct.pack("<I", 2_000_000_000) + b"\0" * 50)
+CASES["stl_binary_wrong_length"] = lambda folder: _info(  # trimesh logged a traceback
+    folder, "m.stl", b"solid x" + b"\0" * 73 + struct.pack("<I", 2_000_000_000)
+    + b"".join(struct.pack("<12fH", *range(12), 0) for _ in range(3)))
 CASES["off_declares_2e9_faces"] = lambda folder: _info(
     folder, "m.off", off(CUBE_V, CUBE_F[:1], declared=(8, 2_000_000_000)))
 CASES["off_index_beyond"] = lambda folder: _info(

@@ -4,6 +4,8 @@ with a running limit, so a decompression bomb is refused after at most `limit` b
 after gigabytes. Shared by OBJ, the other mesh formats, glTF buffers, .vmt and .vmp files."""
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 import stat
 import zlib
@@ -100,3 +102,15 @@ def read_input(path, limit: int | None = None, error=WorldError) -> bytes:
         if not data:
             raise error(path, "file is empty once decompressed")
     return data
+
+
+@contextlib.contextmanager
+def quiet_parser(name: str = "trimesh"):
+    """The parser's own log records silenced (trimesh logs tracebacks as warnings, e.g. "failed
+    to extract face_normals" on a malformed STL): the one line about a bad file is ours."""
+    logger = logging.getLogger(name)
+    was, logger.disabled = logger.disabled, True
+    try:
+        yield
+    finally:
+        logger.disabled = was

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import WorldError, one_line
-from .limits import MAX_COORDINATE, MAX_TRIANGLES, read_input
+from .limits import MAX_COORDINATE, MAX_TRIANGLES, quiet_parser, read_input
 
 # Suffix (without .gz) -> trimesh file type; .obj goes through the validating reader in obj.py.
 FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".glb": "glb",
@@ -52,7 +52,7 @@ def load_mesh(path) -> tuple:
         source = str(path)  # a path lets trimesh find a .gltf's external buffers (checked)
     del data
     try:
-        with np.errstate(all="ignore"):  # overflow is caught below, as a coordinate limit
+        with np.errstate(all="ignore"), quiet_parser():  # overflow: a coordinate limit below
             scene = trimesh.load(source, file_type=file_type, force="scene", process=False)
     except Exception as error:  # trimesh raises assorted types on malformed input
         raise WorldError(path, f"unparsable {file_type.upper()} ({type(error).__name__}: "

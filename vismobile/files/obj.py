@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import WorldError
-from .limits import MAX_COORDINATE, read_input
+from .limits import MAX_COORDINATE, quiet_parser, read_input
 
 # Statements of the OBJ format (geometry, grouping, display and free-form); anything else is garbage.
 KNOWN_STATEMENTS = frozenset(
@@ -238,9 +238,10 @@ def load_obj(path) -> tuple:
         stream = io.BytesIO(text.encode("utf-8"))
         # trimesh names ungrouped faces after the file ("cow.obj" for cow.obj and cow.obj.gz)
         stream.name = path.name[:-3] if path.suffix.lower() == ".gz" else path.name
-        scene = trimesh.load(stream, file_type="obj", force="scene",
-                             split_objects=True, split_groups=True, group_material=False, process=True,
-                             skip_materials=True)
+        with quiet_parser():
+            scene = trimesh.load(stream, file_type="obj", force="scene", split_objects=True,
+                                 split_groups=True, group_material=False, process=True,
+                                 skip_materials=True)
     except Exception as error:  # trimesh raises assorted types on malformed input
         raise WorldError(path, f"unparsable OBJ ({type(error).__name__}: {error})") from None
     meshes = [(name, geometry) for name, geometry in scene.geometry.items()
