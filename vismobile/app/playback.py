@@ -404,18 +404,13 @@ def lod_summary(table, tau) -> dict:
     mean squared error over the frames; null when every frame is bit-identical to the full-
     detail frame), the largest pixel difference, the mean fraction of pixels changed, the
     mean triangles of the full-detail frames and lod_ms statistics."""
-    psnr = np.asarray(table["psnr_db"], dtype=np.float64)
-    mse = np.where(np.isfinite(psnr), 255.0 ** 2 / 10.0 ** (psnr / 10.0), 0.0)
-    mean_mse = float(mse.mean()) if len(mse) else 0.0
-    finite = psnr[np.isfinite(psnr)]
-    return {"lod_tau": float(tau),
-            "psnr_db_min": float(finite.min()) if len(finite) else None,
-            "psnr_db_mean": 10.0 * np.log10(255.0 ** 2 / mean_mse) if mean_mse > 0 else None,
-            "frames_identical": int(np.isinf(psnr).sum()),
-            "max_diff": int(np.max(table["max_diff"], initial=0)),
-            "changed_mean": float(np.mean(table["changed"])) if len(psnr) else 0.0,
-            "triangles_full": summarize(table["triangles_full"]) if len(psnr) else None,
-            "lod_ms": summarize(table["lod_ms"]) if len(psnr) else None}
+    from ..lod.image_error import error_summary
+
+    summary = error_summary(table["psnr_db"], table["max_diff"], table["changed"], tau)
+    frames = len(table["psnr_db"])
+    summary["triangles_full"] = summarize(table["triangles_full"]) if frames else None
+    summary["lod_ms"] = summarize(table["lod_ms"]) if frames else None
+    return summary
 
 
 def path_warnings(world, trajectory, played, sent) -> list:

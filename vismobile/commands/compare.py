@@ -57,6 +57,10 @@ def add_parser(sub):
                              "workers must see the same worlds, cache and out paths)")
     parser.add_argument("--agreement", type=int, default=2,
                         help="frames per world for the raster/ray-cast check (0: skip)")
+    parser.add_argument("--lod", default="none", metavar="TAUS",
+                        help="level of detail: one run per tolerance in pixels, e.g. none,1,2 "
+                             "(none: full detail; each LOD run measures PSNR against the "
+                             "full-detail frames of its culling; docs/lod.md)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     terrain = parser.add_argument_group("terrain sweep (--terrain)")
     terrain.add_argument("--terrain", type=Path, default=None,
@@ -105,7 +109,7 @@ def run(args) -> int:
     if args.fix_winding:
         worlds, trajectories = _fixed_worlds(worlds, trajectories or {}, args.out)
     specs = expand(worlds, args.structures, culls, args.profiles, args.frames or "all",
-                   trajectories)
+                   trajectories, args.lod)
     for path in (args.out / "runs.csv", args.out / "runs" / "x.json",
                  args.report or args.out / "report.html"):
         check_destination(path)  # before hours of runs, not after

@@ -86,6 +86,37 @@ def load_structure(world, label: str, cache_dir=None):
     return _remember(_PARTITIONS, key, built), seconds
 
 
+def load_chains(world, cache_dir=None):
+    """LOD chains of `world` (lod/simplify.build_chains), cached in memory and on disk
+    (<cache>/lod/<name>-<digest>.npz, written atomically): a chain is built once per world."""
+    import io
+
+    from ..files.atomic import atomic_write_bytes
+    from ..lod.chains import FIELDS, PREFIX, LodChains
+    from ..lod.simplify import build_chains
+
+    key = ("lod", world.digest().hex()[:16])
+    if key in _PARTITIONS:
+        return _PARTITIONS[key]
+    path = None
+    if cache_dir is not None:
+        path = Path(cache_dir) / "lod" / f"{world.name}-{key[1]}.npz"
+        if path.is_file():
+            try:
+                with np.load(path) as data:
+                    chains = LodChains.from_extras({PREFIX + n: data[n] for n in FIELDS})
+                chains.check(world)
+                return _remember(_PARTITIONS, key, chains)
+            except Exception:  # unreadable or stale cache file: rebuild it below
+                pass
+    chains = build_chains(world)
+    if path is not None:
+        buffer = io.BytesIO()
+        np.savez(buffer, **{n: getattr(chains, n) for n in FIELDS})
+        atomic_write_bytes(path, buffer.getvalue())
+    return _remember(_PARTITIONS, key, chains)
+
+
 def make_culler(partition, stages, profile=None):
     """Culler over partition; with a profile, its arithmetic mode and screen (device_options).
     vfc walks to the thesis's draw nodes (its `cover` off): the device model's per-call term

@@ -58,6 +58,7 @@ class RunSpec:
     structure : canonical label, "grid", "octree:5", "portal:2" or "bsp"
     cull      : canonical stage list joined by '+', or "none"
     frames    : "all", "stride:N" or "sample:N" (N evenly spaced frames plus the waypoints)
+    lod_tau   : level of detail at this many pixels of error (docs/lod.md), None: none
     """
 
     world: str
@@ -66,6 +67,7 @@ class RunSpec:
     cull: str
     profile: str
     frames: str = "all"
+    lod_tau: float | None = None
 
     @property
     def kind(self) -> str:
@@ -90,7 +92,11 @@ class RunSpec:
         return any(stage in BACKFACE_STAGES for stage in self.stages)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """The fields; lod_tau only when set, so runs without LOD keep their keys."""
+        fields = asdict(self)
+        if fields["lod_tau"] is None:
+            del fields["lod_tau"]
+        return fields
 
     def key(self, salt: str = "") -> str:
         """16 hex digits naming this run's result file; salt binds it to world/trajectory bytes."""
@@ -229,13 +235,32 @@ def parse_frames(text: str) -> str:
                          f"with N from 1 to {MAX_FRAMES:,}")
 
 
+def parse_lod(text) -> list:
+    """'none,1,2' -> [None, 1.0, 2.0]: level-of-detail tolerances in pixels (none: no LOD)."""
+    taus = []
+    for item in str(text or "none").split(","):
+        item = item.strip().lower()
+        if item in ("", "none", "off"):
+            taus.append(None)
+            continue
+        try:
+            tau = float(item)
+        except ValueError:
+            tau = float("nan")
+        if not 0.0 <= tau < 1e6:
+            raise SelectionError(f"--lod {item!r}: a tolerance in pixels >= 0, or none")
+        taus.append(tau)
+    return list(dict.fromkeys(taus))
+
+
 def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
-           frames="all", trajectories=None) -> list:
+           frames="all", trajectories=None, lod="none") -> list:
     """Every RunSpec of a selection, in a stable order (world, structure, cull, profile).
 
     Combinations that cannot run are left out: `portals` only on the portal structure.
     trajectories : optional {world: path} overriding the thesis's indoor/outdoor paths; a world
                    given as a file needs one.
+    lod          : level-of-detail tolerances, 'none,1,2' (parse_lod): one run per tolerance
     """
     trajectories = trajectories or {}
     frames = parse_frames(frames)
@@ -250,7 +275,9 @@ def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
                 if "portals" in cull_stages(cull) and not structure.startswith("portal"):
                     continue
                 for profile in parse_profiles(profiles):
-                    specs.append(RunSpec(world, str(path), structure, cull, profile, frames))
+                    for tau in parse_lod(lod):
+                        specs.append(RunSpec(world, str(path), structure, cull, profile, frames,
+                                             tau))
     if not specs:
         raise SelectionError("the selection is empty")
     return specs

@@ -223,8 +223,11 @@ def write_report(records, path, agreement=None, tunes=None, title="vismobile com
     tunes   : optional [{"world", "text", "result": TuneResult.to_dict()}]; a result's pick is
               the recommendation for its world and device
     """
+    from .lod_report import lod_section, split_lod
+
+    records, lod_records = split_lod(records)  # LOD runs get their own section
     worlds = sorted({r["spec"]["world"] for r in ok_records(records)})
-    failed = [r for r in records if "error" in r]
+    failed = [r for r in records + lod_records if "error" in r]
     nav = "".join(f"<a href='#{world_title(w).lower()}'>{world_title(w)}</a>" for w in worlds)
     body = [f"<h1>{html.escape(title)}</h1>",
             "<p class='note'>What to use for each world on each device. Device times come "
@@ -234,6 +237,7 @@ def write_report(records, path, agreement=None, tunes=None, title="vismobile com
             summary_table(records, tunes), f"<nav>worlds: {nav}</nav>"]
     for world in worlds:
         body.append(world_section(records, world, tunes))
+    body.append(lod_section(records, lod_records))
     body.append(tune_section(tunes, records))
     body.append(agreement_section(agreement))
     if failed:

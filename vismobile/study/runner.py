@@ -48,7 +48,8 @@ def _measured_as(spec: RunSpec) -> tuple:
         measured = get_profile(spec.profile).measured_as
     except ProfileError:  # runs alone, and its record says why it failed
         measured = spec.profile
-    return spec.world, spec.trajectory, spec.structure, spec.cull, spec.frames, measured
+    return (spec.world, spec.trajectory, spec.structure, spec.cull, spec.frames, measured,
+            spec.lod_tau)
 
 
 def _twin_record(record: dict, spec: RunSpec, key: str, context: Context) -> dict:
@@ -138,7 +139,8 @@ def run_matrix(specs, context: Context, processes: int | None = None,
 SUMMARY_COLUMNS = ("world", "structure", "cull", "profile", "frames", "mean_ms", "fps",
                    "mean_fps", "cull_ms", "render_ms") + MODEL_COLUMNS + (
                    "triangles_sent", "correlation", "false_negatives_total", "frames_with_fn",
-                   "fn_pixels_mean", "tightness", "conservative", "key", "error")
+                   "fn_pixels_mean", "tightness", "conservative", "key", "error",
+                   "lod_tau", "psnr_db_min", "psnr_db_mean")
 
 
 def summary_row(record: dict) -> dict:
@@ -159,6 +161,8 @@ def summary_row(record: dict) -> dict:
                 "key": record.get("key", ""), "error": ""})
     for device, column in zip(DEVICES, MODEL_COLUMNS):
         row[column] = s["model"][device]["frame_ms"]["mean"]
+    if spec.get("lod_tau") is not None:  # level of detail (compare --lod; null: identical)
+        row.update({name: s.get(name) for name in ("lod_tau", "psnr_db_min", "psnr_db_mean")})
     return row
 
 

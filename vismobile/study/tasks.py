@@ -24,6 +24,9 @@ FRAME_COLUMNS = ("frame", "cull_ms", "render_ms", "frame_ms", "triangles_sent", 
                  "false_negatives", "fn_pixels", "tightness", "visible_pixels")
 # Per frame, the modelled frame ms on each device (costmodel.frame_model_ms of the counters).
 MODEL_COLUMNS = tuple(f"model_ms:{device}" for device in DEVICES)
+# Per frame, with level of detail (RunSpec.lod_tau): selection ms, the full-detail frame's
+# triangles, and the image error against it.
+LOD_COLUMNS = ("lod_ms", "triangles_full", "psnr_db", "max_diff", "changed")
 RESULT_VERSION = "4"  # 4: visible_pixels per frame
 RENDER_REPEATS = 2
 
@@ -129,26 +132,47 @@ def execute(spec: RunSpec, context: Context) -> dict:
     world, trajectory, profile, frames, cameras = _load_frames(spec, context)
     truth = truth_for(spec, context)
     partition, build_seconds = engine.load_structure(world, spec.structure, context.cache_dir)
-    renderer = engine.renderer(world, profile)
+    view = None
+    if spec.lod_tau is not None:  # level of detail: draws the levels, measured against full
+        from ..render.lod_view import LodView
+
+        view = LodView(world, engine.load_chains(world, context.cache_dir), profile,
+                       spec.lod_tau)
+    renderer = view.renderer if view else engine.renderer(world, profile)
     # Warm-up frame (first-use uploads and shader compiles are not part of any frame).
     warm = engine.make_culler(partition, spec.stages, profile).cull(cameras[0])
     renderer.draw(engine.sent_triangles(warm), cameras[0], spec.cull_back)
     culler = engine.make_culler(partition, spec.stages, profile)
-    table = {name: np.zeros(len(frames)) for name in FRAME_COLUMNS}
+    columns = FRAME_COLUMNS + (LOD_COLUMNS if view else ())
+    table = {name: np.zeros(len(frames)) for name in columns}
     counters = []
     for row, (frame, camera, visible) in enumerate(zip(frames, cameras, truth)):
         result, cull_ms = engine.timed_cull(culler, camera)
         sent = engine.sent_triangles(result)
         # Min of RENDER_REPEATS draws: drawing is stateless, and the minimum drops the frames
         # where another process took the core (llvmpipe rasterises on the CPU).
-        drawn = min((renderer.draw(sent, camera, spec.cull_back) for _ in range(RENDER_REPEATS)),
-                    key=lambda d: d.render_ms)
-        errors = frame_errors(visible, sent)
+        lod = None
+        if view:  # the reference (full detail, same culling), the levels, their image error
+            lod = view.draw(sent, camera, spec.cull_back)
+            cull_ms += lod.lod_ms
+            draws = [lod.drawn] + [renderer.draw(lod.selection.triangles, camera, spec.cull_back)
+                                   for _ in range(RENDER_REPEATS - 1)]
+        else:
+            draws = [renderer.draw(sent, camera, spec.cull_back) for _ in range(RENDER_REPEATS)]
+        drawn = min(draws, key=lambda d: d.render_ms)
+        errors = frame_errors(visible, sent)  # culling's error, on the original triangles
         stats = result.stats
         counters.append(device_counters(result, culler.tree))
+        if lod:
+            counters[-1]["triangles_sent"] = drawn.triangles
+            table["lod_ms"][row] = lod.lod_ms
+            table["triangles_full"][row] = len(sent)
+            for name in ("psnr_db", "max_diff", "changed"):
+                table[name][row] = lod.error[name]
         values = {
             "frame": frame, "cull_ms": cull_ms, "render_ms": drawn.render_ms,
-            "frame_ms": cull_ms + drawn.render_ms, "triangles_sent": len(sent),
+            "frame_ms": cull_ms + drawn.render_ms,
+            "triangles_sent": drawn.triangles if lod else len(sent),
             "draw_batches": drawn.draw_batches,
             "nodes_visited": stats.get("nodes_visited", 0),
             "plane_tests": stats.get("plane_tests", 0),
@@ -161,8 +185,18 @@ def execute(spec: RunSpec, context: Context) -> dict:
         table[column] = frame_model_ms(counters, device)
     summary = summarize_run(table, trajectory, frames, partition, profile, world, build_seconds)
     summary["model"] = model_block(counters)
+    if view:
+        from ..lod.image_error import error_summary
+
+        summary.update(error_summary(table["psnr_db"], table["max_diff"], table["changed"],
+                                     spec.lod_tau))
+        summary["triangles_full"] = summarize(table["triangles_full"])
+        summary["lod_ms"] = summarize(table["lod_ms"])
+        # JSON has no infinity: identical frames are recorded as null
+        table["psnr_db"] = [None if not np.isfinite(v) else float(v) for v in table["psnr_db"]]
     return {"spec": spec.to_dict(), "summary": summary,
-            "frames": {name: table[name].tolist() for name in FRAME_COLUMNS + MODEL_COLUMNS}}
+            "frames": {name: list(np.asarray(table[name]).tolist()) if name != "psnr_db"
+                       else table[name] for name in columns + MODEL_COLUMNS}}
 
 
 def summarize_run(table, trajectory, frames, partition, profile, world, build_seconds) -> dict:
