@@ -306,6 +306,8 @@ def test_first_use_work_is_in_the_warm_up_not_in_any_measured_frame(tmp_path, mo
     result = play(Scene(hills()), walk(6), "bfc", "ipaq-hx2490b")
     assert first and result.summary["warmup_ms"] >= 300.0
     assert result.frames["cull_ms"].max() < 300.0 and result.summary["frames"] == 6
+    # CPU time per frame: the sleep (no CPU) is in no frame, and every frame has one.
+    assert 0.0 < result.summary["cpu_ms"]["median"] < 300.0
 
 
 def test_the_gif_does_not_follow_the_images_stride(tmp_path):

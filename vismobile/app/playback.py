@@ -264,11 +264,12 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
                          for i in sorted(set(np.linspace(0, count - 1, WARM_FRAMES).astype(int)))]
                         if count else [],
                         progress, world.name)
-    compile_ms = 0.0
+    compile_ms, cpu_ms = 0.0, []
     bar = Progress(f"play {world.name}", enabled=None if progress else False)
     step = max(count // 200, 1)  # redraw the bar about 200 times
     for index, frame in enumerate(played):
         camera = trajectory.camera(frame, profile.aspect)
+        cpu_start = time.process_time()  # every thread of this process: cull, llvmpipe
         # A cull that compiled a code path the warm-up missed is timed again (timing.timed).
         culled, cull_ms, compiled = timed(culler.cull, camera)
         compile_ms += compiled
@@ -287,6 +288,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
             culler.observe_render(drawn.render_ms, culled.stats)
             active[index] = culled.stats.get("active_stages", active[index])
         frame_ms = cull_ms + drawn.render_ms
+        if not compiled:
+            cpu_ms.append((time.process_time() - cpu_start) * 1000.0)
         upload_ms[index] = drawn.upload_ms
         counters.append(device_counters(culled, tree))
         if lod_view:  # the device sends the levels' triangles
@@ -335,6 +338,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         # Compiles during measured frames (paths the warm-up missed): those culls were timed
         # again, and this is what the first tries took.
         "compile_ms": compile_ms,
+        # CPU time of this process per frame (cull + draw, all its threads): what the frame
+        # costs this machine, little moved by other processes' load, unlike the wall times.
+        "cpu_ms": summarize(np.asarray(cpu_ms)) if cpu_ms else None,
     })
     if lod_view:
         summary.update(lod_summary(table, lod_tau))

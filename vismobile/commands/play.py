@@ -93,8 +93,10 @@ def run(args) -> int:
         model = s["model"][device]
         print(f"  {model['label']:>20}: {model['frame_ms']['mean']:8.2f} ms/frame, "
               f"{model['fps']:.2f} fps")
+    cpu = s.get("cpu_ms")
     print(f"  {s['timing']:>20}: {s['frame_ms']['median']:8.2f} ms/frame median "
-          f"(mean {s['frame_ms']['mean']:.2f}, {s['fps']:.1f} fps; this machine, not the device)")
+          f"(mean {s['frame_ms']['mean']:.2f}, {s['fps']:.1f} fps; this machine, not the device)"
+          + (f"; CPU {cpu['median']:.2f} ms/frame median" if cpu else ""))
     print(f"  {'warm-up':>20}: {s['warmup_ms'] / 1000:8.2f} s before the first measured frame "
           "(numba's first-use compile, uploads; in no figure)"
           + (f"; {s['compile_ms'] / 1000:.2f} s more compiling during frames, those timed "
