@@ -20,6 +20,7 @@ SENT = (80, 220, 120)
 CULLED = (230, 60, 60)
 NODES = (240, 200, 40)
 FRUSTUM = (255, 255, 255)
+LEVEL = (120, 200, 255)  # an object's level of detail, when coarser than full (0)
 
 
 class GodView:
@@ -80,12 +81,15 @@ class GodView:
                   & (ij[:, 1] < self.height))
         image[ij[inside, 1], ij[inside, 0]] = colour
 
-    def draw(self, view, camera, sent, node_boxes=None, culled=None) -> np.ndarray:
+    def draw(self, view, camera, sent, node_boxes=None, culled=None,
+             levels=None) -> np.ndarray:
         """(H, W, 3) uint8 god view of one frame.
 
         sent       : (S,) int64 triangle ids sent this frame (their centroids in green)
         node_boxes : (D, 2, 3) float64 boxes of the drawn partition nodes (yellow outlines)
         culled     : (C,) int64 triangle ids culled this frame (red), or None to leave them out
+        levels     : (objects (k,), levels (k,), boxes (k, 2, 3)) with level of detail: each
+                     object drawn coarser than full detail gets its level number at its box
         """
         from PIL import Image, ImageDraw
 
@@ -103,6 +107,13 @@ class GodView:
             corner_a, corner_b = np.minimum(low, high), np.maximum(low, high)
             for a, b in zip(corner_a.tolist(), corner_b.tolist()):  # drawn nodes, not the world
                 draw.rectangle([a[0], a[1], b[0], b[1]], outline=NODES)
+        if levels is not None:
+            objects, numbers, boxes = levels
+            coarse = np.flatnonzero(np.asarray(numbers) > 0)
+            if len(coarse):
+                centres = self.to_pixels(np.asarray(boxes)[coarse].mean(axis=1), view)
+                for (x, y), number in zip(centres.tolist(), np.asarray(numbers)[coarse]):
+                    draw.text((x + 2, y - 5), str(int(number)), fill=LEVEL)
         self._frustum(draw, view, camera)
         return np.asarray(picture)
 

@@ -31,6 +31,9 @@ def hud_lines(info: dict) -> list:
         f"mem {memory / MB:.1f} / {heap / MB:.0f} MB heap",  # the session refuses more
         _frame_line(info),
     ]
+    if info.get("lod_tau") is not None:
+        lines.insert(2, f"LOD tau {info['lod_tau']:g} px: {info['lod_full']:,} tris at full "
+                        f"detail, {info['lod_coarse']} objects coarser")
     if info.get("message"):
         lines.append(info["message"])
     return lines

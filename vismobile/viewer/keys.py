@@ -31,6 +31,7 @@ PRESSED = {
     "C": "show_culled",       # draw culled triangles in a second colour (x-ray)
     "B": "show_nodes",        # overlay the boxes of the drawn partition nodes
     "G": "god_view",          # god view: top, side, off
+    "T": "lod_tau",           # level of detail: off, then tau 0.5, 1, 2, 4, 8 px
     "F1": "help",
     "F12": "screenshot",      # the view as PNG (vismobile-NNN.png beside the recording)
     "K": "screenshot",
@@ -49,6 +50,7 @@ HELP = [
       for j in range(0, len(STAGE_KEYS), 2)),
     "Tab  next structure   C  culled tint",
     "B  node boxes   G  god view (top/side/off)",
+    "T  level of detail: off, tau 0.5 1 2 4 8 px",
     "R  record on/off   V  save   L  load + play",
     "P  play/stop   Space  pause   . ,  step",
     "K/F12  screenshot   F1  help   Esc  quit",

@@ -18,6 +18,9 @@ from . import keys
 from .controls import Speeds, mouse_look, overview_pose, step_pose
 from .layout import PANEL as GOD
 from .godview import VIEWS, GodView
+
+# Level-of-detail tolerances the T key cycles through (None: off), pixels.
+LOD_TAUS = (None, 0.5, 1.0, 2.0, 4.0, 8.0)
 from .hud import hud_lines
 from .recorder import Player, Recorder
 
@@ -107,6 +110,8 @@ class Session:
         self.show_help = False
         self.god_view = "top"
         self.message = ""
+        self.lod_tau = None  # level of detail off; T cycles LOD_TAUS
+        self._lod = None  # render.lod_view.LodView of the current tau
         # Tab builds a structure not built yet on a thread while frames go on (the window sets
         # this; scripted runs and tests switch at once, deterministically).
         self.background_builds = False
@@ -320,6 +325,9 @@ class Session:
             self.show_culled = not self.show_culled
         elif action == "show_nodes":
             self.show_nodes = not self.show_nodes
+        elif action == "lod_tau":
+            self.set_lod_tau(LOD_TAUS[(LOD_TAUS.index(self.lod_tau) + 1) % len(LOD_TAUS)]
+                             if self.lod_tau in LOD_TAUS else LOD_TAUS[1])
         elif action == "god_view":
             self.god_view = GOD_VIEWS[(GOD_VIEWS.index(self.god_view) + 1) % len(GOD_VIEWS)]
         elif action == "help":
@@ -330,6 +338,29 @@ class Session:
             self.running = False
         else:
             raise ValueError(f"unknown viewer action {action!r}")
+
+    def set_lod_tau(self, tau) -> None:
+        """Level of detail at tau pixels (None: off). The chains come from the partition's
+        extras (partition --lod) or are built on first use (and kept in those extras)."""
+        self.lod_tau = None if tau is None else float(tau)
+        if self.lod_tau is None:
+            self.message = "level of detail off"
+            return
+        if self._lod is None:
+            from ..lod.chains import LodChains
+            from ..lod.simplify import build_chains
+            from ..render.lod_view import LodView
+
+            partition = self.partitions.get(self.structure)
+            extras = partition.extras if partition is not None else {}
+            chains = LodChains.from_extras(extras)
+            if chains is None:
+                chains = build_chains(self.world)
+                if partition is not None:
+                    extras.update(chains.to_extras())
+            self._lod = LodView(self.world, chains, self.profile, self.lod_tau, reference=False)
+        self._lod.tau = self.lod_tau
+        self.message = f"level of detail: tau {self.lod_tau:g} px"
 
     # ---- trajectories ----------------------------------------------------------------------
     @property
@@ -419,6 +450,11 @@ class Session:
                 and width > 0 and height > 0:
             self.profile = self.profile.with_(resolution=(int(width), int(height)))
             self._renderer = None
+            if self._lod is not None:  # the levels' renderer follows the new size
+                from ..render.lod_view import LodView
+
+                self._lod = LodView(self.world, self._lod.selector.chains, self.profile,
+                                    self._lod.tau, reference=False)
 
     @property
     def renderer(self):
@@ -435,7 +471,13 @@ class Session:
         culled = self.culler.cull(camera)
         cull_ms = (time.perf_counter() - start) * 1000.0
         renderer = self.renderer
-        drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
+        selection = None
+        if self.lod_tau is not None and self._lod is not None:
+            renderer = self._lod.renderer
+            selection = self._lod.draw(culled.triangles, camera, bool(culled.cull_back))
+            drawn, selection = selection.drawn, selection.selection
+        else:
+            drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
         nodes = getattr(culled, "nodes", None)
         culled_ids = None
         if self.show_culled:
@@ -454,8 +496,16 @@ class Session:
         god = None
         if self.god_view:
             boxes = self.culler.tree.node_bounds[nodes] if nodes is not None else None
-            god = self._god.draw(self.god_view, camera, culled.triangles, boxes, culled_ids)
+            levels = None
+            if selection is not None:
+                levels = (selection.objects, selection.levels,
+                          self._lod.selector.boxes[selection.objects])
+            god = self._god.draw(self.god_view, camera, culled.triangles, boxes, culled_ids,
+                                 levels)
         info = self._info(culled, drawn, cull_ms)
+        if selection is not None:
+            info.update(lod_tau=self.lod_tau, lod_full=int(len(culled.triangles)),
+                        lod_coarse=int((selection.levels > 0).sum()))
         self.last_frame = Frame(image, god, hud_lines(info), info, camera, culled.triangles,
                                 dict(culled.stats))
         return self.last_frame
