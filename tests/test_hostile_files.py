@@ -108,11 +108,17 @@ def test_fuzz_has_a_seed_and_an_entry_for_every_surface(tmp_path):
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
     import fuzz
+    from vismobile.terrain import store
     from vismobile.world import World
 
     cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
     seeds = fuzz.format_seeds(cube, tmp_path)
     assert set(seeds) | {"obj", "vmp", "trajectory", "cull"} == set(fuzz.ENTRY)
     for target, datas in seeds.items():
-        for data in datas:  # every seed loads as it is
-            assert fuzz.run_case(target, data, tmp_path) == "ok", target
+        load, suffix = fuzz.ENTRY[target]
+        # the textured GLB entry also renders, and a .vmt's objects take seconds to build
+        load = {"glb": fuzz.load_mesh, "vmt": store.load}.get(target, load)
+        for k, data in enumerate(datas):  # every seed loads as it is
+            path = tmp_path / f"seed{k}{suffix}"
+            path.write_bytes(data)
+            load(path)
