@@ -87,7 +87,8 @@ RANGES = {
         "--eye-height": _positive(),
         "--clearance": _positive(),
     },
-    "tune": {"--probe": Range(1, MAX_FRAMES), "--structures": NOT_EMPTY},
+    "tune": {"--probe": Range(1, MAX_FRAMES), "--structures": NOT_EMPTY,
+             "--max-error-px": Range(0.0, 1e6, float)},
     "partition": {
         "--depth": Range(1, 8),
         "--cells": Range(1, 1 << 20),

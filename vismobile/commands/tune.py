@@ -38,6 +38,10 @@ def add_parser(sub):
     parser.add_argument("-o", "--out", "--json", dest="out", type=Path, default=None,
                         help="also write the result as JSON to this file")
     parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP)
+    parser.add_argument("--max-error-px", type=float, default=None, metavar="PX",
+                        help="also pick the level-of-detail tolerance for the chosen "
+                             "configuration: the fastest tau up to PX pixels of projected "
+                             "error, with its PSNR against full detail (docs/lod.md)")
     parser.add_argument("--quiet", action="store_true", help="no status lines on stderr")
     return parser
 
@@ -78,8 +82,22 @@ def run(args) -> int:
         result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,
                       structures=args.structures, cache_dir=args.cache, cost=args.cost,
                       progress=lambda done, _: status(f"{done} structure(s) probed"))
+        lod = None
+        if args.max_error_px is not None:
+            from ..study.lod_tune import pick_tau
+
+            status(f"level of detail up to {args.max_error_px:g} px")
+            lod = pick_tau(world, trajectory, get_profile(args.profile),
+                           result.choice.structure, result.choice.cull, result.frames,
+                           args.max_error_px, args.cache)
     print(result.report())
+    output = result.to_dict()
+    if lod is not None:
+        from ..study.lod_tune import report_lines
+
+        print("\n".join(report_lines(lod)))
+        output["lod"] = lod
     if args.out:
-        atomic_write_bytes(args.out, json.dumps(result.to_dict(), indent=1).encode())
+        atomic_write_bytes(args.out, json.dumps(output, indent=1).encode())
     return 0
 
