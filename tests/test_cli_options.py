@@ -104,10 +104,20 @@ def test_obj_stride_beyond_the_terrain_is_refused_before_the_vmt(capsys, files):
     assert listing(files) == before
 
 
-def test_a_clearance_wider_than_the_world_is_refused(capsys, files):
+def test_a_clearance_wider_than_the_world_or_an_eye_above_it_is_refused(capsys, files):
+    # both used to become a fly-over silently
     refuse(capsys, ["trajectory", "generate", files / "m.obj", "-o", files / "w.csv",
                     "--clearance", "5", "--quiet"], "--clearance")
+    refuse(capsys, ["trajectory", "generate", files / "m.obj", "-o", files / "w.csv",
+                    "--eye-height", "1e6", "--quiet"], "--eye-height")
     assert not (files / "w.csv").exists()
+
+
+def test_the_default_object_height_must_fit_the_terrain(capsys, files):
+    # --size 3 --objects 2: 8 spacings on a 2-spacing terrain was a ValueError traceback
+    refuse(capsys, ["terrain", "build", "fractal", "--size", "3", "-o", files / "t.vmt",
+                    "--objects", "2"], "default object height")
+    assert not (files / "t.vmt").exists()
 
 
 # outputs that are inputs

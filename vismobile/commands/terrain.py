@@ -96,10 +96,13 @@ def _check_fit(args, heightmap) -> None:
             raise VisMobileError(f"--obj at stride {args.obj_stride} would hold {triangles:,} "
                                  f"triangles (at most {MAX_OBJ_TRIANGLES:,}); pass a larger "
                                  "--obj-stride")
-    height = args.object_height
-    if args.objects > 0 and height is not None and 4 * height > heightmap.extent:
-        raise VisMobileError(f"--object-height {height:g} exceeds a quarter of the terrain's "
-                             f"width ({heightmap.extent:g})")
+    height = 8 * heightmap.spacing if args.object_height is None else args.object_height
+    if args.objects > 0 and 4 * height > heightmap.extent:  # place_objects keeps a margin
+        given = "--object-height" if args.object_height is not None else \
+            "the default object height (8 spacings)"
+        raise VisMobileError(f"{given} {height:g} exceeds a quarter of the terrain's width "
+                             f"({heightmap.extent:g}); pass a larger --size or a smaller "
+                             "--object-height")
 
 
 def _info(args) -> int:

@@ -64,6 +64,10 @@ def run(args) -> int:
         world = fix_winding(open_world(args.world), args.fix_winding)
         low, high = world.extent
         wide = float(max(high[0] - low[0], high[2] - low[2]))
+        tall = float(high[1] - low[1])
+        if args.eye_height is not None and args.eye_height >= tall:
+            raise VisMobileError(f"--eye-height {args.eye_height:g} is at or above the top of "
+                                 f"{args.world} ({tall:g} above its lowest point)")
         if args.clearance is not None and 2 * args.clearance >= wide:
             raise VisMobileError(f"--clearance {args.clearance:g} blocks the whole of "
                                  f"{args.world} ({wide:g} wide); give less than {wide / 2:g}")
