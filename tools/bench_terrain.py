@@ -6,6 +6,7 @@ against the full-resolution render for a sweep of the pixel knob on a smaller on
         [--taus 0.25,0.5,0.7,1,2,4,8] [--error-frames 4] [--methods tiles,roettger,roam]
         [--out runs/bench_terrain.md]
     .venv/bin/python tools/bench_terrain.py --display-lists --size 1025 --frames 60
+    .venv/bin/python tools/bench_terrain.py --roam-speeds --size 1025 --frames 30
 
 Heightmaps are deterministic diamond-square maps (seed 1, roughness 0.5, relief 0.12 of the
 width, unit spacing), cached as out/terrain/fractal-N.vmt. Times are medians over consecutive
@@ -215,6 +216,46 @@ def display_lists(hm, frames, tau, profile, C, speed_name="slow") -> dict:
             "triangles_median": float(np.median([c[2] for c in churn]))}
 
 
+def circle_cameras(hm, step, frames, eye_height=1.0):
+    """Cameras on the circle path (radius 0.4 of the width, looking at the centre) at step
+    world units a frame."""
+    from vismobile.world.camera import Camera
+
+    w = hm.extent
+    radius, centre = 0.4 * w, w / 2
+    angle = np.arange(frames) * step / radius
+    x, z = centre + radius * np.cos(angle), centre + radius * np.sin(angle)
+    y = hm.height_at(x, z) + eye_height * hm.spacing
+    yaw = np.degrees(np.arctan2(x - centre, z - centre))
+    fov = float(np.degrees(2 * np.arctan(np.tan(np.radians(30.0)) / (240 / 320))))
+    return [Camera((a, b, c), yaw=float(d), pitch=-10, fov=fov, near=0.05 * hm.spacing,
+                   far=1.5 * w) for a, b, c, d in zip(x, y, z, yaw)]
+
+
+def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0)) -> list:
+    """ROAM's frame time against speed: the walking ROAM and the incremental one, each
+    coherent along the circle at each speed (3 warm-up frames), medians of the same run."""
+    from vismobile.terrain.roam import Roam
+
+    rows = []
+    for step in steps:
+        cameras = circle_cameras(hm, step, frames + 3)
+        for incremental in (False, True):
+            roam = Roam(hm, incremental=incremental)
+            times, ops, tris = [], [], []
+            for k, camera in enumerate(cameras):
+                frame = roam.update(camera, profile.resolution, tau)
+                if k >= 3:
+                    times.append(frame.lod_ms)
+                    ops.append(frame.splits + frame.merges)
+                    tris.append(len(frame.triangles))
+            rows.append({"step": step, "incremental": incremental,
+                         "ms_median": float(np.median(times)),
+                         "ops_median": float(np.median(ops)),
+                         "triangles_median": float(np.median(tris))})
+    return rows
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--size", type=int, default=4097)
@@ -237,10 +278,30 @@ def main(argv=None) -> int:
                         help="the horizon's arithmetic (fixed16.16: a fixed-point profile's)")
     parser.add_argument("--display-lists", action="store_true",
                         help="only Pires's cached chunks against rebuilding (circle paths)")
+    parser.add_argument("--roam-speeds", action="store_true",
+                        help="only ROAM's frame time at 0.1, 1 and 10 units a frame")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_terrain.md")
     args = parser.parse_args(argv)
     profile = get_profile("ipaq-hx2490b")
     lines, record = [], {}
+    if args.roam_speeds:
+        hm = heightmap(args.size)
+        rows = roam_speeds(hm, args.frames, args.tau, profile)
+        record["roam_speeds"] = rows
+        lines += [f"## ROAM frame time against speed, {args.size}^2, tau = {args.tau} px, "
+                  f"circle, {args.frames} frames a speed, medians", "",
+                  "| units / frame | ROAM | frame ms | splits + merges | triangles |",
+                  "|---:|---|---:|---:|---:|"]
+        for r in rows:
+            lines.append(f"| {r['step']:g} | {'incremental' if r['incremental'] else 'walking'} "
+                         f"| {r['ms_median']:.2f} | {r['ops_median']:.0f} | "
+                         f"{r['triangles_median']:,.0f} |")
+        for inc in (False, True):
+            t = {r["step"]: r["ms_median"] for r in rows if r["incremental"] == inc}
+            lines.append(f"\n{'incremental' if inc else 'walking'}: 0.1 / 10 units a frame = "
+                         f"{t[0.1] / t[10.0]:.2f}")
+        print("\n".join(lines), flush=True)
+        args.skip_speed = args.skip_errors = args.skip_horizon = True
     if args.display_lists:
         hm = heightmap(args.size)
         lines += [f"## Display lists (Pires), Röttger C = {args.C:g}, {args.size}^2, tau = "

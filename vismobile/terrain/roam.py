@@ -40,6 +40,11 @@ first merges cheaper diamonds (ROAM's max(Qs) > min(Qm) exchange), within a boun
 operations. Without a budget, a split candidate scored <= tau is not re-scored until the eye
 has travelled d - lambda_b e / tau (the seed's deferred wait-lists, from distance alone).
 
+Incremental (`incremental=True`, no budget; issue 30): no walk of the whole mesh; candidates
+on the safe side of tau wait on a heap keyed by the eye travel at which their priority may
+cross tau (roam_frame._rewake), and triangles come from cached blocks re-emitted only where
+diamonds changed (roam_emit.py), so a frame's work follows the motion.
+
 Geomorphing: a vertex created by a split moves from the midpoint of its hypotenuse to its
 height over `geomorph` frames (h_t = (1 - t) (h(v0) + h(v1)) / 2 + t h(v)). On each of its
 triangles the drawn surface is then a blend of the parent's plane and the children's, so its
@@ -55,7 +60,8 @@ import numpy as np
 
 from .bintree import _geometry, wedgie_ranges, wedgies
 from .heightmap import Heightmap
-from .roam_frame import _emit, _frame
+from .roam_emit import BlockEmitter
+from .roam_frame import _emit, _frame, _rewake
 from .tiles import pixel_scale
 
 
@@ -105,9 +111,12 @@ class Roam:
     geomorph: frames over which a new vertex rises from its hypotenuse midpoint to its height
     (0: pop at once). defer: skip re-scoring candidates that the eye's travel since they were
     scored cannot have brought above tau (no budget only; the mesh is the same either way).
+    incremental: wake-up queues and block emission (module doc): frames within tau as well,
+    with the merges of diamonds that left the view deferred and whole blocks drawn.
     """
 
-    def __init__(self, heightmap: Heightmap, geomorph: int = 0, defer: bool = True):
+    def __init__(self, heightmap: Heightmap, geomorph: int = 0, defer: bool = True,
+                 incremental: bool = False):
         self.heightmap = heightmap
         self.n = heightmap.exponent
         N = heightmap.size
@@ -143,6 +152,19 @@ class Roam:
         self.out = np.zeros((1 << 16, 3), np.int64)
         self.morph_ids = np.zeros(0, np.int64)
         self.morph_start = np.zeros(0, np.int64)
+        # Incremental queues (no budget): a wake-up heap of candidates keyed by the travel at
+        # which their priority may cross tau, so a frame re-scores only those (module doc).
+        self.incremental = bool(incremental)
+        self.hk = np.empty(1 << 12, np.float64)
+        self.hv = np.empty(1 << 12, np.int64)
+        self.hsize = np.zeros(1, np.int64)
+        self.wake_at = np.full(N * N if incremental else 1, -1.0)
+        self.touched = np.zeros(min(N * N, 1 << 22) if incremental else 1, np.int64)
+        self.tcount = np.zeros(4, np.int64)
+        self.changed = np.zeros(min(N * N, 1 << 20) if incremental else 1, np.int64)
+        self.emitter = BlockEmitter(self.heights, self.n, heightmap.spacing) \
+            if incremental else None
+        self.need_walk = True
 
     def reset(self):
         """Back to the two root triangles (the next frame refines from scratch)."""
@@ -155,6 +177,7 @@ class Roam:
         self.leaves = 2
         self.morph_ids = self.morph_start = np.zeros(0, np.int64)
         self.knob = None
+        self.need_walk = True
 
     def update(self, camera, resolution, tau: float, cull: bool = True,
                budget: int | None = None) -> RoamFrame:
@@ -176,6 +199,13 @@ class Roam:
             self.until[:] = 0.0
             self.travel = 0.0
             self.knob = (lam, float(tau))
+            self.need_walk = True
+        lazy = self.incremental and budget is None
+        walk = not lazy or self.need_walk or self.alive_count == 0
+        if lazy and walk:  # (re)seed the wake-up heap from a full walk
+            self.hsize[0] = 0
+            self.wake_at[:] = -1.0
+            self.until[:] = 0.0
         limit = -1 if budget is None else int(budget)
         if budget is not None and budget < 2:
             raise ValueError("budget must be at least 2 triangles")
@@ -186,26 +216,62 @@ class Roam:
                 self.wedge, self.heightmap.spacing, self.n, self.split,
                 self.alive, self.alive_count, self.qs, self.qm, self.mark, self.frame_number,
                 camera.eye, planes, lam, float(tau), limit, self.leaves, cull, born, stats,
-                self.until, self.travel)
+                self.until, self.travel, walk, self.hk, self.hv, self.hsize, self.wake_at,
+                self.touched, self.tcount, self.changed)
             born_all.append(born[:born_count])
+            if self.emitter is not None:
+                if walk or self.tcount[3]:
+                    self.emitter.invalidate()
+                else:
+                    self.emitter.mark(self.changed, int(self.tcount[2]))
+            if lazy:
+                self._rewake(eye, lam, float(tau))
+            self.need_walk = bool(lazy and (self.tcount[1] or stats[6]))
             if not stats[6]:
                 break
+            walk = True
+            if lazy:
+                self.hsize[0] = 0
+                self.wake_at[:] = -1.0
             # The split list filled up: grow it and carry on (same mesh, new stamps).
             grown = np.zeros(min(N * N + 64 * (self.n + 2), 4 * len(self.alive)), np.int64)
             grown[:self.alive_count] = self.alive[:self.alive_count]
             self.alive = grown
             self.frame_number += 1
-        while True:
-            count = _emit(self.wedge, self.heightmap.spacing, self.n, self.split,
-                          self.alive, self.alive_count, planes, cull, self.out)
-            if count >= 0:
-                break
-            self.out = np.zeros((2 * len(self.out), 3), np.int64)
+        centre = (N // 2) * N + N // 2
+        if self.emitter is not None and self.split[centre]:
+            triangles = self.emitter.emit(self.split, self.alive, self.alive_count, planes,
+                                          cull)
+        else:
+            while True:
+                count = _emit(self.wedge, self.heightmap.spacing, self.n, self.split,
+                              self.alive, self.alive_count, planes, cull, self.out)
+                if count >= 0:
+                    break
+                self.out = np.zeros((2 * len(self.out), 3), np.int64)
+            triangles = self.out[:count].copy()
         morph = self._morph(np.concatenate(born_all))
         lod_ms = (time.perf_counter() - start) * 1000.0
-        return RoamFrame(self.out[:count].copy(), int(self.leaves), int(stats[0]),
+        return RoamFrame(triangles, int(self.leaves), int(stats[0]),
                          int(stats[1]), int(stats[2]), float(stats[3]), bool(stats[5]),
                          int(stats[7]), lod_ms, morph)
+
+    def _rewake(self, eye, lam, tau):
+        """Push this frame's safe-side candidates on the wake-up heap (grown as needed;
+        rebuilt without its stale entries when they dominate)."""
+        count = int(self.tcount[0])
+        size = int(self.hsize[0])
+        if size + count > len(self.hk) or size > 4 * (4 * self.alive_count + 4096):
+            keys, vals = self.hk[:size], self.hv[:size]
+            live = self.wake_at[vals] == keys
+            keys, vals = keys[live], vals[live]
+            order = np.argsort(keys, kind="stable")  # a sorted array is a min-heap
+            room = max(2 * (len(keys) + count), 1 << 12)
+            self.hk, self.hv = np.empty(room), np.empty(room, np.int64)
+            self.hk[:len(keys)], self.hv[:len(keys)] = keys[order], vals[order]
+            self.hsize[0] = len(keys)
+        _rewake(self.wedge, self.heightmap.spacing, self.n, self.split, self.touched, count,
+                eye, lam, tau, self.travel, self.hk, self.hv, self.hsize, self.wake_at)
 
     def _morph(self, born) -> tuple:
         """Drawn heights of vertices still rising (ids, heights); empty without geomorph."""

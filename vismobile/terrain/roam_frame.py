@@ -144,9 +144,19 @@ def _compact(alive, count, split, head):
     return m
 
 
+@njit(cache=True, inline="always")
+def _touch(touched, tcount, v):
+    """Record a candidate scored on the safe side of tau (it goes to the wake-up heap)."""
+    if tcount[0] < touched.shape[0]:
+        touched[tcount[0]] = v
+        tcount[0] += 1
+    else:
+        tcount[1] = 1  # overflow: the caller walks the whole mesh next frame
+
+
 @njit(cache=True)
 def _push_children(wedge, spacing, n, N, split, qs, stamp, x, eye, planes, lam, tau,
-                   cull, every, sk, sv, ns, low, g):
+                   cull, every, sk, sv, ns, low, g, touched, tcount):
     """Queue x's unsplit children for splitting, each once per frame; only those above tau
     unless every (budget mode). Returns the queue and the largest priority left out."""
     h, sq = _geometry(x // N, x % N, n, g)
@@ -163,21 +173,24 @@ def _push_children(wedge, spacing, n, N, split, qs, stamp, x, eye, planes, lam, 
                         ns = _push(sk, sv, ns, -q, m)
                     else:
                         low = max(low, q)
+                        _touch(touched, tcount, m)
     return ns, low
 
 
 @njit(cache=True)
 def _merge(wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau,
-           cull, every, sk, sv, ns, mk, mv, nm, low, g, g2):
+           cull, every, sk, sv, ns, mk, mv, nm, low, g, g2, touched, tcount, changed):
     """Merge diamond v (priority p): it rejoins the split queue, its parents may become
     mergeable. Returns the queues, the largest left-out priority and the leaves removed."""
     split[v] = 0
+    _touch(changed, tcount[2:], v)
     if qs[v] != stamp:
         qs[v] = stamp
         if every or p > tau:
             ns = _push(sk, sv, ns, -p, v)
         else:
             low = max(low, p)
+            _touch(touched, tcount, v)
     _geometry(v // N, v % N, n, g)
     removed = 0
     for k in range(2):
@@ -190,12 +203,15 @@ def _merge(wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, t
             if every or q <= tau:
                 nm = _push(mk, mv, nm, q, a)
                 qm[a] = stamp
+            else:
+                _touch(touched, tcount, a)
     return ns, nm, low, removed
 
 
 @njit(cache=True)
 def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
-           eye, planes, lam, tau, budget, leaves, cull, born, stats, until, travel):
+           eye, planes, lam, tau, budget, leaves, cull, born, stats, until, travel,
+           walk, hk, hv, hsize, wake_at, touched, tcount, changed):
     """One ROAM frame from last frame's mesh. Returns (alive_count, leaves, born_count).
 
     budget < 0: no budget (queues then hold only diamonds that can move: split candidates
@@ -206,7 +222,13 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
     again). Deferred priorities (no budget only): travel is the eye's path length so far and
     until[v] the travel up to which candidate v is known to stay <= tau (float32 rounded
     down); such candidates are not re-scored (the seed's wait-lists, from distance alone,
-    so turning the camera needs no re-scoring either)."""
+    so turning the camera needs no re-scoring either).
+
+    walk False (incremental, no budget): instead of walking last frame's whole mesh, only the
+    candidates due on the wake-up heap (hk, hv, hsize[0]: keys = the travel at which their
+    priority may cross tau, valid while wake_at[v] equals the key) are re-scored; every
+    candidate scored on the safe side of tau is recorded in touched (tcount[0]) for _rewake,
+    every diamond split or merged in changed (tcount[2]; tcount[1] / [3] flag overflows)."""
     N = int(np.sqrt(wedge.shape[0]))
     S = N - 1
     every = budget >= 0
@@ -229,7 +251,39 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
     # Queues from last frame's mesh with this frame's priorities.
     # (The children loop is written out here: a call per diamond costs as much again in
     # reference counting of its array arguments.)
-    for i in range(alive_count):
+    tcount[0] = 0
+    tcount[1] = 0
+    tcount[2] = 0  # changed (split or merged) diamonds, for the block emitter
+    tcount[3] = 0
+    if not walk:
+        while hsize[0] > 0 and hk[0] <= travel:
+            key, v = hk[0], hv[0]
+            hsize[0] = _pop(hk, hv, hsize[0])
+            if wake_at[v] != key:
+                continue  # stale: re-pushed since, or consumed
+            wake_at[v] = -1.0
+            if _candidate(split, v, n, N, g):
+                if qs[v] == stamp:
+                    continue
+                qs[v] = stamp
+                q = _score(wedge, spacing, v, N, eye, planes, lam, cull)
+                if q > tau:
+                    sk, sv = _reserve(sk, sv, ns, 1)
+                    ns = _push(sk, sv, ns, -q, v)
+                else:
+                    low = max(low, q)
+                    _touch(touched, tcount, v)
+            elif _mergeable(split, v, n, N, g):
+                if qm[v] == stamp:
+                    continue
+                q = _score(wedge, spacing, v, N, eye, planes, lam, cull)
+                if q <= tau:
+                    mk, mv = _reserve(mk, mv, nm, 1)
+                    nm = _push(mk, mv, nm, q, v)
+                    qm[v] = stamp
+                else:
+                    _touch(touched, tcount, v)
+    for i in range(alive_count if walk else 0):
         v = alive[i]
         h, sq = _geometry(v // N, v % N, n, g)
         virtual = (not sq) and h == 1
@@ -254,6 +308,7 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                         ns = _push(sk, sv, ns, -q, m)
                     else:
                         low = max(low, q)
+                        _touch(touched, tcount, m)
                         far = travel + _slack(wedge, spacing, m, N, eye, lam, tau)
                         f32 = np.float32(far)
                         if f32 > far:
@@ -265,6 +320,8 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                 mk, mv = _reserve(mk, mv, nm, 1)
                 nm = _push(mk, mv, nm, q, v)
                 qm[v] = stamp
+            else:
+                _touch(touched, tcount, v)
     if split[centre] == 0:
         q = _score(wedge, spacing, centre, N, eye, planes, lam, cull)
         sk, sv = _reserve(sk, sv, ns, 1)
@@ -283,7 +340,7 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
         mk, mv = _reserve(mk, mv, nm, 2)
         ns, nm, low, removed = _merge(
             wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau, cull,
-            every, sk, sv, ns, mk, mv, nm, low, g, g2)
+            every, sk, sv, ns, mk, mv, nm, low, g, g2, touched, tcount, changed)
         leaves -= removed
         merges += 1
     # Split phase: the highest-priority leaf diamond, after its forced chain, while > tau.
@@ -342,7 +399,7 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                     mk, mv = _reserve(mk, mv, nm, 2)
                     ns, nm, low, removed = _merge(
                         wedge, spacing, n, N, split, qs, qm, stamp, w, q, eye, planes, lam,
-                        tau, cull, every, sk, sv, ns, mk, mv, nm, low, g, g2)
+                        tau, cull, every, sk, sv, ns, mk, mv, nm, low, g, g2, touched, tcount, changed)
                     leaves -= removed
                     merges += 1
                     exchanges += 1
@@ -354,6 +411,7 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
         for i in range(count):
             x = order[i]
             split[x] = 1
+            _touch(changed, tcount[2:], x)
             alive[alive_count] = x
             alive_count += 1
             if born_count < born.shape[0]:
@@ -365,7 +423,10 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                 forced += 1
             sk, sv = _reserve(sk, sv, ns, 4)
             ns, low = _push_children(wedge, spacing, n, N, split, qs, stamp, x, eye,
-                                     planes, lam, tau, cull, every, sk, sv, ns, low, g)
+                                     planes, lam, tau, cull, every, sk, sv, ns, low, g,
+                                     touched, tcount)
+            if not every:
+                _touch(touched, tcount, x)  # newly mergeable, above tau: wake it later
             if every and qm[x] != stamp:  # newly mergeable (for the budget exchange)
                 mk, mv = _reserve(mk, mv, nm, 1)
                 nm = _push(mk, mv, nm, _score(wedge, spacing, x, N, eye, planes,
@@ -380,7 +441,7 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
         ns = _pop(sk, sv, ns)
     alive_count = _compact(alive, alive_count, split, head)
     stats[0], stats[1], stats[2] = splits, merges, forced
-    if deferred:
+    if deferred or not walk:
         remaining = max(remaining, tau)  # the deferred ones are known to be <= tau only
     stats[3], stats[4], stats[5] = remaining, exchanges, blocked
     stats[7] = deferred
@@ -438,3 +499,34 @@ def _emit(wedge, spacing, n, split, alive, alive_count, planes, cull, out):
                     out[count, 1], out[count, 2] = er * N + ec, ar * N + ac
                 count += 1
     return count
+
+
+@njit(cache=True)
+def _rewake(wedge, spacing, n, split, touched, count, eye, lam, tau, travel, hk, hv, hsize,
+            wake_at):
+    """Push each recorded candidate with the travel at which its priority may first cross
+    tau (wedgie box distance d, priority lam e / d changes only as d does, and d by at most
+    the eye's travel): a split candidate at travel + d - lam e / tau, a merge candidate at
+    travel + lam e / tau - d. Culling can lower a priority to 0 at once (turning): merges of
+    diamonds that left the frustum wait for their wake-up, splits never do (the bound is the
+    unculled priority). hk/hv must have room for count more entries."""
+    N = int(np.sqrt(wedge.shape[0]))
+    g = np.empty((4, 2), np.int64)
+    for i in range(count):
+        v = touched[i]
+        x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
+        dx = max(x0 * spacing - eye[0], 0.0, eye[0] - x1 * spacing)
+        dy = max(y0 - eye[1], 0.0, eye[1] - y1)
+        dz = max(z0 * spacing - eye[2], 0.0, eye[2] - z1 * spacing)
+        d = np.sqrt(dx * dx + dy * dy + dz * dz)
+        reach = lam * wedge[v, 2] / tau
+        if _candidate(split, v, n, N, g):
+            wake = travel + d - reach
+        elif _mergeable(split, v, n, N, g):
+            if wedge[v, 2] <= 0.0:
+                continue
+            wake = travel + reach - d
+        else:
+            continue
+        wake_at[v] = wake
+        hsize[0] = _push(hk, hv, hsize[0], wake, v)
