@@ -23,6 +23,7 @@ import zlib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+_TRAJ = ROOT / "trajectories" / "indoor.csv"
 RSS_LIMIT = 2 << 30  # bytes: the issue's bound for any input
 ADDRESS_LIMIT = 6 << 30  # the child's address space cap: a runaway case fails, not the machine
 TIME_LIMIT = 120  # seconds per case (a hang is a failure, not a wait)
@@ -266,6 +267,69 @@ def _(folder):
     return _info(folder, "m.glb", glb(*gltf(nodes=nodes)))
 
 
+def textured(side: int, uri: str | None = None) -> tuple:
+    """(glTF JSON, binary) of the cube with a side x side one-bit PNG as its base colour: in
+    the binary buffer, or in a file `uri` beside the glTF (the PNG is then returned too)."""
+    import io
+
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.new("1", (side, side)).save(buffer, "PNG")
+    png = buffer.getvalue()
+    doc, binary = gltf()
+    uv = struct.pack(f"<{2 * len(CUBE_V)}f", *([0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0] * 2))
+    start = len(binary)
+    binary += uv
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": start, "byteLength": len(uv)})
+    doc["accessors"].append({"bufferView": 2, "componentType": 5126, "count": len(CUBE_V),
+                             "type": "VEC2"})
+    primitive = doc["meshes"][0]["primitives"][0]
+    primitive["attributes"]["TEXCOORD_0"], primitive["material"] = 2, 0
+    doc["materials"] = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]
+    doc["textures"] = [{"source": 0}]
+    if uri is None:
+        binary += b"\0" * (-len(binary) % 4)
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": len(binary),
+                                   "byteLength": len(png)})
+        doc["images"] = [{"bufferView": 3, "mimeType": "image/png"}]
+        binary += png
+    else:
+        doc["images"] = [{"uri": uri}]
+    doc["buffers"][0]["byteLength"] = len(binary)
+    return doc, binary, png
+
+
+def _play(folder, name, data):
+    path = _file(folder, name, data)
+    return ["play", path, "--trajectory", _TRAJ, "-o", folder / "run", "--limit", "2",
+            "--quiet"], path
+
+
+CASES["glb_texture_12000_pixels"] = lambda folder: _play(  # 1.9 GB and PIL's warning before
+    folder, "m.glb", glb(*textured(12000)[:2]))
+CASES["glb_texture_20000_pixels"] = lambda folder: _play(  # the texture was dropped silently
+    folder, "m.glb", glb(*textured(20000)[:2]))
+
+
+@case("gltf_texture_file_12000_pixels")
+def _(folder):
+    doc, binary, png = textured(12000, "big.png")
+    doc["buffers"][0]["uri"] = "m.bin"
+    _file(folder, "m.bin", binary)
+    _file(folder, "big.png", png)
+    return _play(folder, "m.gltf", json.dumps(doc).encode())
+
+
+@case("gltf_image_uri_fifo")
+def _(folder):
+    doc, binary, _ = textured(4, "tex.png")
+    doc["buffers"][0]["uri"] = "m.bin"
+    _file(folder, "m.bin", binary)
+    os.mkfifo(folder / "tex.png")
+    return _play(folder, "m.gltf", json.dumps(doc).encode())
+
+
 def _gltf_with_uri(folder, target):
     doc, binary = gltf()
     doc["buffers"][0]["uri"] = "buffer.bin"
@@ -351,7 +415,6 @@ def _special(folder, name, make, argv):
     return [a if a != "{}" else path for a in argv], path
 
 
-_TRAJ = ROOT / "trajectories" / "indoor.csv"
 CASES["vmt_fifo"] = lambda folder: _special(folder, "t.vmt", os.mkfifo, ["terrain", "info", "{}"])
 CASES["vmt_dev_zero"] = lambda folder: _special(
     folder, "t.vmt", lambda p: os.symlink("/dev/zero", p), ["terrain", "info", "{}"])

@@ -4,6 +4,8 @@ allocation its declarations would cause.
 
 - PLY and OFF: declared vertex and face counts at most MAX_TRIANGLES and at most what the
   file's bytes can hold (an OFF declaring 2e9 faces but holding one loaded silently).
+- glTF/GLB images: width x height from the image's header, at most MAX_IMAGE_PIXELS (a 12000^2
+  one-bit PNG of 24 KB decoded to RGBA took 1.9 GB and played, with PIL's bomb warning).
 - glTF/GLB: the JSON (GLB: its first chunk) parses, nesting counted without recursion; nodes
   form a forest (children in range, each node at most one parent, no cycle: a node that is its
   own child looped trimesh); the triangles its mesh instances draw, counted from the index
@@ -22,6 +24,7 @@ from ..errors import WorldError
 from .limits import MAX_BYTES, MAX_TRIANGLES, regular_file
 
 MAX_NESTING = 64  # JSON depth of a glTF
+MAX_IMAGE_PIXELS = 1 << 26  # a texture's pixels (8192^2: the largest any profile draws)
 MAX_NODES = 1 << 16  # trimesh's scene graph costs ~5 KB a node (300,000 nodes: 1.5 GB, minutes)
 
 
@@ -32,7 +35,9 @@ def check(path: Path, file_type: str, data: bytes) -> None:
     elif file_type == "off":
         _off(path, data)
     elif file_type in ("gltf", "glb"):
-        _gltf(path, _gltf_json(path, file_type, data), path.name.lower().endswith(".gz"))
+        doc = _gltf_json(path, file_type, data)
+        _gltf(path, doc, path.name.lower().endswith(".gz"))
+        _images(path, doc, _glb_binary(data) if file_type == "glb" else None)
 
 
 def _declared(path, what, count, room) -> None:
@@ -224,3 +229,71 @@ def _gltf(path, doc: dict, compressed: bool) -> None:
             if folder not in target.resolve().parents:
                 raise WorldError(path, f"glTF {key}[{k}] uri {uri!r} is outside the file's "
                                        "folder")
+
+
+def _glb_binary(data: bytes) -> memoryview | None:
+    """The GLB's BIN chunk (the second), or None."""
+    length = struct.unpack_from("<I", data, 12)[0]
+    start = 20 + length + (-length % 4)
+    if len(data) < start + 8:
+        return None
+    size, kind = struct.unpack_from("<I4s", data, start)
+    return memoryview(data)[start + 8:start + 8 + size] if kind == b"BIN\0" else None
+
+
+def _image_head(path, doc, binary, image: dict) -> bytes | None:
+    """The first bytes (up to HEAD) of a glTF image: from its data: URI, its file beside the
+    glTF, or its buffer view (GLB BIN chunk or an external buffer); None when not found."""
+    import base64
+
+    head = 1 << 20
+    uri = image.get("uri")
+    if isinstance(uri, str) and uri.startswith("data:"):
+        encoded = uri.split(",", 1)[-1][:head * 4 // 3 + 4]
+        try:
+            return base64.b64decode(encoded[:len(encoded) // 4 * 4])
+        except ValueError:
+            return None
+    if isinstance(uri, str):
+        with open(Path(path).resolve().parent / uri, "rb") as handle:  # checked regular
+            return handle.read(head)
+    views, buffers = doc.get("bufferViews", []), doc.get("buffers", [])
+    view = image.get("bufferView")
+    if not isinstance(view, int) or isinstance(view, bool) or not 0 <= view < len(views):
+        return None
+    view = views[view]
+    offset, index = view.get("byteOffset", 0), view.get("buffer", 0)
+    if not isinstance(offset, int) or not isinstance(index, int) or not 0 <= index < len(buffers):
+        return None
+    uri = buffers[index].get("uri")
+    if uri is None:
+        return None if binary is None else bytes(binary[offset:offset + head])
+    if isinstance(uri, str) and not uri.startswith("data:"):
+        with open(Path(path).resolve().parent / uri, "rb") as handle:
+            handle.seek(max(offset, 0))
+            return handle.read(head)
+    return None
+
+
+def _images(path, doc: dict, binary) -> None:
+    """Each image's width x height, read from its header, at most MAX_IMAGE_PIXELS."""
+    import io
+    import warnings
+
+    from PIL import Image
+
+    for k, image in enumerate(_list(path, doc, "images")):
+        data = _image_head(path, doc, binary, image)
+        if not data:
+            continue
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # PIL's own bomb warning: we decide below
+                width, height = Image.open(io.BytesIO(data)).size
+        except Image.DecompressionBombError as error:  # over twice PIL's limit: over ours
+            raise WorldError(path, f"glTF image {k}: {error}") from None
+        except Exception:  # noqa: BLE001 - not an image PIL reads: trimesh skips it too
+            continue
+        if width * height > MAX_IMAGE_PIXELS:
+            raise WorldError(path, f"glTF image {k} has {width:,}x{height:,} pixels, over the "
+                                   f"limit of {MAX_IMAGE_PIXELS:,}")
