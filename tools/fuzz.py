@@ -1,5 +1,5 @@
 """Fuzz the readers of outside input: OBJ worlds, .vmp partition files (with level-of-detail
-chains too) and trajectory CSVs (issue 11); textured GLB scenes (issue 27); compare's --cull
+chains too) and trajectory CSVs (issue 11); textured GLB and OBJ+MTL scenes (issue 27); compare's --cull
 lists (issue 31); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
 heightmaps (issue 28). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
@@ -17,10 +17,10 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,cull,ply,stl,off,gz,vmt,npy]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,ply,stl,off,gz,vmt,npy]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
-  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|cull [-max_total_time=600 ...]
+  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull [-max_total_time=600 ...]
 Prints one line per target: cases, loaded, clean errors, failures (with the first failures'
 tracebacks and the seed that reproduces each).
 """
@@ -76,7 +76,7 @@ def seeds(folder: Path) -> dict:
     return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])],
             "cull": [b"vfc+bfc;vfc+occlusion", b"thesis,ours", b"vfc,bfc",
                      b"vfc+cbfc+tbfc none; portals+vfc"],
-            **format_seeds(world, folder, [textured_glb()])}
+            "objmtl": [TEXTURED_OBJ], **format_seeds(world, folder, [textured_glb()])}
 
 
 def format_seeds(world, folder: Path, glbs=()) -> dict:
@@ -262,6 +262,28 @@ def load_textured(path):
                                       Camera(tuple(high + (high - low) + 1.0), 45.0, -30.0))
 
 
+TEXTURED_OBJ = (b"mtllib quad.mtl\no a_quad\nv -2 -2 0\nv 2 -2 0\nv 2 2 0\nv -2 2 0\n"
+                b"vt 0 0\nvt 8 0\nvt 8 8\nvt 0 8\nusemtl checker\nf 1/1 2/2 3/3\n"
+                b"f 1/1 3/3 4/4\no b_plain\nv 0 0 1\nv 0.5 0 1\nv 0 0.5 1\nvt 0 0\n"
+                b"usemtl plain\nf 5/5 6/5 7/5\n")
+
+
+def load_textured_obj(path):
+    """An OBJ naming an MTL with a map_Kd image (both written beside it): world, textures,
+    one textured draw (issue 27)."""
+    import numpy as np
+    from PIL import Image
+
+    folder = Path(path).parent
+    if not (folder / "quad.mtl").exists():
+        (folder / "quad.mtl").write_text("newmtl checker\nKd 1 1 1\nmap_Kd checker.png\n"
+                                         "newmtl plain\nKd 0.5 0.5 0.5\n")
+        rows, cols = np.indices((24, 40)) // 4
+        image = np.where(((rows + cols) % 2 == 0)[..., None], (230, 30, 30), (30, 30, 230))
+        Image.fromarray(image.astype(np.uint8)).save(folder / "checker.png")
+    load_textured(path)
+
+
 def textured_glb() -> bytes:
     """A quad with a checker base-colour texture and an untextured box, as GLB bytes."""
     import numpy as np
@@ -306,7 +328,7 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "cull": (load_cull_list, ".txt"), "ply": (load_mesh, ".ply"),
          "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
          "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
-         "npy": (load_heightmap, ".npy")}
+         "npy": (load_heightmap, ".npy"), "objmtl": (load_textured_obj, ".obj")}
 
 
 def run_case(target, data, folder):
@@ -411,13 +433,14 @@ def main(argv=None):
         return hostile.main(argv[1:])
     if argv[0] == "atheris":
         if len(argv) < 2 or argv[1] not in ENTRY:
-            print("target: obj, vmp, trajectory or glb")
+            print("target: " + ", ".join(ENTRY))
             return 2
         return atheris_main(argv[1], argv[2:])
     import argparse
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
-    parser.add_argument("--target", default="obj,vmp,trajectory,glb,cull,ply,stl,off,gz,vmt,npy")
+    parser.add_argument("--target",
+                        default="obj,vmp,trajectory,glb,objmtl,cull,ply,stl,off,gz,vmt,npy")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

@@ -95,3 +95,23 @@ def test_heap_counts_textures_and_drops_top_mips_under_pressure(world):
     renderer = TexturedRenderer(world, small)
     assert renderer.texture_levels == [7]
     world.textures.drop = 0
+
+
+def test_obj_with_mtl_textures_renders_like_the_gltf(tmp_path, world):
+    Image.fromarray(checker()).save(tmp_path / "checker.png")
+    (tmp_path / "quad.mtl").write_text("newmtl checker\nKd 1 1 1\nmap_Kd checker.png\n"
+                                       "newmtl plain\nKd 0.5 0.5 0.5\n")
+    (tmp_path / "quad.obj").write_text(
+        "mtllib quad.mtl\no a_quad\nv -2 -2 0\nv 2 -2 0\nv 2 2 0\nv -2 2 0\n"
+        "vt 0 0\nvt 8 0\nvt 8 8\nvt 0 8\nusemtl checker\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
+        "o b_plain\nv 0 0 1\nv 0.5 0 1\nv 0 0.5 1\nvt 0 0\nusemtl plain\nf 5/5 6/5 7/5\n")
+    obj = load_world(tmp_path / "quad.obj")
+    assert obj.textures is not None and obj.textures.texture_of.tolist() == [0, -1]
+    assert obj.textures.uv[:2].max() == pytest.approx(8.0)
+    camera = Camera((0.5, 0.3, 2.5), aspect=PROFILE.aspect)
+    image = renderer_for(obj, PROFILE).render_rgb(np.arange(obj.triangle_count), camera)
+    assert (image[..., 0] > 2 * image[..., 2]).mean() > 0.1
+    assert (image[..., 2] > 2 * image[..., 0]).mean() > 0.1
+    # Without the mtllib the OBJ loads untextured, as before.
+    (tmp_path / "plain.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert load_world(tmp_path / "plain.obj").textures is None

@@ -15,7 +15,7 @@ def load_world(path):
         from ..terrain.mesh import terrain_world_file
 
         return terrain_world_file(path)
-    if path.suffix.lower() in (".glb", ".gltf"):
+    if path.suffix.lower() in (".glb", ".gltf", ".obj"):
         from ..world.textures import textured_world  # base-colour textures, when it has any
 
         return textured_world(path)

@@ -163,10 +163,71 @@ def _base_color(mesh):
     return rgba, uv
 
 
+def read_obj_textures(path, world) -> Textures | None:
+    """Textures of an OBJ whose MTL gives map_Kd images, for `world` (World.from_obj of the
+    same file), or None when it has none. The OBJ is read again through trimesh with its
+    materials (same validated text, same object split, the MTL and images beside the file);
+    when its triangles do not come out as the world's (same corners, same order), the world
+    stays untextured with a warning: a limit of this reader, not bad input."""
+    import io
+    import warnings
+
+    import trimesh
+
+    from ..files.obj import read_text, validate_obj
+
+    path = Path(path)
+    text = validate_obj(path, read_text(path))
+    try:
+        stream = io.BytesIO(text.encode("utf-8"))
+        stream.name = path.name
+        scene = trimesh.load(stream, file_type="obj", force="scene", split_objects=True,
+                             split_groups=True, group_material=False, process=True,
+                             skip_materials=False,
+                             resolver=trimesh.resolvers.FilePathResolver(str(path.parent)))
+    except Exception as error:  # trimesh raises many kinds on bad material files
+        warnings.warn(f"{path}: textures not read ({type(error).__name__}: {error})",
+                      stacklevel=2)
+        return None
+    meshes = sorted(((str(n), g) for n, g in scene.geometry.items()
+                     if isinstance(g, trimesh.Trimesh) and len(g.faces)), key=lambda m: m[0])
+    images, uv_parts, corners, texture_of = [], [], [], []
+    for _, mesh in meshes:
+        faces = np.asarray(mesh.faces, np.int64)
+        corners.append(np.asarray(mesh.vertices, float)[faces])
+        image, uv = _base_color(mesh)
+        if image is None or uv is None or len(uv) != len(mesh.vertices):
+            uv_parts.append(np.zeros((len(faces), 3, 2), np.float32))
+            texture_of.append(-1)
+            continue
+        uv_parts.append(uv[faces].astype(np.float32))
+        texture_of.append(len(images))
+        images.append(image)
+    if not images:
+        return None
+    corners = np.concatenate(corners)
+    uv = np.concatenate(uv_parts)
+    ids = np.repeat(np.arange(len(meshes)), [len(m.faces) for _, m in meshes])
+    triangles = np.arange(3 * len(corners)).reshape(-1, 3)
+    kept = kept_triangles(corners.reshape(-1, 3), triangles, ids, [n for n, _ in meshes])
+    if (len(meshes) != len(world.object_names) or len(kept) != world.triangle_count
+            or not np.allclose(corners[kept], world.corners, rtol=0, atol=1e-9)):
+        warnings.warn(f"{path}: its textured triangles do not match the world's; drawn "
+                      "untextured", stacklevel=2)
+        return None
+    return Textures(np.ascontiguousarray(uv[kept]), np.asarray(texture_of, np.int32), images)
+
+
 def textured_world(path):
-    """World.from_file(path) with `.textures` set (Textures or None)."""
+    """World.from_file(path) with `.textures` set (Textures or None): glTF/GLB base-colour
+    textures, or an OBJ's MTL map_Kd (only read when the OBJ names an mtllib)."""
     from .world import World
 
+    path = Path(path)
     world = World.from_file(path)
-    world.textures = read_textures(path, world)
+    if path.suffix.lower() == ".obj":
+        world.textures = read_obj_textures(path, world) if b"mtllib" in path.read_bytes() \
+            else None
+    else:
+        world.textures = read_textures(path, world)
     return world
