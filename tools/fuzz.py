@@ -76,13 +76,14 @@ def seeds(folder: Path) -> dict:
     return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])],
             "cull": [b"vfc+bfc;vfc+occlusion", b"thesis,ours", b"vfc,bfc",
                      b"vfc+cbfc+tbfc none; portals+vfc"],
-            "objmtl": [TEXTURED_OBJ], **format_seeds(world, folder, [textured_glb()])}
+            **format_seeds(world, folder, [textured_glb()])}
 
 
 def format_seeds(world, folder: Path, glbs=()) -> dict:
     """Seeds of the issue 28 surfaces: the model as PLY (ASCII, both binary byte orders), STL
     (binary, ASCII), OFF and GLB (one node, and two nodes with transforms), a .gz PLY, a small
-    .vmt terrain with objects, .npy heightmaps. glbs: GLB seeds put first (the textured one)."""
+    .vmt terrain with objects, .npy heightmaps; and an OBJ naming an MTL with a map_Kd image
+    (issue 27). glbs: GLB seeds put first (the textured one)."""
     import gzip
     import io
 
@@ -111,6 +112,7 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
     return {"ply": plys, "stl": [mesh.export(file_type="stl"),
                                  mesh.export(file_type="stl_ascii").encode()],
             "off": [hostile.off(v, f)],
+            "objmtl": [TEXTURED_OBJ],
             "glb": [*glbs, hostile.glb(doc, binary), hostile.glb(two, binary)],
             "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes()],
             "npy": arrays}
