@@ -16,7 +16,7 @@ from dataclasses import dataclass
 SEED_MAX = 2 ** 32 - 1
 MAX_FRAMES = 200_000  # trajectory.MAX_FRAMES
 MAX_TERRAIN_SIZE = 8193  # 2^heightmap.MAX_LEVEL + 1
-MAX_OBJECTS = 1000  # terrain.placement.MAX_OBJECTS: ~2,000 triangles each
+MAX_OBJECTS = 200  # terrain.placement.MAX_OBJECTS: up to 5,288 triangles each
 MAX_JOBS = 256
 WORLD_UNITS = 1e6  # spacings, heights and distances in world units (OBJ coordinates: 1e30)
 
