@@ -155,7 +155,7 @@ def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None,
     the stage combos run on each (--combos when given)."""
     from tile_world import centre_offset, tiled_w2
 
-    from vismobile.partition import load_partition
+    from vismobile.partition import load_partition, save_partition
 
     rows = []
     for n in sizes:
@@ -176,7 +176,7 @@ def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None,
             tree = partition(world, "octree", depth=depth)
             if path is not None:  # built once: the next run loads it
                 path.parent.mkdir(parents=True, exist_ok=True)
-                tree.save(path)
+                save_partition(tree, path)
         build_s = time.perf_counter() - t
         renderer = item_buffer_renderer(world, profile)
         truth = {}
@@ -265,6 +265,79 @@ def structure_rows(world, cameras, stages="vfc", labels=("octree:3", "octree:4",
     return rows
 
 
+HORIZON_COMBOS = ("vfc,tbfc", "vfc,horizon,tbfc", "vfc,occlusion,tbfc")
+
+
+def horizon_rows(world, cameras, labels, rounds=3) -> list:
+    """Rows (structure, combo, mean sent, sent / vfc,tbfc's, median ms, ms / occlusion's,
+    horizon nodes culled, horizon triangles culled per frame) of HORIZON_COMBOS on each
+    structure: every camera culled by the three in turn (interleaved), `rounds` times, after a
+    warm-up pass."""
+    from vismobile.partition.spec import parse_spec
+
+    rows = []
+    for label in labels:
+        kind, params = parse_spec(label)
+        part = partition(world, kind, **params)
+        cullers = {combo: Culler(part, combo) for combo in HORIZON_COMBOS}
+        sent = {combo: [] for combo in HORIZON_COMBOS}
+        stats = {combo: {} for combo in HORIZON_COMBOS}
+        for cam in cameras:  # warm-up and counters
+            for combo, culler in cullers.items():
+                result = culler.cull(cam)
+                sent[combo].append(len(result.triangles))
+                for key, value in result.stats.items():
+                    stats[combo][key] = stats[combo].get(key, 0) + value
+        times = {combo: [] for combo in HORIZON_COMBOS}
+        for _ in range(rounds):
+            for cam in cameras:
+                for combo, culler in cullers.items():
+                    start = time.perf_counter()
+                    culler.cull(cam)
+                    times[combo].append(time.perf_counter() - start)
+        base = float(np.mean(sent["vfc,tbfc"]))
+        occ_ms = float(np.median(times["vfc,occlusion,tbfc"])) * 1e3
+        for combo in HORIZON_COMBOS:
+            ms = float(np.median(times[combo])) * 1e3
+            st = stats[combo]
+            rows.append((label, combo, float(np.mean(sent[combo])),
+                         float(np.mean(sent[combo])) / max(base, 1), ms, ms / occ_ms,
+                         st.get("horizon.nodes_culled", 0) / len(cameras),
+                         st.get("horizon.triangles_culled", 0) / len(cameras)))
+    return rows
+
+
+def horizon_report(args, profile) -> int:
+    """--horizon-structures: the horizon against vfc,tbfc and occlusion on --world's path (a
+    thesis world and --trajectory, or "terrain": tools/horizon_objects.py's terrain world on its
+    valley path)."""
+    if args.world == "terrain":
+        from horizon_objects import terrain_objects_world
+
+        from vismobile.terrain.paths import path_cameras
+
+        world, hm = terrain_objects_world()
+        cameras = path_cameras(hm, "valley", "fast", frames=args.frames, eye_height=2.0,
+                               aspect=profile.aspect, every=max(1, 240 // args.frames))
+        path = "the valley path"
+    else:
+        world = build_world(args.world)
+        traj = Trajectory.load(args.trajectory)
+        frames = np.unique(np.linspace(0, len(traj) - 1, args.frames).astype(int))
+        cameras = [traj.camera(int(f), profile.aspect) for f in frames]
+        path = Path(args.trajectory).name
+    rows = horizon_rows(world, cameras, args.horizon_structures.split(","))
+    print(f"horizon on {args.world.upper()} ({world.triangle_count:,} triangles), "
+          f"{len(cameras)} frames of {path}, interleaved, medians of 3 rounds\n\n"
+          "| structure | stages | mean sent | sent / vfc,tbfc | median ms | ms / occlusion's "
+          "| horizon nodes culled | horizon triangles culled |\n"
+          "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for label, combo, sent, ratio, ms, vs, nodes, tris in rows:
+        print(f"| {label} | {combo} | {sent:.1f} | {ratio:.3f} | {ms:.3f} | {vs:.2f} | "
+              f"{nodes:.1f} | {tris:.1f} |")
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--world", default="w2")
@@ -280,6 +353,10 @@ def main(argv=None) -> int:
                     help="load each tiled octree from this .vmp when it exists (a pattern with "
                          "{n} and {depth}, e.g. out/w2x{n}_d{depth}.vmp), else build and save it")
     ap.add_argument("--skip-combos", action="store_true", help="only the comparison and tiles")
+    ap.add_argument("--horizon-structures", default=None,
+                    help="only compare vfc,tbfc / vfc,horizon,tbfc / vfc,occlusion,tbfc on these "
+                         "structures (e.g. octree:4,octree:5,kdtree) and exit; --world terrain "
+                         "runs the terrain world with objects on its valley path")
     ap.add_argument("--structures-vfc", default=None,
                     help="only compare vfc on these structures (comma-separated specs, e.g. "
                          "octree:3,octree:4,octree:5,octree:6,kdtree) and exit")
@@ -296,6 +373,8 @@ def main(argv=None) -> int:
         return 2
 
     profile = get_profile(args.profile)
+    if args.horizon_structures:
+        return horizon_report(args, profile)
     world = build_world(args.world)
     traj = Trajectory.load(args.trajectory)
     frames = np.unique(np.linspace(0, len(traj) - 1, args.frames).astype(int))

@@ -22,7 +22,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from vismobile.partition import partition  # noqa: E402
+from vismobile.partition import partition, save_partition  # noqa: E402
 from vismobile.world.world import World  # noqa: E402
 
 THESIS_KB = {  # SPEC §4, Table 5.3
@@ -117,7 +117,7 @@ def main(argv=None) -> int:
             for label, kind, params in rows:
                 seconds, result = timed(world, kind, params, args.runs)
                 path = Path(tmp) / "p.vmp"
-                result.save(path)
+                save_partition(result, path)
                 kb = path.stat().st_size / 1024
                 stats = result.stats()
                 thesis = THESIS_KB.get(label, (None,) * 6)[column]

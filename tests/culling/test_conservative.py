@@ -12,7 +12,8 @@ from vismobile.scenes.hard_cameras import hard_cameras
 
 COMBOS = ("vfc", "vfc_thesis", "cbfc", "cone", "vfc,cbfc", "vfc,bfc,cbfc,cone", "occlusion",
           "vfc,occlusion", "vfc,occlusion_thesis", "portals", "portals,occlusion,cbfc,cone",
-          "tbfc", "vfc,occlusion,tbfc", "portals,occlusion,cbfc,cone,tbfc", "pvs,vfc,tbfc")
+          "tbfc", "vfc,occlusion,tbfc", "portals,occlusion,cbfc,cone,tbfc", "pvs,vfc,tbfc",
+          "horizon", "vfc,horizon,tbfc")
 # `pvs` here runs on partitions without a bake (its fallback hands on everything); baked sets
 # from cameras anywhere in their cells are checked in test_pvs.py.
 # Stage options checked too: occlusion with objects' near sides as occluders and the sample test

@@ -71,7 +71,7 @@ def test_sweep_plays_everything_and_tune_picks_from_it(world, trajectory, profil
 
 
 def test_stage_subsets_cover_what_the_local_search_can_reach():
-    assert len(stage_subsets("bsp")) == 64 and len(stage_subsets("portal:1")) == 128
+    assert len(stage_subsets("bsp")) == 128 and len(stage_subsets("portal:1")) == 256
     assert "none" in stage_subsets("bsp") and "vfc+cbfc+cone+occlusion" in stage_subsets("bsp")
     assert not any("portals" in c for c in stage_subsets("octree:3"))
 

@@ -6,7 +6,7 @@ WORLD_HELP = ("thesis world w1..w6 (built on first use) or a mesh file: .obj .pl
 # Valid values, spelled out here so `--help` needs no heavy import (tests/test_cli.py checks
 # them against culling.STAGES, profile.PROFILES and partition.KINDS).
 STAGE_NAMES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
-               "occlusion_thesis", "portals", "pvs")
+               "occlusion_thesis", "portals", "pvs", "horizon")
 PROFILE_NAMES = ("ipaq-hx2490b", "nokia-n82", "desktop")
 CULL_HELP = ("culling stages joined by + (a , works too), or none; stages: "
              + ", ".join(STAGE_NAMES) + " (portals needs a portal structure)")

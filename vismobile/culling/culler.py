@@ -9,6 +9,7 @@ from ..world.world import World
 from .backface import BackfaceFlag, ConservativeBackface, ThesisBackface
 from .cones import NormalConeStage
 from .frustum import FrustumStage, ThesisFrustumStage
+from .horizon import HorizonStage
 from .occlusion import DepthBufferOcclusion
 from .occlusion_thesis import ThesisOcclusion
 from .portals import PortalStage
@@ -22,7 +23,7 @@ from .triangle_backface import TriangleBackface
 STAGES = {cls.name: cls for cls in (PVSStage, PortalStage, FrustumStage, ThesisFrustumStage,
                                     NormalConeStage, ThesisOcclusion, DepthBufferOcclusion,
                                     ConservativeBackface, ThesisBackface, TriangleBackface,
-                                    BackfaceFlag)}
+                                    BackfaceFlag, HorizonStage)}
 
 # Stages whose ground truth is the back-face-culled item buffer: they assume GL_CULL_FACE.
 BACKFACE_STAGES = ("bfc", "cbfc", "cbfc_thesis", "cone", "tbfc")
@@ -30,7 +31,7 @@ BACKFACE_STAGES = ("bfc", "cbfc", "cbfc_thesis", "cone", "tbfc")
 # Stages that never drop a triangle the full world's item buffer shows (proved by the tests);
 # cbfc_thesis is the one stage outside it: the thesis's 2D rule drops front faces.
 CONSERVATIVE = ("vfc", "vfc_thesis", "bfc", "cbfc", "cone", "tbfc", "occlusion",
-                "occlusion_thesis", "portals", "pvs")
+                "occlusion_thesis", "portals", "pvs", "horizon")
 
 
 # Stages that test the nodes vfc hands on: vfc's cover would change what they decide.
@@ -123,7 +124,8 @@ class Culler:
         conservativeness; fewer nodes visited."""
         by_name = {stage.name: stage for stage in self.stages}
         vfc, occlusion = by_name.get("vfc"), by_name.get("occlusion")
-        others = set(self.names) & {"portals", "pvs", "vfc_thesis", "cone", "occlusion_thesis"}
+        others = set(self.names) & {"portals", "pvs", "vfc_thesis", "cone", "occlusion_thesis",
+                                    "horizon"}
         if vfc is not None and occlusion is not None and not others \
                 and getattr(occlusion, "fuse", False):
             vfc.deferred = True

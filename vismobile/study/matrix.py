@@ -29,6 +29,7 @@ OUR_CULLS = (
     "vfc+cone",
     "vfc+bfc+cone",
     "vfc+bfc+cbfc+cone+occlusion",
+    "vfc+bfc+tbfc+horizon",                  # the 2.5D horizon: object worlds' ground occluders
     "vfc+portals",                           # the portals stage: portal structure only
     "vfc+bfc+cbfc+portals",
     "vfc+bfc+cbfc+occlusion+portals",
@@ -38,7 +39,7 @@ OUR_CULLS = (
 )
 # The order stages are written in a combination's label (labels key caches and reports: keep it).
 STAGE_ORDER = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
-               "occlusion_thesis", "portals")
+               "occlusion_thesis", "portals", "horizon")
 # The thesis's own variants, which it says may drop visible geometry: measured for their error
 # and never tune candidates, even those our tests prove conservative (vfc_thesis, occlusion_thesis).
 LOOSE_STAGES = ("vfc_thesis", "occlusion_thesis", "cbfc_thesis")

@@ -25,7 +25,8 @@ def probe_frames(trajectory, count: int) -> list:
 def _stage_cost_rank(cull: str) -> int:
     """Probe order within a structure: cheap combinations first, so the bound tightens early."""
     stages = cull_stages(cull)
-    return 4 * ("occlusion" in stages) + 2 * ("portals" in stages) + len(stages)
+    return (4 * ("occlusion" in stages) + 3 * ("horizon" in stages) + 2 * ("portals" in stages)
+            + len(stages))
 
 
 class _Probe:

@@ -229,7 +229,7 @@ def stage_subsets(structure: str) -> list:
 
 def _toggle_stages(structure: str) -> list:
     """Conservative stages tune may switch on a structure."""
-    return ["vfc", "bfc", "cbfc", "cone", "tbfc", "occlusion"] + \
+    return ["vfc", "bfc", "cbfc", "cone", "tbfc", "occlusion", "horizon"] + \
         (["portals"] if structure.startswith("portal") else [])
 
 

@@ -41,7 +41,7 @@ eye's rounding to the 16.16 grid. Slopes are clamped into int32 in the same safe
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -137,17 +137,33 @@ def _highest_in(flat, offsets, sizes, i0, i1, j0, j1, start):
 
 @njit(cache=True)
 def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon,
-          high_flat, zclip, ceiling):
+          high_flat, zclip, ceiling, bflat, bases, top):
     """horizon[b, k]: running max over slices <= k wholly beyond zclip of the lowest slope in
     band b, slice k; ceiling[b] (in: the bound before the first slice) raised to the highest
-    ground slope over the slices starting before zclip."""
+    ground slope over the slices starting before zclip. Solids with a bottom (bflat: min-mip
+    of the negated per-cell bases; empty for a ground): bases[b, k] the highest base slope of
+    the piece that set horizon[b, k], which a hidden ray must beat too. top: the highest solid
+    anywhere (+inf: unknown); a band whose horizon beats every later slope stops early (its
+    later values stay, a lower bound of the full cast's)."""
     bands = tans.shape[0] - 1
     slices = depths.shape[0] - 1
     cells = sizes[0]
+    bottoms = bflat.shape[0] > 0
+    rise_top = top - eye[1]
     for b in range(bands):
         best = -np.inf
+        bbest = -np.inf
         for k in range(slices):
+            if bottoms:
+                bases[b, k] = bbest
             z0, z1 = depths[k], depths[k + 1]
+            if z0 >= zclip and best >= (rise_top / z0 if rise_top > 0 else
+                                        rise_top / depths[slices]):
+                for rest in range(k, slices):
+                    horizon[b, rest] = best
+                    if bottoms:
+                        bases[b, rest] = bbest
+                break
             # World bbox of the slice's piece of the band (a quadrilateral).
             xmin, xmax, wmin, wmax = np.inf, -np.inf, np.inf, -np.inf
             for z in (z0, z1):
@@ -179,8 +195,21 @@ def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lowe
             rise = low - lower - eye[1]
             # Lowest slope over the slice's depths: the far end when above the eye.
             slope = rise / z1 if rise > 0 else rise / z0
-            best = max(best, slope)
+            if not bottoms:
+                best = max(best, slope)
+            elif slope > best:
+                # Highest base slope over the slice's depths: the near end when above the eye.
+                brise = -_lowest_in(bflat, offsets, sizes, i0, i1, j0, j1, np.inf) - eye[1]
+                bslope = brise / z0 if brise > 0 else brise / z1
+                if bslope < slope:
+                    best, bbest = slope, bslope
+                    bases[b, k] = bbest
             horizon[b, k] = best
+
+
+# A ground goes down without end: no bottoms to pass above.
+NO_BOTTOMS, NO_BOTTOMS_RAW = np.zeros(0), np.zeros(0, np.int64)
+NO_BASES, NO_BASES_RAW = np.zeros((0, 0)), np.zeros((0, 0), np.int64)
 
 
 @dataclass
@@ -194,6 +223,11 @@ class Horizon:
     values   : (B, S) float64 running max of lowest slopes (-inf: nothing yet)
     ceiling  : (B,) float64 a ray hidden in band b must have a slope above ceiling[b] (it then
                passes above the ground where the near plane cuts it); +inf: nothing hidden
+    bases    : (B, S) float64 a hidden ray's slope must also beat bases[b, k] (solids with a
+               bottom: it passes above it), or (0, 0) for a ground
+    origin   : (3,) float64 the map's origin: boxes are taken relative to it (eye already is)
+    clamp    : True when every frustum ray lies within the bands (tans): the parts of a box
+               beyond them are outside the frustum, so only the bands it meets are tested
     """
 
     eye: np.ndarray
@@ -203,24 +237,49 @@ class Horizon:
     depths: np.ndarray
     values: np.ndarray
     ceiling: np.ndarray
+    bases: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    clamp: bool = False
 
     def hidden(self, boxes) -> np.ndarray:
         """(K,) bool: box (K, 2, 3) entirely hidden by drawn ground (errs visible)."""
-        return _hidden(np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3), self.eye,
-                       self.forward, self.right, self.tans, self.depths, self.values,
-                       self.ceiling)
+        boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
+        return self.hidden_points(box_corners(boxes))
+
+    def hidden_points(self, points, grow: float = 0.0) -> np.ndarray:
+        """(K,) bool: the convex hull of points (K, C, 3), each grown to a cube of half-side
+        grow, entirely hidden (errs visible)."""
+        points = np.asarray(points, dtype=np.float64) - self.origin
+        return _hidden(points, self.eye, self.forward, self.right, self.tans, self.depths,
+                       self.values, self.ceiling, self.bases, self.clamp, float(grow))
+
+
+def box_corners(boxes) -> np.ndarray:
+    """(K, 8, 3) corners of boxes (K, 2, 3); corner c takes the high side on axis j when bit j
+    of c is set."""
+    return boxes[:, CORNER_BITS, AXES]
+
+
+CORNER_BITS = (np.arange(8)[:, None] >> np.arange(3)[None, :]) & 1  # (8, 3)
+AXES = np.arange(3)[None, :]
 
 
 @njit(cache=True)
-def _hidden(boxes, eye, forward, right, tans, depths, values, ceiling):
-    out = np.zeros(boxes.shape[0], dtype=np.bool_)
+def _hidden(points, eye, forward, right, tans, depths, values, ceiling, bases, clamp,
+            grow=0.0):
+    """(K,) bool: the convex hull of points (K, C, 3) (a box's 8 corners, a triangle's 3), each
+    grown to a cube of half-side grow, lies wholly behind the horizon: a linear-fractional
+    slope peaks at a hull vertex."""
+    out = np.zeros(points.shape[0], dtype=np.bool_)
     bands = tans.shape[0] - 1
-    for n in range(boxes.shape[0]):
+    reps = 8 if grow > 0 else 1
+    for n in range(points.shape[0]):
         zmin, tmin, tmax, mmin, mmax = np.inf, np.inf, -np.inf, np.inf, -np.inf
-        for c in range(8):
-            x = boxes[n, (c >> 0) & 1, 0] - eye[0]
-            y = boxes[n, (c >> 1) & 1, 1] - eye[1]
-            w = boxes[n, (c >> 2) & 1, 2] - eye[2]
+        for c in range(points.shape[1] * reps):
+            q, s = c // reps, c % reps
+            x = points[n, q, 0] + (grow if s & 1 else -grow) - eye[0]
+            y = points[n, q, 1] + (grow if s & 2 else -grow) - eye[1]
+            w = points[n, q, 2] + (grow if s & 4 else -grow) - eye[2]
             z = x * forward[0] + w * forward[2]
             lateral = x * right[0] + w * right[2]
             if z <= 0:
@@ -229,7 +288,8 @@ def _hidden(boxes, eye, forward, right, tans, depths, values, ceiling):
             zmin = min(zmin, z)
             tmin, tmax = min(tmin, lateral / z), max(tmax, lateral / z)
             mmin, mmax = min(mmin, y / z), max(mmax, y / z)
-        if zmin <= depths[0] or tmin < tans[0] or tmax > tans[bands]:
+        if zmin <= depths[0] or tmax < tans[0] or tmin > tans[bands] \
+                or (not clamp and (tmin < tans[0] or tmax > tans[bands])):
             continue
         # Last slice that ends before the box's nearest depth.
         k = np.searchsorted(depths, zmin, side="right") - 2
@@ -239,7 +299,8 @@ def _hidden(boxes, eye, forward, right, tans, depths, values, ceiling):
         b1 = np.searchsorted(tans, tmax, side="left") - 1
         hidden = True
         for b in range(max(b0, 0), min(b1, bands - 1) + 1):
-            if not (values[b, k] > mmax and mmin > ceiling[b]):
+            if not (values[b, k] > mmax and mmin > ceiling[b]) \
+                    or (bases.shape[0] > 0 and not mmin > bases[b, k]):
                 hidden = False
                 break
         out[n] = hidden
@@ -270,19 +331,32 @@ def _fdiv_ceil(a, b):
 
 @njit(cache=True)
 def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon,
-                high_flat, zclip, ceiling):
+                high_flat, zclip, ceiling, bflat, bases, top):
     """_cast in 16.16 raw integers: horizon[b, k] a lower bound of every drawn ground slope in
     band b up to slice k (-SLOPE_LIMIT - 1: nothing yet), ceiling[b] an upper bound of the
-    ground slopes before zclip (SLOPE_LIMIT: everything)."""
+    ground slopes before zclip (SLOPE_LIMIT: everything), bases[b, k] an upper bound of the
+    base slopes of the piece that set horizon[b, k] (bflat: raw floored negated bases)."""
     bands = tans.shape[0] - 1
     slices = depths.shape[0] - 1
     cells = sizes[0]
     nothing = -SLOPE_LIMIT - 1
     tmax = max(abs(tans[0]), abs(tans[bands]))
+    bottoms = bflat.shape[0] > 0
+    rise_top = top - eye[1]
     for b in range(bands):
         best = nothing
+        bbest = nothing
         for k in range(slices):
+            if bottoms:
+                bases[b, k] = bbest
             z0, z1 = depths[k], depths[k + 1]
+            if z0 >= zclip and best >= (_fdiv_ceil(rise_top, z0) if rise_top > 0 else
+                                        _fdiv_ceil(rise_top, depths[slices])):
+                for rest in range(k, slices):
+                    horizon[b, rest] = best
+                    if bottoms:
+                        bases[b, rest] = bbest
+                break
             xmin, xmax, wmin, wmax = 1 << 60, -(1 << 60), 1 << 60, -(1 << 60)
             for z in (z0, z1):
                 for t in (tans[b], tans[b + 1]):
@@ -313,25 +387,39 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
                 horizon[b, k] = best
                 continue
             low = _lowest_in(flat, offsets, sizes, i0, i1, j0, j1, 1 << 60)
+            if low <= -(1 << 59):  # a cell of the piece has no solid (a map of objects)
+                horizon[b, k] = best
+                continue
             rise = low - lower - eye[1]
             slope = _fdiv_floor(rise, z1) if rise > 0 else _fdiv_floor(rise, z0)
             slope = min(max(slope, nothing), SLOPE_LIMIT)
-            best = max(best, slope)
+            if not bottoms:
+                best = max(best, slope)
+            elif slope > best:
+                high = -_lowest_in(bflat, offsets, sizes, i0, i1, j0, j1, 1 << 60)
+                # Clamped: no base known (+big) stays beyond any slope, none (-big) below.
+                brise = min(max(high, -(1 << 40)), 1 << 40) - eye[1]
+                bslope = _fdiv_ceil(brise, z0) if brise > 0 else _fdiv_ceil(brise, z1)
+                bslope = min(max(bslope, nothing), SLOPE_LIMIT)
+                if bslope < slope:
+                    best, bbest = slope, bslope
+                    bases[b, k] = bbest
             horizon[b, k] = best
 
 
 @njit(cache=True)
-def _hidden_fixed(boxes, eye, forward, right, tans, depths, values, ceiling):
-    """_hidden in 16.16 raw integers (boxes (K, 2, 3) raw, low corner floored, high ceiled)."""
-    out = np.zeros(boxes.shape[0], dtype=np.bool_)
+def _hidden_fixed(points, eye, forward, right, tans, depths, values, ceiling, bases, clamp):
+    """_hidden in 16.16 raw integers (points (K, C, 3) raw: corners of boxes rounded
+    outward)."""
+    out = np.zeros(points.shape[0], dtype=np.bool_)
     bands = tans.shape[0] - 1
-    for n in range(boxes.shape[0]):
+    for n in range(points.shape[0]):
         zmin, tmin, tmax, mmin, mmax = 1 << 60, 1 << 60, -(1 << 60), 1 << 60, -(1 << 60)
         behind = False
-        for c in range(8):
-            x = boxes[n, (c >> 0) & 1, 0] - eye[0]
-            y = boxes[n, (c >> 1) & 1, 1] - eye[1]
-            w = boxes[n, (c >> 2) & 1, 2] - eye[2]
+        for c in range(points.shape[1]):
+            x = points[n, c, 0] - eye[0]
+            y = points[n, c, 1] - eye[1]
+            w = points[n, c, 2] - eye[2]
             z_lo = _fmul(x, forward[0]) + _fmul(w, forward[2])  # exact value < z_lo + 2
             l_lo = _fmul(x, right[0]) + _fmul(w, right[2])
             z_hi, l_hi = z_lo + 2, l_lo + 2
@@ -345,7 +433,8 @@ def _hidden_fixed(boxes, eye, forward, right, tans, depths, values, ceiling):
             mmin = min(mmin, _fdiv_floor(y, z_hi if y >= 0 else z_lo))
         if behind or mmax >= SLOPE_LIMIT or mmin <= -SLOPE_LIMIT:
             continue
-        if zmin <= depths[0] or tmin < tans[0] or tmax > tans[bands]:
+        if zmin <= depths[0] or tmax < tans[0] or tmin > tans[bands] \
+                or (not clamp and (tmin < tans[0] or tmax > tans[bands])):
             continue
         k = np.searchsorted(depths, zmin, side="right") - 2
         if k < 0:
@@ -356,7 +445,8 @@ def _hidden_fixed(boxes, eye, forward, right, tans, depths, values, ceiling):
         above = mmin - ((ONE + abs(mmin)) >> 14) - 1
         hidden = True
         for b in range(max(b0, 0), min(b1, bands - 1) + 1):
-            if not (values[b, k] > need and above > ceiling[b]):
+            if not (values[b, k] > need and above > ceiling[b]) \
+                    or (bases.shape[0] > 0 and not above > bases[b, k]):
                 hidden = False
                 break
         out[n] = hidden
@@ -375,17 +465,36 @@ class FixedHorizon:
     values: np.ndarray
     ceiling: np.ndarray
     limit: float
+    bases: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.int64))
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    clamp: bool = False
 
     def hidden(self, boxes) -> np.ndarray:
         """(K,) bool: box (K, 2, 3) entirely hidden by the ground (errs visible; boxes beyond
         the 16.16 range are never hidden)."""
-        boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
+        boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3) - self.origin
         inside = (np.abs(boxes) <= self.limit).all(axis=(1, 2))
         raw = np.empty(boxes.shape, np.int64)
         raw[:, 0] = np.floor(np.clip(boxes[:, 0], -self.limit, self.limit) * ONE)
         raw[:, 1] = np.ceil(np.clip(boxes[:, 1], -self.limit, self.limit) * ONE)
-        out = _hidden_fixed(raw, self.eye, self.forward, self.right, self.tans, self.depths,
-                            self.values, self.ceiling)
+        out = _hidden_fixed(box_corners(raw), self.eye, self.forward, self.right, self.tans,
+                            self.depths, self.values, self.ceiling, self.bases, self.clamp)
+        return out & inside
+
+    def hidden_points(self, points, grow: float = 0.0) -> np.ndarray:
+        """(K,) bool: the hull of points (K, C, 3) entirely hidden; each point is taken as its
+        cube of half-side grow rounded outward to 16.16 (8 corners), so the test errs visible."""
+        points = np.asarray(points, dtype=np.float64)
+        k, c = points.shape[:2]
+        flat = (np.repeat(points.reshape(-1, 1, 3), 2, axis=1) + np.array([-grow, grow])[:, None]
+                - self.origin)
+        inside = (np.abs(flat) <= self.limit).all(axis=(1, 2)).reshape(k, c).all(axis=1)
+        raw = np.empty(flat.shape, np.int64)
+        raw[:, 0] = np.floor(np.clip(flat[:, 0], -self.limit, self.limit) * ONE)
+        raw[:, 1] = np.ceil(np.clip(flat[:, 1], -self.limit, self.limit) * ONE)
+        corners = box_corners(raw).reshape(k, c * 8, 3)
+        out = _hidden_fixed(corners, self.eye, self.forward, self.right, self.tans, self.depths,
+                            self.values, self.ceiling, self.bases, self.clamp)
         return out & inside
 
 
@@ -458,7 +567,8 @@ class HorizonCaster:
             return self._cast_fixed(eye, forward, right, tans, depths, lower, zclip, ceiling)
         values = np.empty((self.bands, count))
         _cast(self.flat, self.offsets, self.sizes, self.heightmap.spacing, eye, forward, right,
-              tans, depths, float(lower), values, self.high_flat, zclip, ceiling)
+              tans, depths, float(lower), values, self.high_flat, zclip, ceiling, NO_BOTTOMS,
+              NO_BASES, np.inf)
         return Horizon(eye, forward, right, tans, depths, values, ceiling)
 
     def _first_ceiling(self, eye, zclip, first, span, lower) -> float:
@@ -509,6 +619,6 @@ class HorizonCaster:
         zclip_raw = int(np.ceil(zclip * ONE)) + 2
         _cast_fixed(self.flat_raw, self.offsets, self.sizes, spacing_raw, raw[0], raw[1],
                     raw[2], tans_raw, depths_raw, lower_raw, values, self.high_flat_raw,
-                    zclip_raw, ceiling)
+                    zclip_raw, ceiling, NO_BOTTOMS_RAW, NO_BASES_RAW, 1 << 40)
         return FixedHorizon(raw[0], raw[1], raw[2], tans_raw, depths_raw, values, ceiling,
                             FIXED_LIMIT)

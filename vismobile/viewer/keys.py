@@ -32,6 +32,7 @@ PRESSED = {
     "B": "show_nodes",        # overlay the boxes of the drawn partition nodes
     "G": "god_view",          # god view: top, side, off
     "T": "lod_tau",           # level of detail: off, then tau 0.5, 1, 2, 4, 8 px
+    "H": "toggle:horizon",    # the occlusion horizon (not a number key: they are all taken)
     "F1": "help",
     "F12": "screenshot",      # the view as PNG (vismobile-NNN.png beside the recording)
     "K": "screenshot",
@@ -49,6 +50,7 @@ HELP = [
                 if i < len(STAGE_KEYS)).rstrip()
       for j in range(0, len(STAGE_KEYS), 2)),
     "Tab  next structure   C  culled tint",
+    "H  horizon (occlusion over ground solids)",
     "B  node boxes   G  god view (top/side/off)",
     "T  level of detail: off, tau 0.5 1 2 4 8 px",
     "R  record on/off   V  save   L  load + play",

@@ -1,0 +1,166 @@
+"""`horizon` on object worlds: occluders found from the geometry, the map of solid columns, and
+the proof obligation on sampled cameras (the 2,000-camera sweep is tools/horizon_objects.py)."""
+import numpy as np
+import pytest
+
+from vismobile.world.camera import Camera
+from vismobile.culling import Culler, device_options
+from vismobile.culling.horizon_solids import find_solids, is_prism, solid_map
+from vismobile.device.profile import get_profile
+from vismobile.render.device_view import device_buffers, shown_ids
+from vismobile.world import World
+
+from .conftest import quad
+
+
+def boxes_world(boxes, ground=None, bottoms=False):
+    """Closed boxes (x0, z0, x1, z1, y0, y1) wound outward (no bottom unless asked), one object
+    each, and an optional ground (x0, z0, x1, z1) at y 0 facing up."""
+    verts, tris, ids, names = [], [], [], []
+
+    def add(v, t, name):
+        tris.append(np.asarray(t) + sum(len(x) for x in verts))
+        verts.append(v)
+        ids.append(np.full(len(t), len(names)))
+
+    for k, (x0, z0, x1, z1, y0, y1) in enumerate(boxes):
+        v = np.array([[x, y, z] for y in (y0, y1) for z in (z0, z1) for x in (x0, x1)], float)
+        faces = [(4, 6, 7, 5), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+        if bottoms:
+            faces.append((0, 2, 3, 1))
+        t = []
+        for a, b, c, d in faces:
+            t += [[a, b, c], [a, c, d]]
+        t = np.array(t)
+        centre = v.mean(axis=0)
+        cross = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+        out = np.einsum("ij,ij->i", cross, v[t].mean(axis=1) - centre) > 0
+        t[~out] = t[~out][:, ::-1]
+        add(v, t, f"box{k}")
+        names.append(f"box{k}")
+    if ground is not None:
+        x0, z0, x1, z1 = ground
+        v, t = quad(x0, x1, z0, z1, 0.0)
+        v = v[:, [0, 2, 1]]  # the xz-plane at y = 0
+        cross = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+        t = np.where((cross[:, 1] > 0)[:, None], t, t[:, ::-1])
+        add(v, t, "ground")
+        names.append("ground")
+    return World(np.concatenate(verts), np.concatenate(tris), np.concatenate(ids), names, "boxes")
+
+
+def test_the_city_s_buildings_and_ground_are_found(kit):
+    w5 = kit.world("w5")
+    found = find_solids(w5)
+    solids = solid_map(w5, found)
+    assert (solids.grounds, solids.prisms) == (1, 144)
+    assert solids.bases is None  # every building stands on the ground: columns go down
+    assert solids.max_base == -np.inf
+    assert found.grounds_under((100.0, 1.7, 100.0)) == (0,)
+    # Seen from beyond the ground's edge the ground is no solid (a ray may pass under its
+    # edge): the buildings keep their bases and the eye must be above them.
+    off = solid_map(w5, found, valid=())
+    assert off.grounds == 0 and off.bases is not None and off.max_base == 0.0
+    # Non-occluders are skipped: W6's cows and dragons add no solid.
+    assert solid_map(kit.world("w6"), find_solids(kit.world("w6"))).prisms == 144
+
+
+def test_an_open_or_bent_box_is_not_a_prism():
+    world = boxes_world([(0, 0, 2, 2, 0, 3)])
+    corners, normals = world.corners, world.normals
+    assert is_prism(corners, normals) is not None
+    for drop in (0, 2, 4):  # a roof, a wall or another wall missing: not closed
+        keep = np.ones(len(corners), bool)
+        keep[drop:drop + 2] = False
+        assert is_prism(corners[keep], normals[keep]) is None
+    bent = corners.copy()
+    bent[bent[..., 1] == 3, 1] += np.linspace(0, 1, (bent[..., 1] == 3).sum())
+    from vismobile.world.world import unit_normals
+    assert is_prism(bent, unit_normals(bent)[0]) is None
+
+
+def test_a_box_behind_a_wall_is_hidden_and_one_beside_it_is_not():
+    world = boxes_world([(-2, -12, 2, -10, 0, 6), (-1, -20, 1, -19, 0, 2),
+                         (5, -20, 7, -19, 0, 2)], ground=(-30, -40, 30, 10))
+    from vismobile.partition import partition
+
+    part = partition(world, "octree", depth=3)
+    culler = Culler(part, "vfc,horizon")
+    sent = culler.cull(Camera((0.0, 1.7, 0.0), yaw=0.0, pitch=0.0, aspect=0.75)).triangles
+    names = np.array(world.object_names)[world.object_ids[sent]]
+    assert "box1" not in names and "box2" in names and "box0" in names
+    # From inside the wall, or under the ground, nothing is hidden.
+    for eye in ((0.0, 1.7, -11.0), (0.0, -1.0, 0.0), (0.0, -0.5, 20.0)):  # in, under, beyond
+        inside = culler.cull(Camera(eye, yaw=0.0, pitch=0.0, aspect=0.75))
+        assert inside.stats.get("horizon.triangles_culled", 0) == 0
+
+
+def test_a_free_standing_box_hides_only_above_its_base():
+    # A box lifted 3 above the ground (no ground object): seen from below its base nothing is
+    # hidden (its open bottom); from above it hides what is behind it.
+    world = boxes_world([(-2, -12, 2, -10, 3, 9), (-1, -20, 1, -19, 3.5, 5)])
+    from vismobile.partition import partition
+
+    part = partition(world, "octree", depth=2)
+    culler = Culler(part, "vfc,horizon")
+    high = culler.cull(Camera((0.0, 4.0, 0.0), yaw=0.0, pitch=0.0, aspect=0.75)).triangles
+    assert not np.isin(world.object_ids[high], 1).any()
+    low = culler.cull(Camera((0.0, 1.0, 0.0), yaw=0.0, pitch=15.0, aspect=0.75))
+    assert low.stats.get("horizon.skipped") == 1
+
+
+@pytest.mark.parametrize("mode", ["float32", "fixed16.16"])
+@pytest.mark.parametrize("name", ["w5", "w6"])
+def test_horizon_never_drops_a_visible_triangle(kit, name, mode):
+    world = kit.world(name)
+    profile = get_profile(kit.PROFILE, mode)
+    parts = [kit.structure(name, "octree"), kit.structure(name, "kdtree")]
+    rng = np.random.default_rng(7 if name == "w5" else 8)
+    low, high = world.extent
+    cameras = []
+    for i in range(10):
+        pos = rng.uniform(low, high)
+        pos[1] = [1.7, rng.uniform(-2, 50), 0.05][i % 3]  # street level, anywhere, near ground
+        pitch = [0.0, rng.uniform(-89, 89), rng.uniform(-30, 30)][i % 3]
+        cameras.append(Camera(pos, yaw=rng.uniform(0, 360), pitch=pitch, aspect=kit.ASPECT,
+                              near=[0.1, 1e-3, 1.0][i % 3]))
+    culled = 0
+    for part in parts:
+        culler = Culler(part, "vfc,horizon,tbfc", **device_options(profile))
+        for cam in cameras:
+            truth = shown_ids(device_buffers(world, cam, profile, True))
+            result = culler.cull(cam)
+            culled += result.stats.get("horizon.triangles_culled", 0)
+            missing = np.setdiff1d(truth, result.triangles)
+            assert not len(missing), (name, part.kind, mode, cam, missing[:5])
+    assert culled > 0  # the check saw the stage hide something
+
+
+def test_adaptive_keeps_the_horizon_while_it_pays_and_never_drops(kit):
+    from vismobile.culling.adaptive import AdaptiveCuller
+
+    world = kit.world("w5")
+    part = kit.structure("w5", "octree")
+    culler = AdaptiveCuller(part, ["vfc", "horizon", "tbfc"], window=2, probe_every=3,
+                            ms_per_triangle=0.05)
+    for i in range(8):
+        cam = Camera((70.0, 1.7, 250.0 - 10 * i), yaw=0.0, pitch=0.0, aspect=kit.ASPECT)
+        result = culler.cull(cam)
+        assert not len(np.setdiff1d(kit.visible_ids(world, cam, True), result.triangles))
+    assert "horizon" in culler.stages  # a city street: hiding buildings pays
+
+
+def test_the_stage_is_in_every_registry():
+    from vismobile.commands import STAGE_NAMES
+    from vismobile.culling import CONSERVATIVE
+    from vismobile.study.matrix import OUR_CULLS, STAGE_ORDER, parse_culls
+    from vismobile.viewer.keys import PRESSED
+
+    assert "horizon" in STAGE_NAMES and "horizon" in CONSERVATIVE and "horizon" in STAGE_ORDER
+    assert "vfc+bfc+tbfc+horizon" in OUR_CULLS and "vfc+horizon" in parse_culls("vfc+horizon")
+    assert "toggle:horizon" in PRESSED.values()
+    from vismobile.culling.horizon import HorizonStage
+
+    for bad in ({"bands": 0}, {"step": 2.0}, {"cells": 0}):
+        with pytest.raises(ValueError):
+            HorizonStage(**bad)

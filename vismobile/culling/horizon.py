@@ -1,0 +1,122 @@
+"""`horizon`: a 2.5D occlusion horizon for object worlds (Downs, Möller and Séquin 2001), cast
+each frame front to back over the ground-standing occluders found in the geometry (buildings,
+walls, grounds: culling/horizon_solids.py) with the terrain horizon's caster
+(terrain/horizon_cells.py over terrain/horizon.py's kernels), then node boxes and triangles are
+tested against it.
+
+Contract: never drops a triangle that a pixel shows, from any eye and pitch. A box is hidden
+only when every ray from the eye to it passes, in a slice wholly beyond the near plane's reach,
+through a solid column between its base and top, after passing above every solid near the eye;
+the ray then enters the solid through one of its drawn, outward faces in front of the box. Where
+that argument fails it hides nothing: the eye at or below a solid's top next to it (inside a
+building, under the ground), below a free-standing prism's open bottom, or no occluder found.
+Footprints shrink, tops sink, highs and bases rise, boxes grow by twice the device's vertex
+move (precision.device_move); on fixed16.16 the cast and the test run in 16.16 integers.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..terrain.horizon_cells import CellCaster
+from .horizon_solids import MAX_CELLS, find_solids, solid_map
+from .precision import device_move, world_scale
+from .shared import per_object
+from .state import CullState
+from .tree import Tree
+
+
+class HorizonStage:
+    """`horizon`: drops node subtrees, then triangles, hidden behind the occlusion horizon.
+
+    bands     : horizontal direction bands across the frustum (more: tighter, slower cast)
+    step      : slice growth per step (depth slices z_{k+1} = z_k (1 + step))
+    triangles : also test each sent triangle's box (after the node tests)
+    cells     : largest side of the occluder map (cells)
+    leaves    : test every leaf below the nodes the earlier stages hand on instead of those
+                nodes (more culled, more tests: W5 outdoor, 60 frames, octree 5 sent 0.459x of
+                vfc,tbfc at 1.40 ms against 0.472x at 0.96 ms; occlusion 0.470x at 1.33 ms)
+    """
+
+    name = "horizon"
+    cost = 87  # after tbfc (85): its filter then tests front faces only
+    arithmetic = "float64"  # the Culler sets its mode: fixed16.16 casts in 16.16
+
+    def __init__(self, bands: int = 64, step: float = 0.01, triangles: bool = True,
+                 cells: int = MAX_CELLS, leaves: bool = False):
+        if isinstance(bands, bool) or not isinstance(bands, (int, np.integer)) or bands < 1:
+            raise ValueError(f"horizon bands must be a positive integer, got {bands!r}")
+        if not isinstance(step, (int, float)) or not 1e-4 <= step <= 1.0:
+            raise ValueError(f"horizon step must be from 1e-4 to 1, got {step!r}")
+        if isinstance(cells, bool) or not isinstance(cells, (int, np.integer)) \
+                or not 1 <= cells <= 4096:
+            raise ValueError(f"horizon cells must be an integer from 1 to 4096, got {cells!r}")
+        self.bands, self.step, self.cells = int(bands), float(step), int(cells)
+        self.triangles = bool(triangles)
+        self.leaves = bool(leaves)
+
+    def prepare(self, tree: Tree) -> None:
+        self.tree = tree
+        world = tree.world
+        self.margin = 2.0 * np.sqrt(3.0) * device_move(self.arithmetic,
+                                                        world_scale(world.vertices))
+        self.solids = per_object(world, "horizon solids", lambda: find_solids(world))
+        self.bounds = world.bounds
+        self.corners = world.corners
+        self.grow = np.array([-self.margin, self.margin])[:, None]
+
+    def caster(self, valid):
+        """(SolidMap, CellCaster) with the grounds `valid` counted (built once per set, per
+        world: an eye is over one ground or a few), or (None, None) with no solid."""
+        world, fixed = self.tree.world, self.arithmetic == "fixed16.16"
+
+        def build():
+            solids = solid_map(world, self.solids, valid, self.margin, self.cells)
+            if solids is None:
+                return None, None
+            return solids, CellCaster(solids.tops, solids.highs, solids.bases, solids.origin,
+                                      solids.spacing, self.bands, self.step,
+                                      "fixed16.16" if fixed else "float64",
+                                      f"world {world.name}")
+
+        key = ("horizon caster", valid, self.margin, self.cells, self.bands, self.step, fixed)
+        return per_object(world, key, build)
+
+    def cast(self, camera):
+        """This frame's horizon, or None when it may hide nothing (see the module doc)."""
+        eye = np.asarray(camera.eye, dtype=np.float64)
+        solids, caster = self.caster(self.solids.grounds_under(eye, self.margin))
+        if caster is None or not eye[1] > solids.max_base + self.margin:
+            return None
+        return caster.cast(camera)
+
+    def apply(self, state: CullState) -> None:
+        horizon = self.cast(state.camera)
+        if horizon is None:
+            state.count(f"{self.name}.skipped", 1)
+            return
+        tree = self.tree
+        nodes = state.nodes
+        if self.leaves:  # every leaf below the handed nodes, in one test (a sub-box of a
+            # hidden box is hidden: testing the leaves hides at least what a walk would)
+            nodes = tree.leaf_order[tree.leaves_under(nodes)]
+        nodes = nodes[tree.nonempty[nodes]]
+        hidden = horizon.hidden(tree.node_bounds[nodes] + self.grow)
+        tested = len(nodes)
+        state.count(f"{self.name}.nodes_culled", hidden.sum())
+        state.nodes = nodes[~hidden]
+        state.count("nodes_visited", tested)
+        state.count(f"{self.name}.nodes_tested", tested)
+        if self.triangles:
+            stats, key = state.stats, f"{self.name}.triangles_culled"
+
+            def keep_of(ids):  # holds the stats dict, not the state (no cycle)
+                hidden = self._hidden_triangles(horizon, ids)
+                stats[key] = stats.get(key, 0) + int(hidden.sum())
+                return ~hidden
+
+            state.filters.append(keep_of)
+
+    def _hidden_triangles(self, horizon, ids) -> np.ndarray:
+        """(K,) bool: triangles wholly behind the horizon, each the hull of its three corners
+        grown to cubes of half-side margin."""
+        return horizon.hidden_points(self.corners[ids], self.margin)
