@@ -1,6 +1,7 @@
 """PVS benchmark (issue 29): bake time, size, and what `pvs` saves and drops, per world.
 
     .venv/bin/python tools/bench_pvs.py [--worlds w1,w2] [--frames 40] [--random 2000]
+                                        [--sampled 4,16 [--only-sampled]]
 
 Per world: the portal structure (depth 2) with pvs=conservative; bake seconds; the PVS's bytes
 in the .vmp (file with minus file without) against the OBJ; the mean share of the world in a
@@ -9,7 +10,10 @@ vfc+tbfc and pvs+vfc+tbfc and the frames that fell back; dropped triangles (pvs+
 item buffer without back-face culling) on those frames and on --random cameras inside random
 view cells (a quarter each uniform, on a face, an edge, a corner; pitch +-89, fov 10-120) in
 float64, float32 and fixed16.16 (cycled); on W2, pvs+vfc against vfc cull time, interleaved,
-medians after a warm-up.
+medians after a warm-up. With --sampled, for each N the aggressive sampled PVS
+(render/pvs_sampled.py) on the same cells: bake seconds, sent by pvs+vfc+tbfc against
+vfc+tbfc, and its misses along the path (visible triangles and pixels of the unculled item
+buffer that pvs+vfc dropped, as a share of the visible pixels).
 """
 from __future__ import annotations
 
@@ -55,9 +59,45 @@ def in_cell_cameras(part, count, seed):
                      fov=rng.uniform(10, 120), aspect=PROFILE.aspect)
 
 
-def run(name, frames, randoms):
+def sampled(name, world, part, traj, picks, counts):
+    """One line per sample count: bake time, sent ratio, misses along the path."""
+    from vismobile.render.pvs_sampled import bake_sampled
+
+    base = Culler(part, "vfc+tbfc")
+    for n in counts:
+        extras, stats = bake_sampled(part, n, PROFILE, seed=0)
+        baked = partition(world, "portal", depth=2)
+        baked.extras.update(extras)
+        baked.params["pvs"] = f"sampled:{n}"
+        pvs, check = Culler(baked, "pvs+vfc+tbfc"), Culler(baked, "pvs+vfc")
+        sent_base = sent = missed = missed_px = pixels = visible = 0
+        for f in picks:
+            cam = traj.camera(int(f), PROFILE.aspect)
+            sent_base += len(base.cull(cam).triangles)
+            sent += len(pvs.cull(cam).triangles)
+            buffer = item_buffer(world, None, cam, PROFILE, cull_back=False)
+            shown_ids = np.unique(buffer)
+            shown_ids = shown_ids[shown_ids != SENTINEL].astype(np.int64)
+            kept = check.cull(cam).triangles
+            lost = np.setdiff1d(shown_ids, kept)
+            missed += len(lost)
+            visible += len(shown_ids)
+            pixels += int((buffer != SENTINEL).sum())
+            missed_px += int(np.isin(buffer, lost).sum())
+        print(f"{name} sampled:{n}: bake {stats['seconds']:.1f} s ({stats['renders']} renders), "
+              f"pvs+vfc+tbfc {sent} vs vfc+tbfc {sent_base} ({sent / max(sent_base, 1):.3f}x) | "
+              f"path misses: {missed} of {visible} visible triangles, {missed_px} of {pixels} "
+              f"pixels ({100 * missed_px / max(pixels, 1):.3f}%)", flush=True)
+
+
+def run(name, frames, randoms, counts=(), only_sampled=False):
     world = build_world(name)
     part = partition(world, "portal", depth=2)
+    if only_sampled:
+        traj = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
+                                                        else "indoor.csv"))
+        picks = np.linspace(0, len(traj) - 1, frames).astype(int)
+        return sampled(name, world, part, traj, picks, counts)
     extras, stats = bake(part)
     with tempfile.TemporaryDirectory() as tmp:
         save_partition(part, Path(tmp) / "a.vmp")
@@ -113,6 +153,8 @@ def run(name, frames, randoms):
           f"pvs+vfc+tbfc {sent_pvs} ({sent_pvs / max(sent_base, 1):.3f}x), fallbacks "
           f"{fallbacks}, dropped {dropped_path} | random {randoms} in-cell cameras "
           f"({used} used the PVS): dropped {dropped_random}{timing}", flush=True)
+    if counts:
+        sampled(name, world, partition(world, "portal", depth=2), traj, picks, counts)
 
 
 def main():
@@ -120,9 +162,12 @@ def main():
     parser.add_argument("--worlds", default="w1,w2,w3,w4,w5,w6")
     parser.add_argument("--frames", type=int, default=40)
     parser.add_argument("--random", type=int, default=2000)
+    parser.add_argument("--sampled", default="", help="sample counts, e.g. 4,16,64")
+    parser.add_argument("--only-sampled", action="store_true")
     args = parser.parse_args()
+    counts = [int(n) for n in args.sampled.split(",") if n]
     for name in args.worlds.split(","):
-        run(name.strip(), args.frames, args.random)
+        run(name.strip(), args.frames, args.random, counts, args.only_sampled)
 
 
 if __name__ == "__main__":

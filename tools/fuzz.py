@@ -46,6 +46,7 @@ sys.path.insert(0, str(ROOT / "tools"))  # hostile.py: writers of the formats
 MODEL = ROOT.parent / "shared" / "models" / "suzanne.obj"
 TRAJECTORY = ROOT / "trajectories" / "indoor.csv"
 STRUCTURES = (("grid", {}), ("octree", {"depth": 3}), ("portal", {"depth": 1}),
+              ("portal", {"depth": 1, "pvs": "conservative"}),
               ("bsp", {"min_leaf": 16}), ("kdtree", {}))
 EXTREMES = (b"1e308", b"-1e308", b"nan", b"inf", b"-0", b"0", b"1e30", b"1e31", b"9" * 400,
             b"-1", b"2147483648", b"1" + b"0" * 40, b"0x10", b"1_0", b"\xa0", b"\xc2\xa0")
@@ -62,7 +63,7 @@ def seeds(folder: Path) -> dict:
     world = World.from_obj(MODEL)
     vmps = []
     for kind, params in STRUCTURES:
-        path = folder / f"seed-{kind}.vmp"
+        path = folder / f"seed-{kind}{'-pvs' if 'pvs' in params else ''}.vmp"
         save_partition(partition(world, kind, **params), path)
         vmps.append(path.read_bytes())
     # A partition carrying level-of-detail chains (extras lod_*, checked on load).
@@ -234,7 +235,8 @@ def load_and_cull(path):
     partition = load_partition(path)
     low, high = partition.world.extent
     eye = (low + high) / 2.0
-    stages = ["vfc", "occlusion"] + (["portals"] if partition.kind == "portal" else [])
+    stages = ["vfc", "occlusion"] + (["portals"] if partition.kind == "portal" else []) \
+        + (["pvs"] if "pvs_runs" in partition.extras else [])
     for names in (stages[:1], stages):
         culler = Culler(partition, [s for s in names if not (s == "vfc" and "portals" in names)])
         for yaw in (0.0, 135.0):

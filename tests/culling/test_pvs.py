@@ -57,13 +57,38 @@ def zigzag(kit):
     return partition(world, "portal", depth=1, slabs=SLABS, pvs="conservative")
 
 
+def cell_of(part, point):
+    boxes = part.extras["pvs_cells"]
+    inside = np.flatnonzero(((boxes[:, 0] <= point) & (point <= boxes[:, 1])).all(axis=1))
+    return int(inside[0])
+
+
 def test_first_room_does_not_see_the_fourth(zigzag):
     x = zigzag.extras
     world = zigzag.world
-    ids = ids_of(x["pvs_runs"][x["pvs_start"][0]:x["pvs_start"][1]])
+    c = cell_of(zigzag, np.array([2.0, 1.5, 2.0]))
+    ids = ids_of(x["pvs_runs"][x["pvs_start"][c]:x["pvs_start"][c + 1]])
     walls = ids[np.abs(world.normals[ids, 0]) > 0.9]
     seen = np.unique(np.round(world.centroids[walls, 0], 3))
     assert seen.max() <= 12.2 and 12.0 in seen  # walls at 16 and beyond (rooms 4, 5) hidden
+
+
+def test_thick_walls_get_cells_of_their_own(zigzag):
+    # both faces of every hollow wall bound the view cells (pvs_cells.paired_edges)
+    xs = np.unique(zigzag.extras["pvs_cells"][:, :, 0])
+    for k in range(1, 5):
+        assert np.isclose(xs, 4.0 * k).any() and np.isclose(xs, 4.0 * k + 0.2).any()
+
+
+def test_any_structure_takes_a_pvs(zigzag):
+    for spec in ("octree:2", "bsp", "grid:2"):
+        part = partition(zigzag.world, spec, pvs="conservative")
+        assert np.array_equal(part.extras["pvs_runs"], zigzag.extras["pvs_runs"])
+        culler = Culler(part, "pvs,vfc")
+        cam = Camera((2.0, 1.5, 2.0), yaw=-90.0, aspect=4 / 3)
+        truth = np.unique(item_buffer(zigzag.world, None, cam, get_profile("desktop")))
+        truth = truth[truth != SENTINEL]
+        assert not len(np.setdiff1d(truth, culler.cull(cam).triangles))
 
 
 @pytest.mark.parametrize("mode", MODES)
@@ -132,9 +157,7 @@ def test_vmp_keeps_the_pvs_and_refuses_a_corrupt_one(zigzag, tmp_path):
         check_pvs({**x, "pvs_runs": runs}, zigzag.world.triangle_count)
 
 
-def test_pvs_needs_a_portal_structure(zigzag):
-    with pytest.raises(ValueError, match="portal"):
-        partition(zigzag.world, "octree", depth=2, pvs="conservative")
+def test_bad_pvs_mode(zigzag):
     with pytest.raises(ValueError, match="pvs mode"):
         partition(zigzag.world, "portal", depth=1, pvs="sometimes")
 
@@ -149,14 +172,17 @@ def test_sampled_pvs_is_within_the_conservative_one(kit, zigzag):
     from vismobile.render.pvs_sampled import bake_sampled
 
     extras, stats = bake_sampled(zigzag, 4, kit.PROFILE, seed=1)
-    assert stats["renders"] == 5 * 4 * 6
-    assert np.array_equal(extras["pvs_cells"], zigzag.extras["pvs_cells"])
+    assert stats["renders"] == len(extras["pvs_cells"]) * 4 * 6 == 5 * 4 * 6
     x = zigzag.extras
-    for c in range(5):
+    for c, (lo, hi) in enumerate(extras["pvs_cells"]):
         sampled = ids_of(extras["pvs_runs"][extras["pvs_start"][c]:extras["pvs_start"][c + 1]])
-        conservative = ids_of(x["pvs_runs"][x["pvs_start"][c]:x["pvs_start"][c + 1]])
+        # the conservative cells inside this room: their union bounds what it can see
+        boxes = x["pvs_cells"]
+        within = np.flatnonzero(((boxes[:, 0] >= lo - 1e-9) & (boxes[:, 1] <= hi + 1e-9)).all(1))
+        conservative = np.unique(np.concatenate(
+            [ids_of(x["pvs_runs"][x["pvs_start"][k]:x["pvs_start"][k + 1]]) for k in within]))
         assert 0 < len(sampled) and not len(np.setdiff1d(sampled, conservative))
-        assert len(sampled) < len(conservative)  # the floor's far triangles are behind walls
+        assert len(sampled) < len(conservative)
     with pytest.raises(ValueError, match="renders item buffers"):
         partition(zigzag.world, "portal", depth=1, pvs="sampled:4")
 

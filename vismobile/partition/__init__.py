@@ -21,7 +21,7 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                or "kdtree" (split=sah|median, ratio=, bins=, min_leaf=, max_depth=); or the
                CLI's structure text ("octree:4", "grid:8", "bsp:min_leaf=4"), whose
                parameters keyword params override;
-               pvs="conservative" (portal only) bakes the view cells' visible sets (pvs.py)
+               pvs="conservative" (any kind) bakes the view cells' visible sets (pvs.py)
     progress : optional callable(done, total) for long builds
     Raises ValueError on an unknown kind or parameter, or a parameter out of range.
     """
@@ -48,9 +48,6 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
         raise ValueError(f"pvs={pvs_mode} renders item buffers: bake it with "
                          "vismobile.render.pvs_sampled.bake_sampled(partition, N, profile), or "
                          "with the partition command (--structure KIND,pvs=sampled:N)")
-    if pvs_mode is not None and kind != "portal":
-        raise ValueError(f"pvs={pvs_mode} needs the portal structure (its cells are the view "
-                         f"cells); {kind} has none yet")
     if pvs_mode is not None:
         from .pvs import MODES
 

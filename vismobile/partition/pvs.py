@@ -1,11 +1,12 @@
 """Precomputed visibility (PVS): for each view cell, the triangles some eye inside it may see.
 
-`bake(partition)` works on a portal structure (portal.py): its grid cells are the view cells,
-and `pvs_kernels.from_cell` walks the portal sequences out of each (separating planes,
+`bake(partition)` works on any structure: the view cells are a portal grid of the PVS's own
+(pvs_cells.py: portal.py's cells and portals, with both faces of thick walls as boundaries),
+and `pvs_kernels.flow_from_cell` walks the portal crossings out of each (separating planes,
 conservative). The result is stored with the partition as extras, so it travels in the `.vmp`
 (CRC'd sections, checked on load by `check`):
 
-    pvs_cells  (V, 2, 3) float64  view-cell boxes (the portal grid's cells)
+    pvs_cells  (V, 2, 3) float64  view-cell boxes
     pvs_start  (V + 1,)  int64    offsets into pvs_runs, two per run
     pvs_runs   (R,)      int32    per cell, ascending [first, end) pairs of triangle ids
     pvs_grow   (1,)      float64  how far eyes and portals were grown (device rounding)
@@ -77,35 +78,29 @@ def ids_of(runs) -> np.ndarray:
     return np.repeat(first - np.cumsum(lengths) + lengths, lengths) + np.arange(lengths.sum())
 
 
-def bake_cells(partition, sources, grow, tol, budget=BUDGET):
-    """[(runs (2R,) int64, steps or -1)] for the given source cells of a portal partition."""
-    x = partition.extras
-    cells = len(x["cell_node"])
-    node = np.asarray(x["cell_node"], dtype=np.int64)
-    ref_start = np.asarray(partition.ref_start, dtype=np.int64)[node]
-    ref_end = np.asarray(partition.ref_end, dtype=np.int64)[node]
-    quads = np.asarray(x["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3)
-    pcells = np.asarray(x["portal_cells"], dtype=np.int64)
-    cps = np.asarray(x["cell_portal_start"], dtype=np.int64)
-    cp = np.asarray(x["cell_portals"], dtype=np.int64)
-    bounds = np.asarray(x["cell_bounds"], dtype=np.float64)
-    refs = np.asarray(partition.tri_refs, dtype=np.int64)
-    corners = partition.world.corners
+def bake_cells(world, g, sources, grow, tol, budget=BUDGET):
+    """[(runs (2R,) int64, walks or -1)] for the given source cells of the view grid g
+    (pvs_cells.view_grid)."""
+    cells = len(g["cell_bounds"])
+    quads = np.asarray(g["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3)
+    pcells, cps, cp = g["portal_cells"], g["cell_portal_start"], g["cell_portals"]
+    bounds, start, tris = g["cell_bounds"], g["cell_start"], g["cell_tris"]
+    corners = world.corners
     out = []
     for s in sources:
-        visible = np.zeros(partition.world.triangle_count, dtype=np.bool_)
+        visible = np.zeros(world.triangle_count, dtype=np.bool_)
         seen = np.zeros(cells, dtype=np.bool_)
         steps = pvs_kernels.flow_from_cell(int(s), bounds[s, 0], bounds[s, 1], bounds, pcells,
-                                           quads, cps, cp, ref_start, ref_end, refs, corners,
+                                           quads, cps, cp, start[:-1], start[1:], tris, corners,
                                            grow, tol, budget, visible, seen)
-        if steps < 0:  # too many sequences: every connected cell, whole
+        if steps < 0:  # too many walks: every connected cell, whole
             for c in np.flatnonzero(_connected(int(s), pcells, cps, cp, cells)):
-                visible[refs[ref_start[c]:ref_end[c]]] = True
+                visible[tris[start[c]:start[c + 1]]] = True
         out.append((runs_of(visible), int(steps)))
     return out
 
 
-def with_solids(partition, masks, grow) -> list:
+def with_solids(world, boxes, masks, grow) -> list:
     """Each cell's mask ORed with every closed outward part (solids.py) whose box comes within
     grow (plus the tolerance) of the cell: an eye inside a solid sees its inside.
 
@@ -113,14 +108,13 @@ def with_solids(partition, masks, grow) -> list:
     """
     from .solids import outward_solid_parts
 
-    boxes = np.asarray(partition.extras["cell_bounds"], dtype=np.float64)
-    pad = grow + TOLERANCE * float(np.ptp(partition.world.extent, axis=0).max())
-    parts = outward_solid_parts(partition.world)
+    pad = grow + TOLERANCE * float(np.ptp(world.extent, axis=0).max())
+    parts = outward_solid_parts(world)
     solid = np.flatnonzero(parts >= 0)
     count = int(parts.max()) + 1 if len(solid) else 0
     lo = np.full((count, 3), np.inf)
     hi = np.full((count, 3), -np.inf)
-    bounds = partition.world.bounds
+    bounds = world.bounds
     np.minimum.at(lo, parts[solid], bounds[solid, 0])
     np.maximum.at(hi, parts[solid], bounds[solid, 1])
     out = []
@@ -130,55 +124,57 @@ def with_solids(partition, masks, grow) -> list:
     return out
 
 
-def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET) -> dict:
-    """The PVS extras (module docstring) of a portal partition, and bake statistics.
+def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
+         cells=None) -> tuple:
+    """The PVS extras (module docstring) of a partition of any kind, and bake statistics.
 
+    The view cells are a portal grid of the PVS's own (pvs_cells.view_grid: about `cells`
+    cells, default as the portal structure's), so the structure's kind does not matter.
     progress : optional callable(done, total) per source cell
     jobs     : processes (>1: source cells split over a process pool)
-    returns  : (extras dict, stats dict: seconds, cells, overflowed cells, steps)
+    returns  : (extras dict, stats dict: seconds, cells, overflowed cells, walks)
     """
+    from .pvs_cells import view_grid
+
     if mode not in MODES:
         raise ValueError(f"unknown pvs mode {mode!r}; valid: {', '.join(MODES)}")
-    x = partition.extras or {}
-    if "cell_node" not in x or "portal_cells" not in x:
-        raise ValueError("pvs=conservative needs a portal structure's cells and portals")
     began = time.perf_counter()
     world = partition.world
+    g = view_grid(world, cells)
     grow = bake_grow(world)
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
-    cells = len(x["cell_node"])
-    sources = np.arange(cells)
+    count = len(g["cell_bounds"])
+    sources = np.arange(count)
     results = []
-    if jobs > 1 and cells > 1:
+    if jobs > 1 and count > 1:
         from concurrent.futures import ProcessPoolExecutor
 
-        chunks = np.array_split(sources, min(cells, 4 * jobs))
+        chunks = np.array_split(sources, min(count, 4 * jobs))
         with ProcessPoolExecutor(jobs) as pool:
-            futures = [pool.submit(bake_cells, partition, c, grow, tol, budget) for c in chunks]
+            futures = [pool.submit(bake_cells, world, g, c, grow, tol, budget) for c in chunks]
             for f in futures:
                 results.extend(f.result())
                 if progress is not None:
-                    progress(len(results), cells)
+                    progress(len(results), count)
     else:
         for s in sources:
-            results.extend(bake_cells(partition, [s], grow, tol, budget))
+            results.extend(bake_cells(world, g, [s], grow, tol, budget))
             if progress is not None:
-                progress(len(results), cells)
-    triangles = partition.world.triangle_count
+                progress(len(results), count)
     masks = []
     for r, _ in results:
-        mask = np.zeros(triangles, dtype=bool)
+        mask = np.zeros(world.triangle_count, dtype=bool)
         mask[ids_of(r)] = True
         masks.append(mask)
-    runs = [runs_of(m) for m in with_solids(partition, masks, grow)]
+    runs = [runs_of(m) for m in with_solids(world, g["cell_bounds"], masks, grow)]
     start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
-    extras = {"pvs_cells": np.asarray(x["cell_bounds"], dtype=np.float64).copy(),
+    extras = {"pvs_cells": np.asarray(g["cell_bounds"], dtype=np.float64).copy(),
               "pvs_start": start,
               "pvs_runs": (np.concatenate(runs) if runs else np.zeros(0)).astype(np.int32),
               "pvs_grow": np.array([grow], dtype=np.float64)}
-    stats = {"seconds": time.perf_counter() - began, "cells": cells,
+    stats = {"seconds": time.perf_counter() - began, "cells": count,
              "overflowed": int(sum(s < 0 for _, s in results)),
-             "steps": int(sum(max(s, 0) for _, s in results))}
+             "walks": int(sum(max(s, 0) for _, s in results))}
     return extras, stats
 
 
