@@ -209,7 +209,7 @@ class Partition:
                 raise ValueError("occluders must be (N, k) triangle ids or -1, one row per node")
         if "cell_node" in x:
             self._check_portals(x, n)
-        from .pvs import check_pvs
+        from .pvs_check import check_pvs
 
         check_pvs(x, self.world.triangle_count)
 

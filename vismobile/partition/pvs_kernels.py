@@ -1,14 +1,14 @@
 """Compiled kernels of the conservative PVS bake (pvs.py): separating planes between convex
-point sets, polygon clipping, and the walk over portal sequences from one source cell.
+point sets, polygon clipping, and the walk over portal crossings from one source cell.
 
 A sight line from an eye in the source cell S to a point in a cell m crosses, in order, the
-portals R1..Rk of a sequence of cells (cells are convex boxes: a line enters each at most once).
-For any two items X before Y of [S, R1, ..., Rk] and any plane with X on its negative side and
-Y on its positive side (a separating plane), the line beyond Y stays on the positive side
-(Quake's vis, after Teller and Sequin 1991). So each next portal is clipped to the positive
-side of the separators of (S, Rk) and of (Rj, Rk) for the last few j, and a cell whose entry
-portal clips away is not reached along that sequence. Every plane kept is a true separator, so
-the test never removes a line that exists: it errs toward visible.
+portals of a sequence of cells (cells are convex boxes: a line enters each at most once). For
+any two convex sets X before Y along the line and any plane with X on its negative side and Y
+on its positive side (a separating plane), the line beyond Y stays on the positive side
+(Teller and Sequin 1991; Quake's vis). flow_from_cell keeps, per portal crossing, a box of the
+points where such lines may cross it, and clips the next portals by the separators of (S, that
+box). Every plane kept is a true separator, so the test never removes a line that exists: it
+errs toward visible.
 """
 from __future__ import annotations
 
@@ -20,7 +20,6 @@ BOX_EDGES = np.array([[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5
                       [0, 4], [1, 5], [2, 6], [3, 7]], dtype=np.int64)
 MAX_VERTS = 48      # vertices of a clipped portal polygon (more: kept unclipped)
 MAX_PLANES = 192    # separating planes kept per sequence step (more are dropped: looser)
-WINDOW = 8          # earlier portals paired with the newest one
 
 
 @njit(cache=True, inline="always")
@@ -144,7 +143,9 @@ def clip_polygon(poly, n, planes, np_, tol, scratch):
 
 @njit(cache=True)
 def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, tol, visible):
-    """Mark the cell's triangles not wholly on the negative side of one of the planes."""
+    """Mark the cell's triangles not wholly on the negative side of one of the planes; True
+    when every triangle of the cell is marked now."""
+    every = True
     for r in range(cell_ref_start[cell], cell_ref_end[cell]):
         t = tri_refs[r]
         if visible[t]:
@@ -159,88 +160,32 @@ def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, to
                 break
         if seen:
             visible[t] = True
+        else:
+            every = False
+    return every
 
 
 @njit(cache=True)
-def from_cell(source, cell_bounds, portal_cells, portal_quads, cell_portal_start,
-              cell_portals, cell_ref_start, cell_ref_end, tri_refs, corners, grow, tol,
-              budget, visible, cell_seen):
-    """Walk every portal sequence from the source cell, marking in visible (T,) bool the
-    triangles a line from the source cell grown by `grow` may reach, and in cell_seen (C,) bool
-    the cells reached. Portal quads are grown by `grow` in their plane; sides within tol count.
-
-    Errs toward visible. Returns the sequence steps taken, or -1 when more than `budget` were
-    needed (the caller then takes every cell connected to the source as seen).
-    """
-    cells = len(cell_bounds)
-    depth_max = cells + 1
-    polys = np.empty((depth_max, MAX_VERTS, 3))
-    nverts = np.zeros(depth_max, dtype=np.int64)
-    planes = np.empty((depth_max, MAX_PLANES, 4))
-    nplanes = np.zeros(depth_max, dtype=np.int64)
-    path = np.empty(depth_max, dtype=np.int64)
-    cursor = np.empty(depth_max, dtype=np.int64)
-    on_path = np.zeros(cells, dtype=np.bool_)
-    src = np.empty((8, 3))
-    lo = cell_bounds[source, 0] - grow
-    hi = cell_bounds[source, 1] + grow
-    box_vertices(lo, hi, src)
-    scratch = np.empty((MAX_VERTS, 3))
-    cand = np.empty((MAX_VERTS, 3))
-    # the source's own triangles
-    for r in range(cell_ref_start[source], cell_ref_end[source]):
-        visible[tri_refs[r]] = True
-    cell_seen[source] = True
-    path[0] = source
-    cursor[0] = cell_portal_start[source]
-    on_path[source] = True
-    nplanes[0] = 0
-    depth = 0
-    steps = 0
-    while depth >= 0:
-        c = path[depth]
-        if cursor[depth] >= cell_portal_start[c + 1]:
-            on_path[c] = False
-            depth -= 1
-            continue
-        p = cell_portals[cursor[depth]]
-        cursor[depth] += 1
-        m = portal_cells[p, 1] if portal_cells[p, 0] == c else portal_cells[p, 0]
-        if on_path[m]:
-            continue
-        steps += 1
-        if steps > budget:
-            return -1
-        # the portal quad, grown by `grow` along its two in-plane axes
-        n = 4
-        for i in range(4):
-            for a in range(3):
-                cand[i, a] = portal_quads[p, i, a]
-        for a in range(3):
-            qlo = min(cand[0, a], cand[1, a], cand[2, a], cand[3, a])
-            qhi = max(cand[0, a], cand[1, a], cand[2, a], cand[3, a])
-            if qhi > qlo:
-                for i in range(4):
-                    cand[i, a] = qlo - grow if cand[i, a] == qlo else qhi + grow
-        n = clip_polygon(cand, n, planes[depth], nplanes[depth], tol, scratch)
-        if n == 0:
-            continue
-        k = depth + 1
-        for i in range(n):
-            polys[k, i] = cand[i]
-        nverts[k] = n
-        count = separators(src, 8, True, polys[k], n, planes[k], 0)
-        for j in range(max(1, k - WINDOW), k):
-            count = separators(polys[j], nverts[j], False, polys[k], n, planes[k], count)
-        nplanes[k] = count
-        _mark(m, cell_ref_start, cell_ref_end, tri_refs, corners, planes[k], count, tol,
-              visible)
-        cell_seen[m] = True
-        path[k] = m
-        cursor[k] = cell_portal_start[m]
-        on_path[m] = True
-        depth = k
-    return steps
+def _flat_rectangle(lo, hi, out):
+    """out <- the box [lo, hi] as a rectangle (4 corners in order) when it is flat along an
+    axis (a crossing box lies in its portal's plane: fewer candidate planes), else its 8
+    corners; returns the vertex count."""
+    axis = -1
+    for a in range(3):
+        if hi[a] <= lo[a]:
+            axis = a
+            break
+    if axis < 0:
+        box_vertices(lo, hi, out)
+        return 8
+    u, v = (axis + 1) % 3, (axis + 2) % 3
+    for i in range(4):
+        out[i, axis] = lo[axis]
+    out[0, u], out[0, v] = lo[u], lo[v]
+    out[1, u], out[1, v] = hi[u], lo[v]
+    out[2, u], out[2, v] = hi[u], hi[v]
+    out[3, u], out[3, v] = lo[u], hi[v]
+    return 4
 
 
 @njit(cache=True)
@@ -261,7 +206,7 @@ def _grown_quad(portal_quads, p, grow, cand):
 def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
                    cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
                    corners, grow, tol, budget, visible, cell_seen):
-    """Like from_cell, but each portal crossing (portal, direction) keeps one box holding every
+    """Each portal crossing (portal, direction) keeps one box holding every
     point where a line from the source may cross it (the union over all sequences), so the walk
     is a fixed point instead of an enumeration. The eyes are the box [src_lo, src_hi] (grown
     by `grow`) inside the source cell (the whole cell, or a part of it). The exit portals of the cell a crossing enters
@@ -282,6 +227,7 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             box[d, 1, a] = -np.inf
     queued = np.zeros(crossings, dtype=np.bool_)
     queue = np.empty(max(crossings, 1), dtype=np.int64)
+    done = np.zeros(len(cell_bounds), dtype=np.bool_)
     head, size = 0, 0
     src = np.empty((8, 3))
     box_vertices(src_lo - grow, src_hi + grow, src)
@@ -301,10 +247,11 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             p = current // 2
             cell = portal_cells[p, 1] if current % 2 == 0 else portal_cells[p, 0]
             came = p
-            box_vertices(box[current, 0], box[current, 1], entry)
-            count = separators(src, 8, True, entry, 8, planes, 0, True)
-            _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, count, tol,
-                  visible)
+            ne = _flat_rectangle(box[current, 0], box[current, 1], entry)
+            count = separators(src, 8, True, entry, ne, planes, 0, ne == 8)
+            if not done[cell]:  # a cell wholly marked needs no more marking
+                done[cell] = _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners,
+                                   planes, count, tol, visible)
             cell_seen[cell] = True
         for q in range(cell_portal_start[cell], cell_portal_start[cell + 1]):
             p = cell_portals[q]
