@@ -234,25 +234,34 @@ def circle_cameras(hm, step, frames, eye_height=1.0):
 
 def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0)) -> list:
     """ROAM's frame time against speed: the walking ROAM and the incremental one, each
-    coherent along the circle at each speed (3 warm-up frames), medians of the same run."""
+    coherent along the circle at each speed (3 warm-up frames), updated alternately on the
+    same cameras; medians of wall time and of the thread's CPU time (immune to the shared
+    machine's descheduling)."""
     from vismobile.terrain.roam import Roam
 
     rows = []
     for step in steps:
         cameras = circle_cameras(hm, step, frames + 3)
-        for incremental in (False, True):
-            roam = Roam(hm, incremental=incremental)
-            times, ops, tris = [], [], []
-            for k, camera in enumerate(cameras):
-                frame = roam.update(camera, profile.resolution, tau)
+        roams = {False: Roam(hm), True: Roam(hm, incremental=True)}
+        record = {key: {"ms": [], "cpu": [], "ops": [], "tris": []} for key in roams}
+        for k, camera in enumerate(cameras):
+            for key in ((False, True) if k % 2 else (True, False)):
+                cpu = time.thread_time()
+                frame = roams[key].update(camera, profile.resolution, tau)
+                cpu = (time.thread_time() - cpu) * 1000
                 if k >= 3:
-                    times.append(frame.lod_ms)
-                    ops.append(frame.splits + frame.merges)
-                    tris.append(len(frame.triangles))
-            rows.append({"step": step, "incremental": incremental,
-                         "ms_median": float(np.median(times)),
-                         "ops_median": float(np.median(ops)),
-                         "triangles_median": float(np.median(tris))})
+                    r = record[key]
+                    r["ms"].append(frame.lod_ms)
+                    r["cpu"].append(cpu)
+                    r["ops"].append(frame.splits + frame.merges)
+                    r["tris"].append(len(frame.triangles))
+        for key in (False, True):
+            r = record[key]
+            rows.append({"step": step, "incremental": key,
+                         "ms_median": float(np.median(r["ms"])),
+                         "cpu_ms_median": float(np.median(r["cpu"])),
+                         "ops_median": float(np.median(r["ops"])),
+                         "triangles_median": float(np.median(r["tris"]))})
     return rows
 
 
@@ -290,16 +299,17 @@ def main(argv=None) -> int:
         record["roam_speeds"] = rows
         lines += [f"## ROAM frame time against speed, {args.size}^2, tau = {args.tau} px, "
                   f"circle, {args.frames} frames a speed, medians", "",
-                  "| units / frame | ROAM | frame ms | splits + merges | triangles |",
-                  "|---:|---|---:|---:|---:|"]
+                  "| units / frame | ROAM | frame ms | CPU ms | splits + merges | triangles |",
+                  "|---:|---|---:|---:|---:|---:|"]
         for r in rows:
             lines.append(f"| {r['step']:g} | {'incremental' if r['incremental'] else 'walking'} "
-                         f"| {r['ms_median']:.2f} | {r['ops_median']:.0f} | "
-                         f"{r['triangles_median']:,.0f} |")
+                         f"| {r['ms_median']:.2f} | {r['cpu_ms_median']:.2f} | "
+                         f"{r['ops_median']:.0f} | {r['triangles_median']:,.0f} |")
         for inc in (False, True):
             t = {r["step"]: r["ms_median"] for r in rows if r["incremental"] == inc}
+            c = {r["step"]: r["cpu_ms_median"] for r in rows if r["incremental"] == inc}
             lines.append(f"\n{'incremental' if inc else 'walking'}: 0.1 / 10 units a frame = "
-                         f"{t[0.1] / t[10.0]:.2f}")
+                         f"{t[0.1] / t[10.0]:.2f} (CPU {c[0.1] / c[10.0]:.2f})")
         print("\n".join(lines), flush=True)
         args.skip_speed = args.skip_errors = args.skip_horizon = True
     if args.display_lists:

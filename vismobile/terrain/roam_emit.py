@@ -63,6 +63,31 @@ def _emit_block(heights, n, split, alive, alive_count, r0, r1, c0, c1, spacing, 
 
 
 @njit(cache=True)
+def _emit_blocks(heights, n, split, alive, alive_count, blocks, block, per_side, spacing, out,
+                 offsets, boxes):
+    """_emit_block for each of blocks (K,): triangles into out[offsets[k]:offsets[k + 1]],
+    boxes (K, 6). Returns the total, or -1 when out is too small."""
+    N = heights.shape[0]
+    total = 0
+    offsets[0] = 0
+    box = np.empty(6)
+    for k in range(blocks.shape[0]):
+        bi, bj = blocks[k] // per_side, blocks[k] % per_side
+        r0, c0 = bi * block, bj * block
+        r1 = N if bi == per_side - 1 else r0 + block
+        c1 = N if bj == per_side - 1 else c0 + block
+        t = _emit_block(heights, n, split, alive, alive_count, r0, r1, c0, c1, spacing,
+                        out[total:], box)
+        if t < 0:
+            return -1
+        total += t
+        offsets[k + 1] = total
+        for q in range(6):
+            boxes[k, q] = box[q] if t else 0.0
+    return total
+
+
+@njit(cache=True)
 def _dirty(changed, count, n, N, block, per_side, flags):
     """flags[b] = True for the blocks of each changed diamond and of its parents."""
     g = np.empty((4, 2), np.int64)
@@ -93,8 +118,7 @@ class BlockEmitter:
         self.boxes = np.zeros((count, 2, 3))
         self.flags = np.ones(count, np.bool_)
         self.spacing = spacing
-        self.out = np.zeros((1 << 14, 3), np.int64)
-        self.box = np.zeros(6)
+        self.out = np.zeros((1 << 16, 3), np.int64)
         self.rebuilt = 0
 
     def invalidate(self):
@@ -107,22 +131,18 @@ class BlockEmitter:
         """(T, 3) int64 triangles of the blocks whose box meets the frustum (all with cull
         False), re-emitting the dirty ones first."""
         dirty = np.flatnonzero(self.flags)
-        for b in dirty:
-            bi, bj = divmod(int(b), self.per_side)
-            r0, c0 = bi * self.block, bj * self.block
-            r1 = self.N if bi == self.per_side - 1 else r0 + self.block
-            c1 = self.N if bj == self.per_side - 1 else c0 + self.block
-            while True:
-                t = _emit_block(self.heights, self.n, split, alive, alive_count, r0, r1, c0,
-                                c1, self.spacing, self.out, self.box)
-                if t >= 0:
-                    break
-                self.out = np.zeros((2 * len(self.out), 3), np.int64)
-            self.tris[b] = self.out[:t].copy()
-            if t:
-                self.boxes[b, 0], self.boxes[b, 1] = self.box[:3], self.box[3:]
-            else:
-                self.boxes[b] = 0.0
+        offsets = np.zeros(len(dirty) + 1, np.int64)
+        boxes = np.zeros((len(dirty), 6))
+        while True:
+            total = _emit_blocks(self.heights, self.n, split, alive, alive_count, dirty,
+                                 self.block, self.per_side, self.spacing, self.out, offsets,
+                                 boxes)
+            if total >= 0:
+                break
+            self.out = np.zeros((2 * len(self.out), 3), np.int64)
+        for k, b in enumerate(dirty):
+            self.tris[b] = self.out[offsets[k]:offsets[k + 1]].copy()
+        self.boxes[dirty] = boxes.reshape(-1, 2, 3)
         self.flags[:] = False
         self.rebuilt = len(dirty)
         live = np.flatnonzero([len(t) > 0 for t in self.tris])
