@@ -38,3 +38,18 @@ def test_fresh_compiles_count_compiles_not_calls():
     assert fresh_compiles() == before + 1
     double(2.5)
     assert fresh_compiles() == before + 1
+
+
+def test_compile_seconds_grow_with_a_compile_only():
+    from vismobile.timing import compile_seconds
+
+    @njit
+    def triple(x):
+        return 3 * x
+
+    before = compile_seconds()
+    triple(1.0)
+    compiled = compile_seconds()
+    assert compiled > before
+    triple(2.0)
+    assert compile_seconds() == compiled

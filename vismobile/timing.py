@@ -9,6 +9,8 @@ from __future__ import annotations
 import time
 
 _COUNTS = {"numba:compiler_lock": 0, "numba:compile": 0}
+_SECONDS = {"numba:compile": 0.0}  # wall seconds inside numba's compiles (outermost only)
+_OPEN = {"numba:compile": []}
 _LISTENING = []
 
 
@@ -27,9 +29,14 @@ def _listen() -> None:
 
         def on_start(self, _event):
             _COUNTS[self.kind] += 1
+            if self.kind in _OPEN:
+                _OPEN[self.kind].append(time.perf_counter())
 
         def on_end(self, _event):
-            pass
+            if self.kind in _OPEN and _OPEN[self.kind]:
+                start = _OPEN[self.kind].pop()
+                if not _OPEN[self.kind]:  # nested compiles count once, in the outermost
+                    _SECONDS[self.kind] += time.perf_counter() - start
 
     for kind in _COUNTS:
         listener = Counter(kind)
@@ -66,3 +73,10 @@ def timed(fn, *args) -> tuple:
     start = time.perf_counter()
     result = fn(*args)
     return result, (time.perf_counter() - start) * 1e3, first
+
+
+def compile_seconds() -> float:
+    """Wall seconds this process spent in numba's compiles since the first call of any
+    function here (what a first run costs; a later run loads numba's cache instead)."""
+    _listen()
+    return _SECONDS["numba:compile"]

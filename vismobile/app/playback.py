@@ -36,7 +36,7 @@ from ..errors import VisMobileError
 from ..device.profile import get_profile
 from ..progress import Progress
 from ..stats import pearson, summarize
-from ..timing import timed
+from ..timing import compile_seconds, timed
 from ..world.trajectory import select_frames
 from ..files.atomic import atomic_write_bytes, check_destination, staged_directory
 from ..world.world import World
@@ -259,11 +259,13 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     gif_images, saved = [], {}
     hud_ms = 0.0
     upload_ms = np.zeros(count)
+    compiling = compile_seconds()
     warmup_ms = warm_up(scene, stages, profile, renderer,
                         [trajectory.camera(played[i], profile.aspect)
                          for i in sorted(set(np.linspace(0, count - 1, WARM_FRAMES).astype(int)))]
                         if count else [],
                         progress, world.name)
+    warmup_compile_ms = (compile_seconds() - compiling) * 1000.0
     compile_ms, cpu_ms = 0.0, []
     bar = Progress(f"play {world.name}", enabled=None if progress else False)
     step = max(count // 200, 1)  # redraw the bar about 200 times
@@ -335,6 +337,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         "adaptive": bool(adaptive), "adaptive_events": list(getattr(culler, "events", [])),
         # Untimed frames before the first measured one (numba's first-use compile, uploads).
         "warmup_ms": warmup_ms,
+        "warmup_compile_ms": warmup_compile_ms,  # of it, inside numba's compiles
         # Compiles during measured frames (paths the warm-up missed): those culls were timed
         # again, and this is what the first tries took.
         "compile_ms": compile_ms,

@@ -98,7 +98,8 @@ def run(args) -> int:
           f"(mean {s['frame_ms']['mean']:.2f}, {s['fps']:.1f} fps; this machine, not the device)"
           + (f"; CPU {cpu['median']:.2f} ms/frame median" if cpu else ""))
     print(f"  {'warm-up':>20}: {s['warmup_ms'] / 1000:8.2f} s before the first measured frame "
-          "(numba's first-use compile, uploads; in no figure)"
+          f"({s['warmup_compile_ms'] / 1000:.1f} s of it numba's first-use compile; in no "
+          "figure)"
           + (f"; {s['compile_ms'] / 1000:.2f} s more compiling during frames, those timed "
              "again" if s.get("compile_ms") else ""))
     memory = s["memory"]["total"] / (1 << 20)

@@ -68,8 +68,11 @@ def run(args) -> int:
 
     from ..progress import Status
 
+    from ..timing import compile_seconds
+
+    compiling = compile_seconds()
     with Status(f"tune {args.world}", enabled=not args.quiet) as status:
-        status("loading the world")
+        status("loading the world (compiling on a first run)")
         world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS
                                   else args.world, args.worlds_dir or default_cache_dir())
         trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
@@ -91,6 +94,10 @@ def run(args) -> int:
                            result.choice.structure, result.choice.cull, result.frames,
                            args.max_error_px, args.cache)
     print(result.report())
+    compiled = compile_seconds() - compiling
+    if compiled >= 1.0:  # a first run: say where the time went (no probe figure holds it)
+        print(f"numba's first-use compile took {compiled:.0f} s of this run (timed apart; a "
+              "second run loads its cache)")
     output = result.to_dict()
     if lod is not None:
         from ..study.lod_tune import report_lines
