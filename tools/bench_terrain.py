@@ -181,6 +181,7 @@ def display_lists(hm, frames, tau, profile, C, speed_name="slow") -> dict:
     plain, plain_renderer = Roettger(hm, C), TerrainRenderer(hm, profile)
     times = {"cached": [], "rebuilt": [], "plain": []}
     cpu = {"cached": [], "rebuilt": [], "plain": []}
+    threads = {"cached": [], "rebuilt": [], "plain": []}  # LOD + index build, thread CPU
     uploads = {"cached": [], "rebuilt": []}
     churn = []
     for k, camera in enumerate(cameras):
@@ -188,23 +189,30 @@ def display_lists(hm, frames, tau, profile, C, speed_name="slow") -> dict:
         if k % 2:
             order.reverse()
         for name, lists in order:
+            thread = time.thread_time()
             frame = lists.update(camera, profile.resolution, tau)
+            thread = (time.thread_time() - thread) * 1000
             stats = renderers[name].draw(frame, camera)
             if k >= 3:
                 times[name].append(frame.lod_ms + frame.build_ms + stats.render_ms)
                 cpu[name].append(frame.lod_ms + frame.build_ms + renderers[name].upload_ms)
+                threads[name].append(thread)
                 uploads[name].append(renderers[name].uploaded_bytes)
                 if name == "cached":
                     churn.append((frame.rebuilt, frame.reused, frame.triangles))
+        thread = time.thread_time()
         result = plain.update(camera, profile.resolution, tau)
+        thread = (time.thread_time() - thread) * 1000
         stats = plain_renderer.draw_samples(result.triangles, camera)
         if k >= 3:
             times["plain"].append(result.lod_ms + stats.render_ms)
             cpu["plain"].append(result.lod_ms)
+            threads["plain"].append(thread)
     med = {k: float(np.median(v)) for k, v in times.items()}
     ratio = float(np.median(np.array(times["cached"]) / np.array(times["rebuilt"])))
     return {"speed": speed_name, "frames": frames, "frame_ms": med,
             "cpu_ms": {k: float(np.median(v)) for k, v in cpu.items()},
+            "thread_ms": {k: float(np.median(v)) for k, v in threads.items()},
             "ratio_cached_over_rebuilt": ratio,
             "cpu_ratio_cached_over_rebuilt": float(np.median(np.array(cpu["cached"])
                                                              / np.array(cpu["rebuilt"]))),
@@ -317,8 +325,9 @@ def main(argv=None) -> int:
         lines += [f"## Display lists (Pires), Röttger C = {args.C:g}, {args.size}^2, tau = "
                   f"{args.tau} px, {args.frames} frames per path, medians", "",
                   "| circle | frame ms cached | cache off | plain Röttger | cached / cache off "
-                  "| cached / plain | CPU ms cached / off / plain | CPU cached / off | bytes uploaded "
-                  "cached / off | chunks rebuilt / reused | triangles |", "|---|" + "---:|" * 10]
+                  "| cached / plain | CPU ms cached / off / plain | CPU cached / off | LOD + build thread "
+                  "CPU ms cached / off / plain | bytes uploaded cached / off | chunks rebuilt / "
+                  "reused | triangles |", "|---|" + "---:|" * 11]
         for name in ("slow", "fast"):
             r = display_lists(hm, args.frames, args.tau, profile, args.C, name)
             record.setdefault("display_lists", []).append(r)
@@ -327,7 +336,9 @@ def main(argv=None) -> int:
                          f"| {r['ratio_cached_over_rebuilt']:.2f} | "
                          f"{r['ratio_cached_over_plain']:.2f} | {c['cached']:.2f} / "
                          f"{c['rebuilt']:.2f} / {c['plain']:.2f} | "
-                         f"{r['cpu_ratio_cached_over_rebuilt']:.2f} | {u['cached']:,.0f} / "
+                         f"{r['cpu_ratio_cached_over_rebuilt']:.2f} | "
+                         f"{r['thread_ms']['cached']:.2f} / {r['thread_ms']['rebuilt']:.2f} / "
+                         f"{r['thread_ms']['plain']:.2f} | {u['cached']:,.0f} / "
                          f"{u['rebuilt']:,.0f} | {r['rebuilt_mean']:.1f} / "
                          f"{r['reused_mean']:.1f} | {r['triangles_median']:,.0f} |")
             print(lines[-1], flush=True)
