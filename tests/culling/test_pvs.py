@@ -202,6 +202,15 @@ def test_cli_bakes_both_kinds(kit, zigzag, tmp_path):
         assert done.returncode == 0, done.stderr
         loaded = load_partition(out)
         assert loaded.params["pvs"] == mode and len(loaded.extras["pvs_start"]) > 1
+    # the bake over two processes writes the same sets
+    spread = tmp_path / "spread.vmp"
+    done = subprocess.run([sys.executable, "-m", "vismobile", "partition", str(mesh),
+                           "--structure", "portal:1,pvs=conservative", "--jobs", "2",
+                           "-o", str(spread)], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    one = load_partition(tmp_path / "conserv.vmp").extras
+    two = load_partition(spread).extras
+    assert all(np.array_equal(one[k], two[k]) for k in ("pvs_cells", "pvs_start", "pvs_runs"))
     bad = subprocess.run([sys.executable, "-m", "vismobile", "partition", str(mesh),
                           "--structure", "grid:2,pvs=sampled:x", "-o", str(tmp_path / "b.vmp")],
                          capture_output=True, text=True, timeout=600)

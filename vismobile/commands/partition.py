@@ -31,8 +31,8 @@ def add_parser(sub):
                              "in [0.8, 1.25]")
     parser.add_argument("--seed", type=int, help="bsp: candidate sampling seed (default 0)")
     parser.add_argument("--jobs", type=int, default=1,
-                        help="world directory: worker processes for the chunked octree build "
-                             "(default 1)")
+                        help="world directory: worker processes for the chunked octree build; "
+                             "pvs=conservative: processes for the bake (default 1)")
     parser.add_argument("--fix-winding", action="store_true",
                         help=FIX_WINDING_HELP + "; the .vmp carries the fixed world")
     parser.add_argument("--lod", action="store_true",
@@ -96,6 +96,8 @@ def run(args) -> int:
             params["auto"] = True
         sampled = str(params.get("pvs", "")).startswith("sampled")
         samples = _samples(params.pop("pvs")) if sampled else 0
+        spread = params.get("pvs") == "conservative" and args.jobs > 1
+        mode = params.pop("pvs") if spread else None
         bar = Progress(f"{kind} {args.world.name}")
         from ..timing import fresh_compiles
 
@@ -107,6 +109,8 @@ def run(args) -> int:
             bar.close()
         if sampled:
             result = _bake_sampled(result, samples, args.world.name)
+        if spread:
+            result = _bake_spread(result, mode, args.jobs, args.world.name)
     except ValueError as error:
         raise PartitionError(f"{args.world}: {error}") from None
     elapsed = time.perf_counter() - start
@@ -142,6 +146,21 @@ def _samples(text) -> int:
     if not count.isdigit() or int(count) < 1:
         raise ValueError(f"pvs={text}: expected pvs=sampled:N with N >= 1 sample points per cell")
     return int(count)
+
+
+def _bake_spread(result, mode, jobs, name):
+    """The partition with the conservative PVS baked over `jobs` processes (partition/pvs.py)."""
+    from ..partition.pvs import bake
+    from ..progress import Progress
+
+    bar = Progress(f"pvs {mode} {name} ({jobs} jobs)")
+    try:
+        extras, _ = bake(result, mode, progress=bar, jobs=jobs)
+    finally:
+        bar.close()
+    result.extras.update(extras)
+    result.params["pvs"] = mode
+    return result
 
 
 def _bake_sampled(result, samples, name):
