@@ -36,6 +36,11 @@ def test_play_reports_psnr_and_triangles_at_tau(scene, tmp_path):
     assert header[-5:] == ["lod_ms", "triangles_full", "psnr_db", "max_diff", "changed"]
     sent = result.frames["triangles_sent"]
     assert sent[-1] < result.frames["triangles_full"][-1]  # far: coarse levels
+    # The chains were cached beside the built worlds: the next play of this world loads them.
+    from vismobile.scenes.thesis import default_cache_dir
+
+    digest = scene.world.digest().hex()[:16]
+    assert (default_cache_dir() / "lod" / f"{scene.world.name}-{digest}.npz").is_file()
 
 
 def test_tau_zero_plays_the_full_detail_frames(scene, tmp_path):

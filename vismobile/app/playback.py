@@ -394,16 +394,19 @@ def _lod_view(scene, profile, tau, progress):
         raise VisMobileError("--lod-tau needs a partition (its LOD chains live beside it); "
                              "pass --structure (e.g. octree:5)")
     from ..lod.chains import LodChains
-    from ..lod.simplify import build_chains
     from ..render.lod_view import LodView
 
     chains = LodChains.from_extras(scene.partition.extras)
     if chains is None:
-        bar = Progress("lod chains", enabled=None if progress else False)
-        try:
-            chains = build_chains(scene.world, progress=bar)
-        finally:
-            bar.close()
+        # Built once per world and kept beside the built worlds (<worlds>/lod/), like
+        # compare's cache: W2's chains take one to four minutes to build.
+        from ..progress import Status
+        from ..scenes.thesis import default_cache_dir
+        from ..study.engine import load_chains
+
+        with Status("lod chains", enabled=bool(progress)) as status:
+            status(f"level-of-detail chains of {scene.world.name} (built once, then cached)")
+            chains = load_chains(scene.world, default_cache_dir())
         scene.partition.extras.update(chains.to_extras())
     return LodView(scene.world, chains, profile, tau)
 
