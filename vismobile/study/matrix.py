@@ -39,7 +39,7 @@ OUR_CULLS = (
 )
 # The order stages are written in a combination's label (labels key caches and reports: keep it).
 STAGE_ORDER = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
-               "occlusion_thesis", "portals", "horizon")
+               "occlusion_thesis", "portals", "pvs", "horizon")
 # The thesis's own variants, which it says may drop visible geometry: measured for their error
 # and never tune candidates, even those our tests prove conservative (vfc_thesis, occlusion_thesis).
 LOOSE_STAGES = ("vfc_thesis", "occlusion_thesis", "cbfc_thesis")
