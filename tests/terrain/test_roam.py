@@ -208,3 +208,38 @@ def test_deferred_priorities_change_nothing_but_the_work(fractal257):
         assert vertex_errors(fractal257, drawn, camera, RESOLUTION).max() <= 1.0
         assert a.bound_px <= 1.0
     assert deferred > 1000
+
+
+def test_merges_morph_down_within_tau_before_they_happen(fractal257):
+    """With geomorphing, a diamond due to merge first lowers its vertex to its hypotenuse
+    midpoint over the morph frames (monotonically), and merges after; while only such
+    descents are in flight every sample in the frustum stays within tau (rising vertices of
+    splits may exceed it, as before). Without geomorphing the same move merges at once."""
+    from vismobile.study.terrain import RoamMethod
+
+    near = overview_cameras(fractal257)[0]
+    away = near.with_(position=np.add(near.position, (0.0, 0.3 * fractal257.extent, 0.0)))
+    popping = Roam(fractal257)
+    popping.update(near, RESOLUTION, 1.0)
+    assert popping.update(away, RESOLUTION, 1.0).merges > 0
+    roam = Roam(fractal257, geomorph=3)
+    method = RoamMethod(roam)
+    for _ in range(4):  # let the split morphs end
+        roam.update(near, RESOLUTION, 1.0)
+    heights, merged, checked = {}, 0, 0
+    for step in range(8):
+        frame = roam.update(away, RESOLUTION, 1.0)
+        merged += frame.merges
+        if step == 0:
+            assert frame.merges == 0 and len(frame.morph[0]) > frame.splits
+        descending = np.setdiff1d(frame.morph[0], roam.morph_ids)
+        truth = fractal257.heights.ravel()
+        for v, h in zip(*frame.morph):
+            if v in heights and v in descending:  # moving away from its height, step by step
+                assert abs(h - truth[v]) >= abs(heights[v] - truth[v]) - 1e-9
+            heights[v] = h
+        if len(descending) and not len(roam.morph_ids):
+            errors = vertex_errors(fractal257, method.heights(frame), away, RESOLUTION)
+            assert errors.max() <= 1.0
+            checked += 1
+    assert merged > 0 and checked >= 2

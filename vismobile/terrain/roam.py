@@ -49,7 +49,11 @@ Geomorphing: a vertex created by a split moves from the midpoint of its hypotenu
 height over `geomorph` frames (h_t = (1 - t) (h(v0) + h(v1)) / 2 + t h(v)). On each of its
 triangles the drawn surface is then a blend of the parent's plane and the children's, so its
 gap to the ground is at most e(v): while a vertex morphs, the screen error is bounded by its
-diamond's priority p(v) (which was > tau when it split) instead of by tau. Merges pop.
+diamond's priority p(v) (which was > tau when it split) instead of by tau. Merges morph too
+(issue 30): a diamond due to merge lowers its vertex to the midpoint over `geomorph` frames
+first, with the same blend, so its error stays within p(v) <= tau while it descends; it
+stops (and pops back up) if its priority rises above tau or a child splits; a merge the
+budget forces does not wait.
 """
 from __future__ import annotations
 
@@ -152,6 +156,7 @@ class Roam:
         self.out = np.zeros((1 << 16, 3), np.int64)
         self.morph_ids = np.zeros(0, np.int64)
         self.morph_start = np.zeros(0, np.int64)
+        self.dying = np.zeros(N * N if self.geomorph else 1, np.int64)  # merge morphs
         # Incremental queues (no budget): a wake-up heap of candidates keyed by the travel at
         # which their priority may cross tau, so a frame re-scores only those (module doc).
         self.incremental = bool(incremental)
@@ -176,6 +181,7 @@ class Roam:
         self.alive_count = 0
         self.leaves = 2
         self.morph_ids = self.morph_start = np.zeros(0, np.int64)
+        self.dying[:] = 0
         self.knob = None
         self.need_walk = True
 
@@ -217,7 +223,8 @@ class Roam:
                 self.alive, self.alive_count, self.qs, self.qm, self.mark, self.frame_number,
                 camera.eye, planes, lam, float(tau), limit, self.leaves, cull, born, stats,
                 self.until, self.travel, walk, self.hk, self.hv, self.hsize, self.wake_at,
-                self.touched, self.tcount, self.changed)
+                self.touched, self.tcount, self.changed, self.dying, self.clock,
+                self.geomorph)
             born_all.append(born[:born_count])
             if self.emitter is not None:
                 if walk or self.tcount[3]:
@@ -292,4 +299,16 @@ class Roam:
             _geometry(v // N, v % N, self.n, g)
             mid[k] = 0.5 * (self.heights[g[2, 0], g[2, 1]] + self.heights[g[3, 0], g[3, 1]])
         r, c = np.divmod(ids, N)
-        return ids, (1 - t) * mid + t * self.heights[r, c]
+        rising = (1 - t) * mid + t * self.heights[r, c]
+        # Vertices of diamonds due to merge descend to their midpoints (merge phase, _frame).
+        down = np.flatnonzero(self.dying)
+        down = down[(self.split[down] == 1) & ~np.isin(down, ids)]
+        if not len(down):
+            return ids, rising
+        t = (self.clock - self.dying[down] + 1) / (self.geomorph + 1)
+        low = np.empty(len(down))
+        for k, v in enumerate(down.tolist()):
+            _geometry(v // N, v % N, self.n, g)
+            low[k] = 0.5 * (self.heights[g[2, 0], g[2, 1]] + self.heights[g[3, 0], g[3, 1]])
+        r, c = np.divmod(down, N)
+        return (np.r_[ids, down], np.r_[rising, (1 - t) * self.heights[r, c] + t * low])

@@ -211,7 +211,7 @@ def _merge(wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, t
 @njit(cache=True)
 def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
            eye, planes, lam, tau, budget, leaves, cull, born, stats, until, travel,
-           walk, hk, hv, hsize, wake_at, touched, tcount, changed):
+           walk, hk, hv, hsize, wake_at, touched, tcount, changed, dying, clock, morph):
     """One ROAM frame from last frame's mesh. Returns (alive_count, leaves, born_count).
 
     budget < 0: no budget (queues then hold only diamonds that can move: split candidates
@@ -228,7 +228,12 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
     candidates due on the wake-up heap (hk, hv, hsize[0]: keys = the travel at which their
     priority may cross tau, valid while wake_at[v] equals the key) are re-scored; every
     candidate scored on the safe side of tau is recorded in touched (tcount[0]) for _rewake,
-    every diamond split or merged in changed (tcount[2]; tcount[1] / [3] flag overflows)."""
+    every diamond split or merged in changed (tcount[2]; tcount[1] / [3] flag overflows).
+
+    morph > 0 (geomorphing): a diamond due to merge within tau first lowers its vertex to its
+    hypotenuse midpoint over morph frames (dying[v] = the clock it started; the drawn heights
+    come from Roam._morph) and merges after; a merge forced by the budget does not wait, and a
+    dying diamond scored above tau again, or given a split child, stops dying."""
     N = int(np.sqrt(wedge.shape[0]))
     S = N - 1
     every = budget >= 0
@@ -283,6 +288,8 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                     qm[v] = stamp
                 else:
                     _touch(touched, tcount, v)
+                    if morph > 0:
+                        dying[v] = 0
     for i in range(alive_count if walk else 0):
         v = alive[i]
         h, sq = _geometry(v // N, v % N, n, g)
@@ -322,6 +329,8 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                 qm[v] = stamp
             else:
                 _touch(touched, tcount, v)
+                if morph > 0:
+                    dying[v] = 0
     if split[centre] == 0:
         q = _score(wedge, spacing, centre, N, eye, planes, lam, cull)
         sk, sv = _reserve(sk, sv, ns, 1)
@@ -336,6 +345,14 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
         qm[v] = 0
         if not _mergeable(split, v, n, N, g):
             continue
+        if morph > 0 and p <= tau:
+            if dying[v] == 0:
+                dying[v] = clock
+            if clock - dying[v] < morph:
+                _touch(touched, tcount, v)  # still lowering its vertex: look again next frame
+                continue
+        if morph > 0:
+            dying[v] = 0
         sk, sv = _reserve(sk, sv, ns, 1)
         mk, mv = _reserve(mk, mv, nm, 2)
         ns, nm, low, removed = _merge(
@@ -412,6 +429,11 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
             x = order[i]
             split[x] = 1
             _touch(changed, tcount[2:], x)
+            if morph > 0:  # its parents have a split child now: they stop dying
+                _geometry(x // N, x % N, n, g)
+                for k2 in range(2):
+                    if g[k2, 0] >= 0:
+                        dying[g[k2, 0] * N + g[k2, 1]] = 0
             alive[alive_count] = x
             alive_count += 1
             if born_count < born.shape[0]:
