@@ -82,7 +82,12 @@ def _triangles_along(world, records, tunes, marks) -> str:
                 np.maximum(np.asarray(visible, float), 1.0), color="#555", lw=0.9,
                 ls=":", label="visible (item buffer)")
     if total:
-        ax.set_ylim(top=total * 4)  # headroom: the waypoint letters sit above the whole world
+        # Headroom: the waypoint letters sit above the whole world. The bottom follows the data:
+        # left to the linear autoscale it went below zero, which squashed every line into the
+        # top of a log axis reaching down to 1e-300, its tick labels printed over each other.
+        floor = min(float(np.min(line.get_ydata())) for line in ax.get_lines()
+                    if line.get_transform() == ax.transData)
+        ax.set_ylim(floor / 1.5, total * 4)
     log_axis(ax, "y")
     waypoints(ax, marks)
     ax.set_xlabel("frame along the path")
