@@ -341,21 +341,23 @@ class Session:
 
     def set_lod_tau(self, tau) -> None:
         """Level of detail at tau pixels (None: off). The chains come from the partition's
-        extras (partition --lod) or are built on first use (and kept in those extras)."""
+        extras (partition --lod), else from the cache beside the built worlds, else they are
+        built (once per world: W2 takes minutes) and cached."""
         self.lod_tau = None if tau is None else float(tau)
         if self.lod_tau is None:
             self.message = "level of detail off"
             return
         if self._lod is None:
             from ..lod.chains import LodChains
-            from ..lod.simplify import build_chains
             from ..render.lod_view import LodView
+            from ..scenes.thesis import default_cache_dir
+            from ..study.engine import load_chains
 
             partition = self.partitions.get(self.structure)
             extras = partition.extras if partition is not None else {}
             chains = LodChains.from_extras(extras)
-            if chains is None:
-                chains = build_chains(self.world)
+            if chains is None:  # built once per world, then loaded (<worlds>/lod/), as play
+                chains = load_chains(self.world, default_cache_dir())
                 if partition is not None:
                     extras.update(chains.to_extras())
             self._lod = LodView(self.world, chains, self.profile, self.lod_tau, reference=False)

@@ -218,6 +218,19 @@ def read_obj_textures(path, world) -> Textures | None:
     return Textures(np.ascontiguousarray(uv[kept]), np.asarray(texture_of, np.int32), images)
 
 
+def _names_mtllib(path, chunk=1 << 20) -> bool:
+    """True when the file holds b"mtllib" (read in pieces: bounded memory)."""
+    tail = b""
+    with open(path, "rb") as handle:
+        while True:
+            data = handle.read(chunk)
+            if not data:
+                return False
+            if b"mtllib" in tail + data:
+                return True
+            tail = data[-5:]
+
+
 def textured_world(path):
     """World.from_file(path) with `.textures` set (Textures or None): glTF/GLB base-colour
     textures, or an OBJ's MTL map_Kd (only read when the OBJ names an mtllib)."""
@@ -226,8 +239,7 @@ def textured_world(path):
     path = Path(path)
     world = World.from_file(path)
     if path.suffix.lower() == ".obj":
-        world.textures = read_obj_textures(path, world) if b"mtllib" in path.read_bytes() \
-            else None
+        world.textures = read_obj_textures(path, world) if _names_mtllib(path) else None
     else:
         world.textures = read_textures(path, world)
     return world
