@@ -61,3 +61,13 @@ def test_compare_sweeps_lod_and_reports_it(lod_world, tmp_path):
     assert header[-3:] == ["lod_tau", "psnr_db_min", "psnr_db_mean"]
     page = write_report(records, tmp_path / "report.html").read_text()
     assert "id='lod'" in page and "run time against image error" in page
+
+
+@pytest.mark.parametrize("value", ["-1", "abc", "nan", "1e9"])
+def test_a_bad_lod_list_is_one_line_and_exit_2(value, tmp_path, capsys):
+    from vismobile.app.cli import main
+
+    assert main(["compare", "--worlds", "w1", "--structures", "octree:3", "--cull", "vfc",
+                 f"--lod={value}", "-o", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--lod" in err[0] and not (tmp_path / "c").exists()
