@@ -154,6 +154,14 @@ def test_no_command_writes_over_its_input(capsys, files, argv):
     assert {p: p.read_bytes() for p in files.rglob("*") if p.is_file()} == before
 
 
+def test_no_output_replaces_a_file_of_an_input_world_directory(capsys, tmp_path):
+    world = tmp_path / "big"
+    world.mkdir()
+    (world / "vertices.npy").write_bytes(b"keep")
+    refuse(capsys, ["partition", world, "-o", world / "vertices.npy"], "file of the input")
+    assert (world / "vertices.npy").read_bytes() == b"keep"
+
+
 # play's run folder
 @pytest.mark.parametrize("out", ["{d}/m.obj", "/dev/null", "{d}/m.obj/run", "/proc/vismobile"])
 def test_play_checks_its_folder_before_loading(capsys, files, out):

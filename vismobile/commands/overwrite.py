@@ -49,6 +49,12 @@ def _inputs(args, names) -> list:
     return found
 
 
+def _input_folders(args, names) -> list:
+    """Input options naming a folder (a world directory, vismobile.world.mapped)."""
+    values = [getattr(args, name, None) for name in names if name != "worlds"]
+    return [str(v) for v in values if v is not None and os.path.isdir(str(v))]
+
+
 def check(args) -> None:
     """OutputError naming the output when it is (or would replace) an input, or when two
     outputs are one file."""
@@ -65,6 +71,10 @@ def check(args) -> None:
         for source in inputs:
             if _same(output, source):
                 raise OutputError(output, f"is an input ({source}); refusing to overwrite it")
+        for folder in _input_folders(args, input_names):  # a world directory's own files
+            if os.path.isfile(output) and _inside(output, folder):
+                raise OutputError(output, f"is a file of the input {folder}; refusing to "
+                                          "overwrite it")
     for i, output in enumerate(outputs):
         for other in outputs[i + 1:]:
             if _same(output, other):
