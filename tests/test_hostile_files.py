@@ -122,3 +122,15 @@ def test_fuzz_has_a_seed_and_an_entry_for_every_surface(tmp_path):
             path = tmp_path / f"seed{k}{suffix}"
             path.write_bytes(data)
             load(path)
+
+
+@pytest.mark.parametrize("head", [b"OFF\n8 12 0\n", b"OFF 8 12 0\n", b"OFF\n8 12\n",
+                                  b"# a cube\nOFF\n\n# counts\n8 12 0\n"])
+def test_off_headers_of_every_layout_load_at_their_tightest(tmp_path, head):
+    # one digit per number, no trailing newline: the byte bound is exact and still passes
+    from vismobile.world import World
+
+    body = "\n".join([" ".join(map(str, v)) for v in hostile.CUBE_V]
+                     + ["3 " + " ".join(map(str, f)) for f in hostile.CUBE_F])
+    (tmp_path / "c.off").write_bytes(head + body.encode())
+    assert World.from_file(tmp_path / "c.off").triangle_count == 12

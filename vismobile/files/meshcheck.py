@@ -88,24 +88,22 @@ def _ply(path, data: bytes) -> None:
 
 # ---- OFF ------------------------------------------------------------------------------------------
 def _off(path, data: bytes) -> None:
-    words, position = [], 0
-    for line in data[:1 << 16].splitlines():
-        position += len(line) + 1
-        text = line.split(b"#", 1)[0].strip()
-        if not text:
-            continue
-        words += text.split()
-        if len(words) >= 4 or (words and not words[0].endswith(b"OFF") and len(words) >= 3):
+    counts, position = [], 0
+    for line in data[:1 << 16].splitlines(keepends=True):  # "OFF", then V F [E]: comments,
+        position += len(line)                                # blank lines, one line or two
+        words = line.split(b"#", 1)[0].split()
+        if not counts and words and words[0].endswith(b"OFF"):
+            words = words[1:]
+        counts += words
+        if len(counts) >= 2:
             break
-    if words and words[0].endswith(b"OFF"):
-        words = words[1:]
     try:
-        vertices, faces = int(words[0]), int(words[1])
+        vertices, faces = int(counts[0]), int(counts[1])
     except (IndexError, ValueError):
         raise WorldError(path, "OFF header has no vertex and face counts") from None
     if vertices < 0 or faces < 0:
         raise WorldError(path, "OFF header has a negative count")
-    room = max(len(data) - position, 0) // 2  # each number: a digit and a separator
+    room = (max(len(data) - position, 0) + 1) // 2  # a number: a digit and a separator
     _declared(path, "vertices", vertices, room // 3)
     _declared(path, "faces", faces, room // 4)
     if 3 * vertices + 4 * faces > room:
