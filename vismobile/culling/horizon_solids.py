@@ -69,9 +69,10 @@ def _polygon_area(poly) -> float:
 
 
 def _projected_areas(corners) -> np.ndarray:
-    """(T,) signed x-z areas (positive counter-clockwise seen from +y... as the hull)."""
+    """(T,) signed x-z areas of triangles (T, 3, 3) (the sign follows their x-z winding)."""
     a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
-    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2]) - (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]))
+    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
+                  - (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]))
 
 
 def is_ground(corners, normals) -> tuple | None:
@@ -204,10 +205,11 @@ def solid_map(world, solids: Solids, valid=None, margin: float = 0.0,
         hi_c = corners[tris].max(axis=1)
         low_cell = np.full((n, n), np.inf)
         high_cell = np.full((n, n), -np.inf)
-        j0 = np.clip(np.floor((lo_c[:, 0] - margin - origin[0]) / spacing).astype(np.int64), 0, n - 1)
-        j1 = np.clip(np.floor((hi_c[:, 0] + margin - origin[0]) / spacing).astype(np.int64), 0, n - 1)
-        i0 = np.clip(np.floor((lo_c[:, 2] - margin - origin[1]) / spacing).astype(np.int64), 0, n - 1)
-        i1 = np.clip(np.floor((hi_c[:, 2] + margin - origin[1]) / spacing).astype(np.int64), 0, n - 1)
+        def cell(v, o):
+            return np.clip(np.floor((v - o) / spacing).astype(np.int64), 0, n - 1)
+
+        j0, j1 = cell(lo_c[:, 0] - margin, origin[0]), cell(hi_c[:, 0] + margin, origin[0])
+        i0, i1 = cell(lo_c[:, 2] - margin, origin[1]), cell(hi_c[:, 2] + margin, origin[1])
         span_i, span_j = i1 - i0 + 1, j1 - j0 + 1
         count = span_i * span_j
         t = np.repeat(np.arange(len(tris)), count)
