@@ -216,3 +216,12 @@ def test_cli_bakes_both_kinds(kit, zigzag, tmp_path):
                          capture_output=True, text=True, timeout=600)
     assert bad.returncode == 2 and "pvs=sampled:N" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / "b.vmp").exists()
+
+
+def test_eye_outside_every_cell_falls_back_and_says_so(zigzag):
+    cam = Camera((-5.0, 1.5, 2.0), yaw=-90.0, aspect=4 / 3)  # west of the first room
+    result = Culler(zigzag, "pvs,vfc").cull(cam)
+    assert result.stats["pvs.fallbacks"] == 1
+    assert np.array_equal(result.triangles, Culler(zigzag, "vfc").cull(cam).triangles)
+    inside = Culler(zigzag, "pvs,vfc").cull(Camera((2.0, 1.5, 2.0), yaw=-90.0, aspect=4 / 3))
+    assert "pvs.fallbacks" not in inside.stats and inside.stats["pvs.cells"] >= 1
