@@ -166,3 +166,14 @@ def test_the_stage_is_in_every_registry():
     for bad in ({"bands": 0}, {"step": 2.0}, {"cells": 0}):
         with pytest.raises(ValueError):
             HorizonStage(**bad)
+
+
+def test_the_device_model_prices_the_horizon(kit):
+    from vismobile.device.costmodel import cull_cycles
+
+    part = kit.structure("w5", "octree")
+    cam = Camera((70.0, 1.7, 250.0), yaw=0.0, pitch=0.0, aspect=kit.ASPECT)
+    stats = Culler(part, "vfc,horizon,tbfc").cull(cam).stats
+    plain = Culler(part, "vfc,tbfc").cull(cam).stats
+    assert stats["horizon.pieces"] > 0 and stats["horizon.triangles_tested"] > 0
+    assert cull_cycles(stats, 50.0) > cull_cycles(plain, 50.0) + 60 * stats["horizon.pieces"] - 1

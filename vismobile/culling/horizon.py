@@ -101,12 +101,14 @@ class HorizonStage:
         state.nodes = nodes[~hidden]
         state.count("nodes_visited", tested)
         state.count(f"{self.name}.nodes_tested", tested)
+        state.count(f"{self.name}.pieces", horizon.values.size)  # bands x slices cast
         if self.triangles:
-            stats, key = state.stats, f"{self.name}.triangles_culled"
+            stats, key = state.stats, f"{self.name}.triangles_"
 
             def keep_of(ids):  # holds the stats dict, not the state (no cycle)
                 hidden = self._hidden_triangles(horizon, ids)
-                stats[key] = stats.get(key, 0) + int(hidden.sum())
+                stats[key + "culled"] = stats.get(key + "culled", 0) + int(hidden.sum())
+                stats[key + "tested"] = stats.get(key + "tested", 0) + len(ids)
                 return ~hidden
 
             state.filters.append(keep_of)
