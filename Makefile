@@ -15,8 +15,11 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/python -m vismobile.app.demo
 
+# Two test workers (pytest-xdist), each taking whole test files: a file's fixtures and the numba
+# kernels it compiles stay in one process. TEST_WORKERS=0 runs in this process alone.
+TEST_WORKERS ?= 2
 test: $(STAMP) browser xvfb
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(if $(filter-out 0,$(TEST_WORKERS)),-n $(TEST_WORKERS) --dist loadfile)
 
 # Debian's chromium for the report's browser test (tests/study/test_report_browser.py), installed
 # only when missing and only as root with apt-get; elsewhere that test is skipped with the reason.
