@@ -4,9 +4,11 @@ tune picks for the iPaq by the device cost model (fitted to the thesis's own tim
 comparison measures wall time on this machine, so the last lines set the two side by side.
 
 Builds the thesis worlds first if worlds/ lacks them. The comparison is the thesis's matrix cut
-down to fit a few minutes on a 2-core machine: 30 evenly spaced frames plus the waypoints of the
-indoor path, the thesis's 8 culling combinations plus ours, seven structures, the iPaq profile.
-`vismobile compare` runs the full matrix.
+down to fit a few minutes on a 2-core machine: 16 evenly spaced frames plus the waypoints of the
+indoor path, the thesis's 8 culling combinations plus three of ours (occlusion, and portals on
+the portal octree), six structures (each thesis structure, octree depths 3-5), the iPaq
+profile; tune searches the same six structures, so its pick is always among the measured runs.
+`vismobile compare` runs the full matrix, `vismobile tune` searches every structure.
 """
 from __future__ import annotations
 
@@ -15,10 +17,10 @@ import time
 from pathlib import Path
 
 WORLDS = ("w1", "w2")
-STRUCTURES = "grid,octree:3-5,portal:1-2,bsp"
-CULLS = ("thesis,vfc+bfc+occlusion,vfc+bfc+cbfc+occlusion,vfc+bfc+cone,vfc+bfc+cbfc+portals,"
-         "vfc+bfc+cbfc+occlusion_thesis,vfc_thesis+bfc+cbfc")
-FRAMES = "sample:30"
+STRUCTURES = "grid,octree:3-5,portal:1,bsp"
+CULLS = "thesis,vfc+bfc+occlusion,vfc+bfc+cbfc+occlusion,vfc+bfc+cbfc+portals"
+FRAMES = "sample:16"
+PROBE = 12  # tune's probe frames (plus the waypoints)
 PROFILE = "ipaq-hx2490b"
 
 
@@ -60,8 +62,8 @@ def main(argv=None) -> int:
         trajectory = Trajectory.load(trajectory_for(world_name))
         with Status(f"2/4 tune {world_name}") as status:
             status(f"ground truth of the probe frames ({world.triangle_count:,} triangles)")
-            result = tune(world, trajectory, get_profile(PROFILE), probe=16,
-                          cache_dir=context.cache_dir,
+            result = tune(world, trajectory, get_profile(PROFILE), probe=PROBE,
+                          structures=STRUCTURES, cache_dir=context.cache_dir,
                           progress=lambda done, _: status(f"{done} structure(s) probed"))
         tunes.append(result)
         c = result.choice
