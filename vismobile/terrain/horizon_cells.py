@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from .horizon import (NO_BASES, NO_BASES_RAW, ONE, SLOPE_LIMIT, FixedHorizon, Horizon, _cast,
-                      _cast_fixed, _highest_in, pack)
+                      _cast_fixed)
+from .horizon_mips import _highest_in, pack
 
 NOTHING_RAW = -(1 << 60)  # raw "no solid" (below every 16.16 value)
 
