@@ -22,14 +22,20 @@ PAIR_AREA = 0.25
 # An axis with no interior boundary takes every wall plane covering this share of the world's
 # cross-section (a floor slab between storeys: both its faces).
 SLAB_AREA = 0.25
+# The added planes may multiply the cell count by at most MAX_GROWTH, to at most MAX_CELLS
+# cells (the bake's time follows the cells times the portals): the largest walls go first.
+MAX_GROWTH, MAX_CELLS = 16, 640
 
 
 def paired_edges(world, cells) -> list:
     """Three ascending boundary arrays: portal.auto_edges plus, next to each interior boundary,
     the largest parallel wall plane within PAIR_REACH on either side, and on an axis without
-    interior boundaries every plane of walls covering SLAB_AREA of the cross-section."""
+    interior boundaries every plane of walls covering SLAB_AREA of the cross-section; the
+    largest walls first, within MAX_GROWTH times the automatic cell count and MAX_CELLS."""
     edges = portal.auto_edges(world, cells)
+    base = [len(e) - 1 for e in edges]
     low, high = world.extent
+    offers = []  # (area, axis, position) of every plane the rules below would add
     for axis in range(3):
         e = edges[axis]
         aligned = np.abs(world.normals[:, axis]) > 0.999
@@ -42,24 +48,30 @@ def paired_edges(world, cells) -> list:
         actual[inverse.ravel()] = pos
         if len(e) <= 2:
             others = np.delete(high - low, axis)
-            big = (area >= SLAB_AREA * float(np.prod(others))) & (actual > low[axis]) \
-                & (actual < high[axis])
-            edges[axis] = np.unique(np.concatenate([e, actual[big]]))
+            big = np.flatnonzero((area >= SLAB_AREA * float(np.prod(others)))
+                                 & (actual > low[axis]) & (actual < high[axis]))
+            offers += [(area[k], axis, actual[k]) for k in big]
             continue
         reach = PAIR_REACH * float(high[axis] - low[axis])
-        added = []
         for b in e:  # the world's sides too: an outer wall's inside
             at = np.flatnonzero(np.abs(keys - b) <= 1e-6)
-            base = area[at].max() if len(at) else 0.0
-            if base == 0.0:  # no wall on this boundary (the world's side): a large one near
-                base = SLAB_AREA / PAIR_AREA * float(np.prod(np.delete(high - low, axis)))
+            here = area[at].max() if len(at) else 0.0
+            if here == 0.0:  # no wall on this boundary (the world's side): a large one near
+                here = SLAB_AREA / PAIR_AREA * float(np.prod(np.delete(high - low, axis)))
             for side in (-1.0, 1.0):
                 near = np.flatnonzero((side * (keys - b) > 1e-6) & (side * (keys - b) <= reach))
-                if len(near) and area[near].max() >= PAIR_AREA * base > 0.0:
-                    added.append(actual[near[np.argmax(area[near])]])
-        added = np.asarray(added, dtype=np.float64)
-        added = added[(added > low[axis]) & (added < high[axis])]
-        edges[axis] = np.unique(np.concatenate([e, added]))
+                if len(near) and area[near].max() >= PAIR_AREA * here > 0.0:
+                    k = near[np.argmax(area[near])]
+                    if low[axis] < actual[k] < high[axis]:
+                        offers.append((area[k], axis, actual[k]))
+    # largest walls first, while the cell count stays within MAX_GROWTH of the automatic one
+    limit = max(min(MAX_GROWTH * int(np.prod(base)), MAX_CELLS), int(np.prod(base)))
+    for _, axis, position in sorted(offers, key=lambda o: -o[0]):
+        grown = np.unique(np.append(edges[axis], position))
+        counts = [len(e) - 1 for e in edges]
+        counts[axis] = len(grown) - 1
+        if int(np.prod(counts)) <= limit:
+            edges[axis] = grown
     return edges
 
 
