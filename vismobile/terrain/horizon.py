@@ -156,6 +156,14 @@ class Horizon:
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
     clamp: bool = False
 
+    @classmethod
+    def nothing(cls, eye) -> "Horizon":
+        """A horizon that hides nothing (the ground's or the solids' argument does not hold for
+        this eye)."""
+        return cls(np.asarray(eye, dtype=np.float64), np.array([0.0, 0, -1]),
+                   np.array([1.0, 0, 0]), np.array([-1.0, 1.0]), np.array([1.0, 2.0]),
+                   np.full((1, 1), -np.inf), np.full(1, np.inf))
+
     def hidden(self, boxes) -> np.ndarray:
         """(K,) bool: box (K, 2, 3) entirely hidden by drawn ground (errs visible)."""
         boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
@@ -167,6 +175,29 @@ class Horizon:
         points = np.asarray(points, dtype=np.float64) - self.origin
         return _hidden(points, self.eye, self.forward, self.right, self.tans, self.depths,
                        self.values, self.ceiling, self.bases, self.clamp, float(grow))
+
+
+def level_bands(camera, bands: int):
+    """The level camera's axes and its horizontal bands.
+
+    Returns forward, right : (3,) float64 (y = 0, from the yaw); tans : (bands+1,) float64,
+    the band edges as tan of the horizontal angle, spanning the frustum's corner directions
+    with 1% to spare (+-4 when a corner looks sideways or back); deepest : float, the largest
+    level depth of a frustum corner direction at unit view depth; and clamp : bool, True when
+    every corner is in front of the eye, so the bands hold every frustum ray."""
+    yaw = np.radians(camera.yaw)
+    forward = np.array([-np.sin(yaw), 0.0, -np.cos(yaw)])
+    right = np.array([np.cos(yaw), 0.0, -np.sin(yaw)])
+    r, u, f = camera.basis()
+    ty = np.tan(np.radians(camera.fov) / 2)
+    tx = ty * camera.aspect
+    corners = np.array([f + sx * tx * r + sy * ty * u for sx in (-1, 1) for sy in (-1, 1)])
+    depth = corners @ forward
+    lateral = corners @ right
+    ok = depth > 1e-6
+    span = np.abs(lateral[ok] / depth[ok]).max() * 1.01 if ok.all() else 4.0
+    return (forward, right, np.linspace(-span, span, bands + 1), float(depth.max()),
+            bool(ok.all()))
 
 
 def box_corners(boxes) -> np.ndarray:
@@ -454,29 +485,16 @@ class HorizonCaster:
         if not (0 <= eye[0] <= self.heightmap.extent and 0 <= eye[2] <= self.heightmap.extent) \
                 or eye[1] < float(self.heightmap.height_at(eye[0], eye[2])):
             # Off the map or under the ground: the ground-as-solid argument does not hold.
-            return Horizon(eye, np.array([0.0, 0, -1]), np.array([1.0, 0, 0]),
-                           np.array([-1.0, 1.0]), np.array([1.0, 2.0]), np.full((1, 1), -np.inf),
-                           np.full(1, np.inf))
-        yaw = np.radians(camera.yaw)
-        forward = np.array([-np.sin(yaw), 0.0, -np.cos(yaw)])
-        right = np.array([np.cos(yaw), 0.0, -np.sin(yaw)])
-        # Horizontal span: the frustum's corner directions in level-camera terms.
-        r, u, f = camera.basis()
-        ty = np.tan(np.radians(camera.fov) / 2)
-        tx = ty * camera.aspect
-        corners = np.array([f + sx * tx * r + sy * ty * u for sx in (-1, 1) for sy in (-1, 1)])
-        depth = corners @ forward
-        lateral = corners @ right
-        ok = depth > 1e-6
-        span = np.abs(lateral[ok] / depth[ok]).max() * 1.01 if ok.all() else 4.0
-        tans = np.linspace(-span, span, self.bands + 1)
+            return Horizon.nothing(eye)
+        forward, right, tans, deepest, clamp = level_bands(camera, self.bands)
+        span = tans[-1]
         far = far if far is not None else camera.far
         near = max(camera.near, 0.5 * self.heightmap.spacing)
         count = int(np.ceil(np.log(far / near) / np.log1p(self.step)))
         depths = near * (1 + self.step) ** np.arange(count + 1)
         # Largest level depth of the near rectangle: every point the near plane clips from
         # the frustum (the pyramid from the eye to that rectangle) lies at a smaller one.
-        zclip = camera.near * float(max(corners @ forward)) * (1 + 1e-9)
+        zclip = camera.near * float(deepest) * (1 + 1e-9)
         ceiling = np.full(self.bands, self._first_ceiling(eye, zclip, near, span, lower))
         if self.arithmetic == "fixed16.16":
             return self._cast_fixed(eye, forward, right, tans, depths, lower, zclip, ceiling)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .horizon import (NO_BASES, NO_BASES_RAW, ONE, SLOPE_LIMIT, FixedHorizon, Horizon, _cast,
-                      _cast_fixed)
+                      _cast_fixed, level_bands)
 from .horizon_mips import _highest_in, pack
 
 NOTHING_RAW = -(1 << 60)  # raw "no solid" (below every 16.16 value)
@@ -92,9 +92,7 @@ class CellCaster:
 
     def nothing(self, eye) -> Horizon:
         """A horizon that hides nothing (the solids' argument does not hold for this eye)."""
-        return Horizon(np.asarray(eye, dtype=np.float64), np.array([0.0, 0, -1]),
-                       np.array([1.0, 0, 0]), np.array([-1.0, 1.0]), np.array([1.0, 2.0]),
-                       np.full((1, 1), -np.inf), np.full(1, np.inf))
+        return Horizon.nothing(eye)
 
     def cast(self, camera, far: float | None = None):
         """Horizon (FixedHorizon in fixed16.16) for camera's eye over the horizontal span of
@@ -102,18 +100,8 @@ class CellCaster:
         the map's reach)."""
         eye = np.asarray(camera.eye, dtype=np.float64)
         local = eye - self.origin
-        yaw = np.radians(camera.yaw)
-        forward = np.array([-np.sin(yaw), 0.0, -np.cos(yaw)])
-        right = np.array([np.cos(yaw), 0.0, -np.sin(yaw)])
-        r, u, f = camera.basis()
-        ty = np.tan(np.radians(camera.fov) / 2)
-        tx = ty * camera.aspect
-        corners = np.array([f + sx * tx * r + sy * ty * u for sx in (-1, 1) for sy in (-1, 1)])
-        depth = corners @ forward
-        lateral = corners @ right
-        ok = depth > 1e-6
-        span = np.abs(lateral[ok] / depth[ok]).max() * 1.01 if ok.all() else 4.0
-        tans = np.linspace(-span, span, self.bands + 1)
+        forward, right, tans, deepest, clamp = level_bands(camera, self.bands)
+        span = tans[-1]
         size = self.sizes[0] * self.spacing
         reach = float(np.hypot(max(abs(local[0]), abs(local[0] - size)),
                                max(abs(local[2]), abs(local[2] - size))))
@@ -124,18 +112,18 @@ class CellCaster:
         near, count = depths[0], len(depths) - 1
         # Largest level depth of the near rectangle (horizon.py): slices before it only
         # raise the ceiling.
-        zclip = camera.near * float(max(corners @ forward)) * (1 + 1e-9)
+        zclip = camera.near * float(deepest) * (1 + 1e-9)
         first = self._first_ceiling(local, min(zclip, near), span)
         if self.arithmetic == "fixed16.16":
             return self._cast_fixed(local, forward, right, tans, depths, zclip, first,
-                                    bool(ok.all()))
+                                    clamp)
         values = np.empty((self.bands, count))
         bases = np.empty((self.bands, count)) if len(self.bflat) else NO_BASES
         ceiling = np.full(self.bands, first)
         _cast(self.flat, self.offsets, self.sizes, self.spacing, local, forward, right, tans,
               depths, 0.0, values, self.high_flat, zclip, ceiling, self.bflat, bases, self.top)
         return Horizon(local, forward, right, tans, depths, values, ceiling, bases, self.origin,
-                       bool(ok.all()))
+                       clamp)
 
     def slices(self, near: float, far: float) -> np.ndarray:
         """Slice boundaries from near to far: one cell thick while step z is thinner (finer
