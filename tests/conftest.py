@@ -11,6 +11,7 @@ from hypothesis import settings
 settings.register_profile("vismobile", derandomize=True, deadline=None)
 settings.load_profile("vismobile")
 
+from vismobile.app.cli import main
 from vismobile.scenes import build_world
 from vismobile.world.world import World
 
@@ -18,6 +19,21 @@ from vismobile.world.world import World
 # bad-input run would print one before its error line. Tests of stderr see no status lines;
 # tests/test_progress.py draws them on its own streams.
 os.environ.setdefault("VISMOBILE_STATUS", "off")
+
+
+# One triangle as OBJ text: the smallest valid mesh file for the CLI's tests.
+TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+
+
+def refuse(capsys, argv, *needles):
+    """Run the CLI, expect exit 2 and one stderr line containing every needle; return it."""
+    assert main([str(a) for a in argv]) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for needle in needles:
+        assert str(needle) in lines[0], (needle, lines[0])
+    return lines[0]
 
 
 def clip_overlaps(tri, lo, hi, slack=0.0):

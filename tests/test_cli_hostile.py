@@ -7,25 +7,14 @@ import zlib
 import numpy as np
 import pytest
 
-from vismobile.app.cli import main
 from vismobile.errors import TrajectoryError, VisMobileError, WorldError
 from vismobile.app.playback import load_scene
 from vismobile.world.trajectory import Trajectory
 from vismobile.world.world import World
 
-TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+from .conftest import TRIANGLE, refuse
+
 TRAJECTORY = "# waypoint A 1\nframe,x,y,z,yaw,pitch\n0,0.5,0.5,3,0,-10\n1,0.5,0.5,2,0,-10\n"
-
-
-def refuse(capsys, argv, *needles):
-    """Run the CLI, expect exit 2 and one stderr line containing every needle; return it."""
-    assert main([str(a) for a in argv]) == 2
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in err, err
-    for needle in needles:
-        assert str(needle) in lines[0], (needle, lines[0])
-    return lines[0]
 
 
 @pytest.fixture

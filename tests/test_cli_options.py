@@ -10,18 +10,9 @@ import pytest
 from vismobile.app.cli import build_parser, main
 from vismobile.commands import options
 
-TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+from .conftest import TRIANGLE, refuse
+
 TRAJECTORY = "frame,x,y,z,yaw,pitch\n0,0.5,0.5,3,0,-10\n1,0.5,0.5,2,0,-10\n"
-
-
-def refuse(capsys, argv, *needles):
-    assert main([str(a) for a in argv]) == 2
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in err, err
-    for needle in needles:
-        assert str(needle) in lines[0], (needle, lines[0])
-    return lines[0]
 
 
 def listing(folder):
