@@ -33,16 +33,15 @@ uniform mat4 u_mvp;
 invariant gl_Position;
 """
 
-SHADED_VERTEX = """#version 330
-{inputs}{transform}
-in vec4 in_color;
-uniform vec3 u_light_dir[3];
+# The fixed-function lighting (three directional lights and a scene ambient, per vertex), shared
+# by the shaded and the textured vertex shaders: its uniforms, then the statements that place
+# the vertex and light it into v_color.
+LIGHT_UNIFORMS = """uniform vec3 u_light_dir[3];
 uniform vec3 u_light_diffuse[3];
 uniform vec3 u_light_ambient[3];
 uniform float u_scene_ambient;
-smooth out vec4 v_color;
-void main() {{
-    gl_Position = u_mvp * vec4(position(), 1.0);
+"""
+LIT_VERTEX = """    gl_Position = u_mvp * vec4(position(), 1.0);
     vec3 n = normal();
     vec3 c = in_color.rgb * u_scene_ambient;
     for (int i = 0; i < 3; ++i) {{
@@ -50,8 +49,10 @@ void main() {{
         c += in_color.rgb * (u_light_ambient[i] + diffuse * u_light_diffuse[i]);
     }}
     v_color = vec4(clamp(c, 0.0, 1.0), in_color.a);
-}}
 """
+
+SHADED_VERTEX = ("#version 330\n{inputs}{transform}\nin vec4 in_color;\n" + LIGHT_UNIFORMS
+                 + "smooth out vec4 v_color;\nvoid main() {{\n" + LIT_VERTEX + "}}\n")
 
 SHADED_FRAGMENT = """#version 330
 smooth in vec4 v_color;

@@ -15,31 +15,13 @@ import numpy as np
 from .batches import batch_count
 from .context import gl_context, render_target
 from .renderer import DrawStats, Renderer, _set_lights
-from .shaders import CLEAR_RGB, _INPUTS, _TRANSFORM
+from .shaders import CLEAR_RGB, LIGHT_UNIFORMS, LIT_VERTEX, _INPUTS, _TRANSFORM
 from .vertex_data import vertex_records
 
-TEXTURED_VERTEX = """#version 330
-{inputs}{transform}
-in vec4 in_color;
-in vec2 in_uv;
-uniform vec3 u_light_dir[3];
-uniform vec3 u_light_diffuse[3];
-uniform vec3 u_light_ambient[3];
-uniform float u_scene_ambient;
-smooth out vec4 v_color;
-smooth out vec2 v_uv;
-void main() {{
-    gl_Position = u_mvp * vec4(position(), 1.0);
-    vec3 n = normal();
-    vec3 c = in_color.rgb * u_scene_ambient;
-    for (int i = 0; i < 3; ++i) {{
-        float diffuse = max(dot(n, u_light_dir[i]), 0.0);
-        c += in_color.rgb * (u_light_ambient[i] + diffuse * u_light_diffuse[i]);
-    }}
-    v_color = vec4(clamp(c, 0.0, 1.0), in_color.a);
-    v_uv = in_uv;
-}}
-"""
+# The shaded vertex shader's lighting (shaders.py) plus the texture coordinates.
+TEXTURED_VERTEX = ("#version 330\n{inputs}{transform}\nin vec4 in_color;\nin vec2 in_uv;\n"
+                   + LIGHT_UNIFORMS + "smooth out vec4 v_color;\nsmooth out vec2 v_uv;\n"
+                   "void main() {{\n" + LIT_VERTEX + "    v_uv = in_uv;\n}}\n")
 
 # GL_MODULATE: fragment = lit colour x texel (the ES 1.1 default texture environment).
 TEXTURED_FRAGMENT = """#version 330
