@@ -23,6 +23,7 @@ import time
 import numpy as np
 
 from vismobile.device.profile import get_profile
+from vismobile.geometry.boxes import box_mesh
 from vismobile.render import SENTINEL
 from vismobile.render.szenberg import ColumnCaster, LevelCamera, composite_objects
 from vismobile.render.terrain import TerrainRenderer
@@ -35,14 +36,6 @@ BASE = 1 << 28
 def psnr(a, b) -> float:
     mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
     return float("inf") if mse == 0 else 10 * np.log10(255.0 ** 2 / mse)
-
-
-def box_mesh(boxes):
-    bits = ((np.arange(8)[:, None] >> np.arange(3)) & 1).astype(bool)
-    quads = [(0, 2, 6, 4), (1, 5, 7, 3), (0, 4, 5, 1), (2, 3, 7, 6), (0, 1, 3, 2), (4, 6, 7, 5)]
-    faces = np.array([[q[0], q[1], q[2]] for q in quads] + [[q[0], q[2], q[3]] for q in quads])
-    vertices = np.where(bits[None], boxes[:, None, 1], boxes[:, None, 0]).reshape(-1, 3)
-    return vertices, (faces[None] + 8 * np.arange(len(boxes))[:, None, None]).reshape(-1, 3)
 
 
 def ground_boxes(hm, count, seed):

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from vismobile.device.profile import get_profile
+from vismobile.geometry.boxes import box_mesh
 from vismobile.render import SENTINEL
 from vismobile.render.szenberg import ColumnCaster, LevelCamera, composite_objects
 from vismobile.render.terrain import TerrainRenderer
@@ -23,11 +24,7 @@ def scene():
     ground = hm.height_at(xz[:, 0], xz[:, 1])
     boxes = np.stack([np.c_[xz[:, 0] - size / 2, ground - 0.5, xz[:, 1] - size / 2],
                       np.c_[xz[:, 0] + size / 2, ground + size, xz[:, 1] + size / 2]], axis=1)
-    bits = ((np.arange(8)[:, None] >> np.arange(3)) & 1).astype(bool)
-    quads = [(0, 2, 6, 4), (1, 5, 7, 3), (0, 4, 5, 1), (2, 3, 7, 6), (0, 1, 3, 2), (4, 6, 7, 5)]
-    faces = np.array([[q[0], q[1], q[2]] for q in quads] + [[q[0], q[2], q[3]] for q in quads])
-    vertices = np.where(bits[None], boxes[:, None, 1], boxes[:, None, 0]).reshape(-1, 3)
-    triangles = (faces[None] + 8 * np.arange(len(boxes))[:, None, None]).reshape(-1, 3)
+    vertices, triangles = box_mesh(boxes)
     cameras = [LevelCamera((64.0, float(hm.height_at(64, 120)) + 3, 120.0), 0.0,
                            PROFILE.resolution, 200, near=0.1, far=300),
                LevelCamera((10.0, float(hm.heights.max()) + 5, 10.0), -135.0,

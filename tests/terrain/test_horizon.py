@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from vismobile.device.profile import get_profile
+from vismobile.geometry.boxes import box_mesh
 from vismobile.render import SENTINEL
 from vismobile.render.terrain import TerrainRenderer
 from vismobile.terrain.horizon import HorizonCaster, min_mip
@@ -11,16 +12,6 @@ from vismobile.terrain.tiles import full_selection, selection_mesh
 
 PROFILE = get_profile("ipaq-hx2490b")
 BASE = 1 << 28  # item ids of the boxes start here
-
-
-def box_mesh(boxes):
-    """(V, 3) vertices and (12K, 3) outward triangles of K axis-aligned boxes."""
-    bits = ((np.arange(8)[:, None] >> np.arange(3)) & 1).astype(bool)
-    quads = [(0, 2, 6, 4), (1, 5, 7, 3), (0, 4, 5, 1), (2, 3, 7, 6), (0, 1, 3, 2), (4, 6, 7, 5)]
-    faces = np.array([[q[0], q[1], q[2]] for q in quads] + [[q[0], q[2], q[3]] for q in quads])
-    vertices = np.where(bits[None], boxes[:, None, 1], boxes[:, None, 0]).reshape(-1, 3)
-    triangles = (faces[None] + 8 * np.arange(len(boxes))[:, None, None]).reshape(-1, 3)
-    return vertices, triangles
 
 
 def ground_boxes(heightmap, count, seed):
