@@ -113,7 +113,7 @@ def test_fuzz_has_a_seed_and_an_entry_for_every_surface(tmp_path):
 
     cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
     seeds = fuzz.format_seeds(cube, tmp_path)
-    assert set(seeds) | {"obj", "vmp", "trajectory", "cull"} == set(fuzz.ENTRY)
+    assert set(seeds) | {"obj", "vmp", "trajectory", "cull", "structure"} == set(fuzz.ENTRY)
     for target, datas in seeds.items():
         load, suffix = fuzz.ENTRY[target]
         # the textured GLB entry also renders, and a .vmt's objects take seconds to build
@@ -134,3 +134,32 @@ def test_off_headers_of_every_layout_load_at_their_tightest(tmp_path, head):
                      + ["3 " + " ".join(map(str, f)) for f in hostile.CUBE_F])
     (tmp_path / "c.off").write_bytes(head + body.encode())
     assert World.from_file(tmp_path / "c.off").triangle_count == 12
+
+
+def test_structure_texts_build_or_are_refused_in_one_line(tmp_path):
+    """The structure grammar (every kind, its parameters, pvs=) fuzzed through partition's CLI:
+    each seed builds, and each seeded mutation builds or is refused with exit code 2."""
+    import random
+    import sys
+
+    from vismobile.errors import VisMobileError
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    import fuzz
+
+    path = tmp_path / "spec.txt"
+    for seed in fuzz.STRUCTURE_TEXTS:
+        path.write_bytes(seed)
+        fuzz.load_structure(path)
+    refused = 0
+    for case in range(40):
+        pick = random.Random(f"structure:{case}").randrange
+        data = fuzz.STRUCTURE_TEXTS[pick(len(fuzz.STRUCTURE_TEXTS))]
+        for _ in range(1 + pick(3)):
+            data = fuzz.mutate_bytes(data, pick)
+        path.write_bytes(data)
+        try:
+            fuzz.load_structure(path)
+        except VisMobileError:
+            refused += 1
+    assert 0 < refused < 40  # the mutations reach both outcomes

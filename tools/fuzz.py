@@ -17,10 +17,10 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,ply,stl,off,gz,vmt,npy]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,ply,stl,off,gz,vmt,npy]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
-  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull [-max_total_time=600 ...]
+  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure [-max_total_time=600 ...]
 Prints one line per target: cases, loaded, clean errors, failures (with the first failures'
 tracebacks and the seed that reproduces each).
 """
@@ -77,6 +77,7 @@ def seeds(folder: Path) -> dict:
     return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])],
             "cull": [b"vfc+bfc;vfc+occlusion", b"thesis,ours", b"vfc,bfc",
                      b"vfc+cbfc+tbfc none; portals+vfc"],
+            "structure": STRUCTURE_TEXTS,
             **format_seeds(world, folder, [textured_glb()])}
 
 
@@ -213,6 +214,35 @@ def load_trajectory(path):
     Trajectory.load(path)
 
 
+# The structure grammar's seeds: every kind, its parameters and the PVS bake.
+STRUCTURE_TEXTS = [b"grid:4", b"octree:3", b"portal:depth=1,pvs=conservative", b"bsp:min_leaf=16",
+                   b"kdtree:split=median,max_depth=6,min_leaf=4", b"kdtree:ratio=8,bins=16"]
+CUBE_OBJ = ("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+            "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 3 4 8\nf 3 8 7\n"
+            "f 2 3 7\nf 2 7 6\nf 1 5 8\nf 1 8 4\n")
+
+
+def load_structure(path):
+    """partition's --structure text, through the CLI on a cube: built (rc 0) or refused in one
+    line (rc 2, raised as VisMobileError); any other outcome is a finding."""
+    from vismobile.app.cli import main as cli
+    from vismobile.errors import VisMobileError
+
+    text = path.read_bytes()[:256].decode("utf-8", errors="replace").replace("\x00", "")
+    cube = path.with_name("cube.obj")
+    if not cube.exists():
+        cube.write_text(CUBE_OBJ)
+    try:
+        rc = cli(["partition", str(cube), f"--structure={text}", "-o",
+                  str(path.with_suffix(".vmp"))])
+    except SystemExit as exit:  # argparse's own refusal
+        rc = exit.code
+    if rc == 2:
+        raise VisMobileError(f"--structure {text!r} refused")
+    if rc != 0:
+        raise RuntimeError(f"partition --structure {text!r}: exit code {rc}")
+
+
 def load_cull_list(path):
     """compare's --cull text (issue 31's grammar: + joins stages, ';' or ',' separates
     combinations): parsed, and the ambiguity note computed."""
@@ -329,7 +359,8 @@ def load_heightmap(path):
 
 ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "trajectory": (load_trajectory, ".csv"), "glb": (load_textured, ".glb"),
-         "cull": (load_cull_list, ".txt"), "ply": (load_mesh, ".ply"),
+         "cull": (load_cull_list, ".txt"), "structure": (load_structure, ".txt"),
+         "ply": (load_mesh, ".ply"),
          "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
          "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
          "npy": (load_heightmap, ".npy"), "objmtl": (load_textured_obj, ".obj")}
@@ -444,7 +475,7 @@ def main(argv=None):
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
     parser.add_argument("--target",
-                        default="obj,vmp,trajectory,glb,objmtl,cull,ply,stl,off,gz,vmt,npy")
+                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,ply,stl,off,gz,vmt,npy")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])
