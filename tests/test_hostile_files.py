@@ -113,7 +113,8 @@ def test_fuzz_has_a_seed_and_an_entry_for_every_surface(tmp_path):
 
     cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
     seeds = fuzz.format_seeds(cube, tmp_path)
-    assert set(seeds) | {"obj", "vmp", "trajectory", "cull", "structure"} == set(fuzz.ENTRY)
+    assert set(seeds) | {"obj", "vmp", "trajectory", "cull", "structure", "selection"} == \
+        set(fuzz.ENTRY)
     for target, datas in seeds.items():
         load, suffix = fuzz.ENTRY[target]
         # the textured GLB entry also renders, and a .vmt's objects take seconds to build
@@ -163,3 +164,32 @@ def test_structure_texts_build_or_are_refused_in_one_line(tmp_path):
         except VisMobileError:
             refused += 1
     assert 0 < refused < 40  # the mutations reach both outcomes
+
+
+def test_structure_lists_parse_or_are_refused_in_one_line(tmp_path):
+    """compare's and tune's --structures lists (+pvs labels too) fuzzed: each seed parses, and
+    each seeded mutation parses or raises SelectionError; nothing else escapes."""
+    import random
+    import sys
+
+    from vismobile.errors import VisMobileError
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    import fuzz
+
+    path = tmp_path / "structures.txt"
+    for seed in fuzz.SELECTION_TEXTS:
+        path.write_bytes(seed)
+        fuzz.load_selection(path)
+    refused = 0
+    for case in range(200):
+        pick = random.Random(f"selection:{case}").randrange
+        data = fuzz.SELECTION_TEXTS[pick(len(fuzz.SELECTION_TEXTS))]
+        for _ in range(1 + pick(3)):
+            data = fuzz.mutate_bytes(data, pick)
+        path.write_bytes(data)
+        try:
+            fuzz.load_selection(path)
+        except VisMobileError:
+            refused += 1
+    assert 0 < refused < 200  # the mutations reach both outcomes

@@ -1,6 +1,6 @@
 """Fuzz the readers of outside input: OBJ worlds, .vmp partition files (with level-of-detail
 chains too) and trajectory CSVs (issue 11); textured GLB and OBJ+MTL scenes (issue 27); compare's --cull
-lists (issue 31); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
+lists (issue 31); compare's and tune's --structures lists with baked PVS labels (issue 29); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
 heightmaps (issue 28). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
@@ -17,10 +17,10 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,ply,stl,off,gz,vmt,npy]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,ply,stl,off,gz,vmt,npy]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
-  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure [-max_total_time=600 ...]
+  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection [-max_total_time=600 ...]
 Prints one line per target: cases, loaded, clean errors, failures (with the first failures'
 tracebacks and the seed that reproduces each).
 """
@@ -77,7 +77,7 @@ def seeds(folder: Path) -> dict:
     return {"obj": [MODEL.read_bytes()], "vmp": vmps, "trajectory": [b"".join(lines[:60])],
             "cull": [b"vfc+bfc;vfc+occlusion", b"thesis,ours", b"vfc,bfc",
                      b"vfc+cbfc+tbfc none; portals+vfc"],
-            "structure": STRUCTURE_TEXTS,
+            "structure": STRUCTURE_TEXTS, "selection": SELECTION_TEXTS,
             **format_seeds(world, folder, [textured_glb()])}
 
 
@@ -243,6 +243,23 @@ def load_structure(path):
         raise RuntimeError(f"partition --structure {text!r}: exit code {rc}")
 
 
+# compare's and tune's --structures lists: depth ranges, baked PVS labels (+pvs, +pvs=...).
+SELECTION_TEXTS = [b"grid,octree:3-6,portal:1-3,bsp,kdtree", b"portal:2+pvs,bsp+pvs",
+                   b"grid+pvs=sampled:8,octree:2-3+pvs=conservative", b"all,kdtree+pvs"]
+
+
+def load_selection(path):
+    """A --structures list: parsed (SelectionError, a VisMobileError, when refused), and every
+    label's partition parameters and PVS mode read back as engine.load_structure reads them."""
+    from vismobile.study.matrix import parse_structures, pvs_of, structure_params
+
+    text = path.read_bytes()[:4096].decode("utf-8", errors="replace")
+    for label in parse_structures(text):
+        params = structure_params(label)
+        assert pvs_of(label) in (None, "conservative") or pvs_of(label).startswith("sampled:")
+        assert set(params) <= {"auto", "depth", "pvs"}, params
+
+
 def load_cull_list(path):
     """compare's --cull text (issue 31's grammar: + joins stages, ';' or ',' separates
     combinations): parsed, and the ambiguity note computed."""
@@ -360,6 +377,7 @@ def load_heightmap(path):
 ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "trajectory": (load_trajectory, ".csv"), "glb": (load_textured, ".glb"),
          "cull": (load_cull_list, ".txt"), "structure": (load_structure, ".txt"),
+         "selection": (load_selection, ".txt"),
          "ply": (load_mesh, ".ply"),
          "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
          "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
@@ -475,7 +493,7 @@ def main(argv=None):
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
     parser.add_argument("--target",
-                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,ply,stl,off,gz,vmt,npy")
+                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,ply,stl,off,gz,vmt,npy")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

@@ -27,7 +27,9 @@ def add_parser(sub):
                              "OUT/fixed/NAME.obj and swept in its place")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
                         help="comma-separated grid, octree[:N or A-B], portal[:N or A-B], bsp, "
-                             "kdtree, or all (the thesis's set; the default)")
+                             "kdtree, or all (the thesis's set; the default); +pvs bakes a "
+                             "conservative PVS on one (portal:2+pvs: its combinations run with "
+                             "pvs added), +pvs=sampled:N an aggressive sampled one")
     parser.add_argument("--cull", action="append", default=None, metavar="COMBINATIONS",
                         help="culling combinations, each stages joined by + (as in play and "
                              "view), several separated by ';' or given as repeated --cull "

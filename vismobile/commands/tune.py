@@ -24,7 +24,12 @@ def add_parser(sub):
                         help="evenly spaced probe frames, the waypoints added (default 24)")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp,kdtree",
                         help="comma-separated candidates: grid, octree[:N or A-B], portal[:N or "
-                             "A-B], bsp, kdtree, all (default grid,octree:3-6,portal:1-3,bsp,kdtree)")
+                             "A-B], bsp, kdtree, all (default grid,octree:3-6,portal:1-3,bsp,kdtree); "
+                             "+pvs bakes a conservative PVS on one (portal:2+pvs), "
+                             "+pvs=sampled:N an aggressive sampled one")
+    parser.add_argument("--pvs", action="store_true",
+                        help="also consider baked PVS configurations: adds portal:2+pvs and "
+                             "bsp+pvs to --structures (each bake is cached with --cache)")
     parser.add_argument("--worlds-dir", type=Path, default=None,
                         help=WORLDS_DIR_HELP)
     parser.add_argument("--cache", type=Path, default=None,
@@ -54,6 +59,7 @@ def run(args) -> int:
     from ..device.profile import get_profile
     from ..study import engine
     from ..study.thesis import WORLDS, trajectory_for
+    from ..study.candidates import PVS_STRUCTURES
     from ..study.tune import tune
     from ..world.trajectory import Trajectory
     from ..world.world import atomic_write_bytes
@@ -83,7 +89,8 @@ def run(args) -> int:
         status(f"{world.triangle_count:,} triangles; ground truth of {args.probe} probe frames "
                "plus the waypoints")
         result = tune(world, trajectory, get_profile(args.profile), probe=args.probe,
-                      structures=args.structures, cache_dir=args.cache, cost=args.cost,
+                      structures=args.structures + ("," + PVS_STRUCTURES if args.pvs else ""),
+                      cache_dir=args.cache, cost=args.cost,
                       progress=lambda done, _: status(f"{done} structure(s) probed"))
         lod = None
         if args.max_error_px is not None:

@@ -74,8 +74,10 @@ class PVSStage:
             return hit
         tree = self.tree
         keep = np.zeros(tree.world.triangle_count, dtype=bool)
+        self.decoded = 0  # run pairs decoded (the device model prices a cache miss by them)
         for c in key:
             keep[ids_of(self.runs[self.start[c]:self.start[c + 1]])] = True
+            self.decoded += int(self.start[c + 1] - self.start[c]) // 2
         nodes = cover_nodes(tree, keep)
         if len(self.cache) >= KEEP:
             self.cache.pop(next(iter(self.cache)))
@@ -88,13 +90,22 @@ class PVSStage:
         if found is None:
             state.count(f"{self.name}.fallbacks", 1)
             return
+        self.decoded = 0
         keep, nodes, everything = self.visible(found)
         state.count(f"{self.name}.cells", len(found))
+        # what a device pays (device/costmodel.py): every view cell's box tested, the runs
+        # decoded when the cells' union was not cached, each gathered triangle looked up
+        state.count(f"{self.name}.cells_tested", len(self.cells))
+        state.count(f"{self.name}.runs_decoded", self.decoded)
         if everything:  # the cells see the whole world: nothing to hand on
             state.count(f"{self.name}.everything", 1)
             return
         state.nodes = nodes
-        state.filters.append(lambda ids, keep=keep: keep[ids])
+
+        def keep_of(ids, keep=keep):
+            state.count(f"{self.name}.triangles_tested", len(ids))
+            return keep[ids]
+        state.filters.append(keep_of)
 
     def lookup(self, camera):
         """The view cells whose sets cover this camera (grown by the device's reach), or None

@@ -116,6 +116,12 @@ def design(rows, names) -> np.ndarray:
 #                                                 the piece, a min-pyramid read of 1-4 cells)
 #   horizon.nodes_tested     : 0 float, 120 int  (8 corners to slopes, bands compared)
 #   horizon.triangles_tested : 0 float, 200 int  (3 corners grown by the margin, bands compared)
+#   pvs.cells_tested         : 0 float, 12 int   (the eye against one view cell's box: 6
+#                                                 16.16 compares, as a device would store it)
+#   pvs.runs_decoded         : 0 float, 40 int   (a cache miss: one [first, end) run of the
+#                                                 set written into the keep table, memset)
+#   pvs.triangles_tested     : 0 float, 4 int    (one keep-table byte per gathered triangle)
+#   (the bake itself is offline: it costs no frame, only memory, Profile.estimate_memory)
 #   (the horizon priced as its 16.16 kernels, integer multiply-high and divide, as seed 001 ran
 #   it on FPU-less devices; horizon.pieces counts bands x slices, before the early stops)
 # The thesis gives no cull timings of its own, so these are estimates, not fits: they make
@@ -137,6 +143,9 @@ CULL_OPERATIONS = {
     "horizon.pieces": (0, 60),
     "horizon.nodes_tested": (0, 120),
     "horizon.triangles_tested": (0, 200),
+    "pvs.cells_tested": (0, 12),
+    "pvs.runs_decoded": (0, 40),
+    "pvs.triangles_tested": (0, 4),
 }
 
 

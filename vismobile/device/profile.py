@@ -161,7 +161,10 @@ class Profile:
         culling_geometry : per-triangle data the culler reads: corners index (3 x int32),
                            normal and box (9 x 4 bytes), and the vertex array (3 x 4 bytes)
         partition        : every array of the partition (nodes, references, extras) as held,
-                           level-of-detail chains included (extras lod_*)
+                           level-of-detail chains included (extras lod_*), a PVS not
+        pvs              : a baked PVS (extras pvs_*): its arrays as held, plus the `pvs`
+                           stage's decoded sets (PVS_DECODED combinations of view cells, one
+                           byte per triangle each, culling/pvs.py KEEP)
         textures         : a textured world's (world.textures) mip chains, RGBA8, after the
                            top levels check_memory dropped (texture LOD)
         lod_buffers      : with LOD chains, the level triangles' vertex and index buffers and
@@ -177,6 +180,12 @@ class Profile:
             "culling_geometry": triangles * (12 + 36) + len(world.vertices) * 12,
             "partition": partition_bytes(partition),
         }
+        pvs = {k: v for k, v in extras.items() if k.startswith("pvs_")}
+        if pvs:
+            parts["partition"] -= sum(np.asarray(v).nbytes for v in pvs.values())
+            cells = max(len(pvs.get("pvs_start", ())) - 1, 0)
+            parts["pvs"] = (sum(np.asarray(v).nbytes for v in pvs.values())
+                            + min(PVS_DECODED, cells) * triangles)
         textures = getattr(world, "textures", None)
         if textures is not None:
             parts["textures"] = textures.nbytes(self.max_texture_size)
@@ -206,6 +215,10 @@ class Profile:
                 f"{what} needs {total / MB:.1f} MB ({total:,} bytes) but profile {self.name} "
                 f"has a {self.heap_bytes / MB:.1f} MB heap ({self.heap_bytes:,} bytes)")
         return total
+
+
+# Decoded view-cell sets the `pvs` stage keeps (culling/pvs.py KEEP; a test checks they agree).
+PVS_DECODED = 64
 
 
 def partition_bytes(partition) -> int:

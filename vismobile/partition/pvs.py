@@ -126,13 +126,16 @@ def with_solids(world, boxes, masks, grow) -> list:
 
 
 def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
-         cells=None) -> tuple:
+         cells=None, executor=None) -> tuple:
     """The PVS extras (module docstring) of a partition of any kind, and bake statistics.
 
     The view cells are a portal grid of the PVS's own (pvs_cells.view_grid: about `cells`
     cells, default as the portal structure's), so the structure's kind does not matter.
     progress : optional callable(done, total) per source cell
     jobs     : processes (>1: source cells split over a process pool)
+    executor : optional pool with submit(fn, *args) -> future with result() (a Dask Client:
+               the source cells split in 4 x jobs chunks over its workers, world and view grid
+               scattered once), used instead of the process pool
     returns  : (extras dict, stats dict: seconds, cells, overflowed cells, walks)
     """
     from .pvs_cells import view_grid
@@ -147,16 +150,22 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     count = len(g["cell_bounds"])
     sources = np.arange(count)
     results = []
-    if jobs > 1 and count > 1:
+    if executor is not None or (jobs > 1 and count > 1):
         from concurrent.futures import ProcessPoolExecutor
 
-        chunks = np.array_split(sources, min(count, 4 * jobs))
-        with ProcessPoolExecutor(jobs) as pool:
-            futures = [pool.submit(bake_cells, world, g, c, grow, tol, budget) for c in chunks]
+        chunks = np.array_split(sources, max(1, min(count, 4 * max(jobs, 1))))
+        pool = executor or ProcessPoolExecutor(jobs)
+        shared = (pool.scatter([world, g], broadcast=True) if hasattr(pool, "scatter")
+                  else (world, g))
+        try:
+            futures = [pool.submit(bake_cells, *shared, c, grow, tol, budget) for c in chunks]
             for f in futures:
                 results.extend(f.result())
                 if progress is not None:
                     progress(len(results), count)
+        finally:
+            if executor is None:
+                pool.shutdown()
     else:
         for s in sources:
             results.extend(bake_cells(world, g, [s], grow, tol, budget))

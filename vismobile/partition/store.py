@@ -74,6 +74,12 @@ def _encode(values):
     return min(options, key=lambda o: sum(a.nbytes for _, a in o[1]))
 
 
+def stored_bytes(values) -> int:
+    """Bytes an array takes in a .vmp section (its smallest lossless encoding, _encode),
+    without the section table's entry and alignment padding."""
+    return int(sum(a.nbytes for _, a in _encode(values)[1]))
+
+
 def _from_decimal(as32, digits):
     """float64 values of `digits` significant decimal digits recovered from their float32.
 

@@ -6,24 +6,27 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .matrix import LOOSE_STAGES, OUR_CULLS, THESIS_CULLS, cull_stages
+from .matrix import LOOSE_STAGES, OUR_CULLS, THESIS_CULLS, cull_stages, runs_on, with_pvs
 
 
 DEFAULT_STRUCTURES = "grid,octree:3-6,portal:1-3,bsp,kdtree"
+# tune --pvs adds these: a baked conservative PVS on the structures that hand its sets on best
+PVS_STRUCTURES = "portal:2+pvs,bsp+pvs"
 PROBE_FRAMES = 24  # evenly spaced probe frames; `vismobile tune --probe` has the same default
 COSTS = ("device", "measured")
 
 
 def candidate_culls(structure: str, loose: bool = False) -> list:
-    """Combinations of the matrix usable on a structure; loose stages left out unless asked."""
+    """Combinations of the matrix usable on a structure (with `pvs` added on a structure with
+    a baked PVS, matrix.with_pvs); loose stages left out unless asked."""
     culls = []
     for cull in THESIS_CULLS + OUR_CULLS:
+        cull = with_pvs(cull, structure)
         stages = cull_stages(cull)
         if not loose and any(stage in LOOSE_STAGES for stage in stages):
             continue
-        if "portals" in stages and not structure.startswith("portal"):
-            continue
-        culls.append(cull)
+        if runs_on(cull, structure) and cull not in culls:
+            culls.append(cull)
     return culls
 
 
@@ -72,11 +75,13 @@ class Candidate:
 
     @property
     def simplicity(self) -> tuple:
-        """Sort key among statistically tied candidates: fewer stages, then the simpler
-        structure (SIMPLE_STRUCTURES order, shallower first), then predicted ms."""
-        kind, _, depth = self.structure.partition(":")
-        return (len(cull_stages(self.cull)), SIMPLE_STRUCTURES.index(kind), int(depth or 0),
-                self.frame_ms)
+        """Sort key among statistically tied candidates: fewer stages, then no bake over a
+        baked PVS, then the simpler structure (SIMPLE_STRUCTURES order, shallower first),
+        then predicted ms."""
+        base, _, pvs = self.structure.partition("+")
+        kind, _, depth = base.partition(":")
+        return (len(cull_stages(self.cull)), bool(pvs), SIMPLE_STRUCTURES.index(kind),
+                int(depth or 0), self.frame_ms)
 
 
 @dataclass
@@ -97,6 +102,7 @@ class TuneResult:
     tied: list = field(default_factory=list)
     warning: str | None = None   # set when back-face culling hides what the unculled image shows
     behind: tuple = (0, 0, 0, 0)  # seen_from_behind() over the probe frames
+    bakes: dict = field(default_factory=dict)  # structure label -> PVS bake statistics
 
     def ranked(self) -> list:
         return sorted(self.candidates, key=lambda c: c.rank)
@@ -130,7 +136,7 @@ class TuneResult:
                 "seen_from_behind": dict(zip(("triangles", "visible", "pixels",
                                               "covered_pixels"), self.behind)),
                 "backface_exact": self.warning is None, "warning": self.warning,
-                "pruned": [list(p) for p in self.pruned]}
+                "pruned": [list(p) for p in self.pruned], "pvs_bakes": self.bakes}
 
     def _describe(self, label, c) -> list:
         calls = ""
@@ -177,8 +183,12 @@ class TuneResult:
                 best.setdefault(cand.structure, cand)
         for cand in sorted(best.values(), key=lambda x: x.rank):
             build = self.build_seconds.get(cand.structure, 0.0)
+            bake = self.bakes.get(cand.structure)
+            cost = (f"build {build:.2f} s" if bake is None else
+                    f"PVS bake {bake['seconds']:.1f} s, {bake['bytes'] / 1024:,.1f} KB, "
+                    f"{bake['cells']} cells")
             lines.append(f"  {cand.structure:9s} {cand.frame_ms:9.2f}  {cand.cull:32s} "
-                         f"{cand.triangles_sent:10,.0f} tris  (build {build:.2f} s)")
+                         f"{cand.triangles_sent:10,.0f} tris  ({cost})")
         lossy = [p for p in self.pruned if p[2].startswith("missed")]
         slow = [p for p in self.pruned if not p[2].startswith("missed")]
         if lossy:

@@ -8,13 +8,14 @@ few worlds and partitions, so a worker running several configurations of a world
 from __future__ import annotations
 
 import hashlib
+import json
 import time
 from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
 
-from .matrix import structure_params
+from .matrix import base_structure, structure_params
 
 _WORLDS = OrderedDict()
 _PARTITIONS = OrderedDict()
@@ -56,7 +57,9 @@ def file_digest(path) -> str:
 
 
 def load_structure(world, label: str, cache_dir=None):
-    """Partition of `world` for a structure label ("octree:5", ...), cached in memory and on disk.
+    """Partition of `world` for a structure label ("octree:5", "portal:2+pvs", ...), cached in
+    memory and on disk. A "+pvs" label is its base structure (loaded the same way) with the
+    PVS baked on it (bake_pvs); the bake's statistics go beside the file (bake_stats).
 
     Returns (partition, build_seconds); build_seconds is 0.0 when it was loaded from the cache.
     """
@@ -66,24 +69,92 @@ def load_structure(world, label: str, cache_dir=None):
     if key in _PARTITIONS:
         _PARTITIONS.move_to_end(key)
         return _PARTITIONS[key], 0.0
-    path = None
-    if cache_dir is not None:
-        path = Path(cache_dir) / "partitions" / f"{world.name}-{key[0]}-{label.replace(':', '')}.vmp"
-        if path.is_file():
-            try:
-                loaded = load_partition(path)
-                if loaded.world.digest() == world.digest():
-                    return _remember(_PARTITIONS, key, loaded), 0.0
-            except Exception:  # unreadable or stale cache file: rebuild it below
-                pass
-    kind = label.split(":")[0]
+    path = _structure_path(world, label, cache_dir)
+    if path is not None and path.is_file():
+        try:
+            loaded = load_partition(path)
+            if loaded.world.digest() == world.digest():
+                return _remember(_PARTITIONS, key, loaded), 0.0
+        except Exception:  # unreadable or stale cache file: rebuild it below
+            pass
+    params = structure_params(label)
+    mode = params.pop("pvs", None)
     start = time.perf_counter()
-    built = partition(world, kind, **structure_params(label))
+    if mode is None:
+        built = partition(world, label.split(":")[0], **params)
+    else:
+        base, _ = load_structure(world, base_structure(label), cache_dir)
+        built, stats = bake_pvs(base, mode)
+        _BAKES[key] = stats
     seconds = time.perf_counter() - start
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         save_partition(built, path)
+        if mode is not None:
+            from ..files.atomic import atomic_write_bytes
+
+            atomic_write_bytes(path.with_suffix(".bake.json"), json.dumps(stats).encode())
     return _remember(_PARTITIONS, key, built), seconds
+
+
+_BAKES = {}  # (world digest, label) -> bake statistics, for bakes made in this process
+
+
+def _structure_path(world, label, cache_dir):
+    """<cache>/partitions/<world>-<digest>-<label>.vmp, or None without a cache."""
+    if cache_dir is None:
+        return None
+    name = label.replace(":", "").replace("=", "-")
+    return Path(cache_dir) / "partitions" / f"{world.name}-{world.digest().hex()[:16]}-{name}.vmp"
+
+
+def bake_pvs(base, mode: str, progress=None, jobs: int = 1, executor=None) -> tuple:
+    """(a copy of partition `base` with its PVS baked, bake statistics): mode "conservative"
+    (partition/pvs.py, spread over `jobs` processes or a Dask `executor`) or "sampled:N"
+    (render/pvs_sampled.py, item buffers in the desktop profile's arithmetic). The one bake
+    path of the partition command and the study. Statistics: seconds, cells, bytes (the PVS's
+    sections in a .vmp), mean_set (mean share of the world in a cell's set)."""
+    import copy
+
+    from ..partition.pvs import bake, ids_of
+    from ..partition.store import stored_bytes
+
+    if mode == "conservative":
+        extras, stats = bake(base, mode, progress=progress, jobs=jobs, executor=executor)
+    elif str(mode).startswith("sampled:") and str(mode)[8:].isdigit():
+        from ..device.profile import get_profile
+        from ..render.pvs_sampled import bake_sampled
+
+        extras, stats = bake_sampled(base, int(mode[8:]), get_profile("desktop"),
+                                     progress=progress)
+    else:
+        raise ValueError(f"unknown pvs mode {mode!r}; valid: conservative, sampled:N")
+    built = copy.copy(base)
+    built.extras = {**base.extras, **extras}
+    built.params = {**base.params, "pvs": mode}
+    start = extras["pvs_start"]
+    runs = extras["pvs_runs"]
+    sizes = [len(ids_of(runs[start[c]:start[c + 1]])) for c in range(len(start) - 1)]
+    summary = {"mode": mode, "seconds": float(stats["seconds"]), "cells": int(len(sizes)),
+               "bytes": int(sum(stored_bytes(v) for v in extras.values())),
+               "mean_set": float(np.mean(sizes) / max(base.world.triangle_count, 1))
+               if sizes else 0.0}
+    return built, summary
+
+
+def bake_stats(world, label: str, cache_dir=None) -> dict | None:
+    """The statistics of the PVS bake behind a "+pvs" structure label (bake_pvs), from this
+    process or the cache; None for a label without a PVS or a bake no longer on record."""
+    key = (world.digest().hex()[:16], label)
+    if key in _BAKES:
+        return _BAKES[key]
+    path = _structure_path(world, label, cache_dir)
+    if path is None or "+" not in label:
+        return None
+    try:
+        return json.loads(path.with_suffix(".bake.json").read_text())
+    except (OSError, ValueError):
+        return None
 
 
 def load_chains(world, cache_dir=None):

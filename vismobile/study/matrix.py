@@ -56,7 +56,8 @@ class SelectionError(VisMobileError):
 class RunSpec:
     """One run: a world on a trajectory, a structure, a culling combination and a profile.
 
-    structure : canonical label, "grid", "octree:5", "portal:2" or "bsp"
+    structure : canonical label, "grid", "octree:5", "portal:2", "bsp" or "kdtree", with a
+                baked PVS "+pvs" (conservative) or "+pvs=sampled:N" ("portal:2+pvs")
     cull      : canonical stage list joined by '+', or "none"
     frames    : "all", "stride:N" or "sample:N" (N evenly spaced frames plus the waypoints)
     lod_tau   : level of detail at this many pixels of error (docs/lod.md), None: none
@@ -72,7 +73,7 @@ class RunSpec:
 
     @property
     def kind(self) -> str:
-        return self.structure.split(":")[0]
+        return self.structure.split("+")[0].split(":")[0]
 
     @property
     def params(self) -> dict:
@@ -106,13 +107,25 @@ class RunSpec:
 
 
 def structure_params(label: str) -> dict:
-    """Partition parameters of a structure label: {} or {"depth": n} or {"auto": True}."""
+    """Partition parameters of a structure label: {} or {"depth": n} or {"auto": True}, plus
+    {"pvs": "conservative"} or {"pvs": "sampled:N"} for a "+pvs" label."""
+    label, _, pvs = label.partition("+")
     kind, _, depth = label.partition(":")
-    if kind == "grid":
-        return {"auto": True}
-    if kind in ("octree", "portal"):
-        return {"depth": int(depth)}
-    return {}
+    params = {"auto": True} if kind == "grid" else \
+        {"depth": int(depth)} if kind in ("octree", "portal") else {}
+    if pvs:
+        params["pvs"] = pvs.partition("=")[2] or "conservative"
+    return params
+
+
+def pvs_of(label: str) -> str | None:
+    """The PVS mode of a structure label ("conservative", "sampled:N") or None."""
+    return structure_params(label).get("pvs")
+
+
+def base_structure(label: str) -> str:
+    """The label without its PVS ("portal:2+pvs" -> "portal:2")."""
+    return label.partition("+")[0]
 
 
 def cull_stages(cull: str) -> tuple:
@@ -134,29 +147,43 @@ def canonical_cull(text: str) -> str:
     return "+".join(stage for stage in STAGE_ORDER if stage in parts)
 
 
+# A structure item: kind, optional depth or depth range, optional baked PVS (+pvs: conservative).
+STRUCTURE_ITEM = re.compile(r"(grid|octree|portal|bsp|kdtree)(?::(\d+)(?:-(\d+))?)?"
+                            r"(\+pvs(?:=(conservative|sampled:([1-9]\d{0,3})))?)?")
+MAX_PVS_SAMPLES = 4096  # pvs=sampled:N, N points per view cell (each six item buffers)
+
+
 def parse_structures(text: str) -> list:
-    """'grid,octree:3-6,portal:1-3,bsp' -> ['grid', 'octree:3', ..., 'portal:3', 'bsp']."""
+    """'grid,octree:3-6,portal:1-3,bsp' -> ['grid', 'octree:3', ..., 'portal:3', 'bsp'];
+    a '+pvs' suffix ('portal:2+pvs', 'bsp+pvs=sampled:64') bakes a PVS on each structure
+    (conservative unless sampled:N is given; canonical labels end in '+pvs' or
+    '+pvs=sampled:N')."""
     labels = []
     for item in filter(None, (part.strip().lower() for part in text.split(","))):
         if item == "all":
             labels += parse_structures("grid,octree:3-6,portal:1-3,bsp")
             continue
-        match = re.fullmatch(r"(grid|octree|portal|bsp|kdtree)(?::(\d+)(?:-(\d+))?)?", item)
+        match = STRUCTURE_ITEM.fullmatch(item)
         if not match:
-            raise SelectionError(f"bad structure {item!r}: use grid, octree:N, octree:A-B, "
-                                 "portal:N, bsp or kdtree")
-        kind, low, high = match.groups()
+            raise SelectionError(f"bad structure {item[:60]!r}: use grid, octree:N, octree:A-B, "
+                                 "portal:N, bsp or kdtree, optionally +pvs or "
+                                 "+pvs=sampled:N (a baked PVS)")
+        kind, low, high, pvs, mode, samples = match.groups()
+        suffix = "" if not pvs else \
+            "+pvs" if mode in (None, "conservative") else f"+pvs=sampled:{int(samples)}"
+        if samples is not None and not 1 <= int(samples) <= MAX_PVS_SAMPLES:
+            raise SelectionError(f"{item!r}: sampled:N takes 1..{MAX_PVS_SAMPLES} points")
         if kind in ("grid", "bsp", "kdtree"):
             if low is not None:
                 raise SelectionError(f"{kind} takes no depth (got {item!r})")
-            labels.append(kind)
+            labels.append(kind + suffix)
             continue
         low = int(low) if low is not None else (5 if kind == "octree" else 2)
         high = int(high) if high is not None else low
         lowest, highest = DEPTH_RANGE[kind]
         if not lowest <= low <= high <= highest:
             raise SelectionError(f"{kind} depth must be {lowest}..{highest} (got {item!r})")
-        labels += [f"{kind}:{depth}" for depth in range(low, high + 1)]
+        labels += [f"{kind}:{depth}{suffix}" for depth in range(low, high + 1)]
     return list(dict.fromkeys(labels))
 
 
@@ -258,7 +285,10 @@ def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
            frames="all", trajectories=None, lod="none") -> list:
     """Every RunSpec of a selection, in a stable order (world, structure, cull, profile).
 
-    Combinations that cannot run are left out: `portals` only on the portal structure.
+    Combinations that cannot run are left out: `portals` only on the portal structure, `pvs`
+    only on a structure with a baked PVS ("+pvs"); on such a structure every combination runs
+    with `pvs` added (with_pvs), so `--structures portal:2,portal:2+pvs --cull vfc+tbfc` sets
+    vfc+tbfc beside pvs+vfc+tbfc.
     trajectories : optional {world: path} overriding the thesis's indoor/outdoor paths; a world
                    given as a file needs one.
     lod          : level-of-detail tolerances, 'none,1,2' (parse_lod): one run per tolerance
@@ -272,8 +302,8 @@ def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
                                  "CSV (vismobile trajectory generate WORLD makes one)")
         path = trajectories.get(world) or trajectory_for(world)
         for structure in parse_structures(structures):
-            for cull in parse_culls(culls):
-                if "portals" in cull_stages(cull) and not structure.startswith("portal"):
+            for cull in dict.fromkeys(with_pvs(c, structure) for c in parse_culls(culls)):
+                if not runs_on(cull, structure):
                     continue
                 for profile in parse_profiles(profiles):
                     for tau in parse_lod(lod):
@@ -282,6 +312,23 @@ def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
     if not specs:
         raise SelectionError("the selection is empty")
     return specs
+
+
+def with_pvs(cull: str, structure: str) -> str:
+    """The combination as it runs on a structure: `pvs` added when the structure has a PVS."""
+    if pvs_of(structure) is None or "pvs" in cull_stages(cull):
+        return cull
+    return canonical_cull("+".join(cull_stages(cull) + ("pvs",)))
+
+
+def runs_on(cull: str, structure: str) -> bool:
+    """Whether a combination runs on a structure label: `portals` needs the portal structure,
+    `pvs` a baked PVS, and a structure with one runs only combinations with `pvs` (without
+    it, it is its base structure)."""
+    stages = cull_stages(cull)
+    if "portals" in stages and not structure.startswith("portal"):
+        return False
+    return ("pvs" in stages) == (pvs_of(structure) is not None)
 
 
 def frame_indices(selection: str, count: int, waypoints: dict) -> list:

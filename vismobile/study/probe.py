@@ -45,7 +45,7 @@ class _Probe:
         self.device = isinstance(model, DeviceModel)
         self.renderer = None if self.device else engine.renderer(world, profile)
         self.bound = bound
-        self.partitions, self.builds = {}, {}
+        self.partitions, self.builds, self.bakes = {}, {}, {}
         self.candidates, self.pruned = [], []
         self.model_rows, self.model_ms = [], []
         self.best = None
@@ -55,6 +55,9 @@ class _Probe:
         if label not in self.partitions:
             self.partitions[label], self.builds[label] = engine.load_structure(
                 self.world, label, self.cache_dir)
+            bake = engine.bake_stats(self.world, label, self.cache_dir)
+            if bake is not None:  # a baked PVS: its offline cost goes in the report
+                self.bakes[label] = bake
         return self.partitions[label]
 
     def run(self, label, cull):

@@ -24,6 +24,7 @@ from .records import (_config, best_run, device_pool, find_run,  # noqa: F401  (
 from .report_figures import (_along_path, _front, _triangles_along,  # noqa: F401
                              pareto_png, thesis_figures)
 from .terrain_report import write_terrain_report  # noqa: F401  (re-exported)
+from .pvs_report import glance, pvs_section
 from .tune_report import tune_section
 
 
@@ -152,6 +153,7 @@ def world_section(records, world, tunes=None) -> str:
     rows, classes = answer_rows(records, world, tunes)
     parts = [f"<h2 id='{world_title(world).lower()}'>{world_title(world)}: what to use</h2>",
              _table(ANSWER_HEADER, rows, left=4, row_class=classes),
+             pvs_section(records, world),
              _along_path(world, records, tunes, marks),
              _triangles_along(world, records, tunes, marks),
              _front(world, records),
@@ -234,7 +236,8 @@ def write_report(records, path, agreement=None, tunes=None, title="vismobile com
             "from each device's cost model and are labelled with the device; \"measured "
             "here\" is wall time on this machine (software OpenGL), not the devices. "
             f"{html.escape(notes)}</p>",
-            summary_table(records, tunes), f"<nav>worlds: {nav}</nav>"]
+            summary_table(records, tunes), glance(records, worlds),
+            f"<nav>worlds: {nav}</nav>"]
     for world in worlds:
         body.append(world_section(records, world, tunes))
     body.append(lod_section(records, lod_records))

@@ -185,6 +185,9 @@ def execute(spec: RunSpec, context: Context) -> dict:
         table[column] = frame_model_ms(counters, device)
     summary = summarize_run(table, trajectory, frames, partition, profile, world, build_seconds)
     summary["model"] = model_block(counters)
+    bake = engine.bake_stats(world, spec.structure, context.cache_dir)
+    if bake is not None:  # a baked PVS: its offline cost, for the report's bake-or-cull table
+        summary["pvs"] = bake
     if view:
         from ..lod.image_error import error_summary
 

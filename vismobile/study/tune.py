@@ -30,16 +30,17 @@ import numpy as np
 from .candidates import (COSTS, DEFAULT_STRUCTURES, PROBE_FRAMES,  # noqa: F401  (re-exported)
                          SIMPLE_STRUCTURES, Candidate, TuneResult, candidate_culls)
 from .costmodel import CULL_FEATURES, fit_linear
-from .matrix import canonical_cull, cull_stages, frame_indices, parse_structures
+from .matrix import canonical_cull, cull_stages, frame_indices, parse_structures, with_pvs
 from .probe import _setup, cost_model_for, probe_frames
 
 
 def _search_order(labels) -> list:
-    """Structures without a depth first, then each depth family as (family, sorted depths)."""
-    flat = [label for label in labels if ":" not in label]
+    """Structures without a depth first (and those with a baked PVS: each is probed as it is),
+    then each depth family as (family, sorted depths)."""
+    flat = [label for label in labels if ":" not in label or "+" in label]
     families = {}
     for label in labels:
-        if ":" in label:
+        if label not in flat:
             kind, depth = label.split(":")
             families.setdefault(kind, []).append(int(depth))
     return flat, {kind: sorted(depths) for kind, depths in families.items()}
@@ -123,7 +124,7 @@ def tune(world, trajectory, profile, probe: int = PROBE_FRAMES, structures: str 
                                                         CULL_FEATURES)
     result = TuneResult(world.name, profile.name, frames, search.best, search.candidates,
                         model, search.builds, 0.0, pruned=search.pruned, notes=notes, cost=cost,
-                        warning=search.warning, behind=search.behind)
+                        warning=search.warning, behind=search.behind, bakes=search.bakes)
     # Choose under the probe's uncertainty; probe the choice's stage toggles in full (no
     # bound) so explain() can price each, and choose again if one of them is tied and simpler.
     search.bound = False
@@ -169,7 +170,7 @@ def sweep(world, trajectory, profile, frames: str = "sample:48",
         raise VisMobileError("sweep: no candidate had zero false negatives")
     result = TuneResult(world.name, profile.name, picked, search.best, search.candidates,
                         search.model, search.builds, 0.0, cost=cost,
-                        warning=search.warning, behind=search.behind)
+                        warning=search.warning, behind=search.behind, bakes=search.bakes)
     uncertainty(result)
     result.explanations = explain(result)
     result.seconds = time.perf_counter() - start
@@ -223,12 +224,13 @@ def uncertainty(result: TuneResult, samples: int = BOOTSTRAP_SAMPLES, seed: int 
 def stage_subsets(structure: str) -> list:
     """Every combination of the stages tune may toggle on a structure, canonical, "none" too."""
     stages = _toggle_stages(structure)
-    return [canonical_cull("+".join(s for i, s in enumerate(stages) if mask >> i & 1))
-            for mask in range(1 << len(stages))]
+    return [with_pvs(canonical_cull("+".join(s for i, s in enumerate(stages) if mask >> i & 1)),
+                     structure) for mask in range(1 << len(stages))]
 
 
 def _toggle_stages(structure: str) -> list:
-    """Conservative stages tune may switch on a structure."""
+    """Conservative stages tune may switch on a structure (`pvs` stays on where it was
+    baked: without it the structure is its base structure, a candidate of its own)."""
     return ["vfc", "bfc", "cbfc", "cone", "tbfc", "occlusion", "horizon"] + \
         (["portals"] if structure.startswith("portal") else [])
 
