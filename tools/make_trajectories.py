@@ -126,6 +126,37 @@ def outdoor() -> Trajectory:
     return Trajectory(poses, {"A": 330, "B": 428, "C": 719, "D": 1156})
 
 
+def hybrid() -> Trajectory:
+    """W7's path (scenes/hybrid.py): down the street x = 70, in through the entrance, along the
+    gallery, through the door into room (2, 0) and back, and out onto the street again."""
+    from vismobile.scenes import hybrid as w7
+
+    ox, oz = w7.OFFSET[0], w7.OFFSET[2]
+    plan = w7.make_plan()
+    door = plan.door(0, (2, 0), (2, 1))
+    gz = oz + w7.ENTRANCE_CENTRE  # the gallery's axis (arches and entrance)
+    dx = ox + door.centre  # the door into room (2, 0)
+    keyframes = [
+        (0, 70.0, 160.0, 0), (None, 70.0, 110.0, 0),  # A: down the street, the building left
+        (None, 70.0, gz + 3.0, -45), (None, 72.0, gz, -90),
+        (None, ox - 3.0, gz, -90),  # B: in front of the entrance
+        (None, ox + 3.0, gz, -90), (None, ox + 10.0, gz, -90),  # C: in, down the gallery
+        (None, dx, gz, -90), (None, dx, gz, 0),
+        (None, dx, oz + door.plane + 2.0, 0), (None, dx, oz + 3.0, 0),  # D: through the door
+        (None, dx, oz + 3.5, 180), (None, dx, gz, 180), (None, dx, gz, 90),
+        (None, ox + 3.0, gz, 90), (None, ox - 3.0, gz, 90),  # E: back out
+        (None, 68.0, gz, 90), (None, 68.0, gz - 4.0, 180), (1199, 68.0, gz + 30.0, 180),
+    ]
+    xzy = path(keyframes, 1200, turn=1 / 20)
+    poses = np.column_stack([xzy[:, 0], np.full(len(xzy), EYE), xzy[:, 1], xzy[:, 2],
+                             np.zeros(len(xzy))])
+    half = xzy[:600]  # the way in: waypoints A-D
+    near = lambda x, z: int(np.argmin(np.hypot(half[:, 0] - x, half[:, 1] - z)))  # noqa: E731
+    return Trajectory(poses, {"A": near(70.0, 120.0), "B": near(ox - 3.0, gz),
+                              "C": near(ox + 10.0, gz), "D": near(dx, oz + 3.0),
+                              "E": 1100})
+
+
 def stairs(inside: Trajectory, foot: int = 844, top: int = 876, frames: int = 90,
            turn: int = 15) -> np.ndarray:
     """(N, 5) poses of the stairs segment: from the landing (frame `top` of the indoor
@@ -208,8 +239,9 @@ def main(argv=None) -> int:
     outside.save(folder / "outdoor.csv")
     indoor_pitched(inside).save(folder / "indoor_pitched.csv")
     pitch_sweep(outside).save(folder / "outdoor_pitched.csv")
+    hybrid().save(folder / "hybrid.csv")
     print(f"wrote trajectories/indoor.csv ({len(inside)} frames), outdoor.csv ({len(outside)} frames)"
-          " and their _pitched variants")
+          " and their _pitched variants, hybrid.csv (W7)")
     if args.measure:
         from vismobile.scenes import build_world
 

@@ -79,6 +79,7 @@ class Plan:
     rooms: dict = field(default_factory=dict)  # (storey, c, r) -> (2, 3) interior box
     doors: list = field(default_factory=list)
     windows: list = field(default_factory=list)  # (storey, axis, plane, centre, side room)
+    entrances: list = field(default_factory=list)  # door-sized outer-wall openings, as windows
 
     def door(self, storey: int, a, b) -> Door:
         for door in self.doors:
@@ -155,6 +156,9 @@ def _room_openings(plan: Plan, storey: int, c: int, r: int) -> dict:
         if w_storey == storey and room == (c, r):
             openings.setdefault((axis, plane), []).append(
                 (centre, WINDOW[0], WINDOW[1], WINDOW[2]))
+    for e_storey, axis, plane, centre, room in plan.entrances:
+        if e_storey == storey and room == (c, r):
+            openings.setdefault((axis, plane), []).append((centre, DOOR[0], 0.0, DOOR[1]))
     return openings
 
 
@@ -255,6 +259,9 @@ def build_building(target: int | None = 6199, plan: Plan | None = None, tile: fl
         for w_storey, axis, plane, centre, room in plan.windows:
             if w_storey == storey and room == (c, r):
                 walls.append(_opening_reveal(storey, axis, plane, centre, *WINDOW))
+        for e_storey, axis, plane, centre, room in plan.entrances:
+            if e_storey == storey and room == (c, r):
+                walls.append(_opening_reveal(storey, axis, plane, centre, DOOR[0], 0.0, DOOR[1]))
         mesh.add(f"{tag}_wall", *merge(walls))
     for door in plan.doors:
         (ca, ra), (cb, rb) = door.rooms

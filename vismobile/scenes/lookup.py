@@ -1,4 +1,4 @@
-"""What a world argument names: a thesis world (w1..w6, built on first use) or a mesh file."""
+"""What a world argument names: a thesis world (w1..w7, built on first use) or a mesh file."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,7 +7,7 @@ from .thesis import TARGETS
 
 
 def is_thesis_world(text) -> bool:
-    """True for a thesis world name, w1..w6 in any case (a file of that name is not looked for)."""
+    """True for a thesis world name, w1..w7 in any case (a file of that name is not looked for)."""
     return str(text).strip().lower() in TARGETS
 
 
@@ -20,7 +20,7 @@ def world_file(text, worlds_dir=None) -> Path:
         if not path.suffix and not path.exists():  # "w7", "room": neither a world nor a file
             from ..errors import WorldError
 
-            raise WorldError(text, "unknown world: thesis worlds are w1..w6; anything else is a "
+            raise WorldError(text, "unknown world: thesis worlds are w1..w7; anything else is a "
                                    "mesh file (.obj .ply .stl .off .glb .gltf, optionally .gz)")
         return path
     from .thesis import build_key, build_world, default_cache_dir

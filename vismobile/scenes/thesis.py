@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..world.world import World, atomic_write_bytes
-from . import building, city, objects
+from . import building, city, crowd, hybrid, objects
 
 # W2 and W3: Table 5.4 counts cannot give 17 objects summing to 102,232 - 6,199 = 96,033
 # (17 flowers, the largest, make 89,896). We keep Table 5.4 counts and the world total:
@@ -45,7 +45,11 @@ TARGETS = {
     "w4": Target(30199, 1048, "indoor", "W1 + 6 penguins of 4,000 triangles"),
     "w5": Target(2548, 108, "outdoor", "city: 9 blocks x 16 unaligned buildings, ground"),
     "w6": Target(10040, 511, "outdoor", "W5 + 3 cows + 2 dragons"),
+    # ours (issue 25), not the thesis's: its own count is the target, and no thesis file size
+    "w7": Target(9955, 0, "hybrid", "the W1 building in the W5 city, doors, people and cars"),
 }
+PROCEDURAL = ("w1", "w5", "w7")  # built without the object models
+MOVING = ("w7",)  # worlds with a motion file beside their OBJ
 TOLERANCE = 0.005  # totals within 0.5% of Table 5.2
 
 
@@ -125,6 +129,8 @@ def generate(name: str) -> World:
         parts = _object_parts(("cow", "cow", "cow", "dragon", "dragon"), spots, rng,
                               OUTDOOR_HEIGHTS)
         return _with_objects(w5, parts, "w6")
+    if name == "w7":
+        return hybrid.build_hybrid()[0]  # its motion: motion_path / write_motion
     raise KeyError(f"unknown thesis world {name!r}; expected one of {', '.join(TARGETS)}")
 
 
@@ -136,10 +142,11 @@ def _source_digest() -> bytes:
     from ..world import world
 
     h = hashlib.sha256()
-    for module in (building, city, objects, world, open3d_import):
+    for module in (building, city, crowd, hybrid, objects, world, open3d_import):
         h.update(Path(module.__file__).read_bytes())
     h.update(Path(__file__).read_bytes())
     h.update(Path(__file__).with_name("surfaces.py").read_bytes())
+    h.update((Path(__file__).parents[1] / "geometry" / "boxes.py").read_bytes())
     h.update(f"{np.__version__} {trimesh.__version__}".encode())
     return h.digest()
 
@@ -151,7 +158,7 @@ def build_key(name: str) -> str:
     older code never stamps its output with a newer key.
     """
     h = hashlib.sha256(name.encode() + _SOURCE_DIGEST)
-    if name not in ("w1", "w5"):
+    if name not in PROCEDURAL:
         for filename, _ in objects.OBJECTS.values():
             h.update(f"{filename} {objects.model_size(filename)}".encode())
     return h.hexdigest()
@@ -160,20 +167,41 @@ def build_key(name: str) -> str:
 _SOURCE_DIGEST = _source_digest()
 
 
+def motion_path(name: str, cache_dir=None):
+    """Path of a world's motion file (<cache>/<name>.motion.json: W7's doors, people and
+    cars), or None for a world that does not move. build_world writes it."""
+    name = str(name).strip().lower()
+    if name not in MOVING:
+        return None
+    return (Path(cache_dir) if cache_dir is not None else default_cache_dir()) / f"{name}.motion.json"
+
+
+def write_motion(name: str, path, doors: str = "scheduled") -> None:
+    """Write a moving world's JSON motion file atomically (doors: crowd.door_entries modes)."""
+    import json
+
+    document = hybrid.build_hybrid(doors=doors)[3]
+    atomic_write_bytes(Path(path), (json.dumps(document, separators=(",", ":")) + "\n").encode())
+
+
 def build_world(name: str, cache_dir=None, rebuild: bool = False) -> World:
-    """The thesis world `name` ("w1".."w6") loaded from its cached OBJ, building it if stale."""
+    """The thesis world `name` ("w1".."w7") loaded from its cached OBJ, building it (and a
+    moving world's motion file, motion_path) if stale."""
     name = name.lower()
     if name not in TARGETS:
         raise KeyError(f"unknown thesis world {name!r}; expected one of {', '.join(TARGETS)}")
     directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     path, key_path = directory / f"{name}.obj", directory / f"{name}.key"
     key = build_key(name)
+    motion = motion_path(name, directory)
     fresh = (not rebuild and path.exists() and key_path.exists()
-             and key_path.read_text().strip() == key)
+             and key_path.read_text().strip() == key and (motion is None or motion.exists()))
     if not fresh:
-        if name not in ("w1", "w5"):
+        if name not in PROCEDURAL:
             objects.check_models()
         generate(name).to_obj(path, digits=6)  # the worlds' canonical files
+        if motion is not None:
+            write_motion(name, motion)
         atomic_write_bytes(key_path, (key + "\n").encode())
     return World.from_obj(path)
 
