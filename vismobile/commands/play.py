@@ -9,10 +9,12 @@ def add_parser(sub):
     parser = sub.add_parser(
         "play", help="play a trajectory through a (partitioned) world; write frames.csv, "
                      "summary.json and optional images")
-    parser.add_argument("world", help=WORLD_HELP + ", or a partition file (.vmp)")
+    parser.add_argument("world", help=WORLD_HELP + ", a partition file (.vmp), or a terrain "
+                        "(.vmt: played with its LOD method, --terrain-method, at --lod pixels)")
     parser.add_argument("--trajectory", type=Path, default=None,
                         help="trajectory CSV (default for w1..w6: the thesis's path, indoor for "
-                             "w1-w4, outdoor for w5, w6; a mesh file needs one: `vismobile "
+                             "w1-w4, outdoor for w5, w6; for a .vmt terrain one lap of its "
+                             "fast circle path; a mesh file needs one: `vismobile "
                              "trajectory generate MESH -o walk.csv` makes it)")
     parser.add_argument("--structure", default=DEFAULT_STRUCTURE,
                         help="partition to build for a mesh: " + STRUCTURE_HELP
@@ -38,12 +40,20 @@ def add_parser(sub):
                         help="play only the first F frames")
     parser.add_argument("--adaptive", action="store_true",
                         help="switch stages off while they cost more than they save")
-    parser.add_argument("--lod-tau", type=float, default=None, metavar="PX",
-                        help="level of detail: draw each object at its coarsest level whose "
+    parser.add_argument("--lod", "--lod-tau", dest="lod_tau", type=float, default=None,
+                        metavar="PX",
+                        help="level of detail: a .vmt terrain's ground within PX pixels by "
+                             "its --terrain-method (default 1); draw each object at its "
+                             "coarsest level whose "
                              "error projects below PX pixels (0: full detail), and measure "
                              "every frame against the full-detail frame (PSNR in summary.json); "
                              "needs --structure or a .vmp (its LOD chains are built when it "
                              "has none: partition --lod stores them)")
+    parser.add_argument("--terrain-method", choices=("tiles", "roettger", "roam"),
+                        default="tiles",
+                        help="a .vmt terrain's LOD method: tiles (seed 002's tile quadtree), "
+                             "roettger (Röttger's quadtree with Pires's cached chunks), roam "
+                             "(split and merge queues); default tiles")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
@@ -54,6 +64,8 @@ def run(args) -> int:
     # One llvmpipe thread, as every compare and tune run measures (study/tasks.py): on a
     # loaded machine the render threads' contention made the median swing several-fold.
     os.environ.setdefault("LP_NUM_THREADS", "1")
+    if str(args.world).lower().endswith(".vmt"):
+        return run_terrain(args)
     args.cull = default_cull(args.cull, args.structure)
     from ..app.playback import load_scene, parse_stages, play
     from ..device.profile import get_profile
@@ -108,6 +120,63 @@ def run(args) -> int:
     for event in s["adaptive_events"]:
         print(f"frame {event['frame']}: {event['stage']} {event['action']} (saves "
               f"{event['saving_ms']:.3f} ms, costs {event['cost_ms']:.3f} ms per frame)")
+    print(f"wrote {args.out}/frames.csv and {args.out}/summary.json")
+    return 0
+
+
+def run_terrain(args) -> int:
+    """play for a .vmt: the terrain's LOD method at --lod pixels, its objects culled by --cull
+    (default vfc+horizon) over --structure (app/terrain_play.py)."""
+    import os
+
+    os.environ.setdefault("LP_NUM_THREADS", "1")
+    from ..app.playback import parse_stages
+    from ..app.terrain_play import play_terrain, terrain_camera_options
+    from ..app.terrain_scene import TerrainScene, default_cameras
+    from ..errors import VisMobileError
+    from ..progress import Status
+    from ..world.trajectory import Trajectory, select_frames
+
+    check_folder(args.out)
+    if args.adaptive or args.fix_winding or args.gif or args.hud:
+        raise VisMobileError("--adaptive, --fix-winding, --gif and --hud apply to triangle "
+                             "worlds, not to a .vmt terrain")
+    stages = parse_stages(args.cull if args.cull is not None else "vfc+horizon")
+    tau = 1.0 if args.lod_tau is None else args.lod_tau
+    with Status(f"play {args.world}", enabled=not args.quiet) as status:
+        status("loading the terrain and its LOD method")
+        scene = TerrainScene(args.world, args.terrain_method, tau, stages, args.structure,
+                             args.profile)
+    aspect = scene.profile.aspect
+    if args.trajectory is not None:
+        trajectory = Trajectory.load(args.trajectory, limit=args.limit,
+                                     **terrain_camera_options(scene.heightmap))
+        count, waypoints = len(trajectory), trajectory.waypoints
+    else:
+        cameras = default_cameras(scene.heightmap, args.limit, aspect)
+        count, waypoints = len(cameras), {}
+    try:
+        played = select_frames(args.frames, count, waypoints)
+    except ValueError as error:
+        raise VisMobileError(f"--frames: {error}") from None
+    if args.trajectory is not None:
+        cameras = [trajectory.camera(f, aspect) for f in played]
+    else:
+        cameras = [cameras[f] for f in played]
+    labels = {int(f): label for label, f in waypoints.items()}
+    s = play_terrain(scene, cameras, labels, args.out, args.images, not args.quiet, played)
+    if not s["frames"]:
+        print(f"0 frames of {s['world']}")
+        return 0
+    print(f"{s['frames']} frames of {s['world']} ({scene.heightmap.size}^2, "
+          f"{s['method']} at {s['tau']:g} px; objects: {len(scene.placement)}, "
+          f"{scene.structure}, cull {'+'.join(stages) or 'none'}): "
+          f"{s['ground_triangles']['mean']:,.0f} ground and "
+          f"{s['object_triangles']['mean']:,.0f} object triangles per frame on average; "
+          f"error bound at most {s['error_px_max']:.3f} px")
+    print(f"  {s['frame_ms']['median']:8.2f} ms/frame median on this machine (LOD "
+          f"{s['lod_ms']['median']:.2f}, cull {s['cull_ms']['median']:.2f}, render "
+          f"{s['render_ms']['median']:.2f})")
     print(f"wrote {args.out}/frames.csv and {args.out}/summary.json")
     return 0
 

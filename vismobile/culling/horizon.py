@@ -55,7 +55,10 @@ class HorizonStage:
         world = tree.world
         self.margin = 2.0 * np.sqrt(3.0) * device_move(self.arithmetic,
                                                         world_scale(world.vertices))
-        self.solids = per_object(world, "horizon solids", lambda: find_solids(world))
+        # A terrain world brings its ground (terrain/ground.py): the heightmap occludes.
+        self.ground = getattr(world, "ground", None)
+        if self.ground is None:
+            self.solids = per_object(world, "horizon solids", lambda: find_solids(world))
         self.bounds = world.bounds
         self.corners = world.corners
         self.grow = np.array([-self.margin, self.margin])[:, None]
@@ -79,6 +82,8 @@ class HorizonStage:
 
     def cast(self, camera):
         """This frame's horizon, or None when it may hide nothing (see the module doc)."""
+        if self.ground is not None:
+            return self.ground.cast(camera, self.arithmetic)
         eye = np.asarray(camera.eye, dtype=np.float64)
         solids, caster = self.caster(self.solids.grounds_under(eye, self.margin))
         if caster is None or not eye[1] > solids.max_base + self.margin:

@@ -42,8 +42,10 @@ class Renderer:
         self.profile = profile
         self.buffers = world_buffers(world, profile)
 
-    def draw(self, triangles, camera, cull_back=False, kind="shaded") -> DrawStats:
-        """Draw triangles (sorted unique ids) into the "shaded" (RGB) or "item" (ids) target."""
+    def draw(self, triangles, camera, cull_back=False, kind="shaded",
+             clear: bool = True) -> DrawStats:
+        """Draw triangles (sorted unique ids) into the "shaded" (RGB) or "item" (ids) target;
+        clear=False draws over what is there (objects Z-buffered into a terrain)."""
         ctx = gl_context()
         target = render_target(self.profile.resolution, "rgb" if kind == "shaded" else "ids")
         vertex_arrays = self.buffers.vertex_arrays(kind)
@@ -52,7 +54,9 @@ class Renderer:
         start = time.perf_counter()
         target.use()
         ctx.viewport = (0, 0, *self.profile.resolution)
-        if kind == "shaded":
+        if not clear:
+            pass
+        elif kind == "shaded":
             target.clear(*CLEAR_RGB, 1.0, depth=1.0)
         else:
             target.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)  # id 0 = background

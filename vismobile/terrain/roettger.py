@@ -247,6 +247,7 @@ class Roettger:
         self.signatures = np.zeros(4 ** self.chunk_level, np.uint64)
         self.previous = None
         self.leaf_rows = np.zeros((1 << 14, 4), np.int64)
+        self.leaf_count = 0  # leaves of the last select (rows of leaf_rows)
         self.out = np.zeros((1 << 16, 3), np.int64)
 
     def c_for(self, tau: float, lam_bound: float) -> float:
@@ -302,4 +303,5 @@ class Roettger:
             if leaf_count >= 0:
                 break
             self.leaf_rows = np.zeros((2 * len(self.leaf_rows), 4), np.int64)
+        self.leaf_count = leaf_count
         return tested, leaf_count

@@ -1,0 +1,306 @@
+"""A terrain world (.vmt) run through the engine: its LOD method at tau, its objects culled.
+
+Per frame (TerrainScene.frame): the LOD method selects the ground for the camera at tau pixels
+(tiles, roettger or roam: terrain/), the drawn pieces' largest nested vertical error sets how
+far the horizon sinks the ground (terrain/ground.py), the objects standing on the terrain go
+through the engine's Culler with the chosen stages over their partition (`horizon` casts over
+the heightmap), and the renderer draws the ground, then the kept objects Z-buffered into it.
+
+Renderers keep their vertex buffers across frames: the tiles' per-tile slots
+(render/tile_arena.py), Röttger's chunk grids with cached index slots (render/chunks.py);
+ROAM's leaves are gathered per frame (render/terrain.py: its leaves span blocks freely).
+
+Frame figures (TerrainFrame): triangles of the ground and of the objects, LOD and cull and
+render times, the method's error bound in pixels over the drawn pieces (lambda_b E / d, E the
+piece's nested vertical error, d the eye's distance to its box; the knob tau bounds it except
+where a finest piece cannot refine) and E's largest value in world units. The bound sets how
+far the horizon sinks the drawn ground (terrain/ground.py: P / lambda_b of slope per unit of
+distance).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import VisMobileError
+
+METHODS = ("tiles", "roettger", "roam")
+
+
+@dataclass
+class TerrainFrame:
+    """One frame's figures (module doc); triangles = ground + objects."""
+
+    ground_triangles: int
+    object_triangles: int
+    error_px: float
+    error_world: float
+    lod_ms: float
+    cull_ms: float
+    render_ms: float
+    upload_ms: float
+    nodes_hidden: int
+    triangles_hidden: int
+    stats: dict
+
+    @property
+    def triangles(self) -> int:
+        return self.ground_triangles + self.object_triangles
+
+
+def box_distance(eye, low, high) -> np.ndarray:
+    """(K,) float64 distance from eye (3,) to boxes low/high (K, 3) (0 inside)."""
+    gap = np.maximum(np.maximum(low - eye, eye - high), 0.0)
+    return np.sqrt((gap * gap).sum(axis=1))
+
+
+def bound_px(lam, errors, distances) -> float:
+    """Largest lambda_b E / d over pieces (0 when none; inf for a piece with E > 0 and the
+    eye in its box)."""
+    errors = np.asarray(errors, dtype=np.float64)
+    positive = errors > 0
+    if not positive.any():
+        return 0.0
+    with np.errstate(divide="ignore"):
+        return float((lam * errors[positive] / distances[positive]).max())
+
+
+class TilesLod:
+    """Seed 002's tile quadtree, drawn from per-tile vertex slots that persist."""
+
+    name = "tiles"
+
+    def __init__(self, heightmap, profile):
+        from ..render.tile_arena import TileArena
+        from ..terrain.tiles import TilePyramid
+
+        self.pyramid = TilePyramid.build(heightmap, 16)
+        self.renderer = TileArena(self.pyramid, profile)
+
+    def select(self, camera, resolution, tau):
+        from ..terrain.tiles import select_tiles
+
+        return select_tiles(self.pyramid, camera, resolution, tau)
+
+    def errors(self, selection, camera, resolution) -> tuple:
+        """(bound px, largest E world units) over the drawn tiles."""
+        from ..terrain.tiles import pixel_scale
+
+        p = self.pyramid
+        if not len(selection.level):
+            return 0.0, 0.0
+        flat = p.offsets[selection.level] + selection.ti * (1 << selection.level) + selection.tj
+        # A finest tile with no reduced side draws its samples exactly.
+        e = np.where((selection.level == p.levels) & (selection.sides == 0), 0.0,
+                     p.flat_error[flat])
+        size = p.patch * (1 << (p.levels - selection.level)) * p.heightmap.spacing
+        low = np.stack([selection.tj * size, p.flat_hmin[flat], selection.ti * size], 1)
+        high = np.stack([(selection.tj + 1) * size, p.flat_hmax[flat], (selection.ti + 1) * size], 1)
+        _, lam = pixel_scale(camera, resolution)
+        return bound_px(lam, e, box_distance(camera.eye, low, high)), float(e.max())
+
+    def triangles(self, selection) -> int:
+        return int(selection.triangles)
+
+    def reset(self) -> None:
+        """Forget frame-to-frame state (the arena's slots stay: they are only a cache)."""
+
+    def draw(self, selection, camera):
+        return self.renderer.draw(selection, camera)
+
+
+class RoettgerLod:
+    """Seed 000's Röttger CLOD with Pires's cached chunks (terrain/display_lists.py)."""
+
+    name = "roettger"
+
+    def __init__(self, heightmap, profile):
+        from ..render.chunks import ChunkRenderer
+        from ..terrain.display_lists import DisplayLists
+        from ..terrain.roettger import Roettger
+
+        self.roettger = Roettger(heightmap)
+        self.lists = DisplayLists(self.roettger)
+        self.renderer = ChunkRenderer(self.lists, profile)
+
+    def select(self, camera, resolution, tau):
+        return self.lists.update(camera, resolution, tau)
+
+    def errors(self, frame, camera, resolution) -> tuple:
+        """(bound px, largest d * d2 world units) over the drawn leaves: d * d2 bounds the
+        block's exact nested error (terrain/roettger.py); a finest leaf with no skipped
+        midpoint draws its samples exactly (0)."""
+        from ..terrain.tiles import pixel_scale
+
+        r = self.roettger
+        rows = r.leaf_rows[:r.leaf_count]
+        if not len(rows):
+            return 0.0, 0.0
+        level, bi, bj, sides = rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3]
+        flat = r.offsets[level] + bi * (1 << level) + bj
+        size = ((r.heightmap.size - 1) >> level) * r.heightmap.spacing
+        e = r.d2[flat] * size
+        e = np.where((level == r.levels) & (sides == 0), 0.0, e)
+        low = np.stack([bj * size, r.hmin[flat], bi * size], 1)
+        high = np.stack([(bj + 1) * size, r.hmax[flat], (bi + 1) * size], 1)
+        _, lam = pixel_scale(camera, resolution)
+        return bound_px(lam, e, box_distance(camera.eye, low, high)), float(e.max())
+
+    def triangles(self, frame) -> int:
+        return int(frame.triangles)
+
+    def reset(self) -> None:
+        """Forget the cached chunks (the next frame rebuilds every visible one)."""
+        self.lists.cache = [None] * len(self.lists.cache)
+        self.roettger.previous = None
+
+    def draw(self, frame, camera):
+        return self.renderer.draw(frame, camera)
+
+
+class RoamLod:
+    """Seed 003's ROAM (frame-coherent split and merge queues)."""
+
+    name = "roam"
+
+    def __init__(self, heightmap, profile):
+        from ..render.terrain import TerrainRenderer
+        from ..terrain.roam import Roam
+
+        self.roam = Roam(heightmap)
+        self.renderer = TerrainRenderer(heightmap, profile)
+
+    def select(self, camera, resolution, tau):
+        return self.roam.update(camera, resolution, tau)
+
+    def errors(self, frame, camera, resolution) -> tuple:
+        """(the frame's bound_px, largest wedgie of the drawn leaves in world units: a leaf's
+        diamond is centred on its hypotenuse's midpoint; finest leaves are exact)."""
+        t = frame.triangles
+        if not len(t):
+            return 0.0, 0.0
+        n = self.roam.heightmap.size
+        r, c = np.divmod(t, n)
+        best = np.zeros(len(t))
+        for a, b in ((0, 1), (1, 2), (2, 0)):  # the hypotenuse is the longest edge
+            length = (r[:, a] - r[:, b]) ** 2 + (c[:, a] - c[:, b]) ** 2
+            longest = length >= np.maximum.reduce([(r[:, x] - r[:, y]) ** 2
+                                                   + (c[:, x] - c[:, y]) ** 2
+                                                   for x, y in ((0, 1), (1, 2), (2, 0))])
+            mr, mc = r[:, a] + r[:, b], c[:, a] + c[:, b]
+            whole = longest & (mr % 2 == 0) & (mc % 2 == 0)
+            mid = np.where(whole, (mr // 2) * n + mc // 2, 0)
+            best = np.maximum(best, np.where(whole, self.roam.wedge[mid, 2], 0.0))
+        return float(frame.bound_px), float(best.max())
+
+    def triangles(self, frame) -> int:
+        return len(frame.triangles)
+
+    def reset(self) -> None:
+        """Back to the two root triangles."""
+        self.roam.reset()
+
+    def draw(self, frame, camera):
+        return self.renderer.draw_samples(frame.triangles, camera)
+
+
+LODS = {"tiles": TilesLod, "roettger": RoettgerLod, "roam": RoamLod}
+
+
+class TerrainScene:
+    """A .vmt terrain with its LOD method at tau and its objects culled by `stages`.
+
+    structure : the objects' partition ("octree:4"; "none" draws every object)
+    """
+
+    def __init__(self, path, method="tiles", tau=1.0, stages=("vfc", "horizon"),
+                 structure="octree:4", profile="ipaq-hx2490b"):
+        from ..device.profile import get_profile
+        from ..terrain import store
+
+        if method not in LODS:
+            raise VisMobileError(f"--terrain-method {method!r}: one of {', '.join(METHODS)}")
+        tau = float(tau)
+        if not np.isfinite(tau) or not tau > 0:
+            raise VisMobileError(f"--lod for a terrain must be a finite number of pixels > 0, "
+                                 f"got {tau}")
+        self.path = str(path)
+        self.profile = get_profile(profile)
+        self.heightmap, self.placement = store.load(path)
+        self.tau = tau
+        self.method = method
+        self.stages = tuple(stages)
+        self.lod = LODS[method](self.heightmap, self.profile)
+        self.objects = self.culler = self.object_renderer = None
+        self.last = self.culled = None  # the last frame's selection and culled objects
+        self.structure = "none"
+        if len(self.placement):
+            self._objects(structure)
+
+    def _objects(self, structure):
+        from ..render.renderer import Renderer
+        from ..terrain.ground import TerrainGround
+        from ..world.world import World
+        from .playback import Scene, make_culler, parse_structure
+
+        parts = [World(v, t, np.zeros(len(t), np.int32), [f"{self.placement.kinds[k]}{k}"],
+                       self.heightmap.name) for k, (v, t) in enumerate(self.placement.meshes())]
+        objects = World.concatenate(parts, self.heightmap.name)
+        objects.ground = TerrainGround(self.heightmap)  # the horizon stage's occluder
+        self.objects = objects
+        kind, params = parse_structure(structure)
+        partition = None
+        if kind is not None:
+            from ..partition import partition as build_partition
+
+            partition = build_partition(objects, kind, **params)
+            self.structure = structure
+        self.culler = make_culler(Scene(objects, partition, self.structure), self.stages,
+                                  self.profile)
+        self.object_renderer = Renderer(objects, self.profile)
+
+    def frame(self, camera) -> TerrainFrame:
+        """Select, cull, draw (module doc); the camera should have the profile's aspect."""
+        from ..terrain.tiles import pixel_scale
+
+        resolution = self.profile.resolution
+        start = time.perf_counter()
+        selected = self.last = self.lod.select(camera, resolution, self.tau)
+        lod_ms = (time.perf_counter() - start) * 1000.0
+        error_px, error_world = self.lod.errors(selected, camera, resolution)
+        cull_ms, object_triangles, hidden, hidden_triangles, stats = 0.0, 0, 0, 0, {}
+        culled = None
+        if self.culler is not None:
+            _, lam = pixel_scale(camera, resolution)
+            self.objects.ground.sink = error_px / lam  # terrain/ground.py
+            start = time.perf_counter()
+            culled = self.culled = self.culler.cull(camera)
+            cull_ms = (time.perf_counter() - start) * 1000.0
+            stats = dict(culled.stats)
+            hidden = int(stats.get("horizon.nodes_culled", 0))
+            hidden_triangles = int(stats.get("horizon.triangles_culled", 0))
+        drawn = self.lod.draw(selected, camera)
+        render_ms, upload_ms = drawn.render_ms, drawn.upload_ms
+        if culled is not None and len(culled.triangles):
+            more = self.object_renderer.draw(culled.triangles, camera,
+                                             bool(culled.cull_back), clear=False)
+            render_ms += more.render_ms
+            upload_ms += more.upload_ms
+            object_triangles = more.triangles
+        return TerrainFrame(self.lod.triangles(selected), object_triangles, error_px,
+                            error_world, lod_ms, cull_ms, render_ms, upload_ms, hidden,
+                            hidden_triangles, stats)
+
+    def read_rgb(self) -> np.ndarray:
+        return self.lod.renderer.read_rgb()
+
+
+def default_cameras(heightmap, count=None, aspect=240 / 320):
+    """Cameras of one lap of the fast circle path (terrain/paths.py), or count of them."""
+    from ..terrain.paths import lap_frames, path_cameras
+
+    lap = lap_frames(heightmap, "circle", "fast")
+    return path_cameras(heightmap, "circle", "fast", frames=min(lap, count or lap),
+                        aspect=aspect)
