@@ -29,6 +29,10 @@ move of the eye (near <= device_move: 0.095 at 1e5 in float32) falls back too: t
 cannot place the near plane or order depths (at 1e5 in float32 with near 1e-3 its item buffer
 is mostly background or far rooms seen through walls), so no wall certainly hides anything.
 
+Doors (issue 25, culling/doors.py): a closed door - a closed box at rest, not moved this frame
+- blocks the portals wholly inside it (deeper than the device's moves) for an eye outside it
+beyond the near plane's reach; an open or moving door blocks nothing (use_doors).
+
 Contract: conservative for free-space eyes provided the portals cover every opening between
 cells; portal rectangles err outward (by RECT_SLACK and the device's moves), a portal that
 crosses the eye's plane widens to the whole current rectangle; every other eye gets plain `vfc`.
@@ -42,6 +46,7 @@ from ..geometry.boxes import boxes_contain_point
 from ..geometry.planes import planes_through_eye
 from ..geometry.raster import to_camera
 from ..geometry.ray import EDGE_TOLERANCE, ray_hit_t
+from .doors import blocked, closed_doors, door_pairs
 from .frustum import frustum_refine, frustum_traverse
 from .precision import device_move, margin, world_scale
 from .state import CullState
@@ -242,6 +247,16 @@ class PortalStage:
             world = tree.world
             self.corners, self.normals, self.bounds = world.corners, world.normals, world.bounds
             self.magnitude = world_scale(world.vertices)  # no abs copy of a mapped world
+        self.door_boxes = None  # use_doors: rest boxes (D, 2, 3) of the doors in portals
+        self.door_matrices = None  # this frame's door matrices (D, 4, 4), set per frame
+
+    def use_doors(self, boxes) -> None:
+        """Doors (culling/doors.py): closed outward boxes (D, 2, 3) at rest; each frame,
+        `door_matrices` (D, 4, 4) set before apply says where they stand (None: all open).
+        A closed door blocks the portals wholly inside its box (doors.blocked)."""
+        self.door_boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
+        self.door_pairs = door_pairs(self.x["portal_vertices"], self.x["portal_start"],
+                                     self.door_boxes) if self.available else None
 
     def eye_in_free_space(self, eye, reach: float) -> bool:
         """True when no triangle's box comes within `reach` of the eye and each of the six axis
@@ -302,6 +317,14 @@ class PortalStage:
         prect, pstate = portal_rects(x["portal_vertices"], x["portal_start"], camera.eye,
                                      np.stack([right, up, forward]), ty * camera.aspect, ty,
                                      grow)
+        if self.door_boxes is not None and self.door_matrices is not None:
+            closed, slack = closed_doors(self.door_matrices)
+            scale = max(self.magnitude, float(np.abs(camera.eye).max()))
+            shut = blocked(*self.door_pairs, self.door_boxes, closed, slack * (scale + 1.0),
+                           camera.eye, reach, 1.5 * grow)  # grow + the device's move of a door
+            pstate = pstate.copy()
+            pstate[shut] = 1
+            state.count(f"{self.name}.portals_shut", len(shut))
         count = len(x["cell_node"])
         rect = np.tile([np.inf, -np.inf, np.inf, -np.inf], (count, 1))
         rect[starts] = [-1.0, 1.0, -1.0, 1.0]
