@@ -113,8 +113,8 @@ def test_fuzz_has_a_seed_and_an_entry_for_every_surface(tmp_path):
 
     cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
     seeds = fuzz.format_seeds(cube, tmp_path)
-    assert set(seeds) | {"obj", "vmp", "trajectory", "cull", "structure", "selection"} == \
-        set(fuzz.ENTRY)
+    assert set(seeds) | {"obj", "vmp", "trajectory", "cull", "structure", "selection",
+                         "scheduler"} == set(fuzz.ENTRY)
     for target, datas in seeds.items():
         load, suffix = fuzz.ENTRY[target]
         # the textured GLB entry also renders, and a .vmt's objects take seconds to build
@@ -166,9 +166,11 @@ def test_structure_texts_build_or_are_refused_in_one_line(tmp_path):
     assert 0 < refused < 40  # the mutations reach both outcomes
 
 
-def test_structure_lists_parse_or_are_refused_in_one_line(tmp_path):
-    """compare's and tune's --structures lists (+pvs labels too) fuzzed: each seed parses, and
-    each seeded mutation parses or raises SelectionError; nothing else escapes."""
+@pytest.mark.parametrize("target", ["selection", "scheduler"])
+def test_structure_lists_and_schedulers_parse_or_are_refused_in_one_line(tmp_path, target):
+    """compare's and tune's --structures lists (+pvs labels too) and --scheduler values
+    fuzzed: each seed parses, and each seeded mutation parses or raises a VisMobileError
+    (SelectionError, SchedulerError); nothing else escapes."""
     import random
     import sys
 
@@ -177,19 +179,21 @@ def test_structure_lists_parse_or_are_refused_in_one_line(tmp_path):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
     import fuzz
 
-    path = tmp_path / "structures.txt"
-    for seed in fuzz.SELECTION_TEXTS:
+    texts = {"selection": fuzz.SELECTION_TEXTS, "scheduler": fuzz.SCHEDULER_TEXTS}[target]
+    load = fuzz.ENTRY[target][0]
+    path = tmp_path / "case.txt"
+    for seed in texts:
         path.write_bytes(seed)
-        fuzz.load_selection(path)
+        load(path)
     refused = 0
     for case in range(200):
-        pick = random.Random(f"selection:{case}").randrange
-        data = fuzz.SELECTION_TEXTS[pick(len(fuzz.SELECTION_TEXTS))]
+        pick = random.Random(f"{target}:{case}").randrange
+        data = texts[pick(len(texts))]
         for _ in range(1 + pick(3)):
             data = fuzz.mutate_bytes(data, pick)
         path.write_bytes(data)
         try:
-            fuzz.load_selection(path)
+            load(path)
         except VisMobileError:
             refused += 1
     assert 0 < refused < 200  # the mutations reach both outcomes

@@ -1,6 +1,7 @@
 """Fuzz the readers of outside input: OBJ worlds, .vmp partition files (with level-of-detail
 chains too) and trajectory CSVs (issue 11); textured GLB and OBJ+MTL scenes (issue 27); compare's --cull
-lists (issue 31); compare's and tune's --structures lists with baked PVS labels (issue 29); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
+lists (issue 31); compare's and tune's --structures lists with baked PVS labels and the --scheduler
+address of compare and partition (issue 29); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
 heightmaps (issue 28). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
@@ -17,10 +18,10 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,ply,stl,off,gz,vmt,npy]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,npy]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
-  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection [-max_total_time=600 ...]
+  .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
 Prints one line per target: cases, loaded, clean errors, failures (with the first failures'
 tracebacks and the seed that reproduces each).
 """
@@ -78,6 +79,7 @@ def seeds(folder: Path) -> dict:
             "cull": [b"vfc+bfc;vfc+occlusion", b"thesis,ours", b"vfc,bfc",
                      b"vfc+cbfc+tbfc none; portals+vfc"],
             "structure": STRUCTURE_TEXTS, "selection": SELECTION_TEXTS,
+            "scheduler": SCHEDULER_TEXTS,
             **format_seeds(world, folder, [textured_glb()])}
 
 
@@ -260,6 +262,18 @@ def load_selection(path):
         assert set(params) <= {"auto", "depth", "pvs"}, params
 
 
+# --scheduler values (partition's PVS bake, compare's runs), checked before anything connects.
+SCHEDULER_TEXTS = [b"dask", b"tcp://127.0.0.1:8786", b"scheduler.local:8786"]
+
+
+def load_scheduler(path):
+    """A --scheduler value: accepted as an address (nothing connects) or SchedulerError."""
+    from vismobile.study.distributed import scheduler_address
+
+    text = path.read_bytes()[:1024].decode("utf-8", errors="replace")
+    assert scheduler_address(text) == text.strip()
+
+
 def load_cull_list(path):
     """compare's --cull text (issue 31's grammar: + joins stages, ';' or ',' separates
     combinations): parsed, and the ambiguity note computed."""
@@ -377,7 +391,7 @@ def load_heightmap(path):
 ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "trajectory": (load_trajectory, ".csv"), "glb": (load_textured, ".glb"),
          "cull": (load_cull_list, ".txt"), "structure": (load_structure, ".txt"),
-         "selection": (load_selection, ".txt"),
+         "selection": (load_selection, ".txt"), "scheduler": (load_scheduler, ".txt"),
          "ply": (load_mesh, ".ply"),
          "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
          "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
@@ -493,7 +507,7 @@ def main(argv=None):
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
     parser.add_argument("--target",
-                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,ply,stl,off,gz,vmt,npy")
+                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,npy")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

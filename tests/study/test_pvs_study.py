@@ -103,10 +103,52 @@ def test_compare_runs_a_bake_and_the_report_answers_bake_or_cull(tmp_path, world
     context = Context("/", tmp_path / "out", tmp_path / "worlds", tmp_path / "cache")
     specs = expand(str(world_file), "portal:1,portal:1+pvs", "vfc+tbfc", frames="sample:3",
                    trajectories={str(world_file): trajectory_file})
-    records = run_matrix(specs, context, processes=1, progress=False)
+    records = run_matrix(specs, context, processes=2, progress=False)  # the bake spread
     baked = [r for r in records if r["spec"]["structure"] == "portal:1+pvs"]
     assert len(baked) == 1 and baked[0]["summary"]["pvs"]["bytes"] > 0
     assert baked[0]["summary"]["conservative"]
     page = write_report(records, tmp_path / "r.html").read_text()
     assert "Bake or cull at run time?" in page and "Bake a PVS or cull at run time?" in page
     assert page.count("class='verdict'") == 2  # one per device model
+
+
+def test_partition_bakes_over_dask_as_it_bakes_alone(tmp_path, world_file, world, capsys):
+    pytest.importorskip("dask.distributed")
+    from vismobile.app.cli import main as cli
+    from vismobile.partition import load_partition, partition
+
+    out = tmp_path / "p.vmp"
+    rc = cli(["partition", str(world_file), "--structure", "portal:1,pvs=conservative",
+              "--scheduler", "dask", "--jobs", "2", "-o", str(out)])
+    assert rc == 0 and "pvs         conservative" in capsys.readouterr().out
+    alone = partition(world, "portal", depth=1, pvs="conservative")
+    spread = load_partition(out)
+    for name in ("pvs_cells", "pvs_start", "pvs_runs"):
+        assert np.array_equal(spread.extras[name], alone.extras[name]), name
+
+
+@pytest.mark.parametrize("args", [["--structure", "portal:1,pvs=conservative", "--scheduler",
+                                   "tcp://nowhere:99999"],
+                                  ["--structure", "portal:1,pvs=conservative", "--scheduler",
+                                   "dask; rm"],
+                                  ["--structure", "portal:1", "--scheduler", "dask"]])
+def test_partition_refuses_a_bad_scheduler_in_one_line(tmp_path, world_file, capsys, args):
+    from vismobile.app.cli import main as cli
+
+    out = tmp_path / "p.vmp"
+    assert cli(["partition", str(world_file), *args, "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--scheduler" in err[0] and not out.exists()
+
+
+def test_compare_on_dask_bakes_on_the_cluster(tmp_path, world_file, trajectory_file):
+    pytest.importorskip("dask.distributed")
+    from vismobile.study.runner import Context, run_matrix
+
+    specs = expand(str(world_file), "portal:1+pvs", "vfc", frames="sample:2",
+                   trajectories={str(world_file): trajectory_file})
+    context = Context("/", tmp_path / "out", tmp_path / "worlds", tmp_path / "cache")
+    records = run_matrix(specs, context, processes=2, progress=False, scheduler="dask")
+    assert all("error" not in r for r in records), [r.get("error") for r in records]
+    assert records[0]["summary"]["pvs"]["cells"] > 0
+    assert records[0]["summary"]["conservative"]

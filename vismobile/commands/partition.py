@@ -32,7 +32,13 @@ def add_parser(sub):
     parser.add_argument("--seed", type=int, help="bsp: candidate sampling seed (default 0)")
     parser.add_argument("--jobs", type=int, default=1,
                         help="world directory: worker processes for the chunked octree build; "
-                             "pvs=conservative: processes for the bake (default 1)")
+                             "pvs=conservative: processes for the bake, or Dask workers with "
+                             "--scheduler dask (default 1)")
+    parser.add_argument("--scheduler", default=None,
+                        help="pvs=conservative: spread the bake over Dask, as compare spreads "
+                             "its runs: dask (a LocalCluster of --jobs worker processes) or "
+                             "the address of a running dask.distributed scheduler, "
+                             "tcp://host:8786")
     parser.add_argument("--fix-winding", action="store_true",
                         help=FIX_WINDING_HELP + "; the .vmp carries the fixed world")
     parser.add_argument("--lod", action="store_true",
@@ -94,23 +100,33 @@ def run(args) -> int:
             params[key] = value
         if kind == "grid" and "slabs" not in params:
             params["auto"] = True
-        sampled = str(params.get("pvs", "")).startswith("sampled")
-        samples = _samples(params.pop("pvs")) if sampled else 0
-        spread = params.get("pvs") == "conservative" and args.jobs > 1
-        mode = params.pop("pvs") if spread else None
+        mode = params.pop("pvs", None)
+        if mode is not None and str(mode).startswith("sampled"):
+            mode = f"sampled:{_samples(mode)}"
+        if args.scheduler is not None:
+            from ..study.distributed import scheduler_address
+
+            scheduler_address(args.scheduler)  # refused before a long build, not after
+            if mode != "conservative":
+                raise ValueError("--scheduler spreads the pvs=conservative bake; this "
+                                 "structure bakes none (add ,pvs=conservative)")
         bar = Progress(f"{kind} {args.world.name}")
         from ..timing import fresh_compiles
 
         compiled = fresh_compiles()
         start = time.perf_counter()
         try:
+            if mode is not None:
+                from ..partition.pvs import MODES
+
+                if mode not in MODES and not str(mode).startswith("sampled:"):
+                    raise ValueError(f"unknown pvs mode {mode!r}; valid: "
+                                     f"{', '.join(MODES)}, sampled:N")
             result = partition(world, kind, progress=bar, **params)
         finally:
             bar.close()
-        if sampled:
-            result = _bake_sampled(result, samples, args.world.name)
-        if spread:
-            result = _bake_spread(result, mode, args.jobs, args.world.name)
+        if mode is not None:
+            result, bake = _bake(result, mode, args, args.world.name)
     except ValueError as error:
         raise PartitionError(f"{args.world}: {error}") from None
     elapsed = time.perf_counter() - start
@@ -137,6 +153,10 @@ def run(args) -> int:
     print(f"refs/tri    {stats['refs_per_triangle']:.3f}")
     print(f"file        {args.out} {size / 1024:,.1f} KB "
           f"({size / args.world.stat().st_size:.2f} x the {_input_kind(args.world)})")
+    if mode is not None:
+        print(f"pvs         {mode}: {bake['cells']:,} view cells, bake {bake['seconds']:.1f} s, "
+              f"{bake['bytes'] / 1024:,.1f} KB ({bake['bytes'] / args.world.stat().st_size:.2f} "
+              f"x the {_input_kind(args.world)}), mean set {bake['mean_set']:.1%} of the world")
     return 0
 
 
@@ -148,35 +168,30 @@ def _samples(text) -> int:
     return int(count)
 
 
-def _bake_spread(result, mode, jobs, name):
-    """The partition with the conservative PVS baked over `jobs` processes (partition/pvs.py)."""
-    from ..partition.pvs import bake
+def _bake(result, mode, args, name) -> tuple:
+    """(the partition with its PVS baked, bake statistics) through study.engine.bake_pvs, the
+    bake path compare and tune use: over --jobs processes, or over Dask with --scheduler (the
+    cluster compare's runs use, study/distributed.py); a progress line per source cell chunk."""
     from ..progress import Progress
+    from ..study.engine import bake_pvs
 
-    bar = Progress(f"pvs {mode} {name} ({jobs} jobs)")
+    where = (f"dask {args.scheduler}" if args.scheduler else
+             f"{args.jobs} jobs" if args.jobs > 1 and mode == "conservative" else "1 job")
+    bar = Progress(f"pvs {mode} {name} ({where})")
+    client = cluster = None
     try:
-        extras, _ = bake(result, mode, progress=bar, jobs=jobs)
+        if args.scheduler is not None:
+            from ..study.distributed import open_client, quiet_dask_logs
+
+            quiet_dask_logs()
+            client, cluster = open_client(args.scheduler, max(1, args.jobs))
+        return bake_pvs(result, mode, progress=bar, jobs=max(1, args.jobs), executor=client)
     finally:
         bar.close()
-    result.extras.update(extras)
-    result.params["pvs"] = mode
-    return result
-
-
-def _bake_sampled(result, samples, name):
-    """The partition with a sampled PVS (render/pvs_sampled.py), a progress bar per cell."""
-    from ..device.profile import get_profile
-    from ..progress import Progress
-    from ..render.pvs_sampled import bake_sampled
-
-    bar = Progress(f"pvs sampled:{samples} {name}")
-    try:
-        extras, _ = bake_sampled(result, samples, get_profile("desktop"), progress=bar)
-    finally:
-        bar.close()
-    result.extras.update(extras)
-    result.params["pvs"] = f"sampled:{samples}"
-    return result
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def run_out_of_core(args) -> int:
@@ -187,6 +202,9 @@ def run_out_of_core(args) -> int:
     if args.fix_winding:
         raise PartitionError(f"{args.world}: --fix-winding needs a mesh file, not a world "
                              "directory")
+    if args.scheduler is not None:
+        raise PartitionError(f"{args.world}: --scheduler spreads a PVS bake; a world directory "
+                             "is partitioned out of core over --jobs processes")
     from ..partition.external import build_octree_file
     from ..partition.spec import parse_spec
 

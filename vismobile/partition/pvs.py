@@ -33,6 +33,7 @@ from . import pvs_kernels
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
 
 MODES = ("conservative",)
+EXECUTOR_CHUNKS = 32  # source-cell chunks handed to a given executor (a progress step each)
 BUDGET = 200_000  # cell walks per source cell before it keeps every connected cell
 GROW_RELATIVE, GROW_ABSOLUTE = 2.0 ** -20, 2.0 ** -16  # a device move (culling/precision.py)
 TOLERANCE = 1e-9  # relative to the world's size: plane sides within it count as on it
@@ -133,9 +134,9 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     cells, default as the portal structure's), so the structure's kind does not matter.
     progress : optional callable(done, total) per source cell
     jobs     : processes (>1: source cells split over a process pool)
-    executor : optional pool with submit(fn, *args) -> future with result() (a Dask Client:
-               the source cells split in 4 x jobs chunks over its workers, world and view grid
-               scattered once), used instead of the process pool
+    executor : optional pool with submit(fn, *args) -> future with result(), used instead of
+               a process pool of `jobs`: the source cells split in EXECUTOR_CHUNKS chunks (a
+               Dask Client: world and view grid scattered to its workers once)
     returns  : (extras dict, stats dict: seconds, cells, overflowed cells, walks)
     """
     from .pvs_cells import view_grid
@@ -153,7 +154,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     if executor is not None or (jobs > 1 and count > 1):
         from concurrent.futures import ProcessPoolExecutor
 
-        chunks = np.array_split(sources, max(1, min(count, 4 * max(jobs, 1))))
+        parts = 4 * max(jobs, 1) if executor is None else EXECUTOR_CHUNKS
+        chunks = np.array_split(sources, max(1, min(count, parts)))
         pool = executor or ProcessPoolExecutor(jobs)
         shared = (pool.scatter([world, g], broadcast=True) if hasattr(pool, "scatter")
                   else (world, g))

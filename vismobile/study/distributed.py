@@ -15,6 +15,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 from pathlib import Path
 
 from ..errors import VisMobileError
@@ -58,6 +59,20 @@ def quiet_dask_logs() -> None:
 def _worker_env() -> dict:
     """Environment of each LocalCluster worker: one llvmpipe thread, one BLAS thread."""
     return {"LP_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
+ADDRESS = re.compile(r"(?:tcp://)?[A-Za-z0-9](?:[A-Za-z0-9.-]{0,252})?:([0-9]{1,5})")
+
+
+def scheduler_address(text: str) -> str:
+    """A --scheduler value checked before anything connects: "dask" or a scheduler address
+    (tcp://host:port or host:port, port 1..65535); SchedulerError naming it otherwise."""
+    text = str(text).strip()
+    match = ADDRESS.fullmatch(text)
+    if text == "dask" or (match and 1 <= int(match[1]) <= 65535):
+        return text
+    raise SchedulerError(f"--scheduler {text[:60]!r}: expected dask or a Dask scheduler's "
+                         "address, tcp://host:port")
 
 
 def open_client(scheduler: str, workers: int | None, timeout: str = "15s"):
@@ -117,7 +132,7 @@ def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None) -
     """
     from dask.distributed import as_completed
 
-    from .tasks import prep_key
+    from .tasks import bake_first, prep_key
 
     quiet_dask_logs()  # a killed worker's tracebacks: one line each
     if hasattr(scheduler, "submit"):
@@ -131,6 +146,11 @@ def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None) -
             name = hashlib.sha1(repr(prep_key(task)).encode()).hexdigest()[:16]
             ready[prep_key(task)] = client.submit(_prepare, task, key=f"prepare-{name}",
                                                   priority=len(tasks) + 1)
+        # Conservative PVS bakes: from here, their source cells as tasks of this cluster (the
+        # prepare tasks of their structures then find them cached). Not from inside a task: a
+        # task that secedes to wait leaves the worker a second thread, and a GL context is
+        # the thread's that made it.
+        bake_first(prep, client)
         futures = {}
         for index, task in enumerate(tasks):
             spec = task[0]

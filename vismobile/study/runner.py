@@ -21,8 +21,8 @@ from ..progress import Progress
 from ..world.world import atomic_write_bytes
 from . import engine
 from .matrix import RunSpec
-from .tasks import (MODEL_COLUMNS, Context, _execute_task, _worker_init, prepare, result_path,
-                    salts)
+from .tasks import (MODEL_COLUMNS, Context, _execute_task, _worker_init, bake_first, prepare,
+                    result_path, salts)
 
 
 def _finished(specs, context: Context) -> tuple:
@@ -119,6 +119,10 @@ def run_matrix(specs, context: Context, processes: int | None = None,
                 records[key] = record
                 bar.step()
         else:
+            from concurrent.futures import ProcessPoolExecutor
+
+            with ProcessPoolExecutor(processes, multiprocessing.get_context("spawn")) as bakers:
+                bake_first(prep, bakers)  # PVS bakes spread over the workers, cached
             with multiprocessing.get_context("spawn").Pool(processes, _worker_init) as pool:
                 for _ in pool.imap_unordered(prepare, prep):
                     bar.step()

@@ -108,6 +108,23 @@ def prep_key(task) -> tuple:
     return what, spec.world, spec.trajectory, spec.profile, spec.frames, spec.truth_cull_back
 
 
+def bake_first(prep, executor) -> int:
+    """Bake the conservative PVS of every structure among prepare tasks, in this process with
+    its source cells spread over `executor` (a Dask Client, or a process pool: the runner's
+    workers), so the prepare tasks find them cached; returns how many were baked or found."""
+    from .matrix import pvs_of
+
+    done = 0
+    for what, spec, context_tuple in prep:
+        if what != "structure" or pvs_of(spec.structure) != "conservative":
+            continue
+        context = Context.from_tuple(context_tuple)
+        world = engine.load_world(spec.world, context.worlds_dir)
+        engine.load_structure(world, spec.structure, context.cache_dir, executor)
+        done += 1
+    return done
+
+
 def prepare(task) -> str:
     """Worker task: build one partition or one ground truth so runs find them cached."""
     what, spec, context_tuple = task
