@@ -42,6 +42,11 @@ class Renderer:
         self.profile = profile
         self.buffers = world_buffers(world, profile)
 
+    def move(self, triangles, corners) -> int:
+        """Moved triangles (ids (n,), corners (n, 3, 3)) drawn where they stand from now on
+        (WorldBuffers.move); the world's other triangles stay as uploaded. Returns writes."""
+        return self.buffers.move(triangles, corners)
+
     def draw(self, triangles, camera, cull_back=False, kind="shaded",
              clear: bool = True) -> DrawStats:
         """Draw triangles (sorted unique ids) into the "shaded" (RGB) or "item" (ids) target;

@@ -5,6 +5,7 @@ import weakref
 
 import numpy as np
 
+from ..device.profile import to_fixed
 from .batches import batch_count, batch_indices
 from .context import gl_context
 from .shaders import sources
@@ -39,6 +40,9 @@ class WorldBuffers:
         self.format = vertex_format(profile)
         self.vertex_format = profile.vertex_format
         records = vertex_records(world, profile)  # raises ProfileError before any upload
+        self.profile = profile
+        self._record_dtype = records.dtype
+        self._colors = records["color"][::3].copy()  # (T, 4) uint8, for move()
         self.batches = batch_count(self.triangle_count, self.batch_triangles)
         step = 3 * self.batch_triangles
         self.vbos = [ctx.buffer(records[b * step:(b + 1) * step].tobytes())
@@ -64,6 +68,35 @@ class WorldBuffers:
                                              "in_color")], index_buffer=self.ibo,
                                      index_element_size=2) for vbo in self.vbos]
         return self._arrays[kind]
+
+    def move(self, triangles, corners) -> int:
+        """Rewrite the records of moved triangles (issue 25: a posed world's moving objects):
+        ids (n,) int64 sorted, corners (n, 3, 3) float64 where they stand now. Positions in
+        the profile's vertex format, face normals (a moving triangle is shaded flat), colours
+        kept. One buffer write per run of consecutive ids within a batch; returns the writes.
+        Cost: O(n), never the world."""
+        ids = np.asarray(triangles, dtype=np.int64).ravel()
+        if not len(ids):
+            return 0
+        corners = np.asarray(corners, dtype=np.float64).reshape(-1, 3, 3)
+        fixed = self._record_dtype["position"].base == np.int32
+        records = np.empty(3 * len(ids), dtype=self._record_dtype)
+        records["position"] = self.profile.vertex_positions(corners.reshape(-1, 3),
+                                                            f"world {self.world_name!r}")
+        cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        length = np.linalg.norm(cross, axis=1, keepdims=True)
+        normals = np.repeat(np.where(length > 0, cross / np.where(length > 0, length, 1), 0),
+                            3, axis=0)
+        records["normal"] = to_fixed(normals) if fixed else normals
+        records["color"] = np.repeat(self._colors[ids], 3, axis=0)
+        batch = ids // self.batch_triangles
+        breaks = np.flatnonzero((np.diff(ids) != 1) | (np.diff(batch) != 0)) + 1
+        starts, ends = np.r_[0, breaks], np.r_[breaks, len(ids)]
+        size = self._record_dtype.itemsize
+        for a, b in zip(starts, ends):
+            local = int(ids[a] - batch[a] * self.batch_triangles)
+            self.vbos[batch[a]].write(records[3 * a:3 * b].tobytes(), offset=3 * local * size)
+        return len(starts)
 
     def upload_indices(self, triangles) -> np.ndarray:
         """Write this frame's uint16 indices; returns (nb + 1,) triangle starts per batch."""
