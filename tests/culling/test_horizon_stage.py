@@ -92,7 +92,7 @@ def test_a_box_behind_a_wall_is_hidden_and_one_beside_it_is_not():
     # From inside the wall, or under the ground, nothing is hidden.
     for eye in ((0.0, 1.7, -11.0), (0.0, -1.0, 0.0), (0.0, -0.5, 20.0)):  # in, under, beyond
         inside = culler.cull(Camera(eye, yaw=0.0, pitch=0.0, aspect=0.75))
-        assert inside.stats.get("horizon.triangles_culled", 0) == 0
+        assert inside.stats.get("horizon.triangles_culled", 0) == 0  # off screen aside
 
 
 def test_a_free_standing_box_hides_only_above_its_base():
@@ -177,3 +177,20 @@ def test_the_device_model_prices_the_horizon(kit):
     plain = Culler(part, "vfc,tbfc").cull(cam).stats
     assert stats["horizon.pieces"] > 0 and stats["horizon.triangles_tested"] > 0
     assert cull_cycles(stats, 50.0) > cull_cycles(plain, 50.0) + 60 * stats["horizon.pieces"] - 1
+
+
+def test_triangles_wholly_off_screen_are_dropped(kit):
+    # The kd-tree's straddling leaves hand on triangles outside the frustum; the stage's
+    # triangle test drops those (all three corners outside one plane), and only those besides
+    # the ones behind the horizon.
+    world, part = kit.world("w5"), kit.structure("w5", "kdtree")
+    cam = Camera((70.0, 1.7, 250.0), yaw=0.0, pitch=0.0, aspect=kit.ASPECT)
+    planes = np.asarray(cam.frustum_planes())
+    distance = world.corners @ planes[:, :3].T + planes[:, 3]
+    off = (distance < 0).all(axis=1).any(axis=1)
+    plain = Culler(part, "vfc").cull(cam).triangles
+    result = Culler(part, "vfc,horizon").cull(cam)
+    assert off[plain].sum() > 0
+    assert not off[result.triangles].any()
+    assert 0 < result.stats["horizon.triangles_off_screen"] <= off[plain].sum()  # nodes first
+    assert not len(np.setdiff1d(kit.visible_ids(world, cam, False), result.triangles))

@@ -112,7 +112,7 @@ def design(rows, names) -> np.ndarray:
 #   portals.portals_tested   : 80 float, 40 int  (project 4 corners, clip the screen rect)
 #   portals.cells_visited    : 0 float, 40 int
 #   cone.clusters_tested     : 8 float, 10 int   (cone axis dot view vector, compare)
-#   horizon.pieces           : 0 float, 60 int   (one band x slice of the cast: 4 corners of
+#   horizon.pieces           : 0 float, 60 int   (one band x slice cast: 4 corners of
 #                                                 the piece, a min-pyramid read of 1-4 cells)
 #   horizon.nodes_tested     : 0 float, 120 int  (8 corners to slopes, bands compared)
 #   horizon.triangles_tested : 0 float, 200 int  (3 corners grown by the margin, bands compared)
@@ -123,7 +123,7 @@ def design(rows, names) -> np.ndarray:
 #   pvs.triangles_tested     : 0 float, 4 int    (one keep-table byte per gathered triangle)
 #   (the bake itself is offline: it costs no frame, only memory, Profile.estimate_memory)
 #   (the horizon priced as its 16.16 kernels, integer multiply-high and divide, as seed 001 ran
-#   it on FPU-less devices; horizon.pieces counts bands x slices, before the early stops)
+#   it on FPU-less devices; horizon.pieces counts the pieces cast, up to the early stops)
 # The thesis gives no cull timings of its own, so these are estimates, not fits: they make
 # culling 0.2-3% of a modelled iPaq frame, consistent with its time-triangle correlations of
 # +0.87..+0.98 (frame time is almost all rendering).

@@ -48,23 +48,28 @@ from numba import njit
 
 from .horizon_mips import (_highest_in, _lowest_in, cell_gradients,  # noqa: F401
                            max_mip, max_mip_cells, min_mip, pack)
+from .horizon_bands import level_bands, no_stops, stops_raw  # noqa: F401
 
 
 @njit(cache=True)
 def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon,
-          high_flat, zclip, ceiling, bflat, bases, top):
+          high_flat, zclip, ceiling, bflat, bases, top, stop_high, stop_low):
     """horizon[b, k]: running max over slices <= k wholly beyond zclip of the lowest slope in
     band b, slice k; ceiling[b] (in: the bound before the first slice) raised to the highest
     ground slope over the slices starting before zclip. Solids with a bottom (bflat: min-mip
     of the negated per-cell bases; empty for a ground): bases[b, k] the highest base slope of
     the piece that set horizon[b, k], which a hidden ray must beat too. top: the highest solid
-    anywhere (+inf: unknown); a band whose horizon beats every later slope stops early (its
-    later values stay, a lower bound of the full cast's)."""
+    anywhere (+inf: unknown). A band stops early (its later values stay, a lower bound of the
+    full cast's, so any stop is safe) once its horizon beats every later solid slope or
+    stop_high[b] (the frustum's highest slope in the band: all it shows beyond is hidden), or
+    once every later solid slope is below stop_low[b] (the frustum's lowest: nothing more
+    can be hidden); +inf / -inf: no such stop. Returns the pieces cast (before the stops)."""
     bands = tans.shape[0] - 1
     slices = depths.shape[0] - 1
     cells = sizes[0]
     bottoms = bflat.shape[0] > 0
     rise_top = top - eye[1]
+    cast = 0
     for b in range(bands):
         best = -np.inf
         bbest = -np.inf
@@ -72,13 +77,14 @@ def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lowe
             if bottoms:
                 bases[b, k] = bbest
             z0, z1 = depths[k], depths[k + 1]
-            if z0 >= zclip and best >= (rise_top / z0 if rise_top > 0 else
-                                        rise_top / depths[slices]):
+            later = rise_top / z0 if rise_top > 0 else rise_top / depths[slices]
+            if z0 >= zclip and (best >= later or best >= stop_high[b] or later < stop_low[b]):
                 for rest in range(k, slices):
                     horizon[b, rest] = best
                     if bottoms:
                         bases[b, rest] = bbest
                 break
+            cast += 1
             # World bbox of the slice's piece of the band (a quadrilateral).
             xmin, xmax, wmin, wmax = np.inf, -np.inf, np.inf, -np.inf
             for z in (z0, z1):
@@ -120,6 +126,7 @@ def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lowe
                     best, bbest = slope, bslope
                     bases[b, k] = bbest
             horizon[b, k] = best
+    return cast
 
 
 # A ground goes down without end: no bottoms to pass above.
@@ -155,6 +162,7 @@ class Horizon:
     bases: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
     clamp: bool = False
+    pieces: int = -1  # bands x slices the cast read (-1: not counted)
 
     @classmethod
     def nothing(cls, eye) -> "Horizon":
@@ -175,29 +183,6 @@ class Horizon:
         points = np.asarray(points, dtype=np.float64) - self.origin
         return _hidden(points, self.eye, self.forward, self.right, self.tans, self.depths,
                        self.values, self.ceiling, self.bases, self.clamp, float(grow))
-
-
-def level_bands(camera, bands: int):
-    """The level camera's axes and its horizontal bands.
-
-    Returns forward, right : (3,) float64 (y = 0, from the yaw); tans : (bands+1,) float64,
-    the band edges as tan of the horizontal angle, spanning the frustum's corner directions
-    with 1% to spare (+-4 when a corner looks sideways or back); deepest : float, the largest
-    level depth of a frustum corner direction at unit view depth; and clamp : bool, True when
-    every corner is in front of the eye, so the bands hold every frustum ray."""
-    yaw = np.radians(camera.yaw)
-    forward = np.array([-np.sin(yaw), 0.0, -np.cos(yaw)])
-    right = np.array([np.cos(yaw), 0.0, -np.sin(yaw)])
-    r, u, f = camera.basis()
-    ty = np.tan(np.radians(camera.fov) / 2)
-    tx = ty * camera.aspect
-    corners = np.array([f + sx * tx * r + sy * ty * u for sx in (-1, 1) for sy in (-1, 1)])
-    depth = corners @ forward
-    lateral = corners @ right
-    ok = depth > 1e-6
-    span = np.abs(lateral[ok] / depth[ok]).max() * 1.01 if ok.all() else 4.0
-    return (forward, right, np.linspace(-span, span, bands + 1), float(depth.max()),
-            bool(ok.all()))
 
 
 def box_corners(boxes) -> np.ndarray:
@@ -277,11 +262,12 @@ def _fdiv_ceil(a, b):
 
 @njit(cache=True)
 def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lower, horizon,
-                high_flat, zclip, ceiling, bflat, bases, top):
+                high_flat, zclip, ceiling, bflat, bases, top, stop_high, stop_low):
     """_cast in 16.16 raw integers: horizon[b, k] a lower bound of every drawn ground slope in
     band b up to slice k (-SLOPE_LIMIT - 1: nothing yet), ceiling[b] an upper bound of the
     ground slopes before zclip (SLOPE_LIMIT: everything), bases[b, k] an upper bound of the
-    base slopes of the piece that set horizon[b, k] (bflat: raw floored negated bases)."""
+    base slopes of the piece that set horizon[b, k] (bflat: raw floored negated bases);
+    stop_high, stop_low as _cast's, raw."""
     bands = tans.shape[0] - 1
     slices = depths.shape[0] - 1
     cells = sizes[0]
@@ -289,6 +275,7 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
     tmax = max(abs(tans[0]), abs(tans[bands]))
     bottoms = bflat.shape[0] > 0
     rise_top = top - eye[1]
+    cast = 0
     for b in range(bands):
         best = nothing
         bbest = nothing
@@ -296,13 +283,15 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
             if bottoms:
                 bases[b, k] = bbest
             z0, z1 = depths[k], depths[k + 1]
-            if z0 >= zclip and best >= (_fdiv_ceil(rise_top, z0) if rise_top > 0 else
-                                        _fdiv_ceil(rise_top, depths[slices])):
+            later = (_fdiv_ceil(rise_top, z0) if rise_top > 0 else
+                     _fdiv_ceil(rise_top, depths[slices]))
+            if z0 >= zclip and (best >= later or best >= stop_high[b] or later < stop_low[b]):
                 for rest in range(k, slices):
                     horizon[b, rest] = best
                     if bottoms:
                         bases[b, rest] = bbest
                 break
+            cast += 1
             xmin, xmax, wmin, wmax = 1 << 60, -(1 << 60), 1 << 60, -(1 << 60)
             for z in (z0, z1):
                 for t in (tans[b], tans[b + 1]):
@@ -351,6 +340,7 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
                     best, bbest = slope, bslope
                     bases[b, k] = bbest
             horizon[b, k] = best
+    return cast
 
 
 @njit(cache=True)
@@ -414,6 +404,7 @@ class FixedHorizon:
     bases: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.int64))
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
     clamp: bool = False
+    pieces: int = -1  # bands x slices the cast read (-1: not counted)
 
     def hidden(self, boxes) -> np.ndarray:
         """(K,) bool: box (K, 2, 3) entirely hidden by the ground (errs visible; boxes beyond
@@ -501,7 +492,7 @@ class HorizonCaster:
         values = np.empty((self.bands, count))
         _cast(self.flat, self.offsets, self.sizes, self.heightmap.spacing, eye, forward, right,
               tans, depths, float(lower), values, self.high_flat, zclip, ceiling, NO_BOTTOMS,
-              NO_BASES, np.inf)
+              NO_BASES, np.inf, *no_stops(self.bands))
         return Horizon(eye, forward, right, tans, depths, values, ceiling)
 
     def _first_ceiling(self, eye, zclip, first, span, lower) -> float:
@@ -552,6 +543,7 @@ class HorizonCaster:
         zclip_raw = int(np.ceil(zclip * ONE)) + 2
         _cast_fixed(self.flat_raw, self.offsets, self.sizes, spacing_raw, raw[0], raw[1],
                     raw[2], tans_raw, depths_raw, lower_raw, values, self.high_flat_raw,
-                    zclip_raw, ceiling, NO_BOTTOMS_RAW, NO_BASES_RAW, 1 << 40)
+                    zclip_raw, ceiling, NO_BOTTOMS_RAW, NO_BASES_RAW, 1 << 40,
+                    *stops_raw(*no_stops(len(tans_raw) - 1)))
         return FixedHorizon(raw[0], raw[1], raw[2], tans_raw, depths_raw, values, ceiling,
                             FIXED_LIMIT)

@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from .horizon import (NO_BASES, NO_BASES_RAW, ONE, SLOPE_LIMIT, FixedHorizon, Horizon, _cast,
-                      _cast_fixed, level_bands)
+                      _cast_fixed)
+from .horizon_bands import frustum_slopes, level_bands, stops_raw
 from .horizon_mips import _highest_in, pack
 
 NOTHING_RAW = -(1 << 60)  # raw "no solid" (below every 16.16 value)
@@ -115,15 +116,16 @@ class CellCaster:
         zclip = camera.near * float(deepest) * (1 + 1e-9)
         first = self._first_ceiling(local, min(zclip, near), span)
         if self.arithmetic == "fixed16.16":
-            return self._cast_fixed(local, forward, right, tans, depths, zclip, first,
+            return self._cast_fixed(camera, local, forward, right, tans, depths, zclip, first,
                                     clamp)
         values = np.empty((self.bands, count))
         bases = np.empty((self.bands, count)) if len(self.bflat) else NO_BASES
         ceiling = np.full(self.bands, first)
-        _cast(self.flat, self.offsets, self.sizes, self.spacing, local, forward, right, tans,
-              depths, 0.0, values, self.high_flat, zclip, ceiling, self.bflat, bases, self.top)
+        pieces = _cast(self.flat, self.offsets, self.sizes, self.spacing, local, forward, right,
+                       tans, depths, 0.0, values, self.high_flat, zclip, ceiling, self.bflat,
+                       bases, self.top, *frustum_slopes(camera, forward, right, tans))
         return Horizon(local, forward, right, tans, depths, values, ceiling, bases, self.origin,
-                       clamp)
+                       clamp, pieces)
 
     def slices(self, near: float, far: float) -> np.ndarray:
         """Slice boundaries from near to far: one cell thick while step z is thinner (finer
@@ -150,7 +152,7 @@ class CellCaster:
             return -np.inf
         return rise / z1 if rise < 0 else np.inf
 
-    def _cast_fixed(self, local, forward, right, tans, depths, zclip, first,
+    def _cast_fixed(self, camera, local, forward, right, tans, depths, zclip, first,
                     clamp) -> FixedHorizon:
         from ..device.profile import FIXED_LIMIT, to_fixed
 
@@ -169,9 +171,11 @@ class CellCaster:
             start = SLOPE_LIMIT if not first < 0 else -SLOPE_LIMIT - 1
         ceiling = np.full(shape[0], start, np.int64)
         bflat = self.bflat_raw if len(self.bflat) else np.zeros(0, np.int64)
-        _cast_fixed(self.flat_raw, self.offsets, self.sizes, int(round(self.spacing * ONE)),
-                    raw[0], raw[1], raw[2], tans_raw, depths_raw, 0, values,
-                    self.high_flat_raw, int(np.ceil(zclip * ONE)) + 2, ceiling, bflat, bases,
-                    int(self.high_flat_raw[-1]) if np.isfinite(self.top) else 1 << 40)
+        pieces = _cast_fixed(
+            self.flat_raw, self.offsets, self.sizes, int(round(self.spacing * ONE)), raw[0],
+            raw[1], raw[2], tans_raw, depths_raw, 0, values, self.high_flat_raw,
+            int(np.ceil(zclip * ONE)) + 2, ceiling, bflat, bases,
+            int(self.high_flat_raw[-1]) if np.isfinite(self.top) else 1 << 40,
+            *stops_raw(*frustum_slopes(camera, forward, right, tans_raw / ONE)))
         return FixedHorizon(raw[0], raw[1], raw[2], tans_raw, depths_raw, values, ceiling,
-                            FIXED_LIMIT, bases, self.origin, clamp)
+                            FIXED_LIMIT, bases, self.origin, clamp, pieces)
