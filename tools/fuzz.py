@@ -2,7 +2,8 @@
 chains too) and trajectory CSVs (issue 11); textured GLB and OBJ+MTL scenes (issue 27); compare's --cull
 lists (issue 31); compare's and tune's --structures lists with baked PVS labels and the --scheduler
 address of compare and partition (issue 29); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
-heightmaps (issue 28). Every input must load or end in a VisMobileError (one clean line from
+heightmaps (issue 28); .vmt terrains as `play` runs them (vmtplay: LOD, objects culled, a frame;
+issue 30). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
 Three modes:
@@ -18,7 +19,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,npy]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
@@ -119,6 +120,7 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
             "objmtl": [TEXTURED_OBJ],
             "glb": [*glbs, hostile.glb(doc, binary), hostile.glb(two, binary)],
             "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes()],
+            "vmtplay": [(folder / "seed.vmt").read_bytes()],
             "npy": arrays}
 
 
@@ -382,6 +384,15 @@ def load_vmt(path):
     load_world(path)  # the terrain's ground and objects as a World
 
 
+def load_vmt_play(path):
+    """A .vmt as `play` runs it (issue 30): its LOD method (ROAM), its objects partitioned and
+    culled by vfc+horizon over the heightmap, one frame drawn."""
+    from vismobile.app.terrain_scene import TerrainScene, default_cameras
+
+    scene = TerrainScene(path, "roam", 1.0, ("vfc", "horizon"), "octree:2")
+    scene.frame(default_cameras(scene.heightmap, 1, scene.profile.aspect)[0])
+
+
 def load_heightmap(path):
     from vismobile.terrain.sources import load_file
 
@@ -395,6 +406,7 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "ply": (load_mesh, ".ply"),
          "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
          "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
+         "vmtplay": (load_vmt_play, ".vmt"),
          "npy": (load_heightmap, ".npy"), "objmtl": (load_textured_obj, ".obj")}
 
 
@@ -507,7 +519,7 @@ def main(argv=None):
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
     parser.add_argument("--target",
-                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,npy")
+                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

@@ -95,3 +95,15 @@ def test_play_help_mentions_terrains(capsys):
         main(["play", "--help"])
     text = capsys.readouterr().out
     assert ".vmt" in text and "--terrain-method" in text
+
+
+def test_bad_terrain_play_input_is_one_line_and_exit_2(terrain, tmp_path, capsys):
+    from tests.conftest import refuse
+
+    refuse(capsys, ["play", terrain, "--lod", "0", "-o", tmp_path / "a"], "--lod", "> 0")
+    refuse(capsys, ["play", terrain, "--gif", "-o", tmp_path / "b"], "--gif")
+    refuse(capsys, ["play", terrain, "--cull", "vfc+nope", "-o", tmp_path / "c"], "nope")
+    broken = tmp_path / "broken.vmt"
+    broken.write_bytes(terrain.read_bytes()[:200])
+    refuse(capsys, ["play", broken, "-o", tmp_path / "d"], "broken.vmt")
+    assert not any((tmp_path / n).exists() for n in "abcd")  # no partial output

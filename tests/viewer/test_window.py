@@ -70,3 +70,16 @@ def test_bad_script_exits_2(capsys):
 
     assert main(["view", "w1", "--script", "UP*x"]) == 2
     assert "--script" in capsys.readouterr().err
+
+
+@needs_xvfb
+def test_window_flies_through_a_terrain(tmp_path):
+    from vismobile.terrain import sources, store
+
+    store.save(tmp_path / "t.vmt", sources.diamond_square(65, seed=2))
+    shot = tmp_path / "shot.png"
+    result = view(["t.vmt", "--terrain-method", "roam", "--script", "UP*4,T,M,UP*2",
+                   "--screenshot", str(shot)], tmp_path)
+    assert result.returncode == 0, result.stderr
+    hud = json.loads(shot.with_suffix(".json").read_text())["hud"]
+    assert hud[0].startswith("tiles at tau 2 px")  # M: roam -> tiles; T: 1 -> 2 px

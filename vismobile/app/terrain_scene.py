@@ -232,7 +232,8 @@ class TerrainScene:
         self.tau = tau
         self.method = method
         self.stages = tuple(stages)
-        self.lod = LODS[method](self.heightmap, self.profile)
+        self.lods = {method: LODS[method](self.heightmap, self.profile)}
+        self.lod = self.lods[method]
         self.objects = self.culler = self.object_renderer = None
         self.last = self.culled = None  # the last frame's selection and culled objects
         self.structure = "none"
@@ -260,6 +261,24 @@ class TerrainScene:
         self.culler = make_culler(Scene(objects, partition, self.structure), self.stages,
                                   self.profile)
         self.object_renderer = Renderer(objects, self.profile)
+        self.partition = partition
+
+    def set_method(self, method: str) -> None:
+        """Switch the LOD method (each built once, then kept with its frame-to-frame state)."""
+        if method not in LODS:
+            raise VisMobileError(f"terrain method {method!r}: one of {', '.join(METHODS)}")
+        if method not in self.lods:
+            self.lods[method] = LODS[method](self.heightmap, self.profile)
+        self.method, self.lod = method, self.lods[method]
+
+    def set_stages(self, stages) -> None:
+        """Cull the objects with these stages (VisMobileError when the partition cannot)."""
+        from .playback import Scene, make_culler
+
+        if self.objects is not None:
+            self.culler = make_culler(Scene(self.objects, self.partition, self.structure),
+                                      tuple(stages), self.profile)
+        self.stages = tuple(stages)
 
     def frame(self, camera) -> TerrainFrame:
         """Select, cull, draw (module doc); the camera should have the profile's aspect."""

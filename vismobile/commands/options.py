@@ -108,7 +108,8 @@ RANGES = {
         "--profiles": NOT_EMPTY, "--methods": NOT_EMPTY, "--taus": NOT_EMPTY,
         "--paths": NOT_EMPTY,
     },
-    "view": {"--scale": Range(1, 8), "--cull": NOT_EMPTY},
+    "view": {"--scale": Range(1, 8), "--cull": NOT_EMPTY,
+             "--lod": Range(0.0, 1e6, float, above=True)},
 }
 
 

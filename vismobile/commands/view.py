@@ -9,7 +9,8 @@ def add_parser(sub):
     parser = sub.add_parser(
         "view", help="open a window and fly through a world (joystick keys, stage toggles, "
                      "HUD, god view, trajectory recorder); F1 in the window lists the keys")
-    parser.add_argument("world", help=WORLD_HELP + ", or a partition file (.vmp)")
+    parser.add_argument("world", help=WORLD_HELP + ", a partition file (.vmp), or a terrain "
+                        "(.vmt: a flythrough of its LOD method; T cycles tau, M the method)")
     parser.add_argument("--structure", default=DEFAULT_STRUCTURE,
                         help="partition to start with (Tab cycles): " + STRUCTURE_HELP
                              + f" (default {DEFAULT_STRUCTURE}, as in play)")
@@ -27,9 +28,32 @@ def add_parser(sub):
     parser.add_argument("--scale", type=int, default=2,
                         help="whole-number zoom of the device screen (default 2)")
     parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP)
+    parser.add_argument("--lod", type=float, default=1.0, metavar="PX",
+                        help="a .vmt terrain's tau at start, pixels (default 1; T cycles "
+                             "0.5, 1, 2, 4, 8)")
+    parser.add_argument("--terrain-method", choices=("tiles", "roettger", "roam"),
+                        default="tiles",
+                        help="a .vmt terrain's LOD method at start (default tiles; M cycles)")
     parser.add_argument("--script", help=argparse_suppress(), default=None)
     parser.add_argument("--screenshot", type=Path, help=argparse_suppress(), default=None)
     return parser
+
+
+def run_terrain(args, script) -> int:
+    """view for a .vmt: viewer/terrain_session.py (objects culled by --cull, default
+    vfc+horizon, over --structure)."""
+    from ..app.playback import parse_stages
+    from ..viewer.terrain_session import TerrainSession
+    from ..viewer.window import run as run_window
+
+    stages = parse_stages(args.cull if args.cull is not None else "vfc+horizon")
+    session = TerrainSession.open_terrain(args.world, args.terrain_method, args.lod, stages,
+                                          args.structure, args.profile, args.trajectory,
+                                          record_path=args.record_to)
+    frames = run_window(session, args.scale, script, args.screenshot)
+    if script is None:
+        print(f"{frames} frames; {session.message or 'bye'}")
+    return 0
 
 
 def argparse_suppress():
@@ -54,6 +78,8 @@ def run(args) -> int:
         raise VisMobileError("--screenshot needs --script")
     from . import THESIS_WORLDS, default_trajectory
 
+    if str(args.world).lower().endswith(".vmt"):
+        return run_terrain(args, script)
     trajectory = args.trajectory
     if trajectory is None and str(args.world).lower() in THESIS_WORLDS:
         trajectory = default_trajectory(args.world, None)  # the thesis's path: L plays it

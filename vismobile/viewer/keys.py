@@ -33,6 +33,7 @@ PRESSED = {
     "G": "god_view",          # god view: top, side, off
     "T": "lod_tau",           # level of detail: off, then tau 0.5, 1, 2, 4, 8 px
     "H": "toggle:horizon",    # the occlusion horizon (not a number key: they are all taken)
+    "M": "terrain_method",    # a terrain's LOD method: tiles, roettger, roam
     "F1": "help",
     "F12": "screenshot",      # the view as PNG (vismobile-NNN.png beside the recording)
     "K": "screenshot",
@@ -53,6 +54,7 @@ HELP = [
     "H  horizon (occlusion over ground solids)",
     "B  node boxes   G  god view (top/side/off)",
     "T  level of detail: off, tau 0.5 1 2 4 8 px",
+    "M  terrain method: tiles, roettger, roam",
     "R  record on/off   V  save   L  load + play",
     "P  play/stop   Space  pause   . ,  step",
     "K/F12  screenshot   F1  help   Esc  quit",

@@ -336,6 +336,8 @@ class Session:
             self.save_screenshot()
         elif action == "quit":
             self.running = False
+        elif action == "terrain_method":
+            self.message = "M switches a terrain's LOD method (view a .vmt)"
         else:
             raise ValueError(f"unknown viewer action {action!r}")
 
