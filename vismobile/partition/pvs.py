@@ -131,7 +131,9 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     """The PVS extras (module docstring) of a partition of any kind, and bake statistics.
 
     The view cells are a portal grid of the PVS's own (pvs_cells.view_grid: about `cells`
-    cells, default as the portal structure's), so the structure's kind does not matter.
+    cells, default as the portal structure's), so the structure's kind does not matter; a
+    BSP tree's leaves then become the view cells, each taking the grid cells its region may
+    touch (pvs_leaves.py).
     progress : optional callable(done, total) per source cell
     jobs     : processes (>1: source cells split over a process pool)
     executor : optional pool with submit(fn, *args) -> future with result(), used instead of
@@ -178,13 +180,18 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         mask = np.zeros(world.triangle_count, dtype=bool)
         mask[ids_of(r)] = True
         masks.append(mask)
-    runs = [runs_of(m) for m in with_solids(world, g["cell_bounds"], masks, grow)]
+    masks, boxes = with_solids(world, g["cell_bounds"], masks, grow), g["cell_bounds"]
+    if partition.kind == "bsp":  # the BSP tree's leaves are the view cells (pvs_leaves.py)
+        from .pvs_leaves import leaf_sets
+
+        boxes, masks = leaf_sets(partition, boxes, masks, tol)
+    runs = [runs_of(m) for m in masks]
     start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
-    extras = {"pvs_cells": np.asarray(g["cell_bounds"], dtype=np.float64).copy(),
+    extras = {"pvs_cells": np.asarray(boxes, dtype=np.float64).copy(),
               "pvs_start": start,
               "pvs_runs": (np.concatenate(runs) if runs else np.zeros(0)).astype(np.int32),
               "pvs_grow": np.array([grow], dtype=np.float64)}
-    stats = {"seconds": time.perf_counter() - began, "cells": count,
+    stats = {"seconds": time.perf_counter() - began, "cells": len(boxes),
              "overflowed": int(sum(s < 0 for _, s in results)),
              "walks": int(sum(max(s, 0) for _, s in results))}
     return extras, stats
