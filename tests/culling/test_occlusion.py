@@ -225,6 +225,42 @@ def test_fused_walk_sends_what_the_two_passes_send_and_visits_fewer_nodes(kit):
     assert visited[True] < visited[False]
 
 
+def test_the_compiled_frame_decides_as_the_python_path(kit):
+    # hiz.frame.occlusion_frame runs the usual frame in one call; the Python path it mirrors
+    # (compiled False) must send the same triangles with the same counters, in every mode.
+    from pathlib import Path
+
+    from vismobile.culling.hiz.frame import top_scored
+    from vismobile.world.trajectory import Trajectory
+
+    world = kit.world("w2")
+    part = partition(world, "octree", depth=5)
+    traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
+    ran = 0
+    for arithmetic, options in (("float32", {"screen": (240, 320)}), ("fixed16.16", {}),
+                                ("float64", {"rounds": 3})):
+        compiled = Culler(part, "vfc,occlusion,tbfc", arithmetic, occlusion=options)
+        python = Culler(part, "vfc,occlusion,tbfc", arithmetic, occlusion=options)
+        python.stages[1].compiled = False
+        calls = []
+        compiled.stages[1]._apply_compiled = (
+            lambda state, run=compiled.stages[1]._apply_compiled: calls.append(run(state)))
+        for f in range(300, 324, 2):  # consecutive frames: last frame's candidates carry over
+            cam = traj.camera(f, kit.ASPECT)
+            one, two = compiled.cull(cam), python.cull(cam)
+            assert np.array_equal(one.triangles, two.triangles), (arithmetic, f)
+            assert one.stats == two.stats, (arithmetic, f)
+            assert np.array_equal(compiled.stages[1].frame_occluders,
+                                  python.stages[1].frame_occluders)
+        ran += len(calls)
+    assert ran == 36  # the compiled path ran on every frame
+    # top_scored: the best positive scores first, ties in the ids' order, count kept.
+    ids = np.array([10, 11, 12, 13, 14, 15], dtype=np.int64)
+    score = np.array([0.5, 0.0, 2.0, 0.5, -1.0, 0.5])
+    assert top_scored(ids, score, 3).tolist() == [12, 10, 13]
+    assert top_scored(ids, score, 9).tolist() == [12, 10, 13, 15]
+
+
 def test_the_mesh_of_a_few_occluders_pairs_their_edges_as_the_worlds_mesh_does(kit):
     # A mapped world's frames build the rasteriser's tables for their occluders alone: same
     # planes, the same order of plane groups, and the same pieces paired among them.

@@ -69,12 +69,12 @@ from ..partition.occluders import candidate_lists
 from ..world.world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
-from .hiz import (DEPTH_SLACK, GUARD_PX, build_tiles, cull_nodes, facing_occluders,
-                  frustum_cull_nodes, gather_candidates, gather_shell_candidates, hidden_triangles,
-                  lod_ancestors, rasterise, score_candidates, shift_table_size, stamp_near,
-                  tile_shifts)
+from .hiz import (DEPTH_SLACK, GUARD_PX, build_tiles, cull_nodes, frustum_cull_nodes,
+                  hidden_triangles, rasterise, shift_table_size, stamp_near, tile_shifts)
+from .hiz.frame import FRAME_SLOTS, occlusion_frame
+from .occluder_choice import GRAZING, SHELL_GROWTH, OccluderChoice
 from .occluder_mesh import world_tables
-from .occluder_rows import occluder_mesh_of, score_corners, triangle_rows
+from .occluder_rows import occluder_mesh_of
 from .precision import depth_order, device_move, world_scale
 from .shared import per_object
 from .state import CullResult, CullState
@@ -84,20 +84,20 @@ from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE, GAMMA_8
 # Depth margin in units of z^2 / near: the GPU's 24-bit depth buffer resolves z^2 / near * 2^-24
 # (window depth 1 - near / z); 64x that keeps z-fighting pairs visible.
 ZBUFFER_MARGIN = 2.0 ** -18
-# Occluders seen more edge-on than this (|cos| of the view angle) are skipped: their projected
-# winding would be unreliable.
-GRAZING = 1e-6
 # Occluders are clipped this much (relative) beyond the near plane, plus the device's rounding.
 NEAR_RELATIVE = 2.0 ** -10
 # With `screen`, per-tile (local) occluder shifts are computed only in frames whose global shift
 # after the first occluders exceeds this many buffer pixels (thesis worlds: rarely); without,
 # only when it exceeds hiz.GUARD_PX (the screen border's test needs them then).
 LOCAL_SHIFT_PX = 0.25
-# The first round's candidate shells grow by this factor (hiz.gather_shell_candidates).
-SHELL_GROWTH = np.sqrt(2.0)
+# hiz.frame.occlusion_frame's counters, by slot; the first four are counted on every frame.
+FRAME_COUNTERS = ("occlusion.occluders", "occlusion.pixels_covered", "occlusion.candidates",
+                  "occlusion.candidate_nodes", "nodes_visited", "plane_tests",
+                  "vfc.nodes_culled", "vfc.nodes_accepted", "occlusion.nodes_tested",
+                  "occlusion.nodes_culled")
 
 
-class DepthBufferOcclusion:
+class DepthBufferOcclusion(OccluderChoice):
     """`occlusion`: conservative tiled depth buffer occlusion culling; refines state.nodes.
 
     width, height : depth buffer size in pixels (default 120 x 160, half of 240 x 320)
@@ -133,6 +133,9 @@ class DepthBufferOcclusion:
 
     name = "occlusion"
     cost = 50
+    # The usual frame (vfc deferred, in-memory World, shells) in one compiled call with the same
+    # decisions (hiz.frame); False runs the Python path it mirrors (tests compare the two).
+    compiled = True
     arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
@@ -234,94 +237,13 @@ class DepthBufferOcclusion:
         self._out = np.empty(tree.node_count + 64, dtype=np.int64)
         self._cands = np.empty(self.lists.size + self.occluders, dtype=np.int64)
         self._later = np.empty(tree.node_count + 64, dtype=np.int64)
+        self._roots = np.empty(tree.node_count + 64, dtype=np.int64)
         # The first round's candidate shells start at the smallest leaf's diagonal (the finest
         # scale the tree resolves); self.reach is this frame's last shell (inf: whole frustum).
         leaves = (tree.child_count == 0) & tree.nonempty
         diagonal = np.linalg.norm(tree.hi[leaves] - tree.lo[leaves], axis=1)
         self.shell = float(diagonal[diagonal > 0].min()) if (diagonal > 0).any() else 1.0
         self.reach = np.inf
-
-    def rows(self, ids) -> tuple:
-        """(index (n,), normals, v0, centroids, radius, areas) for ids (n,) int64: the tables
-        and ids on an in-memory World, else the rows computed from the corners (occluder_rows)
-        and arange(n); row index[k] belongs to ids[k]."""
-        if self.tables:
-            return ids, self.normals, self.v0, self.centroids, self.radius, self.areas
-        return (np.arange(len(ids), dtype=np.int64),
-                *triangle_rows(ids, self.vertices, self.triangles_))
-
-    def facing(self, ids, eye) -> np.ndarray:
-        """(n,) bool: triangle certainly faces the eye, also as the device rounds it, and is not
-        seen more edge-on than GRAZING (its projected winding is reliable).
-
-        Errs toward False (not an occluder) by the device rounding bound delta per coordinate.
-        ids : (n,) int64 world triangle ids;  eye : (3,) float64"""
-        ids = np.ascontiguousarray(ids, dtype=np.int64)
-        eye = np.asarray(eye, dtype=np.float64)
-        delta = DEVICE_RELATIVE * max(self.magnitude, *map(abs, eye)) + DEVICE_ABSOLUTE
-        index, normals, v0, centroids, _, _ = self.rows(ids)
-        return facing_occluders(ids, self.vertices, self.triangles_, index, normals, v0,
-                                centroids, eye, delta, GAMMA_8, GRAZING)
-
-    def best(self, ids, eye, planes, count) -> np.ndarray:
-        """(<= count,) int64 of ids with the largest positive estimated solid angle, best first."""
-        ids = np.ascontiguousarray(ids, dtype=np.int64)
-        planes = np.ascontiguousarray(planes, dtype=np.float64)
-        eye = np.asarray(eye, dtype=np.float64)
-        if self.tables:
-            score = score_candidates(*self.rows(ids), planes, eye, GRAZING)
-        else:  # rows from the corners on the way, nothing stored
-            score = score_corners(ids, self.vertices, self.triangles_, planes, eye, GRAZING)
-        good = np.flatnonzero(score > 0)
-        if len(good) > count:
-            good = good[np.argpartition(-score[good], count - 1)[:count]]
-        return ids[good[np.argsort(-score[good], kind="stable")]]
-
-    def select(self, state: CullState, roots=None, history=None, skip=None,
-               reach=None, limit=0) -> np.ndarray:
-        """(K,) int64 world ids of this frame's occluders, best first: candidates of
-        the walk from `roots` (default: the tree's root, coarse far away) and `history`
-        (default: last frame's), not in `skip`; with `reach`, only nodes nearer than that depth
-        (the walk's far plane pulled in); else with `limit` > 0, only nodes in the nearest
-        shells of distance (from the smallest leaf's diagonal, growing by SHELL_GROWTH) that
-        offer `limit` ids (hiz.gather_shell_candidates; self.reach is the last shell). Which
-        occluders are chosen never affects safety."""
-        tree, camera = self.tree, state.camera
-        eye = np.asarray(camera.eye, dtype=np.float64)
-        self._frame += 1
-        if roots is None:  # the frame's nodes, coarsened far away
-            count = lod_ancestors(np.ascontiguousarray(state.nodes, dtype=np.int64),
-                                  self.parent, tree.lo, tree.hi, eye, self.detail,
-                                  self.up_mark, self._frame, self._out)
-            roots = self._out[:count].copy()
-        roots = np.ascontiguousarray(roots, dtype=np.int64)
-        history = self.history if history is None else history
-        if len(roots) + tree.node_count > len(self._stack):
-            self._stack = np.empty(len(roots) + tree.node_count, dtype=np.int64)
-            self._below = np.empty(len(roots) + tree.node_count, dtype=np.uint8)
-        skip = np.zeros(0, np.int64) if skip is None else np.ascontiguousarray(skip, np.int64)
-        need = self.lists.size + len(history)
-        if need > len(self._cands):
-            self._cands = np.empty(need, dtype=np.int64)
-        planes = np.array(state.planes, dtype=np.float64)
-        if reach is not None and reach < camera.far:  # planes[5] is the far plane (camera.py)
-            planes[5, 3] -= (camera.far - reach) * np.linalg.norm(planes[5, :3])
-        if limit and reach is None:  # nearest shells first, until `limit` ids were offered
-            if len(roots) + tree.node_count > len(self._later):
-                self._later = np.empty(len(roots) + tree.node_count, dtype=np.int64)
-            found, visited, self.reach = gather_shell_candidates(
-                tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots,
-                planes, tree.tol, eye, self.detail, self.lists, history, skip, self.bits,
-                self._cands, self._stack, self._later, self.shell, limit, SHELL_GROWTH)
-        else:
-            found, visited = gather_candidates(tree.lo, tree.hi, tree.first_child,
-                                               tree.child_count, tree.nonempty, roots, planes,
-                                               tree.tol, eye, self.detail, self.lists, history,
-                                               skip, self.bits, self._cands, self._stack)
-        state.count(f"{self.name}.candidates", found)
-        state.count(f"{self.name}.candidate_nodes", visited)
-        chosen = self.best(self._cands[:found], eye, state.planes, self.occluders)
-        return chosen[self.facing(chosen, eye)]
 
     def observe(self, result: CullResult) -> None:
         """Keeps the best `occluders` of the frame's sent triangles (ranked from this frame's
@@ -426,6 +348,10 @@ class DepthBufferOcclusion:
         if not self._view(camera)[7] < np.inf:  # the device cannot order depths: no occluder
             self._unordered(state, fused)
             return
+        if self.compiled and fused and self.tables and self.first_reach is None \
+                and self.first_candidates > 0:
+            self._apply_compiled(state)  # the same kernels in one call
+            return
         chosen = self.select(state, reach=self.first_reach, limit=self.first_candidates)
         written = self.rasterise(camera, chosen) if len(chosen) else 0
         if not len(chosen):
@@ -455,10 +381,45 @@ class DepthBufferOcclusion:
                     break
                 self._node_pass(state, eye, rotation, tx, ty, move, margin, recede, False)
         self.frame_occluders = chosen  # read by tools (bench_peers' MOC rows); not a copy
+        self._triangle_filter(state, written, move, margin, recede)
+
+    def _triangle_filter(self, state, written, move, margin, recede) -> None:
         if self.triangles and (written or self.self_occluders or self.screen):
             def keep_of(ids):
                 return ~self._hidden_triangles(state, ids, move, margin, recede, written > 0)
             state.filters.append(keep_of)
+
+    def _apply_compiled(self, state) -> None:
+        """apply's path with vfc deferred on an in-memory World (shells, no first_reach) in one
+        compiled call (hiz.frame.occlusion_frame: the same kernels, the same decisions)."""
+        tree, camera = self.tree, state.camera
+        eye, rotation, tx, ty, move, clip, _, order = self._view(camera)
+        eye = np.asarray(eye, dtype=np.float64)
+        margin, recede = ZBUFFER_MARGIN / camera.near, np.sqrt(3.0) * move
+        delta = DEVICE_RELATIVE * max(self.magnitude, *map(abs, eye)) + DEVICE_ABSOLUTE
+        stats = np.zeros(FRAME_SLOTS, dtype=np.int64)
+        (kept, self._frame, self.nearest, self.reach, chosen, self._out, self._stack,
+         self._below, local) = occlusion_frame(
+            tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,
+            tree.tol, self.vertices, self.triangles_, self.normals, self.v0, self.centroids,
+            self.radius, self.areas, self.groups, self.tri_points, self.points, self.offsets,
+            self.piece_start, self.piece_end, self.piece_a, self.piece_b, self.partner,
+            self.partner_any, self.stamp, self.lists, self.history, self.bits, self._cands,
+            self._stack, self._later, self._out, self._masks, self._below, self._roots,
+            self.up_mark, self.draw_mark, self._planes, eye, rotation, camera.near, tx, ty, move,
+            clip, order, margin, recede, delta, GAMMA_8, GRAZING, self.detail, self.shell,
+            self.first_candidates, SHELL_GROWTH, self.occluders, self.rounds, self.width,
+            self.height, *self.tile, self.depth, self.mask, self.centre, self.crease_far,
+            self.tile_max, self.tile_any, self.tile_min, self.tile_near, self.tile_shift,
+            GUARD_PX if self.screen is None else LOCAL_SHIFT_PX, *self.samples(camera, move),
+            self._frame, stats)
+        self._local = None if local < 0 else bool(local)
+        for name, value in zip(FRAME_COUNTERS[:4] if kept < 0 else FRAME_COUNTERS, stats):
+            state.count(name, value)
+        self.frame_occluders = chosen
+        written = stats[1]
+        state.nodes = frustum_refine(tree, state, "vfc") if kept < 0 else self._out[:kept].copy()
+        self._triangle_filter(state, written, move, margin, recede)
 
     def _unordered(self, state, fused) -> None:
         """The frame without a buffer (depth_order is inf): the deferred frustum walk, and with

@@ -12,7 +12,8 @@ fails, are read pixel by pixel (the exact maximum over the rectangle).
 
 Modules: raster.py (occluders into the buffer: rasterise, stamp_near), buffer.py (tiles, the
 occluders' shift per tile, tested rectangles, hidden_triangles), walks.py (node boxes from the
-root: cull_nodes, frustum_cull_nodes), candidates.py (which occluders: gather, score, facing).
+root: cull_nodes, frustum_cull_nodes), candidates.py (which occluders: gather, score, facing),
+frame.py (the stage's usual frame calling them in one compiled call: occlusion_frame).
 """
 from .buffer import (SAMPLE_SLACK_PX, build_tiles, covers_no_sample, hidden_triangles,
                      screen_rect, shift_table_size, tile_shift_bound, tile_shifts)
