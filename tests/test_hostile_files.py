@@ -197,3 +197,27 @@ def test_structure_lists_and_schedulers_parse_or_are_refused_in_one_line(tmp_pat
         except VisMobileError:
             refused += 1
     assert 0 < refused < 200  # the mutations reach both outcomes
+
+
+@pytest.mark.parametrize("target", ["animglb", "motion"])
+def test_animated_inputs_load_or_are_refused_in_one_error(tmp_path, target):
+    """Issue 25's inputs (a GLB with node animations, a JSON motion file) fuzzed: each seed
+    loads and poses, and each seeded mutation loads or is refused with a VisMobileError (any
+    other exception fails the test)."""
+    import random
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    import fuzz
+
+    seeds = fuzz.animated_seeds(tmp_path)[target]
+    outcomes = {"ok": 0, "error": 0}
+    for seed in seeds:
+        assert fuzz.run_case(target, seed, tmp_path) == "ok"
+    for case in range(40):
+        pick = random.Random(f"{target}:{case}").randrange
+        data = seeds[pick(len(seeds))]
+        for _ in range(1 + pick(3)):
+            data = fuzz.mutate_bytes(data, pick)
+        outcomes[fuzz.run_case(target, data, tmp_path)] += 1
+    assert outcomes["error"] > 0

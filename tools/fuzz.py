@@ -3,7 +3,7 @@ chains too) and trajectory CSVs (issue 11); textured GLB and OBJ+MTL scenes (iss
 lists (issue 31); compare's and tune's --structures lists with baked PVS labels and the --scheduler
 address of compare and partition (issue 29); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
 heightmaps (issue 28); .vmt terrains as `play` runs them (vmtplay: LOD, objects culled, a frame;
-issue 30). Every input must load or end in a VisMobileError (one clean line from
+issue 30); GLB node animations and JSON motion files (animglb, motion: issue 25). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
 Three modes:
@@ -19,7 +19,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,animglb,motion]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
@@ -121,7 +121,32 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
             "glb": [*glbs, hostile.glb(doc, binary), hostile.glb(two, binary)],
             "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes()],
             "vmtplay": [(folder / "seed.vmt").read_bytes()],
-            "npy": arrays}
+            "npy": arrays, **animated_seeds(folder)}
+
+
+# A motion file for the cube world (load_motion): linear, step and looping paths.
+MOTION_JSON = (b'{"fps": 30, "objects": {"c": {"times": [0, 1.5, 3], "translation": [[0, 0, 0], '
+               b'[2, 0, 0], [2, 0, 2]], "rotation": [[0, 0, 0, 1], [0, 0.7071, 0, 0.7071], '
+               b'[0, 1, 0, 0]], "scale": [[1, 1, 1], [2, 2, 2], [1, 1, 1]], "loop": true, '
+               b'"interpolation": "linear", "pivot": [0.5, 0.5, 0.5]}}}')
+
+
+def animated_seeds(folder: Path) -> dict:
+    """Seeds of issue 25's inputs: a GLB with node animations (translation, rotation and scale
+    channels, LINEAR and STEP, a child under a moved parent) and a JSON motion file."""
+    import numpy as np
+
+    import hostile
+    from vismobile.files.gltf_write import animated_glb
+
+    cube = dict(vertices=np.asarray(hostile.CUBE_V, float), faces=hostile.CUBE_F)
+    meshes = [dict(cube, name="ground", translation=[0, -1, 0]), dict(cube, name="walker"),
+              dict(cube, name="turner", translation=[3, 0, 0])]
+    channels = [(1, "translation", [0, 1, 2], [[0, 0, 0], [2, 0, 0], [2, 0, 2]], "LINEAR"),
+                (2, "rotation", [0, 1], [[0, 0, 0, 1], [0, 1, 0, 0]], "STEP"),
+                (2, "scale", [0, 1], [[1, 1, 1], [2, 2, 2]], "STEP")]
+    animated_glb(folder / "seed-anim.glb", meshes, channels, parents=[None, 0, None])
+    return {"animglb": [(folder / "seed-anim.glb").read_bytes()], "motion": [MOTION_JSON]}
 
 
 # ---- mutations (driven by pick(n) -> int in [0, n), so random and atheris share them) -------
@@ -378,6 +403,22 @@ def load_mesh(path):
     World.from_file(path)
 
 
+def load_animated(path):
+    from vismobile.world.animated import AnimatedWorld
+
+    AnimatedWorld.from_gltf(path).posed(0.7)
+
+
+def load_motion(path):
+    """A JSON motion file attached to the cube world (object "c"), posed."""
+    import hostile
+    from vismobile.world.animated import AnimatedWorld
+    from vismobile.world.world import World
+
+    cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
+    AnimatedWorld.from_motion_file(cube, path).posed(2.2)
+
+
 def load_vmt(path):
     from vismobile.files.loader import load_world
 
@@ -407,7 +448,8 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
          "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
          "vmtplay": (load_vmt_play, ".vmt"),
-         "npy": (load_heightmap, ".npy"), "objmtl": (load_textured_obj, ".obj")}
+         "npy": (load_heightmap, ".npy"), "objmtl": (load_textured_obj, ".obj"),
+         "animglb": (load_animated, ".glb"), "motion": (load_motion, ".json")}
 
 
 def run_case(target, data, folder):
@@ -519,7 +561,7 @@ def main(argv=None):
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
     parser.add_argument("--target",
-                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy")
+                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,animglb,motion")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

@@ -5,11 +5,13 @@ import numpy as np
 
 from ..geometry.arithmetic import MODES
 from ..partition.base import Partition
+from ..partition.dynamic import AnimatedPartition
 from ..world.world import World
 from .backface import BackfaceFlag, ConservativeBackface, ThesisBackface
 from .cones import NormalConeStage
 from .frustum import FrustumStage, ThesisFrustumStage
 from .horizon import HorizonStage
+from .moving import MovingObjects
 from .occlusion import DepthBufferOcclusion
 from .occlusion_thesis import ThesisOcclusion
 from .portals import PortalStage
@@ -72,19 +74,26 @@ class Culler:
                 device-rounding margins (precision.device_move), so every decision stays
                 conservative in that mode
     options   : per-stage keyword dicts, e.g. occlusion={"occluders": 32}, cbfc={"pitch_bands": 8}
+
+    An AnimatedPartition (partition/dynamic.py) is culled in two halves: the stages run on its
+    static partition as on any other, then its moving objects at the frame's time go through
+    a BVH refitted per frame and each stage's moving-object test (culling/moving.py);
+    `partition` stays the AnimatedPartition, `tree` is the static one's.
     """
 
     def __init__(self, partition: Partition, stages=("vfc",), arithmetic="float64", **options):
         if arithmetic not in MODES:
             raise ValueError(f"unknown arithmetic mode {arithmetic!r}; valid: {', '.join(MODES)}")
         self.arithmetic = arithmetic
+        self.animated = partition if isinstance(partition, AnimatedPartition) else None
+        given, partition = partition, (partition.static if self.animated else partition)
         self.world_scale = world_scale(partition.world.vertices)
         self.names = parse_stages(stages)
         extra = sorted(set(options) - set(STAGES))
         if extra:
             raise ValueError(f"options for unknown stage(s) {extra}; valid: {sorted(STAGES)}")
         self.tree = Tree(partition)
-        self.partition = partition
+        self.partition = given
         self.stages = [STAGES[n](**options.get(n, {})) for n in self.names]
         for stage in self.stages:
             if hasattr(stage, "arithmetic"):  # stages with a device-rounding margin
@@ -101,12 +110,19 @@ class Culler:
                                  f"of map_partition") from None
         self._fuse()
         self._cover()
+        self.moving = None
+        if self.animated is not None:
+            self.world_scale = max(self.world_scale,
+                                   world_scale(self.animated.animated.rest_vertices))
+            self.moving = MovingObjects(self.animated,
+                                        {stage.name: stage for stage in self.stages}, arithmetic)
 
     def __repr__(self) -> str:
         part = self.partition
         kind = getattr(part, "kind", type(part).__name__)
+        moving = f", {len(self.moving.animated.motion):,} moving" if self.moving else ""
         return (f"Culler({'+'.join(self.names) or 'none'} over {kind} of "
-                f"{part.world.triangle_count:,} triangles, {self.arithmetic})")
+                f"{part.world.triangle_count:,} triangles{moving}, {self.arithmetic})")
 
     def _cover(self) -> None:
         """vfc accepts covered nodes whole (FrustumStage cover) only when no later stage tests
@@ -135,14 +151,19 @@ class Culler:
         """The render flag GL_CULL_FACE: True when `bfc` is a stage."""
         return "bfc" in self.names
 
-    def cull(self, camera) -> CullResult:
+    def cull(self, camera, time=None) -> CullResult:
         """Cull for one camera: CullResult with sorted unique `triangles`, `stats`, `cull_back`.
+
+        time: seconds, the pose of an animated partition to cull (AnimatedWorld.posed(time) is
+        what it draws); None: its rest pose. A static partition ignores it.
 
         stats counters: nodes_visited, plane_tests, triangles_tested, triangles_sent,
         draw_batches (runs of consecutive triangle ids), nodes_drawn, and per stage
         "<stage>.<counter>" (nodes_culled, refs_culled, clusters_culled, occluders, ...).
         """
         scale = max(self.world_scale, *map(abs, camera.position))
+        if self.moving is not None:  # where the objects are now: their magnitude too
+            scale = max(scale, self.moving.pose(time))
         planes = conservative_planes(camera.frustum_planes(), self.arithmetic, scale)
         state = CullState(self.tree, camera, planes, np.zeros(1, dtype=np.int64),
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})
@@ -157,5 +178,15 @@ class Culler:
         for stage in self.stages:
             observe = getattr(stage, "observe", None)
             if observe is not None:
-                observe(result)
+                observe(result)  # the static half's ids: what the stages know
+        if self.moving is not None:
+            result = self._with_moving(state, result, time)
         return result
+
+    def _with_moving(self, state, result, time) -> CullResult:
+        """The static result's ids mapped to the world's, merged with the moving objects'."""
+        static = self.animated.animated.static_ids[result.triangles]
+        moving = self.moving.cull(state)
+        ids = np.union1d(static, moving) if len(moving) else static
+        result.stats["triangles_sent"] = len(ids)
+        return CullResult(ids, result.nodes, result.stats, result.cull_back)

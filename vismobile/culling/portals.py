@@ -247,6 +247,10 @@ class PortalStage:
             world = tree.world
             self.corners, self.normals, self.bounds = world.corners, world.normals, world.bounds
             self.magnitude = world_scale(world.vertices)  # no abs copy of a mapped world
+            bounds = np.asarray(self.x["cell_bounds"], dtype=np.float64)
+            self.cell_lo = np.ascontiguousarray(bounds[:, 0])
+            self.cell_hi = np.ascontiguousarray(bounds[:, 1])
+        self.frame_cells = None  # this frame's visible cells (None: it fell back to vfc)
         self.door_boxes = None  # use_doors: rest boxes (D, 2, 3) of the doors in portals
         self.door_matrices = None  # this frame's door matrices (D, 4, 4), set per frame
 
@@ -287,6 +291,7 @@ class PortalStage:
     def apply(self, state: CullState) -> None:
         tree, camera = self.tree, state.camera
         cells = self.visible_cells(camera, state) if self.available else None
+        self.frame_cells = None if cells is None else cells[0]  # read by moving.py
         if cells is None:
             state.count(f"{self.name}.fallbacks", 1)
             state.nodes = frustum_refine(tree, state, self.name)

@@ -23,10 +23,18 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                parameters keyword params override;
                pvs="conservative" (any kind) bakes the view cells' visible sets (pvs.py)
     progress : optional callable(done, total) for long builds
+    An AnimatedWorld (world/animated.py) gives a dynamic.AnimatedPartition: its static
+    triangles partitioned as asked, its moving objects left to the Culler's dynamic BVH.
     Raises ValueError on an unknown kind or parameter, or a parameter out of range.
     """
     from . import bsp, grid, kdtree, octree, portal
     from .spec import parse_spec
+
+    if hasattr(world, "static_world"):  # an AnimatedWorld: its static triangles partitioned
+        from .dynamic import AnimatedPartition
+
+        return AnimatedPartition(world, partition(world.static_world(), kind, progress,
+                                                  **params))
 
     if isinstance(kind, str) and ":" in kind:
         kind, given = parse_spec(kind)

@@ -1,0 +1,253 @@
+"""Culling of the moving objects of an AnimatedPartition (partition/dynamic.py), after the static
+stages have culled the static triangles of the same frame.
+
+Per frame at time t: the moving objects' matrices (motion.py), their boxes at t (the rest box's
+corners moved, animated.moved_boxes), the BVH refitted (rebuilt when degraded), then per stage:
+- frustum (`vfc`, `vfc_thesis`, `portals`, `pvs`, `occlusion`): BVH walk, object boxes against
+  the frame's conservative planes (kernels._box_planes, tol toward keeping);
+- `portals`: an object is kept when its box overlaps a cell the stage found visible this frame
+  (grown by the tree's slack), or overlaps no cell at all; every object in the frustum is kept
+  in a frame where the stage fell back to the frustum. A sight line into a cell the flood did
+  not reach crosses a wall, whatever it ends on;
+- `pvs`: the baked sets list static triangles per view cell, not cells, so moving objects are
+  culled by the frustum only (conservative);
+- `occlusion`: the object box, then each of its triangles at t, against this frame's depth
+  buffer (hiz walks and hidden_triangles, the same tests and margins as static nodes and
+  triangles; tested points move by the device's rounding at the moved boxes' scale). Moving
+  objects do not occlude: the buffer holds this frame's static occluders only, so nothing is
+  hidden behind last frame's pose, or behind any pose;
+- `tbfc`: each triangle at t, the exact test with tbfc's bound (facing.not_backfacing);
+- `cbfc`, `cbfc_thesis`, `cone`, `horizon`, `occlusion_thesis`: moving objects are not culled
+  by them (conservative: their tables hold rest-pose normals and boxes).
+Cost: O(moving objects) for matrices, boxes and refit, plus what is in the frustum; never the
+static world.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..partition.dynamic import DynamicBVH
+from ..world.animated import moved_boxes, transform_rows
+from .facing import not_backfacing
+from .hiz import cull_nodes, hidden_triangles
+from .kernels import _box_planes
+from .occlusion import ZBUFFER_MARGIN
+from .precision import device_move
+from .triangle_backface import GAMMA_8
+
+FRUSTUM = ("vfc", "vfc_thesis", "portals", "pvs", "occlusion")
+
+
+@njit(cache=True, nogil=True)
+def bvh_frustum(lo, hi, first, start, count, order, n_nodes, boxes, planes, tol, out, stack,
+                masks):
+    """Objects (indices into boxes (M, 2, 3)) whose boxes are not outside the planes (P, 4),
+    written to out; returns (count, nodes visited, plane tests). Errs toward keeping by tol."""
+    if n_nodes == 0:
+        return 0, 0, 0
+    full = (np.int64(1) << len(planes)) - 1
+    top, found, visited, tests = 1, 0, 0, 0
+    stack[0], masks[0] = 0, full
+    while top > 0:
+        top -= 1
+        node, mask = stack[top], masks[top]
+        visited += 1
+        outside, straddle, n = _box_planes(lo[node, 0], lo[node, 1], lo[node, 2], hi[node, 0],
+                                           hi[node, 1], hi[node, 2], planes, mask, tol)
+        tests += n
+        if outside:
+            continue
+        if first[node] >= 0:
+            for c in range(first[node], first[node] + 2):
+                stack[top], masks[top] = c, straddle
+                top += 1
+            continue
+        for i in range(start[node], start[node] + count[node]):
+            k = order[i]
+            if straddle:
+                gone, _, n = _box_planes(boxes[k, 0, 0], boxes[k, 0, 1], boxes[k, 0, 2],
+                                         boxes[k, 1, 0], boxes[k, 1, 1], boxes[k, 1, 2], planes,
+                                         straddle, tol)
+                tests += n
+                if gone:
+                    continue
+            out[found] = k
+            found += 1
+    return found, visited, tests
+
+
+@njit(cache=True, nogil=True)
+def _boxes_meet_cells(boxes, objects, cells_lo, cells_hi, visible, grow, keep):
+    """keep[i] for objects[i]: its box overlaps (within grow) a visible cell, or no cell."""
+    for i in range(len(objects)):
+        k = objects[i]
+        any_cell, seen = False, False
+        for c in range(len(cells_lo)):
+            meets = True
+            for j in range(3):
+                if boxes[k, 0, j] > cells_hi[c, j] + grow or boxes[k, 1, j] < cells_lo[c, j] - grow:
+                    meets = False
+                    break
+            if meets:
+                any_cell = True
+                if visible[c]:
+                    seen = True
+                    break
+        keep[i] = seen or not any_cell
+
+
+def _ranges(start, objects) -> np.ndarray:
+    """Concatenated arange(start[k], start[k + 1]) for k in objects, int64."""
+    a, b = start[objects], start[objects + 1]
+    lengths = b - a
+    total = int(lengths.sum())
+    if not total:
+        return np.zeros(0, dtype=np.int64)
+    offsets = np.repeat(a - np.cumsum(lengths) + lengths, lengths)
+    return np.arange(total, dtype=np.int64) + offsets
+
+
+class MovingObjects:
+    """The moving half of a Culler over an AnimatedPartition (module docstring).
+
+    pose(time), then cull(state) -> (S,) int64 sorted world triangle ids of moving objects to
+    draw; counts
+    moving.* counters in state.stats. `stages`: the Culler's stage objects by name (portals,
+    pvs and occlusion are read after their static pass of the same frame).
+    """
+
+    def __init__(self, partition, stages: dict, arithmetic: str):
+        self.animated = a = partition.animated
+        self.stages, self.arithmetic = stages, arithmetic
+        self.bvh = DynamicBVH(a.rest_boxes)
+        m = len(a.motion)
+        self._out = np.empty(max(m, 1), dtype=np.int64)
+        self._stack = np.empty(2 * m + 64, dtype=np.int64)
+        self._masks = np.empty(2 * m + 64, dtype=np.int64)
+        self._posed = np.empty_like(a.rest_vertices)
+        self.frustum = any(name in stages for name in FRUSTUM)
+        # occlusion's box walk over the objects as a flat tree of leaves
+        self._leaf = (np.full(m, -1, np.int64), np.zeros(m, np.int64), np.ones(m, np.bool_),
+                      np.full(m, -1, np.int64), np.full(m, -1, np.int64),
+                      np.full(m, -1, np.int64))
+        self._frame = 0
+        self.boxes = a.rest_boxes.copy()
+
+    def pose(self, time) -> float:
+        """The objects' matrices and boxes at time (None: rest); returns the boxes' largest
+        |coordinate| (the Culler's planes are inflated for it)."""
+        self.matrices = self.animated.matrices(time)
+        self.boxes = moved_boxes(self.animated.rest_boxes, self.matrices)
+        self.magnitude = float(np.abs(self.boxes).max(initial=0.0))
+        return self.magnitude
+
+    def cull(self, state) -> np.ndarray:
+        """After pose(time) and the static stages of the same frame."""
+        a, matrices, boxes = self.animated, self.matrices, self.boxes
+        rebuilt = self.bvh.update(boxes)
+        state.count("moving.objects", len(boxes))
+        state.count("moving.rebuilds", int(rebuilt))
+        if self.frustum:
+            b = self.bvh
+            found, visited, tests = bvh_frustum(b.lo, b.hi, b.first, b.start, b.count, b.order,
+                                                b.node_count, boxes, np.ascontiguousarray(
+                                                    state.planes), self._tol(state, boxes),
+                                                self._out, self._stack, self._masks)
+            objects = np.sort(self._out[:found])
+            state.count("moving.nodes_visited", visited)
+            state.count("plane_tests", tests)
+        else:
+            objects = np.arange(len(boxes), dtype=np.int64)
+        if "portals" in self.stages and len(objects):
+            objects = self._cells("portals", state, boxes, objects)
+        occlusion = self.stages.get("occlusion")
+        usable = occlusion is not None and getattr(occlusion, "_camera", None) is state.camera \
+            and occlusion._view(state.camera)[7] < np.inf
+        if usable and len(objects):
+            objects = self._occluded_boxes(occlusion, state, boxes, objects)
+        state.count("moving.objects_sent", len(objects))
+        local = _ranges(a.tri_start, objects)
+        if len(local) and ("tbfc" in self.stages or usable):
+            transform_rows(  # the objects' rows only: O(what is in view)
+                a.rest_vertices, a.vertex_start, np.ascontiguousarray(matrices),
+                           objects, self._posed)
+            if "tbfc" in self.stages:
+                local = self._backfacing(state, local, boxes[objects])
+            if usable and occlusion.triangles and len(local):
+                local = self._occluded_triangles(occlusion, state, boxes[objects], local)
+        state.count("moving.triangles_sent", len(local))
+        return np.sort(a.moving_triangles[local])
+
+    def _scale(self, state, boxes=None) -> float:
+        return max(self.magnitude, *map(abs, state.camera.position))
+
+    def _tol(self, state, boxes) -> float:
+        return float(state.tree.tol) * max(1.0, self._scale(state, boxes)
+                                           / max(state.tree.scale, 1e-300))
+
+    def _cells(self, name, state, boxes, objects) -> np.ndarray:
+        stage = self.stages[name]
+        cells = getattr(stage, "frame_cells", None)
+        if cells is None:  # the stage fell back to the frustum this frame: nothing more
+            return objects
+        visible = np.zeros(len(stage.cell_lo), dtype=np.bool_)
+        visible[cells] = True
+        keep = np.empty(len(objects), dtype=np.bool_)
+        _boxes_meet_cells(boxes, objects, stage.cell_lo, stage.cell_hi, visible,
+                          float(state.tree.tol), keep)
+        state.count(f"moving.{name}_culled", int((~keep).sum()))
+        return objects[keep]
+
+    def _occluded_boxes(self, stage, state, boxes, objects) -> np.ndarray:
+        camera = state.camera
+        eye, rotation, tx, ty, move = stage._view(camera)[:5]
+        tested = max(move, 2.0 * device_move(self.arithmetic, self._scale(state, boxes)))
+        margin = ZBUFFER_MARGIN / camera.near
+        recede = np.sqrt(3.0) * move
+        first, count, nonempty, parent, draw, up = self._leaf
+        self._frame += 1
+        out = np.empty(len(objects) + 1, dtype=np.int64)
+        stack = np.empty(len(objects) + 1, dtype=np.int64)
+        below = np.empty(len(objects) + 1, dtype=np.uint8)
+        lo = np.ascontiguousarray(boxes[:, 0])
+        hi = np.ascontiguousarray(boxes[:, 1])
+        kept, _, culled = cull_nodes(
+            lo, hi, first, count, nonempty, parent, objects, draw, up, self._frame, eye,
+            rotation, camera.near, tx, ty, stage.width, stage.height, tested,
+            stage.shift(camera, move), margin, recede, stage.depth, stage.tile_max,
+            stage.tile_any, stage.tile_shift, *stage.tile, out, stack, below,
+            stage.nearest_far(margin, recede), False, *stage.samples(camera, tested))
+        state.count("moving.occlusion_culled", culled)
+        return np.sort(out[:kept])
+
+    def _occluded_triangles(self, stage, state, boxes, local) -> np.ndarray:
+        camera = state.camera
+        eye, rotation, tx, ty, move = stage._view(camera)[:5]
+        tested = max(move, 2.0 * device_move(self.arithmetic, self._scale(state, boxes)))
+        margin = ZBUFFER_MARGIN / camera.near
+        recede = np.sqrt(3.0) * move
+        n = len(local)
+        hidden, subpixel = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
+        zmin = np.empty(n)
+        hidden_triangles(local, self._posed, self.animated.local_triangles, eye, rotation,
+                         camera.near, tx, ty, stage.width, stage.height, tested,
+                         stage.shift(camera, move), margin, recede, stage.depth, stage.tile_max,
+                         stage.tile_shift, *stage.tile, True, *stage.samples(camera, tested),
+                         hidden, subpixel, zmin)
+        gone = hidden | subpixel
+        state.count("moving.occlusion_triangles_culled", int(gone.sum()))
+        return local[~gone]
+
+    def _backfacing(self, state, local, boxes) -> np.ndarray:
+        stage = self.stages["tbfc"]
+        eye = np.asarray(state.camera.eye, dtype=np.float64)
+        scale = max(stage.magnitude, self._scale(state, boxes))
+        absolute = device_move(self.arithmetic, 0.0) if stage.absolute is None else stage.absolute
+        delta = stage.relative * scale + absolute
+        kept = np.empty(len(local), dtype=np.int64)
+        count = not_backfacing(local, self._posed, self.animated.local_triangles, eye, delta,
+                               GAMMA_8, kept)
+        state.count("moving.tbfc_culled", len(local) - count)
+        return kept[:count]
+

@@ -1,0 +1,254 @@
+"""Keyframe motion of a world's objects: per-object translation, rotation and scale tracks
+sampled at a time t into one 4x4 matrix per moving object.
+
+The matrix of an object maps its REST-POSE world coordinates (the world as loaded) to where
+they stand at time t:
+
+    M(t) = post @ T(translation(t)) @ R(rotation(t)) @ S(scale(t)) @ pre
+
+`pre` and `post` are fixed per object. For a motion file (files/motionfile.py) they are
+translate(-pivot) and translate(pivot), the tracks say how far the object moved from its rest
+pose and how it turned about its pivot (by default its rest box's centre). For a glTF node
+animation (files/gltf_anim.py) post is the animated node's parent transform and pre the inverse
+of the parent's transform times the node's rest TRS, so the tracks are the node's own TRS.
+
+Sampling: 'linear' interpolates translation and scale linearly and rotation by slerp
+(shortest arc), 'step' holds each key until the next. Before the first key a channel holds its
+first value. Past a track's last key (the last key time over its channels, its duration) a
+track with `loop` starts again (t modulo the duration), one without it holds its last values
+(clamp). A channel without keys holds its neutral value (no move, no turn, unit scale).
+
+All tracks live in flat arrays (CSR per channel: key times, values, per-object offsets) and one
+numba kernel samples every object, so a frame costs O(objects x log keys), no Python loop.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+CHANNELS = ("translation", "rotation", "scale")
+WIDTH = {"translation": 3, "rotation": 4, "scale": 3}
+NEUTRAL = {"translation": (0.0, 0.0, 0.0), "rotation": (0.0, 0.0, 0.0, 1.0),
+           "scale": (1.0, 1.0, 1.0)}
+INTERPOLATIONS = ("linear", "step")
+MAX_KEYS = 1 << 24  # keys over every track and channel: bounded memory for a read file
+
+
+@dataclass
+class Track:
+    """One object's keyframes. Each channel is None or (times (K,) float64 seconds, strictly
+    increasing; values (K, 3) for translation and scale, (K, 4) quaternions x, y, z, w for
+    rotation, normalised here). interpolation: 'linear' or 'step'; loop: repeat past the last
+    key (else clamp). pivot (3,): the point rotation and scale turn about (pre/post when None);
+    pre, post: (4, 4) float64 fixed matrices (module docstring), overriding pivot."""
+
+    object_id: int
+    translation: tuple | None = None
+    rotation: tuple | None = None
+    scale: tuple | None = None
+    interpolation: str = "linear"
+    loop: bool = False
+    pivot: tuple = (0.0, 0.0, 0.0)
+    pre: np.ndarray | None = None
+    post: np.ndarray | None = None
+
+
+def _check_channel(name, channel, object_id) -> tuple:
+    times = np.asarray(channel[0], dtype=np.float64).reshape(-1)
+    values = np.asarray(channel[1], dtype=np.float64)
+    width = WIDTH[name]
+    if values.ndim != 2 or values.shape != (len(times), width):
+        raise ValueError(f"object {object_id}: {name} needs {len(times)} keys of {width} "
+                         f"values, got shape {values.shape}")
+    if not (np.isfinite(times).all() and np.isfinite(values).all()):
+        raise ValueError(f"object {object_id}: {name} has a NaN or infinite key")
+    if len(times) and np.any(np.diff(times) <= 0):
+        raise ValueError(f"object {object_id}: {name} key times must be strictly increasing")
+    if name == "rotation" and len(values):
+        norm = np.linalg.norm(values, axis=1)
+        if np.any(norm < 1e-12):
+            raise ValueError(f"object {object_id}: rotation has a zero quaternion")
+        values = values / norm[:, None]
+    return times, values
+
+
+class Motion:
+    """Keyframe tracks of a set of objects (Track list; one track per object id).
+
+    object_ids : (M,) int64 the moving objects, in track order
+    duration   : (M,) float64 each track's last key time (0 for a track without keys)
+    loop       : (M,) bool
+    pre, post  : (M, 4, 4) float64
+    fps        : frames per second of a trajectory played with it (t = frame / fps)
+    """
+
+    def __init__(self, tracks, fps: float = 30.0):
+        tracks = list(tracks)
+        ids = np.array([int(t.object_id) for t in tracks], dtype=np.int64)
+        if len(np.unique(ids)) != len(ids):
+            raise ValueError("one track per object: an object id repeats")
+        if not (np.isfinite(fps) and fps > 0):
+            raise ValueError(f"fps must be positive, got {fps}")
+        self.fps = float(fps)
+        self.object_ids = ids
+        m = len(tracks)
+        self.loop = np.array([bool(t.loop) for t in tracks], dtype=np.bool_)
+        self.step = np.zeros(m, dtype=np.bool_)
+        self.pre = np.tile(np.eye(4), (m, 1, 1))
+        self.post = np.tile(np.eye(4), (m, 1, 1))
+        self.duration = np.zeros(m)
+        self.channels = {}
+        per = {name: [] for name in CHANNELS}
+        total = 0
+        for k, track in enumerate(tracks):
+            if track.interpolation not in INTERPOLATIONS:
+                raise ValueError(f"object {track.object_id}: interpolation "
+                                 f"{track.interpolation!r}; valid: {', '.join(INTERPOLATIONS)}")
+            self.step[k] = track.interpolation == "step"
+            pivot = np.asarray(track.pivot, dtype=np.float64).reshape(3)
+            self.pre[k, :3, 3], self.post[k, :3, 3] = -pivot, pivot
+            for name, matrix in (("pre", track.pre), ("post", track.post)):
+                if matrix is not None:
+                    matrix = np.asarray(matrix, dtype=np.float64)
+                    if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
+                        raise ValueError(f"object {track.object_id}: {name} must be a finite "
+                                         "4x4 matrix")
+                    getattr(self, name)[k] = matrix
+            for name in CHANNELS:
+                channel = getattr(track, name)
+                if channel is None:
+                    per[name].append((np.zeros(0), np.zeros((0, WIDTH[name]))))
+                    continue
+                times, values = _check_channel(name, channel, track.object_id)
+                total += len(times)
+                if total > MAX_KEYS:
+                    raise ValueError(f"more than {MAX_KEYS:,} keys")
+                per[name].append((times, values))
+                if len(times):
+                    self.duration[k] = max(self.duration[k], times[-1])
+        for name in CHANNELS:
+            counts = np.array([len(t) for t, _ in per[name]], dtype=np.int64)
+            start = np.zeros(m + 1, dtype=np.int64)
+            np.cumsum(counts, out=start[1:])
+            times = np.concatenate([t for t, _ in per[name]]) if m else np.zeros(0)
+            values = (np.concatenate([v for _, v in per[name]]) if m
+                      else np.zeros((0, WIDTH[name])))
+            self.channels[name] = (np.ascontiguousarray(times, dtype=np.float64),
+                                   np.ascontiguousarray(values, dtype=np.float64).reshape(
+                                       -1, WIDTH[name]), start)
+
+    def __len__(self) -> int:
+        return len(self.object_ids)
+
+    def __repr__(self) -> str:
+        longest = float(self.duration.max()) if len(self) else 0.0
+        return (f"Motion({len(self):,} moving objects, {int(self.loop.sum()):,} looping, "
+                f"longest {longest:g} s, {self.fps:g} fps)")
+
+    def local_time(self, t: float) -> np.ndarray:
+        """(M,) float64 each track's own time: t modulo its duration when it loops."""
+        t = float(t)
+        if not np.isfinite(t):
+            raise ValueError(f"time must be finite, got {t}")
+        out = np.full(len(self), t)
+        wrap = self.loop & (self.duration > 0)
+        out[wrap] = np.mod(t, self.duration[wrap])
+        return out
+
+    def sample(self, t: float) -> dict:
+        """{channel: (M, width) float64 values at time t} (module docstring's rules)."""
+        local = self.local_time(t)
+        out = {}
+        for name in CHANNELS:
+            times, values, start = self.channels[name]
+            result = np.empty((len(self), WIDTH[name]))
+            _sample(times, values, start, local, self.step, name == "rotation",
+                    np.asarray(NEUTRAL[name], dtype=np.float64), result)
+            out[name] = result
+        return out
+
+    def matrices(self, t: float) -> tuple:
+        """(object ids (M,) int64, matrices (M, 4, 4) float64) mapping each moving object's
+        rest-pose coordinates to its pose at time t (module docstring)."""
+        s = self.sample(t)
+        trs = trs_matrices(s["translation"], s["rotation"], s["scale"])
+        return self.object_ids, self.post @ trs @ self.pre
+
+
+def quaternion_matrices(q) -> np.ndarray:
+    """(M, 3, 3) rotation matrices of unit quaternions q (M, 4) x, y, z, w."""
+    x, y, z, w = (q[:, i] for i in range(4))
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=1),
+    ], axis=1)
+
+
+def trs_matrices(translation, rotation, scale) -> np.ndarray:
+    """(M, 4, 4) float64 T @ R @ S from (M, 3), (M, 4) quaternions and (M, 3)."""
+    m = len(translation)
+    out = np.zeros((m, 4, 4))
+    out[:, :3, :3] = quaternion_matrices(rotation) * scale[:, None, :]
+    out[:, :3, 3] = translation
+    out[:, 3, 3] = 1.0
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _sample(times, values, start, local, step, quaternion, neutral, out):
+    """out[k] = channel of track k at local[k]: binary search in its keys, then hold (step),
+    lerp or slerp (quaternion, shortest arc, normalised)."""
+    width = values.shape[1]
+    for k in range(len(local)):
+        a, b = start[k], start[k + 1]
+        if a == b:
+            for j in range(width):
+                out[k, j] = neutral[j]
+            continue
+        t = local[k]
+        if t <= times[a]:
+            for j in range(width):
+                out[k, j] = values[a, j]
+            continue
+        if t >= times[b - 1]:
+            for j in range(width):
+                out[k, j] = values[b - 1, j]
+            continue
+        lo, hi = a, b - 1  # times[lo] < t < times[hi]
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if times[mid] <= t:
+                lo = mid
+            else:
+                hi = mid
+        if step[k]:
+            for j in range(width):
+                out[k, j] = values[lo, j]
+            continue
+        u = (t - times[lo]) / (times[hi] - times[lo])
+        if not quaternion:
+            for j in range(width):
+                out[k, j] = values[lo, j] + u * (values[hi, j] - values[lo, j])
+            continue
+        dot = 0.0
+        for j in range(4):
+            dot += values[lo, j] * values[hi, j]
+        sign = 1.0
+        if dot < 0.0:
+            sign, dot = -1.0, -dot
+        if dot > 0.9995:  # nearly equal: lerp then normalise
+            wa, wb = 1.0 - u, u
+        else:
+            theta = np.arccos(min(dot, 1.0))
+            wa = np.sin((1.0 - u) * theta) / np.sin(theta)
+            wb = np.sin(u * theta) / np.sin(theta)
+        norm = 0.0
+        for j in range(4):
+            out[k, j] = wa * values[lo, j] + wb * sign * values[hi, j]
+            norm += out[k, j] * out[k, j]
+        norm = np.sqrt(norm)
+        for j in range(4):
+            out[k, j] /= norm
