@@ -22,6 +22,7 @@ inside or under a solid) this test still runs.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from ..terrain.horizon_cells import CellCaster
 from .horizon_solids import MAX_CELLS, find_solids, solid_map
@@ -140,7 +141,19 @@ def off_screen(corners, planes, slack: float) -> np.ndarray:
     is outside the frustum. planes are the Culler's conservative planes (pushed out by the
     arithmetic's margin); slack adds the tree's tolerance and the device's vertex move, so a
     triangle the device could draw inside the frustum is never called off screen."""
-    if not len(corners):
-        return np.zeros(0, dtype=bool)
-    distance = corners @ planes[:, :3].T + planes[:, 3]  # (K, 3, P)
-    return (distance < -slack).all(axis=1).any(axis=1)
+    return _off_screen(np.asarray(corners, np.float64), np.asarray(planes, np.float64),
+                       float(slack))
+
+
+@njit(cache=True)
+def _off_screen(corners, planes, slack):
+    out = np.zeros(corners.shape[0], dtype=np.bool_)
+    for n in range(corners.shape[0]):
+        for p in range(planes.shape[0]):
+            a, b, c, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3] + slack
+            if (a * corners[n, 0, 0] + b * corners[n, 0, 1] + c * corners[n, 0, 2] + d < 0
+                    and a * corners[n, 1, 0] + b * corners[n, 1, 1] + c * corners[n, 1, 2] + d < 0
+                    and a * corners[n, 2, 0] + b * corners[n, 2, 1] + c * corners[n, 2, 2] + d < 0):
+                out[n] = True
+                break
+    return out

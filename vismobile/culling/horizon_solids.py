@@ -140,13 +140,15 @@ class Solids:
     rects: np.ndarray
     prisms: list
 
+    def __post_init__(self):
+        self.rect_list = [tuple(map(float, r)) for r in self.rects]
+
     def grounds_under(self, eye, margin: float = 0.0) -> tuple:
         """Indices of the grounds whose rectangle holds the eye (x, z) at least margin inside:
         only from above its own ground can a ray not pass under a ground's open edge."""
-        r = self.rects
-        inside = ((r[:, 0] + margin < eye[0]) & (eye[0] < r[:, 2] - margin)
-                  & (r[:, 1] + margin < eye[2]) & (eye[2] < r[:, 3] - margin))
-        return tuple(np.flatnonzero(inside).tolist())
+        x, z = float(eye[0]), float(eye[2])  # a few grounds: plain floats beat numpy here
+        return tuple(k for k, (x0, z0, x1, z1) in enumerate(self.rect_list)
+                     if x0 + margin < x < x1 - margin and z0 + margin < z < z1 - margin)
 
 
 def find_solids(world) -> Solids:

@@ -69,6 +69,9 @@ def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lowe
     cells = sizes[0]
     bottoms = bflat.shape[0] > 0
     rise_top = top - eye[1]
+    laters = np.empty(slices)  # the highest solid slope beyond each slice's start
+    for k in range(slices):
+        laters[k] = rise_top / depths[k] if rise_top > 0 else rise_top / depths[slices]
     cast = 0
     for b in range(bands):
         best = -np.inf
@@ -77,7 +80,7 @@ def _cast(flat, offsets, sizes, spacing, eye, forward, right, tans, depths, lowe
             if bottoms:
                 bases[b, k] = bbest
             z0, z1 = depths[k], depths[k + 1]
-            later = rise_top / z0 if rise_top > 0 else rise_top / depths[slices]
+            later = laters[k]
             if z0 >= zclip and (best >= later or best >= stop_high[b] or later < stop_low[b]):
                 for rest in range(k, slices):
                     horizon[b, rest] = best
@@ -200,25 +203,31 @@ def _hidden(points, eye, forward, right, tans, depths, values, ceiling, bases, c
             grow=0.0):
     """(K,) bool: the convex hull of points (K, C, 3) (a box's 8 corners, a triangle's 3), each
     grown to a cube of half-side grow, lies wholly behind the horizon: a linear-fractional
-    slope peaks at a hull vertex."""
+    slope peaks at a hull vertex. A grown point is taken as the box of its cube's moves in the
+    level frame (depth and lateral by grow (|a_x| + |a_z|) for the axis a, height by grow):
+    its slopes' extremes lie at that box's corners, so each bound is its corner's ratio."""
     out = np.zeros(points.shape[0], dtype=np.bool_)
     bands = tans.shape[0] - 1
-    reps = 8 if grow > 0 else 1
+    dz = grow * (abs(forward[0]) + abs(forward[2]))
+    dl = grow * (abs(right[0]) + abs(right[2]))
     for n in range(points.shape[0]):
         zmin, tmin, tmax, mmin, mmax = np.inf, np.inf, -np.inf, np.inf, -np.inf
-        for c in range(points.shape[1] * reps):
-            q, s = c // reps, c % reps
-            x = points[n, q, 0] + (grow if s & 1 else -grow) - eye[0]
-            y = points[n, q, 1] + (grow if s & 2 else -grow) - eye[1]
-            w = points[n, q, 2] + (grow if s & 4 else -grow) - eye[2]
+        for q in range(points.shape[1]):
+            x = points[n, q, 0] - eye[0]
+            y = points[n, q, 1] - eye[1]
+            w = points[n, q, 2] - eye[2]
             z = x * forward[0] + w * forward[2]
             lateral = x * right[0] + w * right[2]
-            if z <= 0:
+            z_lo, z_hi = z - dz, z + dz
+            if z_lo <= 0:
                 zmin = -1.0
                 break
-            zmin = min(zmin, z)
-            tmin, tmax = min(tmin, lateral / z), max(tmax, lateral / z)
-            mmin, mmax = min(mmin, y / z), max(mmax, y / z)
+            zmin = min(zmin, z_lo)
+            l_lo, l_hi, y_lo, y_hi = lateral - dl, lateral + dl, y - grow, y + grow
+            tmin = min(tmin, l_lo / (z_hi if l_lo >= 0 else z_lo))
+            tmax = max(tmax, l_hi / (z_lo if l_hi >= 0 else z_hi))
+            mmin = min(mmin, y_lo / (z_hi if y_lo >= 0 else z_lo))
+            mmax = max(mmax, y_hi / (z_lo if y_hi >= 0 else z_hi))
         if zmin <= depths[0] or tmax < tans[0] or tmin > tans[bands] \
                 or (not clamp and (tmin < tans[0] or tmax > tans[bands])):
             continue
@@ -275,6 +284,10 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
     tmax = max(abs(tans[0]), abs(tans[bands]))
     bottoms = bflat.shape[0] > 0
     rise_top = top - eye[1]
+    laters = np.empty(slices, np.int64)
+    for k in range(slices):
+        laters[k] = (_fdiv_ceil(rise_top, depths[k]) if rise_top > 0 else
+                     _fdiv_ceil(rise_top, depths[slices]))
     cast = 0
     for b in range(bands):
         best = nothing
@@ -283,8 +296,7 @@ def _cast_fixed(flat, offsets, sizes, spacing, eye, forward, right, tans, depths
             if bottoms:
                 bases[b, k] = bbest
             z0, z1 = depths[k], depths[k + 1]
-            later = (_fdiv_ceil(rise_top, z0) if rise_top > 0 else
-                     _fdiv_ceil(rise_top, depths[slices]))
+            later = laters[k]
             if z0 >= zclip and (best >= later or best >= stop_high[b] or later < stop_low[b]):
                 for rest in range(k, slices):
                     horizon[b, rest] = best

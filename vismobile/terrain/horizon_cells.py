@@ -107,7 +107,7 @@ class CellCaster:
         reach = float(np.hypot(max(abs(local[0]), abs(local[0] - size)),
                                max(abs(local[2]), abs(local[2] - size))))
         far = min(far if far is not None else camera.far, reach)
-        depths = self.slices(max(camera.near, self.spacing), far)
+        depths = self._slices_to(max(camera.near, self.spacing), camera.far, far)
         if len(depths) < 2:
             return self.nothing(eye)
         near, count = depths[0], len(depths) - 1
@@ -137,6 +137,21 @@ class CellCaster:
         start = linear[-1]
         count = max(0, int(np.ceil(np.log(max(far, start) / start) / np.log1p(self.step))))
         return np.concatenate([linear, start * (1 + self.step) ** np.arange(1, count + 1)])
+
+    def _slices_to(self, near: float, deepest: float, far: float) -> np.ndarray:
+        """slices(near, far) for far <= deepest, cut from slices(near, deepest) (kept per
+        near and deepest: the same values, without the per-frame powers)."""
+        if not far > near:
+            return np.zeros(0)
+        cache = self.__dict__.setdefault("_slice_cache", {})
+        full = cache.get((near, deepest))
+        if full is None:
+            if len(cache) > 8:
+                cache.clear()
+            full = cache[(near, deepest)] = self.slices(near, deepest)
+        if not far < deepest:
+            return full
+        return full[:int(np.searchsorted(full, far, side="left")) + 1]
 
     def _first_ceiling(self, local, z1, span) -> float:
         """Slope a ray must beat to pass above every solid within level depth z1 of the eye
