@@ -11,6 +11,7 @@ from .backface import BackfaceFlag, ConservativeBackface, ThesisBackface
 from .cones import NormalConeStage
 from .frustum import FrustumStage, ThesisFrustumStage
 from .horizon import HorizonStage
+from .doors import attach_doors
 from .moving import MovingObjects
 from .occlusion import DepthBufferOcclusion
 from .occlusion_thesis import ThesisOcclusion
@@ -111,11 +112,13 @@ class Culler:
         self._fuse()
         self._cover()
         self.moving = None
+        self._doors = None  # (portals stage, door rows in the motion) of an animated world
         if self.animated is not None:
             self.world_scale = max(self.world_scale,
                                    world_scale(self.animated.animated.rest_vertices))
             self.moving = MovingObjects(self.animated,
                                         {stage.name: stage for stage in self.stages}, arithmetic)
+            self._doors = attach_doors(self.stages, self.animated.animated)
 
     def __repr__(self) -> str:
         part = self.partition
@@ -164,6 +167,8 @@ class Culler:
         scale = max(self.world_scale, *map(abs, camera.position))
         if self.moving is not None:  # where the objects are now: their magnitude too
             scale = max(scale, self.moving.pose(time))
+            if self._doors is not None:  # where the doors stand: shut ones block portals
+                self._doors[0].door_matrices = self.moving.matrices[self._doors[1]]
         planes = conservative_planes(camera.frustum_planes(), self.arithmetic, scale)
         state = CullState(self.tree, camera, planes, np.zeros(1, dtype=np.int64),
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})

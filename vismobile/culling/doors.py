@@ -119,3 +119,19 @@ def blocked(portals, doors, depths, boxes, closed, slack, eye, reach, grow) -> n
     away = ((eye < boxes[:, 0] - margin[:, None]) | (eye > boxes[:, 1] + margin[:, None])).any(axis=1)
     keep = closed[doors] & away[doors] & (depths > grow + slack[doors])
     return np.unique(portals[keep])
+
+
+def attach_doors(stages, animated):
+    """Give the `portals` stage among `stages` the doors of an AnimatedWorld (find_doors over
+    its moving objects): (stage, rows into the motion's matrices) for the Culler to hand each
+    frame's door matrices on, or None without a portals stage or a door."""
+    stage = next((s for s in stages if s.name == "portals"), None)
+    if stage is None or not getattr(stage, "available", False):
+        return None
+    world = animated.world
+    rows, boxes = find_doors(world.object_names, world.object_ids, world.corners,
+                             animated.moving_object_ids)
+    if not len(rows):
+        return None
+    stage.use_doors(boxes)
+    return stage, rows

@@ -1,0 +1,82 @@
+"""W7 (issue 25), doors shut and on their schedule: every conservative stage and combination
+(test_conservative.COMBOS) keeps every triangle the item buffer of the frame's pose shows, on
+sampled frames of W7's path (street, entrance, gallery, in front of shut doors, back out) and on
+random cameras inside the building at random times; and a shut door removes what lies behind."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vismobile.culling import Culler, parse_stages
+from vismobile.partition import partition
+from vismobile.scenes import hybrid
+from vismobile.scenes.thesis import write_motion
+from vismobile.world.animated import AnimatedWorld
+from vismobile.world.camera import Camera
+from vismobile.world.trajectory import Trajectory
+
+ROOT = Path(__file__).resolve().parents[2]
+_spec = importlib.util.spec_from_file_location(
+    "conservative_combos", Path(__file__).with_name("test_conservative.py"))
+_combos = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_combos)
+COMBOS, OPTIONS = _combos.COMBOS, _combos.OPTIONS
+FRAMES = (120, 400, 470, 530, 600, 660, 760, 870, 1000)  # street, door, gallery, room, out
+_CACHE = {}
+
+
+def animated_w7(thesis_world, tmp_path_factory, doors):
+    if doors not in _CACHE:
+        path = tmp_path_factory.mktemp("motion") / f"{doors}.json"
+        write_motion("w7", path, doors=doors)
+        world = AnimatedWorld.from_motion_file(thesis_world("w7"), path)
+        _CACHE[doors] = partition(world, "portal", depth=2)
+    return _CACHE[doors]
+
+
+def cameras(kit, seed):
+    """(camera, time): the path's FRAMES at f / 30 s, and random cameras in the building."""
+    path = Trajectory.load(ROOT / "trajectories" / "hybrid.csv")
+    out = [(path.camera(f, kit.ASPECT), f / 30.0) for f in FRAMES]
+    rng = np.random.default_rng(seed)
+    foot = hybrid.footprint()
+    for _ in range(6):
+        eye = [rng.uniform(foot[0, 0], foot[1, 0]), rng.uniform(0.3, 6.0),
+               rng.uniform(foot[0, 1], foot[1, 1])]
+        out.append((Camera(eye, yaw=rng.uniform(0, 360), pitch=rng.uniform(-40, 40),
+                           aspect=kit.ASPECT), rng.uniform(0, 40)))
+    return out
+
+
+@pytest.mark.parametrize("doors", ["closed", "scheduled"])
+def test_no_stage_drops_a_visible_triangle_on_w7(kit, thesis_world, tmp_path_factory, doors):
+    part = animated_w7(thesis_world, tmp_path_factory, doors)
+    animated = part.animated
+    cullers = {combo: Culler(part, combo, **OPTIONS.get(combo, {})) for combo in COMBOS}
+    shut = 0
+    for i, (cam, t) in enumerate(cameras(kit, seed=7 if doors == "closed" else 8)):
+        posed = animated.posed(t)
+        truth = {}
+        for combo, culler in cullers.items():
+            back = bool(kit.BACKFACE_STAGES & set(parse_stages(combo)))
+            if back not in truth:
+                truth[back] = kit.visible_ids(posed, cam, back)
+            result = culler.cull(cam, time=t)
+            shut += result.stats.get("portals.portals_shut", 0)
+            missing = np.setdiff1d(truth[back], result.triangles)
+            assert not len(missing), (f"{combo} with doors {doors} dropped {len(missing)} "
+                                      f"visible triangles at t={t:.2f}, camera {cam}")
+    assert shut > 0  # the doors did block portals on these frames
+
+
+def test_a_shut_door_hides_the_room_behind_it(kit, thesis_world, tmp_path_factory):
+    """Frame 608: the walker, 2 m away, faces the door into room (2, 0); shut, portals sends a fraction
+    of what it sends with every door open."""
+    path = Trajectory.load(ROOT / "trajectories" / "hybrid.csv")
+    camera = path.camera(608, kit.ASPECT)
+    sent = {}
+    for doors in ("closed", "open"):
+        part = animated_w7(thesis_world, tmp_path_factory, doors)
+        sent[doors] = len(Culler(part, "portals").cull(camera, time=20.0).triangles)
+    assert sent["closed"] < 0.5 * sent["open"]

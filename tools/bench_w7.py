@@ -1,0 +1,166 @@
+"""W7 benchmark (issue 25): the hybrid world's path, its doors, regional culling, and the viewer
+with moving objects.
+
+    .venv/bin/python tools/bench_w7.py [--step 10] [--pvs] [--viewer 1000] [--skip-drops]
+
+1. dropped: every conservative combination (tests/culling/test_conservative.COMBOS) on every
+   --step-th frame of trajectories/hybrid.csv at t = f / 30 s, doors on their schedule, against
+   the item buffer of that frame's pose (back faces culled in it when a backface stage is on).
+2. doors: triangles `portals` sends (portal:2 over the static part, moving objects through
+   culling/moving.py) on every other frame, with every door shut and with the scheduled doors,
+   each against every door open; summed over the whole path, over the frames inside the
+   building, and over the frames 2 m from the shut door into room (2, 0) (frames 600-616).
+3. regional: RegionalCuller (portals+tbfc | vfc+occlusion+tbfc, with --pvs also
+   pvs+vfc+tbfc over a conservative bake) against each fixed choice, every --step-th frame:
+   triangles sent and iPaq-model ms summed (regional's probe culls added), and which choice
+   each region kept.
+4. viewer: W7 with --viewer moving people added (walking loops on the streets), rendered by
+   the viewer's own frame function (Session.render, headless) along the path: median and p95
+   ms per frame (cull + pose upload + draw + HUD), after a warm-up; and the same for W7's own
+   67 moving objects, and for W7 frozen (no motion) as the baseline, interleaved.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from vismobile.culling import Culler, parse_stages  # noqa: E402
+from vismobile.culling.regional import RegionalCuller  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
+from vismobile.partition import partition  # noqa: E402
+from vismobile.render import SENTINEL, item_buffer  # noqa: E402
+from vismobile.scenes import build_world  # noqa: E402
+from vismobile.scenes.thesis import motion_path, write_motion  # noqa: E402
+from vismobile.world.animated import AnimatedWorld  # noqa: E402
+from vismobile.world.trajectory import Trajectory  # noqa: E402
+
+PROFILE = get_profile("ipaq-hx2490b")
+PATH = ROOT / "trajectories" / "hybrid.csv"
+FPS = 30.0
+INSIDE = (460, 888)  # frames between the walker's entrance crossings
+FACING = (600, 617)  # 2 m from the door into room (2, 0), facing it
+
+
+def combos():
+    spec = importlib.util.spec_from_file_location(
+        "conservative", ROOT / "tests" / "culling" / "test_conservative.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.COMBOS, module.OPTIONS
+
+
+def animated(doors: str, folder: Path) -> AnimatedWorld:
+    path = folder / f"w7_{doors}.json"
+    write_motion("w7", path, doors=doors)
+    return AnimatedWorld.from_motion_file(build_world("w7"), path)
+
+
+def dropped(part, step: int) -> dict:
+    from vismobile.culling import BACKFACE_STAGES
+
+    names, options = combos()
+    cullers = {c: Culler(part, c, **options.get(c, {})) for c in names}
+    path = Trajectory.load(PATH)
+    out = {c: 0 for c in names}
+    frames = range(0, len(path), step)
+    for f in frames:
+        cam, t = path.camera(f, PROFILE.aspect), f / FPS
+        posed = part.animated.posed(t)
+        truth = {}
+        for combo, culler in cullers.items():
+            back = bool(set(BACKFACE_STAGES) & set(parse_stages(combo)))
+            if back not in truth:
+                ids = np.unique(item_buffer(posed, None, cam, PROFILE, cull_back=back))
+                truth[back] = ids[ids != SENTINEL]
+            out[combo] += len(np.setdiff1d(truth[back], culler.cull(cam, time=t).triangles))
+    print(f"1. dropped on {len(frames)} frames of the path (every {step}th), doors scheduled:")
+    for combo, n in out.items():
+        print(f"   {combo:36s} {n}")
+    return out
+
+
+def door_ratios(folder: Path) -> None:
+    path = Trajectory.load(PATH)
+    frames = np.arange(0, len(path), 2)
+    sent = {}
+    for doors in ("closed", "scheduled", "open"):
+        culler = Culler(partition(animated(doors, folder), "portal", depth=2), "portals")
+        sent[doors] = np.array([len(culler.cull(path.camera(f), time=f / FPS).triangles)
+                                for f in frames])
+    inside = (frames >= INSIDE[0]) & (frames <= INSIDE[1])
+    facing = (frames >= FACING[0]) & (frames <= FACING[1])
+    print(f"2. portals, triangles sent on {len(frames)} frames (every 2nd), against every door"
+          f" open ({sent['open'].sum():,} on the path):")
+    for doors in ("closed", "scheduled"):
+        ratio = [sent[doors][m].sum() / sent["open"][m].sum()
+                 for m in (np.ones(len(frames), bool), inside, facing)]
+        print(f"   doors {doors:9s} whole path {ratio[0]:.3f}x  inside {ratio[1]:.3f}x  "
+              f"facing the shut door {ratio[2]:.3f}x")
+
+
+def regional(part, step: int, choices) -> None:
+    path = Trajectory.load(PATH)
+    chooser = RegionalCuller(part, choices)
+    fixed = [Culler(part, c) for c in chooser.choices]
+    ms = np.zeros(len(fixed) + 1)
+    sent = np.zeros(len(fixed) + 1, dtype=np.int64)
+    for f in range(0, len(path), step):
+        cam, t = path.camera(f), f / FPS
+        for k, culler in enumerate(fixed):
+            r = culler.cull(cam, time=t)
+            ms[k] += chooser.price(r)
+            sent[k] += len(r.triangles)
+        r = chooser.cull(cam, time=t)
+        ms[-1] += chooser.price(r) + r.stats.get("regional.probe_ms", 0.0)
+        sent[-1] += len(r.triangles)
+    print(f"3. regional against fixed choices, every {step}th frame (iPaq model ms, summed;"
+          " regional's probes included):")
+    for label, m, s in zip(list(chooser.choices) + ["regional"], ms, sent):
+        print(f"   {label:24s} {m:10,.0f} ms  {s:10,} triangles  {m / ms[-1]:.3f}x regional")
+    kept = {}
+    for region, pick in sorted(chooser.decisions.items()):
+        kept.setdefault(chooser.choices[pick], []).append(region)
+    for choice, regions in kept.items():
+        print(f"   {choice}: cells {regions}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--step", type=int, default=10)
+    parser.add_argument("--pvs", action="store_true", help="regional may pick a baked PVS")
+    parser.add_argument("--viewer", type=int, default=0, help="moving objects (0: skip)")
+    parser.add_argument("--skip-drops", action="store_true")
+    args = parser.parse_args(argv)
+    build_world("w7")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        scheduled = AnimatedWorld.from_motion_file(build_world("w7"), motion_path("w7"))
+        part = partition(scheduled, "portal", depth=2)
+        if not args.skip_drops:
+            dropped(part, args.step)
+        door_ratios(folder)
+        choices = ["portals+tbfc", "vfc+occlusion+tbfc"]
+        if args.pvs:
+            start = time.perf_counter()
+            part = partition(scheduled, "portal", depth=2, pvs="conservative")
+            print(f"   (PVS bake {time.perf_counter() - start:.1f} s)")
+            choices.append("pvs+vfc+tbfc")
+        regional(part, args.step, choices)
+        if args.viewer:
+            from bench_w7_viewer import viewer_times
+
+            viewer_times(args.viewer)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
