@@ -107,3 +107,20 @@ def test_bad_terrain_play_input_is_one_line_and_exit_2(terrain, tmp_path, capsys
     broken.write_bytes(terrain.read_bytes()[:200])
     refuse(capsys, ["play", broken, "-o", tmp_path / "d"], "broken.vmt")
     assert not any((tmp_path / n).exists() for n in "abcd")  # no partial output
+
+
+def test_tune_picks_the_cheapest_method_and_tau_within_the_error(terrain, tmp_path, capsys):
+    import json
+
+    from vismobile.app.cli import main
+
+    out = tmp_path / "tune.json"
+    assert main(["tune", str(terrain), "--probe", "2", "--max-error-px", "2", "--quiet",
+                 "-o", str(out)]) == 0
+    result = json.loads(out.read_text())
+    rows = result["rows"]
+    assert {(r["method"], r["tau"]) for r in rows} == \
+        {(m, t) for m in METHODS for t in (0.5, 1.0, 2.0)}
+    assert result["choice"] == min(rows, key=lambda r: r["cost_ms"])
+    assert all(r["error_px_max"] <= r["tau"] + 1e-9 for r in rows)
+    assert "choice: --terrain-method" in capsys.readouterr().out

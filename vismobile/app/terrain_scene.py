@@ -7,8 +7,9 @@ through the engine's Culler with the chosen stages over their partition (`horizo
 the heightmap), and the renderer draws the ground, then the kept objects Z-buffered into it.
 
 Renderers keep their vertex buffers across frames: the tiles' per-tile slots
-(render/tile_arena.py), Röttger's chunk grids with cached index slots (render/chunks.py);
-ROAM's leaves are gathered per frame (render/terrain.py: its leaves span blocks freely).
+(render/tile_arena.py), Röttger's chunk grids with cached index slots (render/chunks.py),
+ROAM's 32x32-cell sample blocks (tile_arena.BlockArena: a leaf within one block costs three
+uint16 indices a frame; the few spanning blocks are gathered).
 
 Frame figures (TerrainFrame): triangles of the ground and of the objects, LOD and cull and
 render times, the method's error bound in pixels over the drawn pieces (lambda_b E / d, E the
@@ -44,6 +45,7 @@ class TerrainFrame:
     nodes_hidden: int
     triangles_hidden: int
     stats: dict
+    ground_calls: int = 0  # draw calls an ES 1.1 device would make for the ground
 
     @property
     def triangles(self) -> int:
@@ -104,6 +106,10 @@ class TilesLod:
     def triangles(self, selection) -> int:
         return int(selection.triangles)
 
+    def calls(self, selection) -> int:
+        """One glDrawElements per tile (its own vertex buffer, uint16 indices)."""
+        return len(selection.level)
+
     def reset(self) -> None:
         """Forget frame-to-frame state (the arena's slots stay: they are only a cache)."""
 
@@ -151,6 +157,10 @@ class RoettgerLod:
     def triangles(self, frame) -> int:
         return int(frame.triangles)
 
+    def calls(self, frame) -> int:
+        """One glCallList per visible chunk, plus one draw of the coarse leaves."""
+        return len(frame.chunks) + (len(frame.coarse) > 0)
+
     def reset(self) -> None:
         """Forget the cached chunks (the next frame rebuilds every visible one)."""
         self.lists.cache = [None] * len(self.lists.cache)
@@ -166,44 +176,48 @@ class RoamLod:
     name = "roam"
 
     def __init__(self, heightmap, profile):
-        from ..render.terrain import TerrainRenderer
+        from ..render.tile_arena import BlockArena
         from ..terrain.roam import Roam
 
         self.roam = Roam(heightmap)
-        self.renderer = TerrainRenderer(heightmap, profile)
+        self.renderer = BlockArena(heightmap, profile)
 
     def select(self, camera, resolution, tau):
         return self.roam.update(camera, resolution, tau)
 
     def errors(self, frame, camera, resolution) -> tuple:
-        """(the frame's bound_px, largest wedgie of the drawn leaves in world units: a leaf's
-        diamond is centred on its hypotenuse's midpoint; finest leaves are exact)."""
+        """(the frame's bound_px, largest wedgie of the drawn leaves in world units). A leaf
+        is emitted as (v, a, e), v its right-angle vertex (terrain/roam_frame.py's _emit), so
+        its hypotenuse (a, e) has the midpoint of the diamond that would split it; finest
+        leaves' hypotenuses are cell diagonals (no sample: exact)."""
         t = frame.triangles
         if not len(t):
             return 0.0, 0.0
         n = self.roam.heightmap.size
-        r, c = np.divmod(t, n)
-        best = np.zeros(len(t))
-        for a, b in ((0, 1), (1, 2), (2, 0)):  # the hypotenuse is the longest edge
-            length = (r[:, a] - r[:, b]) ** 2 + (c[:, a] - c[:, b]) ** 2
-            longest = length >= np.maximum.reduce([(r[:, x] - r[:, y]) ** 2
-                                                   + (c[:, x] - c[:, y]) ** 2
-                                                   for x, y in ((0, 1), (1, 2), (2, 0))])
-            mr, mc = r[:, a] + r[:, b], c[:, a] + c[:, b]
-            whole = longest & (mr % 2 == 0) & (mc % 2 == 0)
-            mid = np.where(whole, (mr // 2) * n + mc // 2, 0)
-            best = np.maximum(best, np.where(whole, self.roam.wedge[mid, 2], 0.0))
-        return float(frame.bound_px), float(best.max())
+        r1, c1 = np.divmod(t[:, 1], n)
+        r2, c2 = np.divmod(t[:, 2], n)
+        mr, mc = r1 + r2, c1 + c2
+        whole = (mr % 2 == 0) & (mc % 2 == 0)
+        mid = (mr[whole] // 2) * n + mc[whole] // 2
+        best = float(self.roam.wedge[mid, 2].max()) if len(mid) else 0.0
+        centre = (n // 2) * n + n // 2
+        if not self.roam.split[centre]:  # the two roots, emitted corner first
+            best = max(best, float(self.roam.wedge[centre, 2]))
+        return float(frame.bound_px), best
 
     def triangles(self, frame) -> int:
         return len(frame.triangles)
+
+    def calls(self, frame) -> int:
+        """One glDrawElements per batch of 21,845 triangles (65,535 uint16 vertices)."""
+        return -(-len(frame.triangles) // 21845)
 
     def reset(self) -> None:
         """Back to the two root triangles."""
         self.roam.reset()
 
     def draw(self, frame, camera):
-        return self.renderer.draw_samples(frame.triangles, camera)
+        return self.renderer.draw(frame.triangles, camera)
 
 
 LODS = {"tiles": TilesLod, "roettger": RoettgerLod, "roam": RoamLod}
@@ -310,7 +324,7 @@ class TerrainScene:
             object_triangles = more.triangles
         return TerrainFrame(self.lod.triangles(selected), object_triangles, error_px,
                             error_world, lod_ms, cull_ms, render_ms, upload_ms, hidden,
-                            hidden_triangles, stats)
+                            hidden_triangles, stats, self.lod.calls(selected))
 
     def read_rgb(self) -> np.ndarray:
         return self.lod.renderer.read_rgb()

@@ -15,7 +15,9 @@ PROBE_FRAMES = 24
 
 def add_parser(sub):
     parser = sub.add_parser("tune", help="pick the fastest conservative configuration for a world")
-    parser.add_argument("world", help=WORLD_HELP)
+    parser.add_argument("world", help=WORLD_HELP + ", or a terrain (.vmt: picks its LOD method "
+                        "and tau within --max-error-px, default 1, over the probe frames of "
+                        "--trajectory or its fast circle path)")
     parser.add_argument("--trajectory", type=Path, default=None,
                         help="trajectory CSV (default: the thesis's path for w1..w6)")
     parser.add_argument("--profile", default="ipaq-hx2490b",
@@ -52,6 +54,8 @@ def add_parser(sub):
 
 
 def run(args) -> int:
+    if str(args.world).lower().endswith(".vmt"):
+        return run_terrain(args)
     import json
 
     from ..files.atomic import check_destination
@@ -115,3 +119,46 @@ def run(args) -> int:
         atomic_write_bytes(args.out, json.dumps(output, indent=1).encode())
     return 0
 
+
+
+def run_terrain(args) -> int:
+    """tune for a .vmt (app/terrain_tune.py): every method at taus within --max-error-px over
+    --probe frames; prints the table and the choice, -o writes it as JSON."""
+    import json
+
+    import numpy as np
+
+    from ..app.terrain_play import terrain_camera_options
+    from ..app.terrain_scene import default_cameras
+    from ..app.terrain_tune import report, tune_terrain
+    from ..device.profile import get_profile
+    from ..errors import VisMobileError
+    from ..files.atomic import atomic_write_bytes, check_destination
+    from ..progress import Status
+    from ..terrain import store
+    from ..world.trajectory import Trajectory
+
+    if args.out:
+        check_destination(args.out)
+    if args.fix_winding or args.pvs:
+        raise VisMobileError("--fix-winding and --pvs apply to triangle worlds, not to a .vmt")
+    profile = get_profile(args.profile)
+    heightmap, _ = store.load(args.world)
+    if args.trajectory is not None:
+        trajectory = Trajectory.load(args.trajectory, **terrain_camera_options(heightmap))
+        pick = np.unique(np.linspace(0, len(trajectory) - 1, args.probe).astype(int))
+        cameras = [trajectory.camera(int(f), profile.aspect) for f in pick]
+    else:
+        lap = default_cameras(heightmap, None, profile.aspect)
+        pick = np.unique(np.linspace(0, len(lap) - 1, args.probe).astype(int))
+        cameras = [lap[int(f)] for f in pick]
+    with Status(f"tune {args.world}", enabled=not args.quiet) as status:
+        result = tune_terrain(args.world, cameras, profile,
+                              max_error_px=1.0 if args.max_error_px is None
+                              else args.max_error_px,
+                              cost=args.cost, progress=status)
+    print(report(result))
+    if args.out:
+        atomic_write_bytes(args.out, (json.dumps(result, indent=2) + "\n").encode())
+        print(f"wrote {args.out}")
+    return 0

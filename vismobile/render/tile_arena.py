@@ -1,4 +1,5 @@
-"""Persistent per-tile vertex buffers for seed 002's tile quadtree (terrain/tiles.py).
+"""Persistent per-tile vertex buffers: seed 002's tiles (TileArena) and blocks of samples for
+ROAM's leaves (BlockArena).
 
 A tile's (P+1)^2 vertices depend only on the tile (level, row, column), not on the frame, so
 each is gathered and uploaded once into a slot of one vertex arena and kept there across
@@ -8,6 +9,12 @@ templates (uint16 local indices) sit in one static index buffer. A frame is one 
 standing in for one glDrawElements per tile on an ES 1.1 device (uint16 indices into the
 tile's own vertex buffer). When the arena is full the least recently drawn tiles give up their
 slots (an LRU with a memory budget: `budget_bytes`).
+
+BlockArena does the same for triangles given as sample ids (ROAM's leaves): the map is cut
+into blocks of 32x32 cells whose 33^2 vertices are uploaded once into a slot; each frame a
+triangle lying within one block goes out as three uint16 indices local to its block (6 bytes,
+against 84 for three gathered vertices), one multi-draw for all blocks; the few triangles
+spanning blocks (coarse, far away) and any beyond the arena's slots are gathered per frame.
 """
 from __future__ import annotations
 
@@ -141,3 +148,143 @@ class TileArena:
         for buffer in (self.vbo, self.ibo, self.indirect, self.vao):
             if buffer is not None:
                 buffer.release()
+
+
+BLOCK_CELLS = 32  # cells per block side (33^2 vertices: uint16-indexable)
+
+
+class BlockArena:
+    """Draws (T, 3) sample-id triangles of one heightmap from block vertex slots (module doc)."""
+
+    def __init__(self, heightmap, profile, budget_bytes: int = DEFAULT_BUDGET,
+                 cells: int = BLOCK_CELLS):
+        ctx = gl_context()
+        self.heightmap = heightmap
+        self.profile = profile
+        self.fallback = TerrainRenderer(heightmap, profile)
+        self.cells = int(min(cells, heightmap.size - 1))
+        self.side = -(-(heightmap.size - 1) // self.cells)  # blocks per side
+        n = self.cells + 1
+        self.per_block = n * n
+        total = self.side * self.side
+        self.slots = int(max(1, min(total, budget_bytes // (RECORD_BYTES * self.per_block))))
+        self.vbo = ctx.buffer(reserve=self.slots * self.per_block * RECORD_BYTES)
+        self.slot_of = np.full(total, -1, np.int64)
+        self.block_in = np.full(self.slots, -1, np.int64)
+        self.used = np.zeros(self.slots, np.int64)
+        self.frame = 0
+        self.ibo = self.indirect = self.vao = None
+        self.uploaded_blocks = 0
+        self.spilled = 0  # last frame's triangles gathered per frame
+
+    def _grid(self, blocks):
+        """rows, cols (K, V) of blocks' vertex grids, clamped at the map's last sample."""
+        n = self.cells + 1
+        a, b = np.divmod(np.arange(n * n), n)
+        bi, bj = np.divmod(blocks, self.side)
+        last = self.heightmap.size - 1
+        rows = np.minimum(bi[:, None] * self.cells + a[None], last)
+        cols = np.minimum(bj[:, None] * self.cells + b[None], last)
+        return rows, cols
+
+    def _place(self, blocks) -> np.ndarray:
+        """Slots of blocks (-1 for those the arena has no room for this frame)."""
+        self.frame += 1
+        slots = self.slot_of[blocks]
+        self.used[slots[slots >= 0]] = self.frame
+        missing = np.flatnonzero(slots < 0)
+        free = np.flatnonzero(self.used < self.frame)  # not drawn this frame
+        order = free[np.argsort(np.where(self.block_in[free] < 0, -1, self.used[free]),
+                                kind="stable")]
+        take = order[:len(missing)]
+        missing = missing[:len(take)]
+        self.uploaded_blocks = len(take)
+        if not len(take):
+            return slots
+        old = self.block_in[take]
+        self.slot_of[old[old >= 0]] = -1
+        new = blocks[missing]
+        self.block_in[take] = new
+        self.slot_of[new] = take
+        self.used[take] = self.frame
+        slots[missing] = take
+        rows, cols = self._grid(new)
+        records = terrain_vertices(self.heightmap, rows, cols).reshape(len(new), -1)
+        stride = self.per_block * RECORD_BYTES
+        for k, slot in enumerate(take):
+            self.vbo.write(records[k].tobytes(), offset=int(slot) * stride)
+        return slots
+
+    def draw(self, triangles, camera) -> DrawStats:
+        """Draw (T, 3) int64 sample-id triangles (shaded); render_ms covers the sorting, the
+        uploads (new blocks, this frame's indices), the draws and glFinish."""
+        ctx = gl_context()
+        target = render_target(self.profile.resolution, "rgb")
+        ctx.finish()
+        start = time.perf_counter()
+        t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+        size, b = self.heightmap.size, self.cells
+        r, c = np.divmod(t, size)
+        bi = np.minimum(r.min(axis=1) // b, self.side - 1)
+        bj = np.minimum(c.min(axis=1) // b, self.side - 1)
+        inside = ((r.max(axis=1) - bi * b) <= b) & ((c.max(axis=1) - bj * b) <= b)
+        block = bi * self.side + bj
+        blocks, counts = np.unique(block[inside], return_counts=True)
+        slots = self._place(blocks)
+        placed = slots >= 0
+        keep = inside.copy()
+        keep[inside] = placed[np.searchsorted(blocks, block[inside])]
+        spill = t[~keep]
+        order = np.argsort(block[keep], kind="stable")
+        kept = keep.nonzero()[0][order]
+        local = ((r[kept] - bi[kept, None] * b) * (b + 1) + (c[kept] - bj[kept, None] * b))
+        indices = local.astype(np.uint16).tobytes()
+        blocks, counts, slots = blocks[placed], counts[placed], slots[placed]
+        commands = np.zeros((len(blocks), 5), np.uint32)
+        commands[:, 0] = 3 * counts
+        commands[:, 1] = 1
+        commands[:, 2] = 3 * np.r_[0, np.cumsum(counts)[:-1]]
+        commands[:, 3] = slots * self.per_block
+        if self.ibo is None or self.ibo.size < max(len(indices), 1):
+            for old in (self.ibo, self.vao):
+                if old is not None:
+                    old.release()
+            self.ibo = ctx.buffer(reserve=max(2 * len(indices), 1 << 16))
+            self.vao = None
+        if indices:
+            self.ibo.write(indices)
+        data = commands.tobytes()
+        if self.indirect is None or self.indirect.size < len(data):
+            if self.indirect is not None:
+                self.indirect.release()
+            self.indirect = ctx.buffer(reserve=max(2 * len(data), 20 * 1024))
+        if data:
+            self.indirect.write(data)
+        upload_ms = (time.perf_counter() - start) * 1000.0
+        target.use()
+        ctx.viewport = (0, 0, *self.profile.resolution)
+        target.clear(*CLEAR_RGB, 1.0, depth=1.0)
+        ctx.depth_func = "<"
+        ctx.front_face = "ccw"
+        ctx.enable_only(ctx.DEPTH_TEST)
+        prog = program("shaded", "float32")
+        if self.vao is None:
+            self.vao = ctx.vertex_array(
+                prog, [(self.vbo, "3f 3f 4f1", "in_position", "in_normal", "in_color")],
+                index_buffer=self.ibo, index_element_size=2)
+        prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
+        _set_lights(prog)
+        if len(blocks):
+            self.vao.render_indirect(self.indirect, count=len(blocks))
+        ctx.finish()
+        ms = (time.perf_counter() - start) * 1000.0
+        self.spilled = len(spill)
+        calls = 1
+        if len(spill):
+            extra = self.fallback.draw_samples(spill, camera, "shaded", clear=False)
+            ms += extra.render_ms
+            calls += extra.draw_batches
+        return DrawStats(ms, calls, len(t), upload_ms)
+
+    def read_rgb(self) -> np.ndarray:
+        return self.fallback.read_rgb()
