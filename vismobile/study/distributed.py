@@ -123,12 +123,14 @@ def _prepare(task) -> str:
     return prepare(task)
 
 
-def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None) -> dict:
+def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None,
+              progress=True) -> dict:
     """Execute prepare tasks and run tasks (runner's tuples) on Dask; {key: record}.
 
     scheduler : "dask", an address, or a dask.distributed Client to use as it is
     on_record : called with (client, key, record) as each run finishes (tests kill workers here)
     step      : called once per finished task (the progress bar)
+    progress  : a progress line while a PVS bakes (False: none)
     """
     from dask.distributed import as_completed
 
@@ -150,7 +152,7 @@ def run_tasks(prep, tasks, scheduler, workers=None, on_record=None, step=None) -
         # prepare tasks of their structures then find them cached). Not from inside a task: a
         # task that secedes to wait leaves the worker a second thread, and a GL context is
         # the thread's that made it.
-        bake_first(prep, client)
+        bake_first(prep, client, progress)
         futures = {}
         for index, task in enumerate(tasks):
             spec = task[0]

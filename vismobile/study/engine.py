@@ -56,12 +56,13 @@ def file_digest(path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def load_structure(world, label: str, cache_dir=None, executor=None):
+def load_structure(world, label: str, cache_dir=None, executor=None, progress=None):
     """Partition of `world` for a structure label ("octree:5", "portal:2+pvs", ...), cached in
     memory and on disk. A "+pvs" label is its base structure (loaded the same way) with the
     PVS baked on it (bake_pvs); the bake's statistics go beside the file (bake_stats).
 
     executor : optional Dask Client (or process pool) a conservative bake is spread over
+    progress : optional callable(done, total) while a PVS bakes
     Returns (partition, build_seconds); build_seconds is 0.0 when it was loaded from the cache.
     """
     from ..partition import load_partition, partition, save_partition
@@ -85,8 +86,8 @@ def load_structure(world, label: str, cache_dir=None, executor=None):
         built = partition(world, label.split(":")[0], **params)
     else:
         base, _ = load_structure(world, base_structure(label), cache_dir)
-        built, stats = bake_pvs(base, mode, executor=executor if mode == "conservative"
-                                else None)
+        built, stats = bake_pvs(base, mode, progress=progress,
+                                executor=executor if mode == "conservative" else None)
         _BAKES[key] = stats
     seconds = time.perf_counter() - start
     if path is not None:

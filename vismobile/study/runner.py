@@ -109,8 +109,9 @@ def run_matrix(specs, context: Context, processes: int | None = None,
                        "runs", enabled=None if progress else False, total=len(prep) + len(tasks))
         if not local:
             records.update(distributed.run_tasks(prep, tasks, scheduler, processes, on_record,
-                                                 bar.step))
+                                                 bar.step, progress))
         elif processes == 1:
+            bake_first(prep, None, progress)  # with its progress line
             for task in prep:
                 prepare(task)
                 bar.step()
@@ -122,7 +123,7 @@ def run_matrix(specs, context: Context, processes: int | None = None,
             from concurrent.futures import ProcessPoolExecutor
 
             with ProcessPoolExecutor(processes, multiprocessing.get_context("spawn")) as bakers:
-                bake_first(prep, bakers)  # PVS bakes spread over the workers, cached
+                bake_first(prep, bakers, progress)  # PVS bakes over the workers, cached
             with multiprocessing.get_context("spawn").Pool(processes, _worker_init) as pool:
                 for _ in pool.imap_unordered(prepare, prep):
                     bar.step()

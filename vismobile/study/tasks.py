@@ -108,10 +108,12 @@ def prep_key(task) -> tuple:
     return what, spec.world, spec.trajectory, spec.profile, spec.frames, spec.truth_cull_back
 
 
-def bake_first(prep, executor) -> int:
+def bake_first(prep, executor, progress=True) -> int:
     """Bake the conservative PVS of every structure among prepare tasks, in this process with
     its source cells spread over `executor` (a Dask Client, or a process pool: the runner's
-    workers), so the prepare tasks find them cached; returns how many were baked or found."""
+    workers; None: serially), so the prepare tasks find them cached; a progress line per bake (progress False:
+    none); returns how many were baked or found."""
+    from ..progress import Progress
     from .matrix import pvs_of
 
     done = 0
@@ -120,7 +122,12 @@ def bake_first(prep, executor) -> int:
             continue
         context = Context.from_tuple(context_tuple)
         world = engine.load_world(spec.world, context.worlds_dir)
-        engine.load_structure(world, spec.structure, context.cache_dir, executor)
+        bar = Progress(f"compare: baking {spec.world} {spec.structure}",
+                       enabled=None if progress else False)
+        try:
+            engine.load_structure(world, spec.structure, context.cache_dir, executor, bar)
+        finally:
+            bar.close()
         done += 1
     return done
 
