@@ -175,7 +175,8 @@ def _bake(result, mode, args, name) -> tuple:
     from ..progress import Progress
     from ..study.engine import bake_pvs
 
-    where = (f"dask {args.scheduler}" if args.scheduler else
+    where = ("dask" if args.scheduler == "dask" else f"dask {args.scheduler}"
+             if args.scheduler else
              f"{args.jobs} jobs" if args.jobs > 1 and mode == "conservative" else "1 job")
     bar = Progress(f"pvs {mode} {name} ({where})")
     client = cluster = None

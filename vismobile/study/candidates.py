@@ -187,7 +187,8 @@ class TuneResult:
             cost = (f"build {build:.2f} s" if bake is None else
                     f"PVS bake {bake['seconds']:.1f} s, {bake['bytes'] / 1024:,.1f} KB, "
                     f"{bake['cells']} cells")
-            lines.append(f"  {cand.structure:9s} {cand.frame_ms:9.2f}  {cand.cull:32s} "
+            width = max(9, max(len(c.structure) for c in best.values()))
+            lines.append(f"  {cand.structure:{width}s} {cand.frame_ms:9.2f}  {cand.cull:32s} "
                          f"{cand.triangles_sent:10,.0f} tris  ({cost})")
         lossy = [p for p in self.pruned if p[2].startswith("missed")]
         slow = [p for p in self.pruned if not p[2].startswith("missed")]
