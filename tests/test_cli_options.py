@@ -76,6 +76,10 @@ CASES = [
     (["play", "{d}/m.obj", "--trajectory", "{d}/t.csv", "-o", "{d}/r", "--images", "-1"],
      "--images"),
     (["view", "{d}/m.obj", "--scale", "0"], "--scale"),
+    (["play", "{d}/m.obj", "--trajectory", "{d}/t.csv", "-o", "{d}/r", "--fps", "0"], "--fps"),
+    (["play", "{d}/m.obj", "--trajectory", "{d}/t.csv", "-o", "{d}/r", "--fps", "nan"],
+     "--fps"),
+    (["view", "{d}/m.obj", "--fps", "1e9"], "--fps"),
 ]
 
 

@@ -259,3 +259,22 @@ def test_a_mesh_without_a_trajectory_starts_inside_at_eye_height(tmp_path):
     opened = Session.open(tmp_path / "room.obj", "none", (), "desktop",
                           record_path=tmp_path / "r.csv")
     assert np.allclose(opened.pose, pose)
+
+
+def test_an_animated_scene_moves_on_screen_and_the_hud_counts_it(thesis_world):
+    from vismobile.app.playback import load_scene
+
+    scene = load_scene("w7", "octree:3")
+    session = Session(scene, ("vfc",), "ipaq-hx2490b", "trajectories/hybrid.csv",
+                      structures=("octree:3",))
+    session.pose = np.array([75.0, 1.7, 150.0, 0.0, 0.0])  # the street, cars passing
+    images = []
+    for dt in (0.0, 1.5):
+        session.update(dt)
+        frame = session.render()
+        posed = scene.animated.posed(session.scene_time())
+        assert np.array_equal(frame.image, render_rgb(posed, frame.triangles, frame.camera,
+                                                      session.profile))
+        assert any(line.startswith("moving 67 objects") for line in frame.hud)
+        images.append(frame.image)
+    assert not np.array_equal(images[0], images[1])  # the cars moved

@@ -26,7 +26,7 @@ import io
 import json
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -55,11 +55,15 @@ GIF_FRAMES = 120
 
 @dataclass
 class Scene:
-    """What playback draws: a world and its partition (None for --structure none)."""
+    """What playback draws: a world and its partition (None for --structure none); an
+    animated scene (app/animation.py) also its AnimatedWorld (`world` is its rest pose,
+    `partition` an AnimatedPartition) and frames per second (frame f at t = f / fps)."""
 
     world: World
     partition: object = None
     structure: str = "none"
+    animated: object = None
+    fps: float = 30.0
 
 
 @dataclass
@@ -95,11 +99,15 @@ def parse_structure(text) -> tuple:
         raise VisMobileError(f"--structure {text}: {error}") from None
 
 
-def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=None) -> Scene:
-    """World (a mesh file, or a thesis world name w1..w6) partitioned by structure, or a .vmp file.
+def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=None,
+               motion=None, fps=None) -> Scene:
+    """World (a mesh file, or a thesis world name w1..w7) partitioned by structure, or a .vmp file.
 
     fix_winding : reverse triangles first (winding.fixed_world); meshes only, not .vmp files
     eyes        : the camera positions fix_winding tells rooms from solids by (optional)
+    motion      : a JSON motion file moving the world's objects (else W7's own motion, or a
+                  .glb/.gltf file's animation: app/animation.open_animated); fps: frames per
+                  second of the trajectory's time (default 30)
 
     Raises VisMobileError (WorldError, PartitionError, ...) naming the file or the bad setting.
     """
@@ -111,28 +119,37 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
             raise VisMobileError(f"{path_text}: --fix-winding applies to a mesh; a partition "
                                  "file keeps its world (fix it with partition --fix-winding)")
 
+        if motion is not None:
+            raise VisMobileError(f"{path_text}: --motion moves a world's objects; a partition "
+                                 "file is static (give the mesh and --structure)")
         partition = load_partition(path_text)
         return Scene(partition.world, partition, _describe(partition.kind, partition.params))
     from ..files.loader import open_world
+    from .animation import DEFAULT_FPS, check_fps, open_animated
 
+    fps = DEFAULT_FPS if fps is None else check_fps(fps)
     world = open_world(path_text)
     if fix_winding:
         from ..world.winding import fixed_world_said
 
         world = fixed_world_said(world, eyes)
+    animated = open_animated(path_text, world, motion)
+    if animated is not None:
+        world = animated.world
     kind, params = parse_structure(structure)
     if kind is None:
-        return Scene(world, None, "none")
+        return Scene(world, None, "none", animated, fps)
     from ..partition import partition as build_partition
 
     bar = Progress(f"partition {kind}", enabled=None if progress else False)
     try:
-        built = build_partition(world, kind, progress=bar, **params)
+        built = build_partition(animated if animated is not None else world, kind,
+                                progress=bar, **params)
     except ValueError as error:  # unknown kind or parameter, parameter out of range
         raise VisMobileError(f"--structure {structure}: {error}") from None
     finally:
         bar.close()
-    return Scene(world, built, _describe(kind, params))
+    return Scene(world, built, _describe(kind, params), animated, fps)
 
 
 def _describe(kind, params) -> str:
@@ -153,7 +170,7 @@ class _WholeWorld:
         self.all = np.arange(world.triangle_count, dtype=np.int64)
         self.cull_back = "bfc" in stages
 
-    def cull(self, camera):
+    def cull(self, camera, time=None):
         return _Culled(self.all, {"nodes_visited": 0, "triangles_sent": len(self.all)},
                        self.cull_back)
 
@@ -231,6 +248,14 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     memory = profile.check_memory(world, scene.partition)
     culler = make_culler(scene, stages, profile, adaptive)
     renderer = lod_view.renderer if lod_view else renderer_for(world, profile)
+    poser = None
+    if scene.animated is not None:
+        from .animation import Poser
+
+        if lod_view:
+            raise VisMobileError("--lod-tau draws static levels of detail; a scene whose "
+                                 "objects move is played without it")
+        poser = Poser(scene.animated, renderer)
     tree = getattr(culler, "tree", None)
     if tree is None and scene.partition is not None:  # the adaptive culler holds several
         from ..culling.tree import Tree
@@ -260,11 +285,10 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     hud_ms = 0.0
     upload_ms = np.zeros(count)
     compiling = compile_seconds()
+    warm = sorted(set(np.linspace(0, count - 1, WARM_FRAMES).astype(int))) if count else []
     warmup_ms = warm_up(scene, stages, profile, renderer,
-                        [trajectory.camera(played[i], profile.aspect)
-                         for i in sorted(set(np.linspace(0, count - 1, WARM_FRAMES).astype(int)))]
-                        if count else [],
-                        progress, world.name)
+                        [trajectory.camera(played[i], profile.aspect) for i in warm],
+                        progress, world.name, [_time(scene, played[i]) for i in warm])
     warmup_compile_ms = (compile_seconds() - compiling) * 1000.0
     compile_ms, cpu_ms = 0.0, []
     bar = Progress(f"play {world.name}", enabled=None if progress else False)
@@ -273,7 +297,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         camera = trajectory.camera(frame, profile.aspect)
         cpu_start = time.process_time()  # every thread of this process: cull, llvmpipe
         # A cull that compiled a code path the warm-up missed is timed again (timing.timed).
-        culled, cull_ms, compiled = timed(culler.cull, camera)
+        at = _time(scene, frame)
+        pose_ms = poser.pose(at) if poser is not None else 0.0  # the moved vertices' upload
+        culled, cull_ms, compiled = timed(_culls(culler, at), camera)
         compile_ms += compiled
         if lod_view:
             lod = lod_view.draw(culled.triangles, camera, bool(culled.cull_back))
@@ -286,6 +312,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
             cull_ms += lod.lod_ms  # selection is part of the frame's CPU work
         else:
             drawn = renderer.draw(culled.triangles, camera, bool(culled.cull_back))
+            if pose_ms:  # moving the objects' vertices is part of drawing the frame
+                drawn = replace(drawn, render_ms=drawn.render_ms + pose_ms,
+                                upload_ms=drawn.upload_ms + pose_ms)
         if adaptive and hasattr(culler, "observe_render"):
             culler.observe_render(drawn.render_ms, culled.stats)
             active[index] = culled.stats.get("active_stages", active[index])
@@ -335,6 +364,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         # frames' counters (vismobile/device/costmodel.py).
         "timing": label(None), "model": model_block(counters),
         "adaptive": bool(adaptive), "adaptive_events": list(getattr(culler, "events", [])),
+        # an animated scene: objects moved (their vertex upload is in render_ms, upload_ms)
+        "moving_objects": poser.count if poser is not None else 0,
+        "scene_fps": scene.fps if poser is not None else None,
         # Untimed frames before the first measured one (numba's first-use compile, uploads).
         "warmup_ms": warmup_ms,
         "warmup_compile_ms": warmup_compile_ms,  # of it, inside numba's compiles
@@ -365,7 +397,20 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     return result
 
 
-def warm_up(scene, stages, profile, renderer, cameras, progress=False, name="") -> float:
+def _time(scene, frame):
+    """Seconds into an animated scene at a trajectory frame (frame / fps); None when static."""
+    return None if scene.animated is None else float(frame) / scene.fps
+
+
+def _culls(culler, at):
+    """culler.cull of one camera at time `at` (None: a static scene's plain cull)."""
+    if at is None:
+        return culler.cull
+    return lambda camera: culler.cull(camera, time=at)
+
+
+def warm_up(scene, stages, profile, renderer, cameras, progress=False, name="",
+            times=None) -> float:
     """Cull (with a throwaway culler) and draw each camera once, untimed, so no measured frame
     holds numba's first-use compile (tens of seconds on a fresh clone), lazy tables or the first
     uploads; the measured culler starts cold in its frame-to-frame state. Says "compiling
@@ -376,8 +421,8 @@ def warm_up(scene, stages, profile, renderer, cameras, progress=False, name="") 
     with Status(f"play {name}", enabled=bool(progress)) as status:
         status("compiling (first run; later runs load numba's cache)")
         culler = make_culler(scene, stages, profile)
-        for camera in cameras:
-            culled = culler.cull(camera)
+        for camera, at in zip(cameras, times or [None] * len(cameras)):
+            culled = _culls(culler, at)(camera)
             renderer.draw(culled.triangles, camera, bool(culled.cull_back))
     return (time.perf_counter() - start) * 1000.0
 

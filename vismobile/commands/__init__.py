@@ -1,8 +1,11 @@
 """CLI commands, one module each: add_parser(subparsers) -> parser, run(args) -> exit code."""
 
 # Help text of every command's WORLD argument.
-WORLD_HELP = ("thesis world w1..w6 (built on first use) or a mesh file: .obj .ply .stl .off "
-              ".glb .gltf, optionally .gz")
+WORLD_HELP = ("thesis world w1..w7 (built on first use; w7 moves) or a mesh file: .obj .ply "
+              ".stl .off .glb .gltf (a .glb/.gltf animation moves its objects), optionally .gz")
+MOTION_HELP = ("JSON motion file moving the world's objects by name (docs/dynamic.md); w7 "
+               "brings its own, a .glb/.gltf its animation")
+FPS_HELP = "an animated scene's frames per second: frame f shows t = f / FPS s (default 30)"
 # Valid values, spelled out here so `--help` needs no heavy import (tests/test_cli.py checks
 # them against culling.STAGES, profile.PROFILES and partition.KINDS).
 STAGE_NAMES = ("vfc", "vfc_thesis", "bfc", "cbfc", "cbfc_thesis", "cone", "tbfc", "occlusion",
@@ -38,7 +41,7 @@ def fix_winding(world, enabled: bool, eyes=None):
 
 # Stages that remove triangles facing away from the eye (culling.BACKFACE_STAGES; tests check).
 BACKFACE_NAMES = ("bfc", "cbfc", "cbfc_thesis", "cone", "tbfc")
-THESIS_WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6")
+THESIS_WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6", "w7")
 
 
 def warn_winding(world, stages, source, eyes=None, fixed=False, stream=None):
@@ -65,7 +68,8 @@ def warn_winding(world, stages, source, eyes=None, fixed=False, stream=None):
 
 
 def default_trajectory(world, given):
-    """The trajectory a command plays: the given path, else the thesis's path for w1..w6;
+    """The trajectory a command plays: the given path, else the thesis's path for w1..w6
+    (W7's own for w7);
     TrajectoryError for a mesh without one."""
     if given is not None:
         return given
@@ -75,7 +79,7 @@ def default_trajectory(world, given):
         return trajectory_for(str(world).lower())
     from ..errors import TrajectoryError
 
-    raise TrajectoryError(f"{world}: not a thesis world (w1..w6), so it needs --trajectory CSV; "
+    raise TrajectoryError(f"{world}: not a thesis world (w1..w7), so it needs --trajectory CSV; "
                           f"`vismobile trajectory generate {world} -o walk.csv` makes one")
 
 

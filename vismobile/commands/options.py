@@ -68,6 +68,7 @@ def _positive(high=WORLD_UNITS):
 
 
 NOT_EMPTY = Range(rule="non-empty")
+FPS = Range(0.0, 1e4, float, above=True)  # an animated scene's frames per second (issue 25)
 
 # command ("terrain build" for an action) -> option -> Range
 RANGES = {
@@ -100,7 +101,7 @@ RANGES = {
     },
     "play": {"--images": Range(0, MAX_FRAMES), "--limit": Range(1, None),
              "--lod-tau": Range(0.0, 1e6, float),
-             "--cull": NOT_EMPTY, "--frames": NOT_EMPTY},
+             "--cull": NOT_EMPTY, "--frames": NOT_EMPTY, "--fps": FPS},
     "compare": {
         "--jobs": Range(1, MAX_JOBS),
         "--agreement": Range(0, 1000),
@@ -109,7 +110,7 @@ RANGES = {
         "--paths": NOT_EMPTY,
     },
     "view": {"--scale": Range(1, 8), "--cull": NOT_EMPTY,
-             "--lod": Range(0.0, 1e6, float, above=True)},
+             "--lod": Range(0.0, 1e6, float, above=True), "--fps": FPS},
 }
 
 

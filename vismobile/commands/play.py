@@ -2,7 +2,8 @@
 from pathlib import Path
 
 from . import (CULL_HELP, DEFAULT_CULL, default_cull, DEFAULT_STRUCTURE, FIX_WINDING_HELP, FRAMES_HELP,
-               PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP, default_trajectory, warn_winding)
+               FPS_HELP, MOTION_HELP, PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP,
+               default_trajectory, warn_winding)
 
 
 def add_parser(sub):
@@ -54,6 +55,9 @@ def add_parser(sub):
                         help="a .vmt terrain's LOD method: tiles (seed 002's tile quadtree), "
                              "roettger (Röttger's quadtree with Pires's cached chunks), roam "
                              "(split and merge queues); default tiles")
+    parser.add_argument("--motion", type=Path, default=None, metavar="FILE.json",
+                        help=MOTION_HELP)
+    parser.add_argument("--fps", type=float, default=None, help=FPS_HELP)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
@@ -80,7 +84,8 @@ def run(args) -> int:
     with Status(f"play {args.world}", enabled=not args.quiet) as status:
         status("loading the world")
         scene = load_scene(args.world, args.structure, progress=not args.quiet,
-                           fix_winding=args.fix_winding, eyes=trajectory.poses[:, :3])
+                           fix_winding=args.fix_winding, eyes=trajectory.poses[:, :3],
+                           motion=args.motion, fps=args.fps)
         status("checking the winding")
         warn_winding(scene.world, parse_stages(args.cull), args.world,
                      trajectory.poses[:, :3], args.fix_winding)
@@ -120,6 +125,8 @@ def run(args) -> int:
     for event in s["adaptive_events"]:
         print(f"frame {event['frame']}: {event['stage']} {event['action']} (saves "
               f"{event['saving_ms']:.3f} ms, costs {event['cost_ms']:.3f} ms per frame)")
+    if s.get("moving_objects"):
+        print(f"  {s['moving_objects']:,} moving objects, frame f at t = f / {s['scene_fps']:g} s")
     print(f"wrote {args.out}/frames.csv and {args.out}/summary.json")
     return 0
 

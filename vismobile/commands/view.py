@@ -1,8 +1,8 @@
 """`vismobile view WORLD ...`: fly through a world with the thesis's HUD, toggles and recorder."""
 from pathlib import Path
 
-from . import (CULL_HELP, DEFAULT_CULL, default_cull, DEFAULT_STRUCTURE, FIX_WINDING_HELP, STRUCTURE_HELP,
-               WORLD_HELP)
+from . import (CULL_HELP, DEFAULT_CULL, default_cull, DEFAULT_STRUCTURE, FIX_WINDING_HELP, FPS_HELP,
+               MOTION_HELP, STRUCTURE_HELP, WORLD_HELP)
 
 
 def add_parser(sub):
@@ -34,6 +34,9 @@ def add_parser(sub):
     parser.add_argument("--terrain-method", choices=("tiles", "roettger", "roam"),
                         default="tiles",
                         help="a .vmt terrain's LOD method at start (default tiles; M cycles)")
+    parser.add_argument("--motion", type=Path, default=None, metavar="FILE.json",
+                        help=MOTION_HELP)
+    parser.add_argument("--fps", type=float, default=None, help=FPS_HELP)
     parser.add_argument("--script", help=argparse_suppress(), default=None)
     parser.add_argument("--screenshot", type=Path, help=argparse_suppress(), default=None)
     return parser
@@ -85,7 +88,7 @@ def run(args) -> int:
         trajectory = default_trajectory(args.world, None)  # the thesis's path: L plays it
     session = Session.open(args.world, args.structure, args.cull, args.profile,
                            trajectory, fix_winding=args.fix_winding,
-                           record_path=args.record_to)
+                           record_path=args.record_to, motion=args.motion, fps=args.fps)
     from . import warn_winding
     from ..viewer.window import run as run_window
 

@@ -71,9 +71,10 @@ class AdaptiveCuller:
             self._cullers[key] = self._factory(self.partition, list(key))
         return self._cullers[key]
 
-    def _timed(self, stages, camera):
+    def _timed(self, stages, camera, time=None):
         start = self._clock()
-        result = self._culler(stages).cull(camera)
+        culler = self._culler(stages)
+        result = culler.cull(camera) if time is None else culler.cull(camera, time=time)
         return result, (self._clock() - start) * 1e3
 
     def observe_render(self, render_ms: float, stats: dict) -> None:
@@ -96,23 +97,24 @@ class AdaptiveCuller:
         batches = without.stats.get("draw_batches", 0) - with_.stats.get("draw_batches", 0)
         return self.ms_per_triangle * removed + self.ms_per_batch * batches
 
-    def cull(self, camera):
-        """Cull with the active stages; on probe frames measure every optional stage both ways."""
+    def cull(self, camera, time=None):
+        """Cull with the active stages (an animated partition at `time`); on probe frames
+        measure every optional stage both ways."""
         frame, self.frame = self.frame, self.frame + 1
-        result, elapsed = self._timed(self.active, camera)
+        result, elapsed = self._timed(self.active, camera, time)
         if self.ms_per_triangle is not None and frame % self.probe_every == 0:
             for stage in self.optional:
-                self._probe(stage, camera, frame, result, elapsed)
+                self._probe(stage, camera, frame, result, elapsed, time)
         result.stats["active_stages"] = "+".join(self.stages) or "none"
         return result
 
-    def _probe(self, stage, camera, frame, result, elapsed) -> None:
+    def _probe(self, stage, camera, frame, result, elapsed, time=None) -> None:
         if stage in self.active:
             with_, with_ms = result, elapsed
-            without, without_ms = self._timed(self.active - {stage}, camera)
+            without, without_ms = self._timed(self.active - {stage}, camera, time)
         else:
             without, without_ms = result, elapsed
-            with_, with_ms = self._timed(self.active | {stage}, camera)
+            with_, with_ms = self._timed(self.active | {stage}, camera, time)
         saving, cost = self._saving_ms(without, with_), with_ms - without_ms
         history = self._net[stage]
         history.append((saving, cost))

@@ -58,7 +58,8 @@ TRAJECTORY_VARIANTS = {"pitched": "_pitched"}
 
 
 def trajectory_for(world: str, variant: str | None = None) -> str:
-    """The thesis's trajectory file for a world name (outdoor for w5, w6; indoor otherwise), or
+    """The thesis's trajectory file for a world name (outdoor for w5, w6; W7's own, hybrid.csv,
+    for w7; indoor otherwise), or
     its variant (TRAJECTORY_VARIANTS): the absolute path of the copy shipped in the package, so
     it resolves from any directory. ValueError names the variants on an unknown one."""
     from pathlib import Path
@@ -66,7 +67,9 @@ def trajectory_for(world: str, variant: str | None = None) -> str:
     if variant is not None and variant not in TRAJECTORY_VARIANTS:
         raise ValueError(f"unknown trajectory variant {variant!r}; valid: "
                          f"{', '.join(TRAJECTORY_VARIANTS)}")
-    stem = "outdoor" if world in ("w5", "w6") else "indoor"
+    stem = "outdoor" if world in ("w5", "w6") else "hybrid" if world == "w7" else "indoor"
+    if world == "w7" and variant:
+        raise ValueError("w7's path (hybrid.csv) has no variants")
     suffix = TRAJECTORY_VARIANTS[variant] if variant else ""
     return str(Path(__file__).resolve().parents[1] / "trajectories" / f"{stem}{suffix}.csv")
 

@@ -13,7 +13,8 @@ def hud_lines(info: dict) -> list:
     (measured on this machine), device_fps (device model, None without one), profile,
     memory_bytes, heap_bytes, frame, mode ("fly", "play", "pause"), recording (bool),
     recorded (poses),
-    waypoint ((label, offset) or None), message.
+    waypoint ((label, offset) or None), message; an animated scene's moving (objects),
+    moving_sent (of them sent this frame), time (s), pose_ms (their vertex upload).
     """
     stages = "+".join(s.upper() for s in info["stages"]) or "no culling"
     frame_ms = info["cull_ms"] + info["render_ms"]
@@ -34,6 +35,9 @@ def hud_lines(info: dict) -> list:
     if info.get("lod_tau") is not None:
         lines.insert(2, f"LOD tau {info['lod_tau']:g} px: {info['lod_full']:,} tris at full "
                         f"detail, {info['lod_coarse']} objects coarser")
+    if info.get("moving") is not None:  # an animated scene (issue 25)
+        lines.insert(2, f"moving {info['moving']:,} objects, {info['moving_sent']:,} sent  "
+                        f"t {info['time']:.2f} s  pose {info['pose_ms']:.2f} ms")
     if info.get("message"):
         lines.append(info["message"])
     return lines

@@ -82,6 +82,10 @@ class Session:
         from ..app.playback import parse_stages
 
         self.world = scene.world
+        # an animated scene (issue 25): its objects move with the scene's clock (fly: wall
+        # time; playback: frame / fps); the renderer's copy is posed each frame
+        self.animated, self.fps, self.clock = scene.animated, scene.fps, 0.0
+        self._poser = None
         self.profile = get_profile(profile)
         self.profile.check_range(self.world.extent, f"world {self.world.name!r}")
         self.profile.check_memory(self.world, scene.partition)  # refused, as `play` refuses
@@ -132,15 +136,15 @@ class Session:
 
     @classmethod
     def open(cls, world, structure="none", stages=(), profile="ipaq-hx2490b", trajectory=None,
-             fix_winding=False, **options) -> "Session":
+             fix_winding=False, motion=None, fps=None, **options) -> "Session":
         """Session of a world (mesh file, .vmp or thesis name w1..w6) partitioned by structure;
         fix_winding reverses triangles first (winding.fixed_world, meshes only)."""
         eyes = None
         if fix_winding and trajectory is not None:
             eyes = Trajectory.load(trajectory).poses[:, :3]
         options.setdefault("start", "walk")  # no trajectory: start inside, as the walk would
-        return cls(load_scene(world, structure, fix_winding=fix_winding, eyes=eyes), stages,
-                   profile, trajectory, **options)
+        return cls(load_scene(world, structure, fix_winding=fix_winding, eyes=eyes,
+                              motion=motion, fps=fps), stages, profile, trajectory, **options)
 
     # ---- structures and stages -------------------------------------------------------------
     @staticmethod
@@ -156,7 +160,7 @@ class Session:
 
             kind, params = parse_structure(label)
             try:
-                self.partitions[label] = build(self.world, kind, **params)
+                self.partitions[label] = build(self.animated or self.world, kind, **params)
             except ValueError as error:
                 raise VisMobileError(f"structure {label}: {error}") from None
         return self.partitions[label]
@@ -191,7 +195,7 @@ class Session:
     def _culler(self, label, stages):
         key = (label, tuple(sorted(stages)))
         if key not in self._cullers:
-            scene = Scene(self.world, self._partition(label), label)
+            scene = Scene(self.world, self._partition(label), label, self.animated, self.fps)
             self._cullers[key] = make_culler(scene, stages, self.profile)
         return self._cullers[key]
 
@@ -345,6 +349,9 @@ class Session:
         """Level of detail at tau pixels (None: off). The chains come from the partition's
         extras (partition --lod), else from the cache beside the built worlds, else they are
         built (once per world: W2 takes minutes) and cached."""
+        if tau is not None and self.animated is not None:
+            self.message = "level of detail is for static scenes; these objects move"
+            return
         self.lod_tau = None if tau is None else float(tau)
         if self.lod_tau is None:
             self.message = "level of detail off"
@@ -436,6 +443,7 @@ class Session:
             self.pose = self.player.pose()
         elif self.mode == "fly":
             self.pose = step_pose(self.pose, self.held, dt, self.speeds)
+        self.clock += max(float(dt), 0.0)
         self.unmoved.clear()
         self.recorder.add(self.pose)
         self.frame += 1
@@ -468,11 +476,26 @@ class Session:
             self._renderer = Renderer(self.world, self.profile)
         return self._renderer
 
+    def scene_time(self):
+        """Seconds into an animated scene: the played frame / fps, or the clock while flying;
+        None for a static scene."""
+        if self.animated is None:
+            return None
+        return self.player.frame / self.fps if self.mode != "fly" else self.clock
+
     def render(self) -> Frame:
         """Cull and draw the current camera; overlays and god view added (not timed)."""
         camera = self.camera()
+        at = self.scene_time()
+        pose_ms = 0.0
+        if at is not None:  # the moving objects' vertices to this frame's pose
+            from ..app.animation import Poser
+
+            if self._poser is None or self._poser.renderer is not self.renderer:
+                self._poser = Poser(self.animated, self.renderer)
+            pose_ms = self._poser.pose(at)
         start = time.perf_counter()
-        culled = self.culler.cull(camera)
+        culled = self.culler.cull(camera) if at is None else self.culler.cull(camera, time=at)
         cull_ms = (time.perf_counter() - start) * 1000.0
         renderer = self.renderer
         selection = None
@@ -507,6 +530,10 @@ class Session:
             god = self._god.draw(self.god_view, camera, culled.triangles, boxes, culled_ids,
                                  levels)
         info = self._info(culled, drawn, cull_ms)
+        if at is not None:
+            info.update(moving=len(self.animated.motion), pose_ms=pose_ms, time=at,
+                        moving_sent=int(culled.stats.get("moving.objects_sent",
+                                                         len(self.animated.motion))))
         if selection is not None:
             info.update(lod_tau=self.lod_tau, lod_full=int(len(culled.triangles)),
                         lod_coarse=int((selection.levels > 0).sum()))
