@@ -97,6 +97,7 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
 
     import hostile
     from vismobile.terrain import sources, store
+    from vismobile.terrain.heightmap import quantize
     from vismobile.terrain.placement import place_objects
 
     mesh = trimesh.Trimesh(world.vertices, world.triangles, process=False)
@@ -109,8 +110,11 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
     two, _ = hostile.gltf(v, f, nodes=nodes)
     heightmap = sources.diamond_square(17, seed=1)
     store.save(folder / "seed.vmt", heightmap, place_objects(heightmap, 3, 1, 2.0))
+    holed = heightmap.heights.astype(np.float64)
+    holed[5:9, 3:12] = np.nan  # no data: a version 2 .vmt with its mask section (issue 30)
+    store.save(folder / "holes.vmt", quantize(holed, 1.0, "holes"))
     arrays = []
-    for array in (heightmap.heights, np.arange(12, dtype=np.uint16).reshape(3, 4)):
+    for array in (heightmap.heights, np.arange(12, dtype=np.uint16).reshape(3, 4), holed):
         buffer = io.BytesIO()
         np.save(buffer, array)
         arrays.append(buffer.getvalue())
@@ -119,7 +123,8 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
             "off": [hostile.off(v, f)],
             "objmtl": [TEXTURED_OBJ],
             "glb": [*glbs, hostile.glb(doc, binary), hostile.glb(two, binary)],
-            "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes()],
+            "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes(),
+                                                    (folder / "holes.vmt").read_bytes()],
             "vmtplay": [(folder / "seed.vmt").read_bytes()],
             "npy": arrays, **animated_seeds(folder)}
 

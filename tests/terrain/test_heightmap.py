@@ -18,7 +18,7 @@ def test_rejects_non_grid_shapes():
         Heightmap(np.zeros((5, 9)))
     with pytest.raises(WorldError, match="2\\^n\\+1"):
         quantize(np.zeros((6, 6)), path="x.npy")
-    with pytest.raises(WorldError, match="NaN"):
+    with pytest.raises(WorldError, match="no valid sample"):
         quantize(np.full((5, 5), np.nan), path="x.npy")
 
 
@@ -53,3 +53,18 @@ def test_grid_triangles_face_up_and_cover_the_square():
     assert grid_triangles(1).tolist() == [[0, 3, 1], [0, 2, 3]]
     with pytest.raises(ValueError):
         grid_mesh(quantize(np.zeros((5, 5))), stride=3)
+
+
+def test_nan_samples_are_holes_filled_from_their_nearest_valid_neighbour():
+    from vismobile.terrain.heightmap import fill_holes
+
+    h = np.arange(25.0).reshape(5, 5)
+    h[1, 1:4] = np.nan
+    h[3] = np.nan
+    hm = quantize(h, path="x.npy")
+    assert hm.holes and hm.valid.sum() == 25 - 3 - 5
+    filled = fill_holes(h, ~np.isnan(h))
+    assert filled[1, 1] == h[1, 0] and filled[1, 3] == h[1, 4]  # nearer side along the row
+    assert np.array_equal(filled[3], h[2])  # a row with none: from the column (ties: earlier)
+    assert np.allclose(hm.heights[~np.isnan(h)], h[~np.isnan(h)], atol=24 / 65535)
+    assert quantize(np.where(np.isnan(h), 0.0, h)).digest() != hm.digest()

@@ -42,12 +42,20 @@ def test_load_files(tmp_path):
     Image.fromarray(h).save(tmp_path / "h.png")  # 16-bit greyscale
     np.save(tmp_path / "h.npy", h.astype(np.float32))
     Image.fromarray(h.astype(np.float32)).save(tmp_path / "h.tif")
-    maps = [sources.load_file(tmp_path / f"h.{ext}", vertical=0.01) for ext in ("png", "npy", "tif")]
+    maps = [sources.load_file(tmp_path / f"h.{ext}", vertical=0.01, fit="resample")
+            for ext in ("png", "npy", "tif")]
     for hm in maps:
         assert hm.size == 33  # next 2^n+1 above 30
         assert np.isclose(hm.heights.max(), 0.01 * h.max(), rtol=1e-3)
         assert np.isclose(hm.spacing, 29 / 32)
+        assert not hm.holes
     assert np.allclose(maps[0].heights, maps[1].heights, atol=1e-2)
+    # The default pads: every sample kept at its spacing, the padding no data.
+    for ext in ("png", "npy", "tif"):
+        hm = sources.load_file(tmp_path / f"h.{ext}", vertical=0.01)
+        assert hm.size == 33 and hm.spacing == 1.0 and hm.holes
+        assert hm.valid[:20, :30].all() and not hm.valid[20:].any() and not hm.valid[:, 30:].any()
+        assert np.allclose(hm.heights[:20, :30], 0.01 * h, atol=0.01 * h.max() / 65535 + 1e-9)
 
 
 def test_bad_files_name_the_file(tmp_path):
@@ -56,9 +64,12 @@ def test_bad_files_name_the_file(tmp_path):
     (tmp_path / "junk.png").write_bytes(b"not a png")
     with pytest.raises(WorldError, match="junk.png"):
         sources.load_file(tmp_path / "junk.png")
-    np.save(tmp_path / "hole.npy", np.array([[1.0, np.nan], [2.0, 3.0]]))
-    with pytest.raises(WorldError, match="hole.npy.*NaN"):
+    np.save(tmp_path / "hole.npy", np.array([[1.0, np.inf], [2.0, 3.0]]))
+    with pytest.raises(WorldError, match="hole.npy.*infinite"):
         sources.load_file(tmp_path / "hole.npy")
+    np.save(tmp_path / "none.npy", np.full((3, 3), -9999.0))
+    with pytest.raises(WorldError, match="none.npy.*no valid sample"):
+        sources.load_file(tmp_path / "none.npy", nodata=-9999)
     np.save(tmp_path / "flat.npy", np.arange(5.0))
     with pytest.raises(WorldError, match="2-D"):
         sources.load_file(tmp_path / "flat.npy")

@@ -17,6 +17,13 @@ def add_parser(sub):
     build.add_argument("--spacing", type=float, default=1.0,
                        help="world units between samples (files and fractals; default 1)")
     build.add_argument("--vertical", type=float, default=1.0, help="file value to world units (default 1)")
+    build.add_argument("--fit", choices=("pad", "resample"), default="pad",
+                       help="a file of another size than 2^n+1: pad (default: every sample kept "
+                            "at --spacing, the padding no data) or resample (bilinear over the "
+                            "same extent)")
+    build.add_argument("--nodata", type=float, default=None, metavar="VALUE",
+                       help="a file's no-data value (NaN is always no data; a GeoTIFF's own "
+                            "GDAL_NODATA tag is read); holes are cut when drawn")
     build.add_argument("--objects", type=int, default=0, help="shared models placed on the ground (default 0)")
     build.add_argument("--object-height", type=float, default=None,
                        help="object height in world units (default 8 spacings)")
@@ -52,7 +59,8 @@ def run(args) -> int:
             heightmap = sources.diamond_square(args.size or 1025, args.seed, args.roughness,
                                                spacing=args.spacing)
         else:
-            heightmap = sources.load_file(args.source, args.size, args.spacing, args.vertical)
+            heightmap = sources.load_file(args.source, args.size, args.spacing, args.vertical,
+                                          args.fit, args.nodata)
         _check_fit(args, heightmap)  # before the first write: no .vmt without its OBJ
         status("placing objects and writing")
         placement = (place_objects(heightmap, args.objects, args.seed, args.object_height)
@@ -117,5 +125,7 @@ def _info(args) -> int:
     print(f"heights    {low[1]:.6g} .. {high[1]:.6g}  (step {heightmap.z_scale:.4g})")
     print(f"full mesh  {2 * (heightmap.size - 1) ** 2:,} triangles")
     print(f"objects    {len(placement)}")
+    if heightmap.valid is not None:
+        print(f"no data    {int((~heightmap.valid).sum()):,} samples (holes, cut when drawn)")
     print(f"file size  {args.terrain.stat().st_size / 1024:,.1f} KB")
     return 0

@@ -19,7 +19,7 @@ import numpy as np
 from .context import gl_context, render_target
 from .renderer import DrawStats, _set_lights
 from .shaders import CLEAR_RGB
-from .terrain import TerrainRenderer, terrain_vertices
+from .terrain import TerrainRenderer, shaded_kind, terrain_vertices
 from .world_buffers import program
 
 
@@ -51,7 +51,7 @@ class ChunkRenderer:
 
     def _vao(self):
         if not self.vaos:
-            prog = program("shaded", "float32")
+            prog = program(shaded_kind(self.heightmap), "float32")
             layout = [(self.vbo, "3f 3f 4f1", "in_position", "in_normal", "in_color")]
             self.vaos["shaded"] = (prog, gl_context().vertex_array(
                 prog, layout, index_buffer=self.ibo, index_element_size=2))

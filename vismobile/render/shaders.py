@@ -60,6 +60,15 @@ out vec4 f_color;
 void main() { f_color = v_color; }
 """
 
+# The shaded fragment with ES 1.1's alpha test, glAlphaFunc(GL_GREATER, 0.5): a terrain's
+# no-data samples carry alpha 0, so the cut runs midway between a valid and a null vertex
+# (seed 002's holes; render/terrain.py).
+CUT_FRAGMENT = """#version 330
+smooth in vec4 v_color;
+out vec4 f_color;
+void main() { if (v_color.a <= 0.5) discard; f_color = v_color; }
+"""
+
 # Item buffer: id + 1 of the triangle (vertex 3t+k belongs to triangle t), 0 = background.
 ITEM_VERTEX = """#version 330
 {inputs}{transform}
@@ -94,7 +103,8 @@ void main() { f_color = u_color; }
 
 
 def sources(kind: str, vertex_format: str) -> tuple:
-    """(vertex, fragment) GLSL for kind "shaded", "item" or "flat" and a vertex format."""
+    """(vertex, fragment) GLSL for kind "shaded", "cut" (shaded with the alpha test), "item"
+    or "flat" and a vertex format."""
     inputs = _INPUTS[vertex_format]
     if kind in ("item", "flat"):
         # These programs read positions only; drop the unused normal input.
@@ -102,4 +112,5 @@ def sources(kind: str, vertex_format: str) -> tuple:
         if kind == "flat":
             return FLAT_VERTEX.format(inputs=inputs, transform=_TRANSFORM), FLAT_FRAGMENT
         return ITEM_VERTEX.format(inputs=inputs, transform=_TRANSFORM), ITEM_FRAGMENT
-    return SHADED_VERTEX.format(inputs=inputs, transform=_TRANSFORM), SHADED_FRAGMENT
+    return SHADED_VERTEX.format(inputs=inputs, transform=_TRANSFORM), \
+        CUT_FRAGMENT if kind == "cut" else SHADED_FRAGMENT

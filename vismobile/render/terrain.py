@@ -71,7 +71,14 @@ def terrain_vertices(heightmap, rows, cols, heights=None) -> np.ndarray:
     records["normal"] = normal
     low, high = heightmap.bounds()[:, 1]
     records["color"] = height_colors(h[r, c], low, high)
+    if heightmap.valid is not None:  # no data: alpha 0, cut by the alpha test (shaded_kind)
+        records["color"][:, 3] = np.where(heightmap.valid[r, c], 255, 0)
     return records
+
+
+def shaded_kind(heightmap) -> str:
+    """The program kind that draws a heightmap: "cut" (the alpha test) when it has holes."""
+    return "cut" if heightmap.valid is not None else "shaded"
 
 
 class TerrainRenderer:
@@ -163,7 +170,8 @@ class TerrainRenderer:
         ctx.depth_func = "<"
         ctx.front_face = "ccw"
         ctx.enable_only(ctx.DEPTH_TEST)
-        prog = program("shaded", "float32") if kind == "shaded" else _item_program()
+        prog = program(shaded_kind(self.heightmap), "float32") if kind == "shaded" \
+            else _item_program()
         prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
         if kind == "shaded":
             _set_lights(prog)
@@ -223,4 +231,5 @@ def unproject(depth, camera) -> np.ndarray:
     return points
 
 
-__all__ = ["TerrainRenderer", "terrain_vertices", "height_colors", "unproject", "SENTINEL"]
+__all__ = ["TerrainRenderer", "terrain_vertices", "height_colors", "unproject", "SENTINEL",
+           "shaded_kind"]

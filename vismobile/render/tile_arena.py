@@ -25,7 +25,7 @@ import numpy as np
 from .context import gl_context, render_target
 from .renderer import DrawStats, _set_lights
 from .shaders import CLEAR_RGB
-from .terrain import TerrainRenderer, terrain_vertices
+from .terrain import TerrainRenderer, shaded_kind, terrain_vertices
 from .world_buffers import program
 
 RECORD_BYTES = 28  # position 3f, normal 3f, colour 4u1 (render/terrain.py)
@@ -128,7 +128,7 @@ class TileArena:
         ctx.depth_func = "<"
         ctx.front_face = "ccw"
         ctx.enable_only(ctx.DEPTH_TEST)
-        prog = program("shaded", "float32")
+        prog = program(shaded_kind(self.heightmap), "float32")
         if self.vao is None:
             self.vao = ctx.vertex_array(
                 prog, [(self.vbo, "3f 3f 4f1", "in_position", "in_normal", "in_color")],
@@ -267,7 +267,7 @@ class BlockArena:
         ctx.depth_func = "<"
         ctx.front_face = "ccw"
         ctx.enable_only(ctx.DEPTH_TEST)
-        prog = program("shaded", "float32")
+        prog = program(shaded_kind(self.heightmap), "float32")
         if self.vao is None:
             self.vao = ctx.vertex_array(
                 prog, [(self.vbo, "3f 3f 4f1", "in_position", "in_normal", "in_color")],

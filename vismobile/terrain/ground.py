@@ -20,6 +20,8 @@ horizon by at most P pixels' worth of slope, where one world-unit lowering for t
 The float32 rounding of the drawn vertices (2^-22 of the largest coordinate) sinks the ground
 as a world-unit lowering in the cast.
 
+A terrain with no-data samples (holes) hides nothing: the view passes through a hole.
+
 Contract: with `sink` = c set for the frame being culled, a box is hidden only when the drawn
 ground hides it (HorizonCaster's contract, errs visible). One caster per arithmetic.
 """
@@ -51,6 +53,12 @@ class TerrainGround:
     def cast(self, camera, arithmetic: str = "float64"):
         """This frame's Horizon (or FixedHorizon) of the drawn ground (module doc)."""
         hm = self.heightmap
+        if hm.valid is not None:
+            # A hole is cut (alpha test): the ground-as-solid argument fails through it, and
+            # the casters' mips know no holes, so a terrain with holes hides nothing.
+            from .horizon import Horizon
+
+            return Horizon.nothing(camera.eye)
         scale = max(hm.extent, float(np.abs(hm.bounds()[:, 1]).max()))
         horizon = self.caster(arithmetic).cast(camera, scale * 2.0 ** -22)
         c = float(self.sink)

@@ -31,6 +31,9 @@ class Heightmap:
     spacing  : world units between neighbouring samples (> 0)
     z_scale  : world units per sample step (> 0); z_offset: world height of sample 0
     name     : where it came from (shown by info and in reports)
+    valid    : (N, N) bool, False where the source had no data (seed 002's holes), or None
+               when every sample is valid; the samples there hold a fill (fill_holes) that no
+               render shows (the renderers cut holes with an alpha test, render/terrain.py)
     """
 
     samples: np.ndarray
@@ -38,6 +41,7 @@ class Heightmap:
     z_scale: float = 1.0
     z_offset: float = 0.0
     name: str = "terrain"
+    valid: np.ndarray | None = None
     _heights: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -55,6 +59,20 @@ class Heightmap:
         self.z_offset = float(self.z_offset)
         if not np.isfinite(self.z_offset):
             raise ValueError("z_offset must be finite")
+        if self.valid is not None:
+            self.valid = np.ascontiguousarray(self.valid, dtype=bool)
+            if self.valid.shape != self.samples.shape:
+                raise ValueError(f"valid mask {self.valid.shape} does not match the samples "
+                                 f"{self.samples.shape}")
+            if self.valid.all():
+                self.valid = None
+            elif not self.valid.any():
+                raise ValueError("no sample is valid")
+
+    @property
+    def holes(self) -> bool:
+        """True when some samples have no data."""
+        return self.valid is not None
 
     @property
     def size(self) -> int:
@@ -122,22 +140,58 @@ class Heightmap:
         h = hashlib.sha256()
         h.update(np.ascontiguousarray(self.samples, "<u2").tobytes())
         h.update(np.array([self.spacing, self.z_scale, self.z_offset], "<f8").tobytes())
+        if self.valid is not None:
+            h.update(np.packbits(self.valid).tobytes())
         return h.digest()
+
+
+def fill_holes(heights, valid) -> np.ndarray:
+    """(N, N) float64 heights with every invalid sample set to the nearer valid sample along
+    its row (ties: the earlier), then along its column for rows without one; what is left
+    (nothing, when any sample is valid) takes the lowest valid height. O(N^2), no iteration:
+    the fill only keeps vertical errors near a hole's rim moderate, it is never drawn."""
+    h = np.array(heights, dtype=np.float64)
+    valid = np.asarray(valid, dtype=bool)
+    filled = valid.copy()
+    for axis in (1, 0):
+        view_h = h if axis == 1 else h.T
+        view_v = filled if axis == 1 else filled.T
+        n = view_h.shape[1]
+        index = np.arange(n)[None, :]
+        last = np.maximum.accumulate(np.where(view_v, index, -1), axis=1)
+        after = np.minimum.accumulate(np.where(view_v, index, n)[:, ::-1], axis=1)[:, ::-1]
+        rows = np.arange(view_h.shape[0])[:, None]
+        use_last = (last >= 0) & ((after >= n) | (index - last <= after - index))
+        use_after = ~use_last & (after < n)
+        pick = np.where(use_last, last, np.where(use_after, after, 0))
+        value = view_h[rows, pick]
+        fill = ~view_v & (use_last | use_after)
+        view_h[fill] = value[fill]
+        view_v |= fill
+    if not filled.all():
+        h[~filled] = h[valid].min()
+    return h
 
 
 def quantize(heights, spacing: float = 1.0, name: str = "terrain", path="<array>") -> Heightmap:
     """Heightmap of float heights (N, N), N = 2^n+1, stored as uint16 over their range.
 
     The quantisation step is (max - min) / 65535 (at most half a step of error, reported by
-    Heightmap.heights being the stored values, not the input). Raises WorldError naming path on
-    non-finite input or a shape that is not (2^n+1)^2.
+    Heightmap.heights being the stored values, not the input). NaN marks no data (seed 002's
+    holes: Heightmap.valid, filled by fill_holes). Raises WorldError naming path on infinite
+    input, input with no valid sample, or a shape that is not (2^n+1)^2.
     """
     heights = np.asarray(heights, dtype=np.float64)
     if heights.ndim != 2 or heights.shape[0] != heights.shape[1] or grid_exponent(heights.shape[0]) is None:
         raise WorldError(path, f"heights must be (2^n+1)^2 samples, got shape {heights.shape}")
-    if not np.isfinite(heights).all():
-        raise WorldError(path, "heights contain NaN or infinite values")
+    valid = ~np.isnan(heights)
+    if np.isinf(heights).any():
+        raise WorldError(path, "heights contain infinite values")
+    if not valid.any():
+        raise WorldError(path, "heights hold no valid sample (all no-data)")
+    if not valid.all():
+        heights = fill_holes(heights, valid)
     low, high = float(heights.min()), float(heights.max())
     scale = (high - low) / 65535.0 if high > low else 1.0
     samples = np.rint((heights - low) / scale).astype(np.uint16)
-    return Heightmap(samples, spacing, scale, low, name)
+    return Heightmap(samples, spacing, scale, low, name, valid if not valid.all() else None)

@@ -44,21 +44,49 @@ def resample(heights, size: int) -> np.ndarray:
     return top * (1 - fr) + bottom * fr
 
 
-def _to_grid(heights, size, spacing, name, path) -> Heightmap:
-    """Heightmap of an arbitrary (R, C) array resampled to size^2 (default: next 2^n+1)."""
+FITS = ("pad", "resample")
+
+
+def _to_grid(heights, size, spacing, name, path, fit="resample") -> Heightmap:
+    """Heightmap of an arbitrary (R, C) array on a size^2 grid (default: the next 2^n+1).
+
+    NaN marks no data (seed 002's holes, Heightmap.valid). fit "pad": the samples keep their
+    spacing and every value (no detail resampled away) in the grid's first R rows and C
+    columns, the rest is no data; "resample": bilinear onto the grid over the same extent
+    (no-data samples filled first, the mask resampled and thresholded at one half).
+    """
     heights = np.asarray(heights, dtype=np.float64)
     if heights.ndim != 2 or min(heights.shape) < 2:
         raise WorldError(path, f"a heightmap needs a 2-D array of at least 2x2, got {heights.shape}")
-    if not np.isfinite(heights).all():
-        raise WorldError(path, "heights contain NaN or infinite values (holes are not supported)")
+    if np.isinf(heights).any():
+        raise WorldError(path, "heights contain infinite values")
+    valid = ~np.isnan(heights)
+    if not valid.any():
+        raise WorldError(path, "heights hold no valid sample (all no-data)")
+    if fit not in FITS:
+        raise WorldError(path, f"fit must be one of {', '.join(FITS)}, got {fit!r}")
     longest = max(heights.shape)
     if size is None:
         size = (1 << int(np.ceil(np.log2(max(longest - 1, 2))))) + 1
     if grid_exponent(size) is None:
         raise WorldError(path, f"size must be 2^n+1, got {size}")
+    if fit == "pad":
+        if size < longest:
+            raise WorldError(path, f"{heights.shape[0]:,}x{heights.shape[1]:,} samples do not "
+                                   f"fit a {size}^2 grid unresampled; pass a larger --size or "
+                                   "--fit resample")
+        grid = np.full((size, size), np.nan)
+        grid[:heights.shape[0], :heights.shape[1]] = heights
+        return quantize(grid, spacing, name, path)
     # Keep the input's metric footprint: its longer side spans (longest - 1) * spacing.
     new_spacing = spacing * (longest - 1) / (size - 1)
-    return quantize(resample(heights, size), new_spacing, name, path)
+    if valid.all():
+        return quantize(resample(heights, size), new_spacing, name, path)
+    from .heightmap import fill_holes
+
+    grid = resample(fill_holes(heights, valid), size)
+    grid[resample(valid.astype(np.float64), size) < 0.5] = np.nan
+    return quantize(grid, new_spacing, name, path)
 
 
 def dem(name: str, size: int | None = None) -> Heightmap:
@@ -112,11 +140,13 @@ def diamond_square(size: int, seed: int = 0, roughness: float = 0.55,
 
 
 def load_file(path, size: int | None = None, spacing: float = 1.0,
-              vertical: float = 1.0) -> Heightmap:
+              vertical: float = 1.0, fit: str = "pad", nodata: float | None = None) -> Heightmap:
     """A user heightmap: .npy (2-D numbers), 16-bit or 8-bit greyscale PNG, or TIFF.
 
-    vertical scales sample values to world units. Raises WorldError naming the file when it is
-    missing, unreadable or not a 2-D finite array.
+    vertical scales sample values to world units; samples equal to nodata (or NaN) are no
+    data, holes (Heightmap.valid); fit: "pad" (default: onto the next 2^n+1 grid, every sample
+    kept, the padding no data) or "resample" (_to_grid). Raises WorldError naming the file when
+    it is missing, unreadable or not a 2-D array of numbers.
     """
     path = Path(path)
     if not path.is_file():
@@ -151,14 +181,16 @@ def load_file(path, size: int | None = None, spacing: float = 1.0,
         raise WorldError(path, f"cannot read heightmap ({type(error).__name__}: {error})") from None
     if heights.dtype.kind not in "uif":
         raise WorldError(path, f"heightmap values must be numbers, got dtype {heights.dtype}")
-    heights = np.asarray(heights, dtype=np.float64)
+    heights = np.array(heights, dtype=np.float64)
+    if nodata is not None:
+        heights[heights == float(nodata)] = np.nan
     with np.errstate(all="ignore"):
         heights *= float(vertical)
-        beyond = not (np.abs(heights) <= MAX_HEIGHT).all()  # NaN too
+        beyond = not (np.abs(heights[~np.isnan(heights)]) <= MAX_HEIGHT).all()
     if beyond:
-        raise WorldError(path, f"heights beyond +-{MAX_HEIGHT:g} world units, NaN or infinite "
+        raise WorldError(path, f"heights beyond +-{MAX_HEIGHT:g} world units or infinite "
                                "(after --vertical)")
-    return _to_grid(heights, size, spacing, path.stem, path)
+    return _to_grid(heights, size, spacing, path.stem, path, fit)
 
 
 def _check_shape(path, shape, size) -> None:

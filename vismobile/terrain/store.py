@@ -4,6 +4,9 @@ Layout (little-endian): magic b"VMT1", uint32 header length, uint32 header CRC32
 header, uint64 payload length, uint32 payload CRC32, then the payload: zlib of the uint16
 samples with each row delta-coded (neighbouring samples are close, so deltas compress well).
 A 1025^2 fractal is ~1.3 MB against 2.1 MB raw. Writes go through a temporary file.
+Version 2 (a terrain with no-data samples, Heightmap.valid; header "holes": true) adds one
+section after the samples: uint64 length, uint32 CRC32, zlib of the packed bit mask (row-major,
+1 = valid). A terrain without holes is written as version 1, byte for byte as before.
 """
 from __future__ import annotations
 
@@ -22,7 +25,7 @@ from .heightmap import MAX_LEVEL, Heightmap, grid_exponent
 from .placement import MAX_OBJECTS, Placement
 
 MAGIC = b"VMT1"
-VERSION = 1
+VERSION = 2
 MAX_FILE_BYTES = 1 << 28  # an 8193^2 terrain's samples are 134 MB before compression
 MAX_EXTENT = 1e12  # world units: the terrain's width, heights and object positions
 
@@ -33,8 +36,9 @@ def save(path, heightmap: Heightmap, placement: Placement | None = None) -> None
     deltas = samples.copy()
     deltas[:, 1:] = np.diff(samples, axis=1)  # uint16 wrap-around is undone by cumsum on load
     payload = zlib.compress(deltas.tobytes(), 6)
+    holes = heightmap.valid is not None
     header = {
-        "version": VERSION,
+        "version": 2 if holes else 1,
         "size": heightmap.size,
         "spacing": heightmap.spacing,
         "z_scale": heightmap.z_scale,
@@ -43,9 +47,15 @@ def save(path, heightmap: Heightmap, placement: Placement | None = None) -> None
         "digest": heightmap.digest().hex(),
         "objects": (placement or Placement.empty()).to_json(),
     }
+    if holes:
+        header["holes"] = True
     head = json.dumps(header, sort_keys=True).encode("utf-8")
-    data = b"".join([MAGIC, struct.pack("<II", len(head), zlib.crc32(head)), head,
-                     struct.pack("<QI", len(payload), zlib.crc32(payload)), payload])
+    parts = [MAGIC, struct.pack("<II", len(head), zlib.crc32(head)), head,
+             struct.pack("<QI", len(payload), zlib.crc32(payload)), payload]
+    if holes:
+        mask = zlib.compress(np.packbits(heightmap.valid).tobytes(), 6)
+        parts += [struct.pack("<QI", len(mask), zlib.crc32(mask)), mask]
+    data = b"".join(parts)
     atomic_write_bytes(path, data)
 
 
@@ -68,12 +78,28 @@ def load(path) -> tuple:
         offset = 12 + head_len
         pay_len, pay_crc = struct.unpack_from("<QI", data, offset)
         payload = data[offset + 12:offset + 12 + pay_len]
+        mask = None
+        if isinstance(header, dict) and header.get("holes") is True:
+            offset += 12 + pay_len
+            mask_len, mask_crc = struct.unpack_from("<QI", data, offset)
+            mask = data[offset + 12:offset + 12 + mask_len]
+            if len(mask) != mask_len or zlib.crc32(mask) != mask_crc:
+                raise WorldError(path, "terrain no-data mask is truncated or corrupt (CRC "
+                                       "mismatch)")
     except (struct.error, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
         raise WorldError(path, "terrain file is truncated or corrupt") from None
     size = check_header(path, header)
     if len(payload) != pay_len or zlib.crc32(payload) != pay_crc:
         raise WorldError(path, "terrain samples are truncated or corrupt (CRC mismatch)")
     del data
+    valid = None
+    if mask is not None:
+        bits = inflate(mask, (size * size + 7) // 8, path, wbits=15,
+                       what="terrain no-data mask decompresses")
+        if len(bits) != (size * size + 7) // 8:
+            raise WorldError(path, "terrain no-data mask has the wrong length")
+        valid = np.unpackbits(np.frombuffer(bits, np.uint8), count=size * size).astype(bool)
+        valid = valid.reshape(size, size)
     raw = inflate(payload, 2 * size * size, path, wbits=15, what="terrain samples decompress")
     if len(raw) != 2 * size * size:
         raise WorldError(path, "terrain samples have the wrong length")
@@ -81,7 +107,7 @@ def load(path) -> tuple:
     samples = np.cumsum(deltas, axis=1, dtype=np.uint16)  # wraps exactly like the encoder
     try:
         heightmap = Heightmap(samples, header["spacing"], header["z_scale"], header["z_offset"],
-                              header.get("name", path.stem))
+                              header.get("name", path.stem), valid)
     except (ValueError, KeyError) as error:
         raise WorldError(path, f"bad terrain header ({error})") from None
     if heightmap.digest().hex() != header.get("digest"):
@@ -125,6 +151,8 @@ def check_header(path, header) -> int:
         raise bad(f"the terrain spans {extent:g} world units, beyond {MAX_EXTENT:g}")
     if not isinstance(header.get("name", ""), str) or not isinstance(header.get("digest"), str):
         raise bad("name and digest must be strings")
+    if header.get("holes", False) not in (True, False) or (header.get("holes") and version < 2):
+        raise bad("holes must be true or false, and true only from version 2")
     objects = header.get("objects", [])
     if not isinstance(objects, list) or len(objects) > MAX_OBJECTS:
         raise bad(f"objects must be a list of at most {MAX_OBJECTS} records")

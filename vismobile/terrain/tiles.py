@@ -45,6 +45,38 @@ def pixel_scale(camera, resolution) -> tuple:
     return lam, lam * (1.0 + tx * tx + ty * ty)
 
 
+def horizontal_error(valid, patch: int, stride: int, spacing: float) -> np.ndarray:
+    """(m, m) float64 seed 002's horizontal error of each tile at one stride (Rodrigues's
+    Table 4.1): over the stride's grid edges A-B (rows, columns and the cells' diagonals) with
+    midpoint C, where no-data samples make the cut's silhouette (midway between a valid and a
+    null vertex) move: hsize = |AC| when A and B agree and C differs, hsize / 2 when A and B
+    differ, 0 otherwise; diagonals sqrt(2) times that. 0 at stride 1 (no midpoint). The
+    pyramid nests it like the vertical error, as the seed does; a hole narrower than a
+    midpoint's spacing between samples checked at no level is missed (the seed's rule, not a
+    strict bound)."""
+    n = valid.shape[0]
+    m = (n - 1) // (patch * stride)
+    if stride < 2:
+        return np.zeros((m, m))
+    half = stride // 2
+    hsize = half * spacing
+
+    def value(a, c, b, scale):
+        return np.where(a != b, 0.5 * scale, np.where(a != c, scale, 0.0))
+
+    g = valid[::half, ::half]  # the midpoints' grid: even entries are the stride's samples
+    rows = value(g[::2, :-2:2], g[::2, 1::2], g[::2, 2::2], hsize)  # (G+1, G)
+    cols = value(g[:-2:2, ::2], g[1::2, ::2], g[2::2, ::2], hsize)  # (G, G+1)
+    diag = value(g[:-2:2, :-2:2], g[1::2, 1::2], g[2::2, 2::2], np.sqrt(2.0) * hsize)
+
+    def pool(a, rows_extra, cols_extra):
+        view = np.lib.stride_tricks.sliding_window_view(a, (patch + rows_extra,
+                                                            patch + cols_extra))
+        return view[::patch, ::patch].max(axis=(-1, -2))[:m, :m]
+
+    return np.maximum(np.maximum(pool(rows, 1, 0), pool(cols, 0, 1)), pool(diag, 0, 0))
+
+
 def template(patch: int, sides: int) -> np.ndarray:
     """(T, 3) int32 triangles over a (patch+1)^2 local grid with the `sides` edges halved.
 
@@ -122,6 +154,11 @@ class TilePyramid:
             error.append(e)
             hmin.append(lo)
             hmax.append(hi)
+        horizontal = None
+        if heightmap.valid is not None:  # seed 002's holes: E = length(E_h, E_v)
+            horizontal = [horizontal_error(heightmap.valid, patch, 1 << (levels - level),
+                                           heightmap.spacing) for level in range(levels + 1)]
+            error = [np.hypot(e, h) for e, h in zip(error, horizontal)]
         for level in range(levels - 1, -1, -1):  # nest: a parent bounds its children
             child = error[level + 1]
             k = child.shape[0] // 2
