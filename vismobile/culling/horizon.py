@@ -35,7 +35,9 @@ from .tree import Tree
 class HorizonStage:
     """`horizon`: drops node subtrees, then triangles, hidden behind the occlusion horizon.
 
-    bands     : horizontal direction bands across the frustum (more: tighter, slower cast)
+    bands     : horizontal direction bands across the frustum (more: tighter, slower cast;
+                32 measured best: W5 outdoor octree 4 sends 0.347x of vfc+tbfc in 0.69x
+                occlusion's time, against 0.306x in 1.08x with 64)
     step      : slice growth per step (depth slices z_{k+1} = z_k (1 + step))
     triangles : also test each sent triangle (after the node tests): off screen, or its
                 corners' hull behind the horizon
@@ -46,7 +48,7 @@ class HorizonStage:
     cost = 87  # after tbfc (85): its filter then tests front faces only
     arithmetic = "float64"  # the Culler sets its mode: fixed16.16 casts in 16.16
 
-    def __init__(self, bands: int = 64, step: float = 0.01, triangles: bool = True,
+    def __init__(self, bands: int = 32, step: float = 0.01, triangles: bool = True,
                  cells: int = MAX_CELLS):
         if isinstance(bands, bool) or not isinstance(bands, (int, np.integer)) or bands < 1:
             raise ValueError(f"horizon bands must be a positive integer, got {bands!r}")
