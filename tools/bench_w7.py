@@ -137,7 +137,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--step", type=int, default=10)
     parser.add_argument("--pvs", action="store_true", help="regional may pick a baked PVS")
-    parser.add_argument("--viewer", type=int, default=0, help="moving objects (0: skip)")
+    parser.add_argument("--viewer", type=int, default=1000, help="street walkers (0: skip)")
     parser.add_argument("--skip-drops", action="store_true")
     args = parser.parse_args(argv)
     build_world("w7")

@@ -177,3 +177,19 @@ def test_committed_path_matches_its_generator(tmp_path):
     spec.loader.exec_module(module)
     module.hybrid().save(tmp_path / "hybrid.csv")
     assert (tmp_path / "hybrid.csv").read_bytes() == PATH.read_bytes()
+
+
+def test_street_walkers_loop_round_the_blocks_clear_of_the_buildings(built):
+    walkers = crowd.street_walkers(40)
+    assert len({name for name, *_ in walkers}) == 40
+    world = built[0]
+    city = [i for i, n in enumerate(world.object_names) if n.startswith("building_")]
+    boxes = np.array([[world.corners[world.object_ids == i].reshape(-1, 3).min(axis=0),
+                       world.corners[world.object_ids == i].reshape(-1, 3).max(axis=0)]
+                      for i in city])
+    for _, vertices, _, entry in walkers:
+        assert entry["loop"] and np.allclose(entry["translation"][-1], 0.0, atol=1e-6)
+        path = np.array(entry["translation"])[:, [0, 2]] + vertices.mean(axis=0)[[0, 2]]
+        inside = ((path[:, None] > boxes[None, :, 0, [0, 2]] - 0.3)
+                  & (path[:, None] < boxes[None, :, 1, [0, 2]] + 0.3)).all(axis=2)
+        assert not inside.any()

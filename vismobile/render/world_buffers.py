@@ -4,6 +4,7 @@ from __future__ import annotations
 import weakref
 
 import numpy as np
+from numba import njit
 
 from ..device.profile import to_fixed
 from .batches import batch_count, batch_indices
@@ -71,31 +72,34 @@ class WorldBuffers:
 
     def move(self, triangles, corners) -> int:
         """Rewrite the records of moved triangles (issue 25: a posed world's moving objects):
-        ids (n,) int64 sorted, corners (n, 3, 3) float64 where they stand now. Positions in
-        the profile's vertex format, face normals (a moving triangle is shaded flat), colours
+        ids (n,) int64, corners (n, 3, 3) float64 where they stand now. Positions in the
+        profile's vertex format, face normals (a moving triangle is shaded flat), colours
         kept. One buffer write per run of consecutive ids within a batch; returns the writes.
         Cost: O(n), never the world."""
         ids = np.asarray(triangles, dtype=np.int64).ravel()
         if not len(ids):
             return 0
-        corners = np.asarray(corners, dtype=np.float64).reshape(-1, 3, 3)
+        corners = np.ascontiguousarray(corners, dtype=np.float64).reshape(-1, 3, 3)
+        # A record is 7 four-byte slots: position (3), normal (3), colour (4 x uint8 = 1).
         fixed = self._record_dtype["position"].base == np.int32
-        records = np.empty(3 * len(ids), dtype=self._record_dtype)
-        records["position"] = self.profile.vertex_positions(corners.reshape(-1, 3),
-                                                            f"world {self.world_name!r}")
-        cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        length = np.linalg.norm(cross, axis=1, keepdims=True)
-        normals = np.repeat(np.where(length > 0, cross / np.where(length > 0, length, 1), 0),
-                            3, axis=0)
-        records["normal"] = to_fixed(normals) if fixed else normals
-        records["color"] = np.repeat(self._colors[ids], 3, axis=0)
+        slots = np.empty((3 * len(ids), 7), dtype=np.int32 if fixed else np.float32)
+        normals = _face_normals(corners)
+        if fixed:
+            slots[:, :3] = self.profile.vertex_positions(corners.reshape(-1, 3),
+                                                         f"world {self.world_name!r}")
+            slots[:, 3:6] = to_fixed(np.repeat(normals, 3, axis=0))
+        else:
+            slots[:, :3] = corners.reshape(-1, 3)
+            slots[:, 3:6] = np.repeat(normals, 3, axis=0)
+        slots[:, 6] = np.repeat(self._colors[ids].view(slots.dtype).ravel(), 3)
         batch = ids // self.batch_triangles
         breaks = np.flatnonzero((np.diff(ids) != 1) | (np.diff(batch) != 0)) + 1
         starts, ends = np.r_[0, breaks], np.r_[breaks, len(ids)]
         size = self._record_dtype.itemsize
+        data = slots.view(np.uint8).reshape(len(ids), 3 * size)
         for a, b in zip(starts, ends):
             local = int(ids[a] - batch[a] * self.batch_triangles)
-            self.vbos[batch[a]].write(records[3 * a:3 * b].tobytes(), offset=3 * local * size)
+            self.vbos[batch[a]].write(data[a:b].tobytes(), offset=3 * local * size)
         return len(starts)
 
     def upload_indices(self, triangles) -> np.ndarray:
@@ -104,6 +108,22 @@ class WorldBuffers:
         if len(indices):
             self.ibo.write(indices.tobytes())
         return starts
+
+
+@njit(cache=True, nogil=True)
+def _face_normals(corners):
+    """(n, 3) float64 unit face normals of corners (n, 3, 3) (zero for degenerate ones)."""
+    out = np.zeros((len(corners), 3))
+    for t in range(len(corners)):
+        ax, ay, az = corners[t, 1, 0] - corners[t, 0, 0], corners[t, 1, 1] - corners[t, 0, 1], \
+            corners[t, 1, 2] - corners[t, 0, 2]
+        bx, by, bz = corners[t, 2, 0] - corners[t, 0, 0], corners[t, 2, 1] - corners[t, 0, 1], \
+            corners[t, 2, 2] - corners[t, 0, 2]
+        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        length = np.sqrt(nx * nx + ny * ny + nz * nz)
+        if length > 0:
+            out[t, 0], out[t, 1], out[t, 2] = nx / length, ny / length, nz / length
+    return out
 
 
 def world_buffers(world, profile) -> WorldBuffers:

@@ -204,3 +204,27 @@ def motion_document(leaves, people_parts, car_parts, doors: str = "scheduled") -
     for name, _, _, entry in list(people_parts) + list(car_parts):
         objects[name] = entry
     return {"fps": FPS, "objects": objects}
+
+
+def street_walkers(count: int, seed: int = SEED) -> list:
+    """[(name, vertices, triangles, motion entry)]: `count` people walking loops round the
+    city's blocks on the pavement (1.5-4 m off the blocks' edges), each from its own place on
+    its loop: many moving objects for the viewer's benchmark (tools/bench_w7.py)."""
+    from . import city
+
+    rng = np.random.default_rng([seed, 2])
+    out = []
+    span = city.LOTS * city.LOT
+    for n in range(count):
+        bx, bz = rng.integers(0, city.BLOCKS, 2)
+        gap = rng.uniform(1.5, 4.0)
+        x0, z0 = city.block_origin(bx) - gap, city.block_origin(bz) - gap
+        ring = [(x0, z0), (x0 + span + 2 * gap, z0), (x0 + span + 2 * gap, z0 + span + 2 * gap),
+                (x0, z0 + span + 2 * gap)]
+        if rng.random() < 0.5:
+            ring = ring[::-1]
+        times, xz, yaws = ring_keys(ring, WALK, 0.3)
+        times, xz, yaws = shifted(times, xz, yaws, rng.uniform(0.0, times[-1]))
+        rest, yaw, entry = loop_entry(times, xz, yaws, 0.0)
+        out.append((f"walker_{n:04d}", *mesh_at(PERSON, rest, yaw), entry))
+    return out
