@@ -88,13 +88,15 @@ def bake_cells(world, g, sources, grow, tol, budget=BUDGET):
     pcells, cps, cp = g["portal_cells"], g["cell_portal_start"], g["cell_portals"]
     bounds, start, tris = g["cell_bounds"], g["cell_start"], g["cell_tris"]
     corners = world.corners
+    crack = np.zeros(len(pcells), dtype=np.bool_)
+    crack[len(pcells) - int(g.get("cracks", 0)):] = True  # pvs_cracks appends them last
     out = []
     for s in sources:
         visible = np.zeros(world.triangle_count, dtype=np.bool_)
         seen = np.zeros(cells, dtype=np.bool_)
         steps = pvs_kernels.flow_from_cell(int(s), bounds[s, 0], bounds[s, 1], bounds, pcells,
                                            quads, cps, cp, start[:-1], start[1:], tris, corners,
-                                           grow, tol, budget, visible, seen)
+                                           grow, tol, budget, visible, seen, crack)
         if steps < 0:  # too many walks: every connected cell, whole
             for c in np.flatnonzero(_connected(int(s), pcells, cps, cp, cells)):
                 visible[tris[start[c]:start[c + 1]]] = True

@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import grid, portal
+from .pvs_cracks import with_cracks
+from .pvs_refine import refine
 
 # A second face is looked for this far (a fraction of the world's extent along the axis).
 PAIR_REACH = 0.02
@@ -75,11 +77,13 @@ def paired_edges(world, cells) -> list:
     return edges
 
 
-def view_grid(world, cells=None, thickness=None) -> dict:
+def view_grid(world, cells=None, thickness=None, split=False) -> dict:
     """The PVS's own cells and portals: {'edges', 'cell_bounds' (C, 2, 3), 'cell_start'
     (C + 1,) int64 and 'cell_tris' (R,) int64 (CSR cell -> triangles within thickness),
     'portal_cells', 'portal_start', 'portal_vertices' (portal.find_portals), 'cell_portal_start'
-    (C + 1,) int64, 'cell_portals' (2P,) int64}."""
+    (C + 1,) int64, 'cell_portals' (2P,) int64}; with split, thin cells are split at the walls
+    inside them (pvs_refine.refine: the cells no longer form a grid, 'parent' names each one's
+    grid cell) and the rasteriser's cracks become portals (pvs_cracks.with_cracks)."""
     target = int(np.clip(round(np.sqrt(world.triangle_count) / 2), 8, 256)) if cells is None \
         else int(cells)
     edges = paired_edges(world, target)
@@ -94,7 +98,10 @@ def view_grid(world, cells=None, thickness=None) -> dict:
     ids = np.tile(np.arange(len(pcells)), 2)
     order = np.lexsort((ids, ends))
     cps = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=count))]).astype(np.int64)
-    return {"edges": edges, "cell_bounds": boxes, "cell_start": start,
-            "cell_tris": tri.astype(np.int64), "portal_cells": pcells.astype(np.int64),
-            "portal_start": pstart, "portal_vertices": pverts,
-            "cell_portal_start": cps, "cell_portals": ids[order].astype(np.int64)}
+    g = {"edges": edges, "cell_bounds": boxes, "cell_start": start,
+         "cell_tris": tri.astype(np.int64), "portal_cells": pcells.astype(np.int64),
+         "portal_start": pstart, "portal_vertices": pverts,
+         "cell_portal_start": cps, "cell_portals": ids[order].astype(np.int64)}
+    if not split:
+        return g
+    return with_cracks(world, refine(world, g, thickness), thickness)

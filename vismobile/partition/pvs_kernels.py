@@ -205,7 +205,7 @@ def _grown_quad(portal_quads, p, grow, cand):
 @njit(cache=True)
 def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
                    cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
-                   corners, grow, tol, budget, visible, cell_seen):
+                   corners, grow, tol, budget, visible, cell_seen, crack):
     """Each portal crossing (portal, direction) keeps one box holding every
     point where a line from the source may cross it (the union over all sequences), so the walk
     is a fixed point instead of an enumeration. The eyes are the box [src_lo, src_hi] (grown
@@ -217,16 +217,21 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     Sound: a line from the source crossing portals p1, p2, ... crosses each at a point of its
     box (induction: its exit point lies beyond its entry point and the source, so on the
     positive side of every separator of the two, and survives the clip). Errs toward visible.
+    Crack portals (crack[p], pvs_cracks.py: lines where the rasteriser may leave a pixel open)
+    are taken once per line of sight: a crossing is walked in layer 0 (no crack crossed yet) or
+    layer 1 (one crossed), each with its own box, and a crack leads from layer 0 to 1 only (a
+    line through two cracks needs an eye on a plane through both: pvs.py's contract).
     Returns the crossings walked, or -1 past `budget` (the caller keeps every connected cell).
     """
     crossings = 2 * len(portal_cells)
-    box = np.empty((crossings, 2, 3))
-    for d in range(crossings):
+    states = 2 * crossings
+    box = np.empty((states, 2, 3))
+    for d in range(states):
         for a in range(3):
             box[d, 0, a] = np.inf
             box[d, 1, a] = -np.inf
-    queued = np.zeros(crossings, dtype=np.bool_)
-    queue = np.empty(max(crossings, 1), dtype=np.int64)
+    queued = np.zeros(states, dtype=np.bool_)
+    queue = np.empty(max(states, 1), dtype=np.int64)
     done = np.zeros(len(cell_bounds), dtype=np.bool_)
     head, size = 0, 0
     src = np.empty((8, 3))
@@ -242,9 +247,10 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     current = -1  # the crossing being walked; -1: the source itself
     while True:
         if current < 0:
-            cell, count, came = source, 0, -1
+            cell, count, came, layer = source, 0, -1, 0
         else:
-            p = current // 2
+            layer = current // crossings
+            p = (current % crossings) // 2
             cell = portal_cells[p, 1] if current % 2 == 0 else portal_cells[p, 0]
             came = p
             ne = _flat_rectangle(box[current, 0], box[current, 1], entry)
@@ -255,7 +261,7 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             cell_seen[cell] = True
         for q in range(cell_portal_start[cell], cell_portal_start[cell + 1]):
             p = cell_portals[q]
-            if p == came:
+            if p == came or (crack[p] and layer == 1):
                 continue
             forward = portal_cells[p, 0] == cell
             m = portal_cells[p, 1] if forward else portal_cells[p, 0]
@@ -265,7 +271,7 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             n = clip_polygon(cand, 4, planes, count, tol, scratch)
             if n == 0:
                 continue
-            d = 2 * p + (0 if forward else 1)
+            d = 2 * p + (0 if forward else 1) + (1 if crack[p] or layer == 1 else 0) * crossings
             grew = False
             for a in range(3):
                 lo, hi = np.inf, -np.inf
@@ -279,12 +285,12 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
                     grew = True
             if grew and not queued[d]:
                 queued[d] = True
-                queue[(head + size) % crossings] = d
+                queue[(head + size) % states] = d
                 size += 1
         if size == 0:
             return walks
         current = queue[head]
-        head = (head + 1) % crossings
+        head = (head + 1) % states
         size -= 1
         queued[current] = False
         walks += 1
