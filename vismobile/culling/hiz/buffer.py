@@ -249,6 +249,67 @@ def _behind(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, 
     return True
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _triangle_edges(cam, tx, ty, width, height, edges):
+    """The projected triangle cam (3, 3) (corners in front of the eye) in buffer pixels as three
+    inward edge functions: edges[e] = (a, b, c) with a x + b y + c >= 0 inside. Returns False
+    for a projection too thin to orient (|area| <= 1e-6 of its edges' product): no shape test."""
+    sx, sy = 0.5 * width / tx, 0.5 * height / ty
+    px0, py0 = cam[0, 0] / cam[0, 2] * sx + 0.5 * width, cam[0, 1] / cam[0, 2] * sy + 0.5 * height
+    px1, py1 = cam[1, 0] / cam[1, 2] * sx + 0.5 * width, cam[1, 1] / cam[1, 2] * sy + 0.5 * height
+    px2, py2 = cam[2, 0] / cam[2, 2] * sx + 0.5 * width, cam[2, 1] / cam[2, 2] * sy + 0.5 * height
+    ax, ay, bx, by = px1 - px0, py1 - py0, px2 - px0, py2 - py0
+    area = ax * by - ay * bx
+    if not abs(area) > 1e-6 * np.sqrt((ax * ax + ay * ay) * (bx * bx + by * by)):
+        return False
+    sign = 1.0 if area > 0 else -1.0
+    xs, ys = (px0, px1, px2), (py0, py1, py2)
+    for e in range(3):
+        qx, qy = xs[e], ys[e]
+        rx, ry = xs[(e + 1) % 3] - qx, ys[(e + 1) % 3] - qy
+        # e(p) = r x (p - q), positive on the third corner's side when sign > 0
+        edges[e, 0], edges[e, 1] = -sign * ry, sign * rx
+        edges[e, 2] = sign * (ry * qx - rx * qy)
+    return True
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _outside(x0, x1, y0, y1, edges):
+    """True when the pixel block [x0, x1] x [y0, y1] (buffer pixel coordinates, already grown)
+    lies wholly outside one edge of the triangle (edges: _triangle_edges)."""
+    for e in range(3):
+        a, b, c = edges[e, 0], edges[e, 1], edges[e, 2]
+        if max(a * x0, a * x1) + max(b * y0, b * y1) + c < 0:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _behind_shape(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, recede,
+                  edges, gx, gy):
+    """_behind for a triangle, reading only the pixels its shape may reach: a pixel (or tile)
+    whose square grown by gx, gy pixels lies wholly outside an edge of the projected triangle
+    (edges: _triangle_edges) holds no point the device draws there, nor one an occluder's
+    shift brings there (gx, gy: that shift and the points' move, plus SLACK_PX). Errs toward
+    False as _behind does."""
+    for ty_ in range(y0 // th, y1 // th + 1):
+        for tx_ in range(x0 // tw, x1 // tw + 1):
+            d = tile_max[ty_ * cols + tx_]
+            if zmin > d + margin * d * d + recede:
+                continue
+            r0, r1 = max(y0, ty_ * th), min(y1, ty_ * th + th - 1)
+            c0, c1 = max(x0, tx_ * tw), min(x1, tx_ * tw + tw - 1)
+            if _outside(c0 - gx, c1 + 1.0 + gx, r0 - gy, r1 + 1.0 + gy, edges):
+                continue
+            for r in range(r0, r1 + 1):
+                for c in range(c0, c1 + 1):
+                    d = depth[r * width + c]
+                    if not zmin > d + margin * d * d + recede \
+                            and not _outside(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, edges):
+                        return False
+    return True
+
+
 @njit(cache=True, nogil=True)
 def _no_sample(px, py, err, sw, sh, max_samples):
     """True when no pixel centre of an sw x sh screen lies within the triangle (window coords
@@ -301,6 +362,9 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
     r = np.empty(12)
     px = np.empty(3)
     py = np.empty(3)
+    edges = np.empty((3, 3))
+    reach = np.sqrt(3.0) * move
+    lateral = 2.0 + 2.0 * max(tx, ty) + shift  # bounds 1 + |x / z| over the screen and shift
     for k in range(len(ids)):
         t = ids[k]
         for c in range(3):
@@ -315,8 +379,19 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
             _local_border(r, shift, tx, ty, width, height, tile_shift, cols, tw, th)
         x0, x1, y0, y1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
         use = use_buffer and r[6] == 1  # else the buffer cannot hide it
-        if r[6] == 0 or (use and _behind(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw,
-                                         th, margin, recede)):
+        if r[6] == 0:
+            hidden[k] = True
+            continue
+        # A point the device draws over a pixel projects, unmoved, within `spread` (x / z units)
+        # of it: the occluders' shift and its own move, |d(x / z)| <= reach (1 + |x / z|) / z.
+        spread = shift + reach * lateral / r[4]
+        shaped = use and spread < 0.5 and _triangle_edges(cam, tx, ty, width, height, edges)
+        gx = spread / tx * 0.5 * width + SLACK_PX
+        gy = spread / ty * 0.5 * height + SLACK_PX
+        if use and (_behind_shape(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th,
+                                  margin, recede, edges, gx, gy) if shaped else
+                    _behind(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th, margin,
+                            recede)):
             hidden[k] = True
             continue
         if use and sw > 0:  # the wide rectangle failed: the pixels under the centres
@@ -324,9 +399,12 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
                                 tile_shift, cols, tw, th, sw, sh, r):
                 subpixel[k] = True  # no centre under its rectangle
                 continue
-            if (int(r[0]) != x0 or int(r[1]) != x1 or int(r[2]) != y0 or int(r[3]) != y1) \
-                    and _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]), r[4], depth, width,
-                                tile_max, cols, tw, th, margin, recede):
+            a0, a1, b0, b1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
+            if (a0 != x0 or a1 != x1 or b0 != y0 or b1 != y1) and (
+                    _behind_shape(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th,
+                                  margin, recede, edges, gx, gy) if shaped else
+                    _behind(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th, margin,
+                            recede)):
                 hidden[k] = True
                 continue
         if sw > 0:
