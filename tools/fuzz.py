@@ -2,7 +2,7 @@
 chains too) and trajectory CSVs (issue 11); textured GLB and OBJ+MTL scenes (issue 27); compare's --cull
 lists (issue 31); compare's and tune's --structures lists with baked PVS labels and the --scheduler
 address of compare and partition (issue 29); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
-heightmaps (issue 28); .vmt terrains as `play` runs them (vmtplay: LOD, objects culled, a frame;
+heightmaps (issue 28); GeoTIFF heightmaps and .vmt terrains as `play` runs them (vmtplay: LOD, objects culled, a frame;
 issue 30); GLB node animations and JSON motion files (animglb, motion: issue 25). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
@@ -19,7 +19,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,animglb,motion]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,animglb,motion]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
@@ -114,6 +114,19 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
     holed[5:9, 3:12] = np.nan  # no data: a version 2 .vmt with its mask section (issue 30)
     store.save(folder / "holes.vmt", quantize(holed, 1.0, "holes"))
     arrays = []
+    tifs = []
+    for array, predictor in ((heightmap.heights.astype(np.float32), 3),
+                             (np.arange(-40, 40, dtype=np.int16).reshape(8, 10), 2)):
+        from PIL import Image, TiffImagePlugin
+
+        info = TiffImagePlugin.ImageFileDirectory_v2()
+        info[42113], info.tagtype[42113] = "-9999", 2  # GDAL_NODATA (issue 30's GeoTIFFs)
+        info[33550], info.tagtype[33550] = (30.0, 30.0, 0.0), 12  # ModelPixelScaleTag
+        info[317] = predictor
+        buffer = io.BytesIO()
+        Image.fromarray(array).save(buffer, format="TIFF", compression="tiff_adobe_deflate",
+                                    tiffinfo=info)
+        tifs.append(buffer.getvalue())
     for array in (heightmap.heights, np.arange(12, dtype=np.uint16).reshape(3, 4), holed):
         buffer = io.BytesIO()
         np.save(buffer, array)
@@ -126,7 +139,7 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
             "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes(),
                                                     (folder / "holes.vmt").read_bytes()],
             "vmtplay": [(folder / "seed.vmt").read_bytes()],
-            "npy": arrays, **animated_seeds(folder)}
+            "npy": arrays, "tif": tifs, **animated_seeds(folder)}
 
 
 # A motion file for the cube world (load_motion): linear, step and looping paths.
@@ -453,7 +466,7 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
          "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
          "vmtplay": (load_vmt_play, ".vmt"),
-         "npy": (load_heightmap, ".npy"), "objmtl": (load_textured_obj, ".obj"),
+         "npy": (load_heightmap, ".npy"), "tif": (load_heightmap, ".tif"), "objmtl": (load_textured_obj, ".obj"),
          "animglb": (load_animated, ".glb"), "motion": (load_motion, ".json")}
 
 
@@ -566,7 +579,7 @@ def main(argv=None):
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
     parser.add_argument("--target",
-                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,animglb,motion")
+                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,animglb,motion")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

@@ -544,3 +544,23 @@ def main(names=None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))
+
+
+def _corrupt_tiff(path):
+    """A float32 deflate TIFF whose compressed strip is scrambled: libtiff's decoder fails and
+    prints to file descriptor 2 itself, which the one-line rule must keep quiet (issue 30)."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(np.random.default_rng(0).random((64, 80)).astype(np.float32)).save(
+        buffer, format="TIFF", compression="tiff_adobe_deflate")
+    data = bytearray(buffer.getvalue())
+    for k in range(40, 400):
+        data[k] ^= 0x5A
+    path.write_bytes(bytes(data))
+
+
+CASES["tif_corrupt_strip"] = lambda folder: _heightmap(folder, "dem.tif", _corrupt_tiff)

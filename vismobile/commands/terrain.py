@@ -14,8 +14,9 @@ def add_parser(sub):
                             "next 2^n+1 at or above the source)")
     build.add_argument("--seed", type=int, default=0, help="fractal and object placement seed (default 0)")
     build.add_argument("--roughness", type=float, default=0.55, help="fractal octave ratio (default 0.55)")
-    build.add_argument("--spacing", type=float, default=1.0,
-                       help="world units between samples (files and fractals; default 1)")
+    build.add_argument("--spacing", type=float, default=None,
+                       help="world units between samples (files and fractals; default 1, or a "
+                            "GeoTIFF's pixel scale)")
     build.add_argument("--vertical", type=float, default=1.0, help="file value to world units (default 1)")
     build.add_argument("--fit", choices=("pad", "resample"), default="pad",
                        help="a file of another size than 2^n+1: pad (default: every sample kept "
@@ -57,7 +58,7 @@ def run(args) -> int:
             heightmap = sources.dem(args.source, args.size)
         elif args.source == sources.SYNTHETIC:
             heightmap = sources.diamond_square(args.size or 1025, args.seed, args.roughness,
-                                               spacing=args.spacing)
+                                               spacing=args.spacing or 1.0)
         else:
             heightmap = sources.load_file(args.source, args.size, args.spacing, args.vertical,
                                           args.fit, args.nodata)
