@@ -119,6 +119,8 @@ class Culler:
             self.moving = MovingObjects(self.animated,
                                         {stage.name: stage for stage in self.stages}, arithmetic)
             self._doors = attach_doors(self.stages, self.animated.animated)
+            ids = self.animated.animated.static_ids
+            self._static_prefix = not len(ids) or int(ids[-1]) == len(ids) - 1  # ids 0..S-1
 
     def __repr__(self) -> str:
         part = self.partition
@@ -190,8 +192,8 @@ class Culler:
 
     def _with_moving(self, state, result, time) -> CullResult:
         """The static result's ids mapped to the world's, merged with the moving objects'."""
-        static = self.animated.animated.static_ids[result.triangles]
-        moving = self.moving.cull(state)
-        ids = np.union1d(static, moving) if len(moving) else static
+        static = result.triangles if self._static_prefix else \
+            self.animated.animated.static_ids[result.triangles]
+        ids = self.moving.cull(state, static)
         result.stats["triangles_sent"] = len(ids)
         return CullResult(ids, result.nodes, result.stats, result.cull_back)

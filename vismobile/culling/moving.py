@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from ..partition.dynamic import DynamicBVH
-from ..world.animated import moved_boxes, transform_rows
+from ..world.animated import BOX_PAD, _moved_boxes, transform_rows
 from .facing import not_backfacing
 from .hiz import cull_nodes, hidden_triangles
 from .kernels import _box_planes
@@ -97,6 +97,54 @@ def _boxes_meet_cells(boxes, objects, cells_lo, cells_hi, visible, grow, keep):
         keep[i] = seen or not any_cell
 
 
+@njit(cache=True, nogil=True)
+def _object_ids(objects, start, triangles, out, last):
+    """out = triangles[start[k]:start[k + 1]] for k in objects, in order; returns True when they
+    came out ascending and above `last`."""
+    count, ordered = 0, True
+    for i in range(len(objects)):
+        k = objects[i]
+        for j in range(start[k], start[k + 1]):
+            t = triangles[j]
+            ordered = ordered and t > last
+            last = t
+            out[count] = t
+            count += 1
+    return ordered
+
+
+@njit(cache=True, nogil=True)
+def _ascending(ids):
+    for i in range(1, len(ids)):
+        if ids[i] <= ids[i - 1]:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def merge_sorted(a, b):
+    """(len(a) + len(b),) int64 the union of two sorted arrays with no common element."""
+    out = np.empty(len(a) + len(b), dtype=np.int64)
+    i = j = k = 0
+    while i < len(a) and j < len(b):
+        if a[i] < b[j]:
+            out[k] = a[i]
+            i += 1
+        else:
+            out[k] = b[j]
+            j += 1
+        k += 1
+    while i < len(a):
+        out[k] = a[i]
+        i += 1
+        k += 1
+    while j < len(b):
+        out[k] = b[j]
+        j += 1
+        k += 1
+    return out
+
+
 def _ranges(start, objects) -> np.ndarray:
     """Concatenated arange(start[k], start[k + 1]) for k in objects, int64."""
     a, b = start[objects], start[objects + 1]
@@ -133,17 +181,20 @@ class MovingObjects:
                       np.full(m, -1, np.int64))
         self._frame = 0
         self.boxes = a.rest_boxes.copy()
+        self.matrices = np.empty((m, 4, 4))
 
     def pose(self, time) -> float:
-        """The objects' matrices and boxes at time (None: rest); returns the boxes' largest
-        |coordinate| (the Culler's planes are inflated for it)."""
-        self.matrices = self.animated.matrices(time)
-        self.boxes = moved_boxes(self.animated.rest_boxes, self.matrices)
-        self.magnitude = float(np.abs(self.boxes).max(initial=0.0))
+        """The objects' matrices and boxes at time (None: rest), in place; returns the boxes'
+        largest |coordinate| (the Culler's planes are inflated for it)."""
+        self.animated.matrices(time, self.matrices)
+        self.magnitude = _moved_boxes(self.animated.rest_boxes, self.matrices, BOX_PAD,
+                                      self.boxes)
         return self.magnitude
 
-    def cull(self, state) -> np.ndarray:
-        """After pose(time) and the static stages of the same frame."""
+    def cull(self, state, static) -> np.ndarray:
+        """(S,) int64 sorted: static (the static half's world ids, sorted) with the moving
+        objects' ids to draw; after pose(time) and the static stages of the same frame."""
+        static = np.ascontiguousarray(static, dtype=np.int64)
         a, matrices, boxes = self.animated, self.matrices, self.boxes
         rebuilt = self.bvh.update(boxes)
         state.count("moving.objects", len(boxes))
@@ -159,6 +210,10 @@ class MovingObjects:
             state.count("plane_tests", tests)
         else:
             objects = np.arange(len(boxes), dtype=np.int64)
+        if not len(objects):
+            state.count("moving.objects_sent", 0)
+            state.count("moving.triangles_sent", 0)
+            return static
         if "portals" in self.stages and len(objects):
             objects = self._cells("portals", state, boxes, objects)
         occlusion = self.stages.get("occlusion")
@@ -167,8 +222,17 @@ class MovingObjects:
         if usable and len(objects):
             objects = self._occluded_boxes(occlusion, state, boxes, objects)
         state.count("moving.objects_sent", len(objects))
+        if "tbfc" not in self.stages and not usable:  # whole objects: their ids straight
+            count = int((a.tri_start[objects + 1] - a.tri_start[objects]).sum())
+            state.count("moving.triangles_sent", count)
+            out = np.empty(len(static) + count, dtype=np.int64)
+            out[:len(static)] = static
+            if _object_ids(objects, a.tri_start, a.moving_triangles, out[len(static):],
+                           static[-1] if len(static) else -1):
+                return out  # already one ascending list: moving ids after the static ones
+            return merge_sorted(static, np.sort(out[len(static):]))
         local = _ranges(a.tri_start, objects)
-        if len(local) and ("tbfc" in self.stages or usable):
+        if len(local):
             transform_rows(  # the objects' rows only: O(what is in view)
                 a.rest_vertices, a.vertex_start, np.ascontiguousarray(matrices),
                            objects, self._posed)
@@ -177,7 +241,14 @@ class MovingObjects:
             if usable and occlusion.triangles and len(local):
                 local = self._occluded_triangles(occlusion, state, boxes[objects], local)
         state.count("moving.triangles_sent", len(local))
-        return np.sort(a.moving_triangles[local])
+        ids = a.moving_triangles[local]
+        if not _ascending(ids):
+            ids = np.sort(ids)
+        if not len(ids):
+            return static
+        if not len(static) or ids[0] > static[-1]:
+            return np.concatenate([static, ids])
+        return merge_sorted(static, ids)
 
     def _scale(self, state, boxes=None) -> float:
         return max(self.magnitude, *map(abs, state.camera.position))

@@ -121,12 +121,14 @@ class AnimatedWorld:
             self._static_world = self.world.subset(self.static_ids)
         return self._static_world
 
-    def matrices(self, t) -> np.ndarray:
+    def matrices(self, t, out=None) -> np.ndarray:
         """(M, 4, 4) float64 the moving objects' matrices at time t (None: identity, the rest
-        pose)."""
+        pose); out: an (M, 4, 4) float64 array to fill."""
         if t is None:
-            return np.tile(np.eye(4), (len(self.motion), 1, 1))
-        return self.motion.matrices(t)[1]
+            out = np.empty((len(self.motion), 4, 4)) if out is None else out
+            out[:] = np.eye(4)
+            return out
+        return self.motion.matrices(t, out)[1]
 
     def posed_vertices(self, matrices, tracks=None) -> np.ndarray:
         """(Vm, 3) float64 the moving vertices under matrices (M, 4, 4); tracks (k,) int64: only
@@ -209,6 +211,8 @@ def transform_rows(rest, start, matrices, tracks, out):
 
 @njit(cache=True, nogil=True)
 def _moved_boxes(boxes, matrices, pad, out):
+    """out (M, 2, 3) = moved_boxes; returns the largest |coordinate| of out."""
+    most = 0.0
     for k in range(len(boxes)):
         m = matrices[k]
         for r in range(3):
@@ -220,6 +224,8 @@ def _moved_boxes(boxes, matrices, pad, out):
                 mag += max(abs(a), abs(b))
             out[k, 0, r] = lo - pad * mag
             out[k, 1, r] = hi + pad * mag
+            most = max(most, abs(out[k, 0, r]), abs(out[k, 1, r]))
+    return most
 
 
 def moved_boxes(boxes, matrices) -> np.ndarray:

@@ -128,6 +128,13 @@ class Motion:
                 per[name].append((times, values))
                 if len(times):
                     self.duration[k] = max(self.duration[k], times[-1])
+        # pre and post affine (last row 0 0 0 1) is required; pure translations take a short cut
+        for name, matrices in (("pre", self.pre), ("post", self.post)):
+            if not np.allclose(matrices[:, 3], [0, 0, 0, 1], rtol=0, atol=0):
+                raise ValueError(f"{name} matrices must be affine (last row 0 0 0 1)")
+        eye = np.eye(3)
+        self.simple = (np.all(self.pre[:, :3, :3] == eye, axis=(1, 2))
+                       & np.all(self.post[:, :3, :3] == eye, axis=(1, 2)))
         for name in CHANNELS:
             counts = np.array([len(t) for t, _ in per[name]], dtype=np.int64)
             start = np.zeros(m + 1, dtype=np.int64)
@@ -138,6 +145,8 @@ class Motion:
             self.channels[name] = (np.ascontiguousarray(times, dtype=np.float64),
                                    np.ascontiguousarray(values, dtype=np.float64).reshape(
                                        -1, WIDTH[name]), start)
+
+        self.arc = _arcs(self.channels["rotation"][1])
 
     def __len__(self) -> int:
         return len(self.object_ids)
@@ -169,12 +178,37 @@ class Motion:
             out[name] = result
         return out
 
-    def matrices(self, t: float) -> tuple:
+    def matrices(self, t: float, out=None) -> tuple:
         """(object ids (M,) int64, matrices (M, 4, 4) float64) mapping each moving object's
-        rest-pose coordinates to its pose at time t (module docstring)."""
-        s = self.sample(t)
-        trs = trs_matrices(s["translation"], s["rotation"], s["scale"])
-        return self.object_ids, self.post @ trs @ self.pre
+        rest-pose coordinates to its pose at time t (module docstring); one compiled pass
+        (out: an (M, 4, 4) float64 array to fill, else a new one)."""
+        t = float(t)
+        if not np.isfinite(t):
+            raise ValueError(f"time must be finite, got {t}")
+        out = np.empty((len(self), 4, 4)) if out is None else out
+        c = self.channels
+        _matrices(t, self.loop, self.duration, self.step, self.simple, *c["translation"],
+                  *c["rotation"], self.arc, *c["scale"], self.pre, self.post, out)
+        return self.object_ids, out
+
+
+def _arcs(q) -> np.ndarray:
+    """(R, 3) float64 per unit quaternion key q[i] (R, 4) the slerp toward q[i + 1]: angle, 1 /
+    sin(angle), sign (-1: the shortest arc goes to -q[i + 1]); angle 0 where they nearly agree
+    (dot > 0.9995: lerp then normalise), and on the last row (never read across tracks: a
+    segment ends at its track's last key)."""
+    out = np.zeros((len(q), 3))
+    out[:, 2] = 1.0
+    if len(q) > 1:
+        dot = np.einsum("ij,ij->i", q[:-1], q[1:])
+        out[:-1, 2] = np.where(dot < 0, -1.0, 1.0)
+        dot = np.abs(dot)
+        arc = dot <= 0.9995
+        theta = np.arccos(np.minimum(dot[arc], 1.0))
+        rows = np.flatnonzero(arc)
+        out[rows, 0] = theta
+        out[rows, 1] = 1.0 / np.sin(theta)
+    return out
 
 
 def quaternion_matrices(q) -> np.ndarray:
@@ -197,58 +231,162 @@ def trs_matrices(translation, rotation, scale) -> np.ndarray:
     return out
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _sample_track(times, values, a, b, t, step, quaternion, neutral, out):
+    """out (width,) = the channel keys values[a:b] at times[a:b] sampled at t: binary search,
+    then hold (step), lerp or slerp (quaternion, shortest arc, normalised)."""
+    width = values.shape[1]
+    if a == b:
+        for j in range(width):
+            out[j] = neutral[j]
+        return
+    if t <= times[a]:
+        for j in range(width):
+            out[j] = values[a, j]
+        return
+    if t >= times[b - 1]:
+        for j in range(width):
+            out[j] = values[b - 1, j]
+        return
+    lo, hi = a, b - 1  # times[lo] < t < times[hi]
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if times[mid] <= t:
+            lo = mid
+        else:
+            hi = mid
+    if step:
+        for j in range(width):
+            out[j] = values[lo, j]
+        return
+    u = (t - times[lo]) / (times[hi] - times[lo])
+    if not quaternion:
+        for j in range(width):
+            out[j] = values[lo, j] + u * (values[hi, j] - values[lo, j])
+        return
+    dot = 0.0
+    for j in range(4):
+        dot += values[lo, j] * values[hi, j]
+    sign = 1.0
+    if dot < 0.0:
+        sign, dot = -1.0, -dot
+    if dot > 0.9995:  # nearly equal: lerp then normalise
+        wa, wb = 1.0 - u, u
+    else:
+        theta = np.arccos(min(dot, 1.0))
+        wa = np.sin((1.0 - u) * theta) / np.sin(theta)
+        wb = np.sin(u * theta) / np.sin(theta)
+    norm = 0.0
+    for j in range(4):
+        out[j] = wa * values[lo, j] + wb * sign * values[hi, j]
+        norm += out[j] * out[j]
+    norm = np.sqrt(norm)
+    for j in range(4):
+        out[j] /= norm
+
+
 @njit(cache=True, nogil=True)
 def _sample(times, values, start, local, step, quaternion, neutral, out):
-    """out[k] = channel of track k at local[k]: binary search in its keys, then hold (step),
-    lerp or slerp (quaternion, shortest arc, normalised)."""
-    width = values.shape[1]
+    """out[k] = channel of track k at local[k] (_sample_track)."""
     for k in range(len(local)):
-        a, b = start[k], start[k + 1]
-        if a == b:
-            for j in range(width):
-                out[k, j] = neutral[j]
-            continue
-        t = local[k]
-        if t <= times[a]:
-            for j in range(width):
-                out[k, j] = values[a, j]
-            continue
-        if t >= times[b - 1]:
-            for j in range(width):
-                out[k, j] = values[b - 1, j]
-            continue
-        lo, hi = a, b - 1  # times[lo] < t < times[hi]
-        while hi - lo > 1:
-            mid = (lo + hi) // 2
-            if times[mid] <= t:
-                lo = mid
-            else:
-                hi = mid
-        if step[k]:
-            for j in range(width):
-                out[k, j] = values[lo, j]
-            continue
-        u = (t - times[lo]) / (times[hi] - times[lo])
-        if not quaternion:
-            for j in range(width):
-                out[k, j] = values[lo, j] + u * (values[hi, j] - values[lo, j])
-            continue
-        dot = 0.0
-        for j in range(4):
-            dot += values[lo, j] * values[hi, j]
-        sign = 1.0
-        if dot < 0.0:
-            sign, dot = -1.0, -dot
-        if dot > 0.9995:  # nearly equal: lerp then normalise
-            wa, wb = 1.0 - u, u
+        _sample_track(times, values, start[k], start[k + 1], local[k], step[k], quaternion,
+                      neutral, out[k])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _segment(times, a, b, t, step):
+    """(lo, hi, u) of keys times[a:b] (a < b) at t: the value is v[lo] + u (v[hi] - v[lo])
+    (u = 0: v[lo] held, before the first key, past the last, or a step)."""
+    if t <= times[a]:
+        return a, a, 0.0
+    if t >= times[b - 1]:
+        return b - 1, b - 1, 0.0
+    lo, hi = a, b - 1  # times[lo] < t < times[hi]
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if times[mid] <= t:
+            lo = mid
         else:
-            theta = np.arccos(min(dot, 1.0))
-            wa = np.sin((1.0 - u) * theta) / np.sin(theta)
-            wb = np.sin(u * theta) / np.sin(theta)
-        norm = 0.0
-        for j in range(4):
-            out[k, j] = wa * values[lo, j] + wb * sign * values[hi, j]
-            norm += out[k, j] * out[k, j]
-        norm = np.sqrt(norm)
-        for j in range(4):
-            out[k, j] /= norm
+            hi = mid
+    if step:
+        return lo, lo, 0.0
+    return lo, hi, (t - times[lo]) / (times[hi] - times[lo])
+
+
+@njit(cache=True, nogil=True)
+def _matrices(t, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv, ss, pre,
+              post, out):
+    """out[k] = post[k] @ T R S @ pre[k] of track k at time t (looping tracks wrapped), as
+    _sample_track samples: every track in one pass, scalars only. arc (R, 3): per rotation key,
+    the slerp to the next key's (angle, 1 / sin(angle), sign; angle 0: lerp), precomputed."""
+    trs = np.empty((3, 4))
+    mid = np.empty((3, 4))
+    for k in range(len(loop)):
+        local = t
+        if loop[k] and duration[k] > 0:
+            local = t - np.floor(t / duration[k]) * duration[k]
+        tx = ty = tz = 0.0
+        if ts[k] < ts[k + 1]:
+            lo, hi, u = _segment(tt, ts[k], ts[k + 1], local, step[k])
+            tx = tv[lo, 0] + u * (tv[hi, 0] - tv[lo, 0])
+            ty = tv[lo, 1] + u * (tv[hi, 1] - tv[lo, 1])
+            tz = tv[lo, 2] + u * (tv[hi, 2] - tv[lo, 2])
+        sx = sy = sz = 1.0
+        if ss[k] < ss[k + 1]:
+            lo, hi, u = _segment(st, ss[k], ss[k + 1], local, step[k])
+            sx = sv[lo, 0] + u * (sv[hi, 0] - sv[lo, 0])
+            sy = sv[lo, 1] + u * (sv[hi, 1] - sv[lo, 1])
+            sz = sv[lo, 2] + u * (sv[hi, 2] - sv[lo, 2])
+        x, y, z, w = 0.0, 0.0, 0.0, 1.0
+        if rs[k] < rs[k + 1]:
+            lo, hi, u = _segment(rt, rs[k], rs[k + 1], local, step[k])
+            if u == 0.0:
+                x, y, z, w = rv[lo, 0], rv[lo, 1], rv[lo, 2], rv[lo, 3]
+            else:
+                theta, inverse, sign = arc[lo, 0], arc[lo, 1], arc[lo, 2]
+                if theta == 0.0:  # nearly equal: lerp then normalise
+                    wa, wb = 1.0 - u, u
+                else:
+                    wa = np.sin((1.0 - u) * theta) * inverse
+                    wb = np.sin(u * theta) * inverse
+                wb *= sign
+                x = wa * rv[lo, 0] + wb * rv[hi, 0]
+                y = wa * rv[lo, 1] + wb * rv[hi, 1]
+                z = wa * rv[lo, 2] + wb * rv[hi, 2]
+                w = wa * rv[lo, 3] + wb * rv[hi, 3]
+                norm = np.sqrt(x * x + y * y + z * z + w * w)
+                x, y, z, w = x / norm, y / norm, z / norm, w / norm
+        trs[0, 0] = (1 - 2 * (y * y + z * z)) * sx
+        trs[0, 1] = 2 * (x * y - z * w) * sy
+        trs[0, 2] = 2 * (x * z + y * w) * sz
+        trs[1, 0] = 2 * (x * y + z * w) * sx
+        trs[1, 1] = (1 - 2 * (x * x + z * z)) * sy
+        trs[1, 2] = 2 * (y * z - x * w) * sz
+        trs[2, 0] = 2 * (x * z - y * w) * sx
+        trs[2, 1] = 2 * (y * z + x * w) * sy
+        trs[2, 2] = (1 - 2 * (x * x + y * y)) * sz
+        trs[0, 3], trs[1, 3], trs[2, 3] = tx, ty, tz
+        if simple[k]:  # pre, post pure translations: R S, then R S pre_t + t + post_t
+            for r in range(3):
+                acc = trs[r, 3] + post[k, r, 3]
+                for i in range(3):
+                    out[k, r, i] = trs[r, i]
+                    acc += trs[r, i] * pre[k, i, 3]
+                out[k, r, 3] = acc
+                out[k, 3, r] = 0.0
+            out[k, 3, 3] = 1.0
+            continue
+        for r in range(3):  # affine: the last rows are 0 0 0 1
+            for c in range(4):
+                acc = trs[r, 3] if c == 3 else 0.0
+                for i in range(3):
+                    acc += trs[r, i] * pre[k, i, c]
+                mid[r, c] = acc
+        for r in range(3):
+            for c in range(4):
+                acc = post[k, r, 3] if c == 3 else 0.0
+                for i in range(3):
+                    acc += post[k, r, i] * mid[i, c]
+                out[k, r, c] = acc
+            out[k, 3, r] = 0.0
+        out[k, 3, 3] = 1.0
