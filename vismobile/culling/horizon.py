@@ -117,7 +117,9 @@ class HorizonStage:
             state.nodes = nodes[~hidden]
             state.count("nodes_visited", tested)
             state.count(f"{self.name}.nodes_tested", tested)
-            state.count(f"{self.name}.pieces", horizon.pieces)  # bands x slices cast
+            # bands x slices cast (up to the early stops; all of them when not counted)
+            state.count(f"{self.name}.pieces",
+                        horizon.pieces if horizon.pieces >= 0 else horizon.values.size)
         if self.triangles:
             stats, key = state.stats, f"{self.name}.triangles_"
             planes, slack = state.planes, tree.tol + self.margin

@@ -173,7 +173,7 @@ class Horizon:
         this eye)."""
         return cls(np.asarray(eye, dtype=np.float64), np.array([0.0, 0, -1]),
                    np.array([1.0, 0, 0]), np.array([-1.0, 1.0]), np.array([1.0, 2.0]),
-                   np.full((1, 1), -np.inf), np.full(1, np.inf))
+                   np.full((1, 1), -np.inf), np.full(1, np.inf), pieces=0)
 
     def hidden(self, boxes) -> np.ndarray:
         """(K,) bool: box (K, 2, 3) entirely hidden by drawn ground (errs visible)."""
@@ -502,10 +502,10 @@ class HorizonCaster:
         if self.arithmetic == "fixed16.16":
             return self._cast_fixed(eye, forward, right, tans, depths, lower, zclip, ceiling)
         values = np.empty((self.bands, count))
-        _cast(self.flat, self.offsets, self.sizes, self.heightmap.spacing, eye, forward, right,
-              tans, depths, float(lower), values, self.high_flat, zclip, ceiling, NO_BOTTOMS,
-              NO_BASES, np.inf, *no_stops(self.bands))
-        return Horizon(eye, forward, right, tans, depths, values, ceiling)
+        pieces = _cast(self.flat, self.offsets, self.sizes, self.heightmap.spacing, eye,
+                       forward, right, tans, depths, float(lower), values, self.high_flat,
+                       zclip, ceiling, NO_BOTTOMS, NO_BASES, np.inf, *no_stops(self.bands))
+        return Horizon(eye, forward, right, tans, depths, values, ceiling, pieces=pieces)
 
     def _first_ceiling(self, eye, zclip, first, span, lower) -> float:
         """Slope a ray must beat to pass above the ground at every level depth z <= z1 =
@@ -553,9 +553,9 @@ class HorizonCaster:
             start_raw = SLOPE_LIMIT if not start < 0 else -SLOPE_LIMIT - 1
         ceiling = np.full(len(tans_raw) - 1, start_raw, np.int64)
         zclip_raw = int(np.ceil(zclip * ONE)) + 2
-        _cast_fixed(self.flat_raw, self.offsets, self.sizes, spacing_raw, raw[0], raw[1],
-                    raw[2], tans_raw, depths_raw, lower_raw, values, self.high_flat_raw,
-                    zclip_raw, ceiling, NO_BOTTOMS_RAW, NO_BASES_RAW, 1 << 40,
-                    *stops_raw(*no_stops(len(tans_raw) - 1)))
+        pieces = _cast_fixed(self.flat_raw, self.offsets, self.sizes, spacing_raw, raw[0],
+                             raw[1], raw[2], tans_raw, depths_raw, lower_raw, values,
+                             self.high_flat_raw, zclip_raw, ceiling, NO_BOTTOMS_RAW,
+                             NO_BASES_RAW, 1 << 40, *stops_raw(*no_stops(len(tans_raw) - 1)))
         return FixedHorizon(raw[0], raw[1], raw[2], tans_raw, depths_raw, values, ceiling,
-                            FIXED_LIMIT)
+                            FIXED_LIMIT, pieces=pieces)
