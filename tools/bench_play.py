@@ -11,7 +11,12 @@ process (render-all), as the baseline the thesis compares against ("culling save
 each configuration's mean frame time as a speed-up over it. The frame-time view: per
 configuration the median frame split into cull, upload (index data built and written) and draw
 (clear, draws, glFinish), and the cull's median when interleaved with rendering (the played
-frames) against the same cameras culled back to back by a fresh culler in this process. --fixed-check renders waypoint
+frames) against the same cameras culled back to back by a fresh culler in this process.
+--llvmpipe-threads (default 0) sets Mesa's LP_NUM_THREADS for this process, before the GL
+context exists: 0 draws in the calling thread, as the device's one core does; "mesa" keeps
+Mesa's worker threads, which sleep during the cull and cost about 2.3 ms to wake for a frame's
+draw on this loaded 2-core machine, whatever it draws (docs/culling-performance.md).
+--fixed-check renders waypoint
 item buffers of all six worlds in fixed16.16 and float32 and reports how many pixels agree
 (or the ProfileError a world raises).
 """
@@ -19,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -128,7 +134,16 @@ def main(argv=None):
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_play")
     parser.add_argument("--no-baseline", action="store_true")
     parser.add_argument("--fixed-check", action="store_true")
+    parser.add_argument("--llvmpipe-threads", default="0",
+                        choices=["mesa"] + [str(n) for n in range(17)],
+                        help="Mesa's LP_NUM_THREADS: 0 (default) draws in the calling thread; "
+                             "mesa keeps Mesa's default worker threads")
     args = parser.parse_args(argv)
+    if args.llvmpipe_threads == "mesa":
+        os.environ.pop("LP_NUM_THREADS", None)
+    else:  # read by Mesa when the GL context is made (the first draw below)
+        os.environ["LP_NUM_THREADS"] = args.llvmpipe_threads
+    print(f"llvmpipe threads: {os.environ.get('LP_NUM_THREADS', 'Mesa default')}")
 
     trajectory = Trajectory.load(args.trajectory)
     profile = get_profile(args.profile)
