@@ -8,34 +8,13 @@ trajectory shows the scene at t = f / fps (fps 30 unless --fps says otherwise).
 """
 from __future__ import annotations
 
-import time
-from pathlib import Path
-
 import numpy as np
 
 from ..errors import VisMobileError
+from ..render.posed import Poser  # noqa: F401  (the commands' import)
+from ..scenes.lookup import animated_world as open_animated  # noqa: F401
 
 DEFAULT_FPS = 30.0
-
-
-def open_animated(text, world, motion=None):
-    """The AnimatedWorld of a world argument `text` whose World is `world`, or None when
-    nothing in it moves (module docstring). WorldError names a bad motion or glTF file."""
-    from ..world.animated import AnimatedWorld
-
-    if motion is not None:
-        return AnimatedWorld.from_motion_file(world, Path(motion))
-    from ..scenes.lookup import is_thesis_world
-
-    if is_thesis_world(text):
-        from ..scenes.thesis import motion_path
-
-        path = motion_path(str(text).strip().lower())
-        return None if path is None else AnimatedWorld.from_motion_file(world, path)
-    if Path(str(text)).suffix.lower() in (".glb", ".gltf"):
-        animated = AnimatedWorld.from_gltf(Path(str(text)))
-        return animated if len(animated.motion) else None
-    return None
 
 
 def check_fps(fps) -> float:
@@ -47,21 +26,3 @@ def check_fps(fps) -> float:
     if not np.isfinite(value) or not 0.0 < value <= 1e4:
         raise VisMobileError(f"--fps must be in (0, 10000], got {fps}")
     return value
-
-
-class Poser:
-    """Moves a renderer's moving objects to their pose at time t: the objects' matrices, their
-    vertices (only theirs), and one vertex-record rewrite of their triangles (Renderer.move).
-    Cost O(moving triangles) per frame, never the world."""
-
-    def __init__(self, animated, renderer):
-        self.animated, self.renderer = animated, renderer
-        self.count = len(animated.motion)
-
-    def pose(self, t) -> float:
-        """Draw the moving objects as they stand at t from now on; returns the wall ms."""
-        start = time.perf_counter()
-        a = self.animated
-        vertices = a.posed_vertices(a.matrices(t))
-        self.renderer.move(a.moving_triangles, vertices[a.local_triangles])
-        return (time.perf_counter() - start) * 1000.0

@@ -107,7 +107,7 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
     eyes        : the camera positions fix_winding tells rooms from solids by (optional)
     motion      : a JSON motion file moving the world's objects (else W7's own motion, or a
                   .glb/.gltf file's animation: app/animation.open_animated); fps: frames per
-                  second of the trajectory's time (default 30)
+                  second of the trajectory's time (default: the motion's, else 30)
 
     Raises VisMobileError (WorldError, PartitionError, ...) naming the file or the bad setting.
     """
@@ -127,7 +127,6 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
     from ..files.loader import open_world
     from .animation import DEFAULT_FPS, check_fps, open_animated
 
-    fps = DEFAULT_FPS if fps is None else check_fps(fps)
     world = open_world(path_text)
     if fix_winding:
         from ..world.winding import fixed_world_said
@@ -136,6 +135,9 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
     animated = open_animated(path_text, world, motion)
     if animated is not None:
         world = animated.world
+    # frames per second: --fps, else the motion's own (a motion file's "fps"), else 30
+    fps = check_fps(fps) if fps is not None else \
+        animated.motion.fps if animated is not None else DEFAULT_FPS
     kind, params = parse_structure(structure)
     if kind is None:
         return Scene(world, None, "none", animated, fps)

@@ -89,7 +89,7 @@ def run(args) -> int:
 
     from ..files.atomic import check_destination
     from ..study.matrix import expand, parse_worlds
-    from ..study.thesis import TRAJECTORY_VARIANTS, WORLDS, trajectory_for
+    from ..study.thesis import NAMED_WORLDS as WORLDS, TRAJECTORY_VARIANTS, trajectory_for
     from ..study.report import write_report
     from ..study.runner import Context, agreement, reusable_runs, run_matrix
     from ..world.world import atomic_write_bytes
@@ -157,7 +157,7 @@ def _warn_winding(specs) -> None:
         paths[spec.world] = spec.trajectory
     for world, names in stages.items():
         if world.lower().endswith(".vmp") or world.lower() in ("w1", "w2", "w3", "w4", "w5",
-                                                                 "w6"):
+                                                                 "w6", "w7"):
             continue
         eyes = Trajectory.load(paths[world]).poses[:, :3] if paths[world] else None
         warn_winding(load_world(world), sorted(names), world, eyes)
@@ -168,7 +168,7 @@ def _fixed_worlds(worlds: str, trajectories: dict, out: Path) -> tuple:
     (camera positions from its trajectory) replaced by its fixed copy out/fixed/<stem>.obj
     (<stem>_<k>.obj when another file of that name came first)."""
     from ..study.matrix import parse_worlds
-    from ..study.thesis import WORLDS
+    from ..study.thesis import NAMED_WORLDS as WORLDS
     from ..world.trajectory import Trajectory
     from ..world.winding import fixed_world
     from ..files.loader import load_world

@@ -62,7 +62,7 @@ def run(args) -> int:
     from ..errors import TrajectoryError
     from ..device.profile import get_profile
     from ..study import engine
-    from ..study.thesis import WORLDS, trajectory_for
+    from ..study.thesis import NAMED_WORLDS as WORLDS, trajectory_for
     from ..study.candidates import PVS_STRUCTURES
     from ..study.tune import tune
     from ..world.trajectory import Trajectory

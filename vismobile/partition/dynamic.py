@@ -169,3 +169,14 @@ class AnimatedPartition:
 
     def check(self) -> None:
         self.static.check()
+
+    def stats(self) -> dict:
+        """The static partition's statistics, plus the moving objects' count."""
+        return {**self.static.stats(), "moving_objects": len(self.animated.motion)}
+
+    def __getattr__(self, name):
+        # node arrays, counts and sizes are the static partition's (the study's tables, the
+        # viewer's node overlay read them); the moving objects have no nodes of their own
+        if name.startswith("__") or name == "static":
+            raise AttributeError(name)
+        return getattr(self.static, name)

@@ -32,3 +32,23 @@ def world_file(text, worlds_dir=None) -> Path:
             and key_path.read_text().strip() == build_key(name)):
         build_world(name, path.parent)
     return path
+
+
+def animated_world(text, world, motion=None, worlds_dir=None):
+    """The AnimatedWorld of a world argument `text` whose World is `world`, or None when nothing
+    in it moves: a JSON motion file given (files/motionfile.py), a thesis world with its own
+    (W7: thesis.motion_path), or a .glb/.gltf file whose first animation moves some nodes.
+    WorldError names a bad motion or glTF file."""
+    from ..world.animated import AnimatedWorld
+
+    if motion is not None:
+        return AnimatedWorld.from_motion_file(world, Path(motion))
+    if is_thesis_world(text):
+        from .thesis import motion_path
+
+        path = motion_path(str(text).strip().lower(), worlds_dir)
+        return None if path is None else AnimatedWorld.from_motion_file(world, path)
+    if Path(str(text)).suffix.lower() in (".glb", ".gltf"):
+        animated = AnimatedWorld.from_gltf(Path(str(text)))
+        return animated if len(animated.motion) else None
+    return None

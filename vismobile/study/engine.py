@@ -11,10 +11,12 @@ import hashlib
 import json
 import time
 from collections import OrderedDict
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..world.camera import Camera
 from .matrix import base_structure, structure_params
 
 _WORLDS = OrderedDict()
@@ -39,8 +41,11 @@ def ensure_world_file(name: str, worlds_dir) -> Path:
 
 
 def load_world(name: str, worlds_dir):
-    """World of a thesis world name (or a mesh file path), cached per process."""
+    """World of a thesis world name (or a mesh file path), cached per process. A world that
+    moves (W7, an animated glTF: scenes.lookup.animated_world) is its rest pose, and
+    animated_of(world) is its AnimatedWorld."""
     from ..files.loader import load_world as load_file
+    from ..scenes.lookup import animated_world
 
     path = ensure_world_file(name, worlds_dir)
     key = str(path.resolve())
@@ -48,7 +53,38 @@ def load_world(name: str, worlds_dir):
         _WORLDS.move_to_end(key)
         return _WORLDS[key]
     world = load_file(path)
+    animated = animated_world(name, world, worlds_dir=worlds_dir)
+    if animated is not None:
+        world = animated.world
+        _ANIMATED[id(world)] = animated
     return _remember(_WORLDS, key, world)
+
+
+_ANIMATED = {}  # id(rest world) -> its AnimatedWorld (the rest world is kept by _WORLDS)
+
+
+def animated_of(world):
+    """The AnimatedWorld whose rest world this is, or None for a static world."""
+    return _ANIMATED.get(id(world))
+
+
+@dataclass(frozen=True)
+class TimedCamera(Camera):
+    """A camera at a time of an animated scene: culls and renders show the pose at `time`."""
+
+    time: float = 0.0
+
+
+def frame_cameras(world, trajectory, frames, aspect) -> list:
+    """The trajectory's cameras at `frames`; for an animated world TimedCameras at
+    t = frame / the motion's fps."""
+    cameras = [trajectory.camera(f, aspect) for f in frames]
+    animated = animated_of(world)
+    if animated is None:
+        return cameras
+    fps = animated.motion.fps
+    return [TimedCamera(c.position, c.yaw, c.pitch, c.fov, c.aspect, c.near, c.far,
+                        time=float(f) / fps) for c, f in zip(cameras, frames)]
 
 
 def file_digest(path) -> str:
@@ -71,6 +107,15 @@ def load_structure(world, label: str, cache_dir=None, executor=None, progress=No
     if key in _PARTITIONS:
         _PARTITIONS.move_to_end(key)
         return _PARTITIONS[key], 0.0
+    animated = animated_of(world)
+    if animated is not None:  # its static triangles partitioned, in memory only
+        params = structure_params(label)
+        if params.get("pvs") is not None:
+            raise ValueError(f"{label}: a baked PVS of a world whose objects move is not "
+                             "studied (bake its static part with partition)")
+        start = time.perf_counter()
+        built = partition(animated, label.split(":")[0], **params)
+        return _remember(_PARTITIONS, key, built), time.perf_counter() - start
     path = _structure_path(world, label, cache_dir)
     if path is not None and path.is_file():
         try:
@@ -202,28 +247,48 @@ def make_culler(partition, stages, profile=None):
 
 
 def timed_cull(culler, camera) -> tuple:
-    """(result, cull_ms) of one cull; a cull that compiled numba code is timed again
-    (timing.timed), so no figure holds a compile."""
+    """(result, cull_ms) of one cull (a TimedCamera's at its time); a cull that compiled numba
+    code is timed again (timing.timed), so no figure holds a compile."""
     from ..timing import timed
 
-    result, ms, _ = timed(culler.cull, camera)
+    at = getattr(camera, "time", None)
+    cull = culler.cull if at is None else (lambda c: culler.cull(c, time=at))
+    result, ms, _ = timed(cull, camera)
     return result, ms
 
 
 def renderer(world, profile):
-    """A render.Renderer for the world (imported here: only render/ imports moderngl)."""
+    """A render.Renderer for the world (imported here: only render/ imports moderngl); for an
+    animated world one that poses its moving objects at each TimedCamera's time."""
     from ..render import Renderer
 
-    return Renderer(world, profile)
+    drawer = Renderer(world, profile)
+    animated = animated_of(world)
+    if animated is None:
+        return drawer
+    from ..render.posed import PosedRenderer
+
+    return PosedRenderer(animated, drawer)
 
 
 def item_buffer_fn(world, profile, cull_back: bool):
-    """camera -> (H, W) uint32 item buffer of the whole world."""
+    """camera -> (H, W) uint32 item buffer of the whole world (at a TimedCamera's pose)."""
     from ..render import item_buffer_renderer
 
     ids = np.arange(world.triangle_count)
     item = item_buffer_renderer(world, profile)
-    return lambda camera: item.render(ids, camera, cull_back)
+    animated = animated_of(world)
+    if animated is None:
+        return lambda camera: item.render(ids, camera, cull_back)
+    from ..render.posed import PosedRenderer
+
+    posed = PosedRenderer(animated, item.renderer)
+
+    def render(camera):
+        posed.pose(getattr(camera, "time", None))
+        return item.render(ids, camera, cull_back)
+
+    return render
 
 
 def sent_triangles(result) -> np.ndarray:

@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass
 
 from ..errors import VisMobileError
 from ..culling import BACKFACE_STAGES
-from .thesis import WORLDS, trajectory_for
+from .thesis import NAMED_WORLDS, WORLDS, trajectory_for
 
 # The thesis's 8 combinations (SPEC §6), in its order.
 THESIS_CULLS = ("none", "bfc", "cbfc", "bfc+cbfc", "vfc", "vfc+bfc", "vfc+cbfc", "vfc+bfc+cbfc")
@@ -232,12 +232,12 @@ def parse_worlds(text: str) -> list:
     for item in filter(None, (part.strip() for part in text.split(","))):
         if item.lower() == "all":
             worlds += WORLDS
-        elif item.lower() in WORLDS:
+        elif item.lower() in NAMED_WORLDS:
             worlds.append(item.lower())
         elif Path(item).is_file():
             worlds.append(item)
         else:
-            raise SelectionError(f"unknown world {item!r}: not {', '.join(WORLDS)}, all, "
+            raise SelectionError(f"unknown world {item!r}: not {', '.join(NAMED_WORLDS)}, all, "
                                  "or an existing mesh file")
     return list(dict.fromkeys(worlds))
 
@@ -297,7 +297,7 @@ def expand(worlds="all", structures="all", culls="all", profiles="ipaq-hx2490b",
     frames = parse_frames(frames)
     specs = []
     for world in parse_worlds(worlds):
-        if world not in trajectories and world not in WORLDS:
+        if world not in trajectories and world not in NAMED_WORLDS:
             raise SelectionError(f"{world}: no trajectory for a world file; pass --trajectory "
                                  "CSV (vismobile trajectory generate WORLD makes one)")
         path = trajectories.get(world) or trajectory_for(world)

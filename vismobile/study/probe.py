@@ -131,11 +131,13 @@ def cost_model_for(profile, cost: str) -> str:
 
 
 def _setup(world, trajectory, profile, frames, cost, cache_dir, progress, bound):
-    cameras = [trajectory.camera(f, profile.aspect) for f in frames]
+    cameras = engine.frame_cameras(world, trajectory, frames, profile.aspect)  # timed if moving
+    moving = engine.animated_of(world) is not None  # each frame's pose: truth not cached
     truths = {back: trajectory_truth(world, cameras, frames,
                                      engine.item_buffer_fn(world, profile, back),
                                      profile.resolution, trajectory.poses, back,
-                                     None if cache_dir is None else Path(cache_dir) / "truth")
+                                     None if cache_dir is None or moving
+                                     else Path(cache_dir) / "truth")
               for back in (False, True)}
     model = DeviceModel(profile) if cost == "device" else \
         calibrate(world, profile, cameras, truths[False])
@@ -182,6 +184,10 @@ def _facing_away(world, ids, camera) -> np.ndarray:
     float64 rounding of edge-on may go either way, which only moves tune's judging, not a
     cull)."""
     ids = np.asarray(ids, dtype=np.int64)
+    animated = engine.animated_of(world)
+    at = getattr(camera, "time", None)
+    if animated is not None and at is not None:  # the moving triangles as they stand at t
+        world = animated.posed(at)
     return np.einsum("ij,ij->i", world.normals[ids], world.corners[ids, 0] - camera.eye) > 0
 
 

@@ -85,7 +85,7 @@ def _load_frames(spec: RunSpec, context: Context):
     trajectory = Trajectory.load(context.trajectory_path(spec))
     profile = get_profile(spec.profile)
     frames = frame_indices(spec.frames, len(trajectory), trajectory.waypoints)
-    cameras = [trajectory.camera(f, profile.aspect) for f in frames]
+    cameras = engine.frame_cameras(world, trajectory, frames, profile.aspect)  # timed if moving
     return world, trajectory, profile, frames, cameras
 
 
@@ -93,10 +93,11 @@ def truth_for(spec: RunSpec, context: Context, cull_back=None):
     """The ground-truth VisibleSets of a run's frames (cached in <cache>/truth)."""
     world, trajectory, profile, frames, cameras = _load_frames(spec, context)
     cull_back = spec.truth_cull_back if cull_back is None else cull_back
+    moving = engine.animated_of(world) is not None  # its truth is each frame's pose: not cached
     return trajectory_truth(world, cameras, frames,
                             engine.item_buffer_fn(world, profile, cull_back),
                             profile.resolution, trajectory.poses, cull_back,
-                            context.cache_dir / "truth")
+                            None if moving else context.cache_dir / "truth")
 
 
 def prep_key(task) -> tuple:

@@ -49,6 +49,8 @@ INDOOR_WAYPOINTS = {"A": 56, "B": 124, "C": 229, "D": 290, "E": 462, "F": 1000, 
 OUTDOOR_WAYPOINTS = {"A": 330, "B": 428, "C": 719, "D": 1156}
 
 WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6")
+# Every world a name selects: the thesis's six ("all") and ours, W7 (issue 25: it moves).
+NAMED_WORLDS = WORLDS + ("w7",)
 
 
 # Variants of the thesis's paths shipped beside them: name -> file suffix. `pitched` is the
