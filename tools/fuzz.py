@@ -19,7 +19,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,animglb,motion]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
@@ -84,6 +84,15 @@ def seeds(folder: Path) -> dict:
             **format_seeds(world, folder, [textured_glb()])}
 
 
+def vmtiles_seed(heightmap, folder) -> bytes:
+    """A .vmtiles file of a small terrain (terrain tile; issue 30's paged terrains)."""
+    from vismobile.terrain.paged import write_tiles
+    from vismobile.terrain.tiles import TilePyramid
+
+    write_tiles(TilePyramid.build(heightmap, 4), folder / "seed.vmtiles")
+    return (folder / "seed.vmtiles").read_bytes()
+
+
 def format_seeds(world, folder: Path, glbs=()) -> dict:
     """Seeds of the issue 28 surfaces: the model as PLY (ASCII, both binary byte orders), STL
     (binary, ASCII), OFF and GLB (one node, and two nodes with transforms), a .gz PLY, a small
@@ -139,7 +148,8 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
             "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes(),
                                                     (folder / "holes.vmt").read_bytes()],
             "vmtplay": [(folder / "seed.vmt").read_bytes()],
-            "npy": arrays, "tif": tifs, **animated_seeds(folder)}
+            "npy": arrays, "tif": tifs, "vmtiles": [vmtiles_seed(heightmap, folder)],
+            **animated_seeds(folder)}
 
 
 # A motion file for the cube world (load_motion): linear, step and looping paths.
@@ -452,6 +462,32 @@ def load_vmt_play(path):
     scene.frame(default_cameras(scene.heightmap, 1, scene.profile.aspect)[0])
 
 
+def load_vmtiles(path):
+    """A .vmtiles terrain paged in by tiles (issue 30): opened, every record read, a frame
+    selected and its tiles drawn from the page cache."""
+    import numpy as np
+
+    from vismobile.device.profile import get_profile
+    from vismobile.render.tile_arena import PagedArena
+    from vismobile.terrain.paged import PagedTiles
+    from vismobile.terrain.tiles import select_tiles
+    from vismobile.world.camera import Camera
+
+    paged = PagedTiles(path, budget_bytes=4096, thread=False)
+    try:
+        for tile in range(int(paged.offsets[-1])):
+            paged._read(tile)
+        hm = paged.heightmap
+        camera = Camera((hm.extent / 2, hm.high + hm.extent, hm.extent * 1.2), 0.0, -40.0,
+                        fov=60, far=10 * hm.extent + 10, near=0.01 * hm.extent + 1e-3)
+        profile = get_profile("ipaq-hx2490b")
+        selection = select_tiles(paged.pyramid, camera, profile.resolution, 1.0)
+        if np.isfinite(paged.pyramid.flat_error).all():
+            PagedArena(paged, profile).draw(selection, camera)
+    finally:
+        paged.close()
+
+
 def load_heightmap(path):
     from vismobile.terrain.sources import load_file
 
@@ -466,7 +502,8 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "stl": (load_mesh, ".stl"), "off": (load_mesh, ".off"),
          "gz": (load_mesh, ".ply.gz"), "vmt": (load_vmt, ".vmt"),
          "vmtplay": (load_vmt_play, ".vmt"),
-         "npy": (load_heightmap, ".npy"), "tif": (load_heightmap, ".tif"), "objmtl": (load_textured_obj, ".obj"),
+         "npy": (load_heightmap, ".npy"), "tif": (load_heightmap, ".tif"),
+         "vmtiles": (load_vmtiles, ".vmtiles"), "objmtl": (load_textured_obj, ".obj"),
          "animglb": (load_animated, ".glb"), "motion": (load_motion, ".json")}
 
 
@@ -579,7 +616,7 @@ def main(argv=None):
 
     parser = argparse.ArgumentParser(prog="fuzz.py mutate")
     parser.add_argument("--target",
-                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,animglb,motion")
+                        default="obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion")
     parser.add_argument("--cases", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv[1:])

@@ -8,7 +8,10 @@ frames.csv columns (one row per played frame):
   error_world: the drawn pieces' largest nested vertical error (world units), which the
   horizon sinks the ground by;
 - horizon_nodes, horizon_triangles: object-partition nodes, then object triangles of the
-  kept nodes, that the horizon stage hid; waypoint.
+  kept nodes, that the horizon stage hid;
+- page_misses, page_prefetched, page_bytes: for a .vmtiles terrain paged in by tiles, the
+  tiles read at once this frame, those the loader thread read ahead since the last frame, and
+  the bytes held (records plus statistics; 0 for a .vmt); waypoint.
 summary.json: the run's settings and mean / median / p95 of each column. Numba's first-use
 compile is in no figure: the first played camera is run once, untimed, and the method's
 frame-to-frame state reset before the measured frames.
@@ -27,8 +30,16 @@ from ..stats import summarize
 
 COLUMNS = ("frame", "lod_ms", "cull_ms", "render_ms", "frame_ms", "ground_triangles",
            "object_triangles", "triangles_sent", "error_px", "error_world", "horizon_nodes",
-           "horizon_triangles", "waypoint")
+           "horizon_triangles", "page_misses", "page_prefetched", "page_bytes", "waypoint")
 NUMERIC = COLUMNS[1:-1]
+
+
+def _paging(scene) -> tuple:
+    """(misses, prefetched, bytes held) of a paged terrain's last frame, zeros otherwise."""
+    paged = getattr(scene.lod, "paged", None)
+    if paged is None:
+        return (0, 0, 0)
+    return (paged.misses, paged.prefetched, paged.memory_bytes())
 
 
 def terrain_camera_options(heightmap) -> dict:
@@ -61,7 +72,7 @@ def play_terrain(scene, cameras, labels=None, out=None, frames_every=0, progress
         f = scene.frame(camera)
         row = (f.lod_ms, f.cull_ms, f.render_ms, f.lod_ms + f.cull_ms + f.render_ms,
                f.ground_triangles, f.object_triangles, f.triangles, f.error_px, f.error_world,
-               f.nodes_hidden, f.triangles_hidden)
+               f.nodes_hidden, f.triangles_hidden) + _paging(scene)
         for name, value in zip(NUMERIC, row):
             table[name][index] = value
         if out is not None and frames_every and index % frames_every == 0:
@@ -86,6 +97,8 @@ def play_terrain(scene, cameras, labels=None, out=None, frames_every=0, progress
                        f"{int(table['triangles_sent'][i])},{table['error_px'][i]:.4f},"
                        f"{table['error_world'][i]:.6g},{int(table['horizon_nodes'][i])},"
                        f"{int(table['horizon_triangles'][i])},"
+                       f"{int(table['page_misses'][i])},{int(table['page_prefetched'][i])},"
+                       f"{int(table['page_bytes'][i])},"
                        f"{labels.get(played[i], '')}\n")
         with staged_directory(out, marker="summary.json") as stage:
             for frame, data in saved.items():

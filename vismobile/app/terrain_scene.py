@@ -220,6 +220,26 @@ class RoamLod:
         return self.renderer.draw(frame.triangles, camera)
 
 
+class PagedLod(TilesLod):
+    """The tile quadtree of a .vmtiles terrain paged in under a memory budget: selection on
+    its statistics, tiles read on a miss or ahead by the loader thread (terrain/paged.py)."""
+
+    name = "tiles"
+
+    def __init__(self, path, profile, budget_bytes):
+        from ..render.tile_arena import PagedArena
+        from ..terrain.paged import PagedTiles
+
+        self.paged = PagedTiles(path, budget_bytes)
+        self.pyramid = self.paged.pyramid
+        self.renderer = PagedArena(self.paged, profile)
+
+    def select(self, camera, resolution, tau):
+        selection = super().select(camera, resolution, tau)
+        self.paged.read_ahead(selection, camera, resolution, tau)
+        return selection
+
+
 LODS = {"tiles": TilesLod, "roettger": RoettgerLod, "roam": RoamLod}
 
 
@@ -230,9 +250,10 @@ class TerrainScene:
     """
 
     def __init__(self, path, method="tiles", tau=1.0, stages=("vfc", "horizon"),
-                 structure="octree:4", profile="ipaq-hx2490b"):
+                 structure="octree:4", profile="ipaq-hx2490b", page_budget=16 << 20):
         from ..device.profile import get_profile
         from ..terrain import store
+        from ..terrain.placement import Placement
 
         if method not in LODS:
             raise VisMobileError(f"--terrain-method {method!r}: one of {', '.join(METHODS)}")
@@ -242,11 +263,19 @@ class TerrainScene:
                                  f"got {tau}")
         self.path = str(path)
         self.profile = get_profile(profile)
-        self.heightmap, self.placement = store.load(path)
         self.tau = tau
         self.method = method
         self.stages = tuple(stages)
-        self.lods = {method: LODS[method](self.heightmap, self.profile)}
+        if self.path.lower().endswith(".vmtiles"):  # paged in by tiles (terrain/paged.py)
+            if method != "tiles":
+                raise VisMobileError(f"{path}: a tiled terrain is drawn by the tiles method, "
+                                     f"not {method}")
+            lod = PagedLod(path, self.profile, page_budget)
+            self.heightmap, self.placement = lod.paged.heightmap, Placement.empty()
+            self.lods = {method: lod}
+        else:
+            self.heightmap, self.placement = store.load(path)
+            self.lods = {method: LODS[method](self.heightmap, self.profile)}
         self.lod = self.lods[method]
         self.objects = self.culler = self.object_renderer = None
         self.last = self.culled = None  # the last frame's selection and culled objects
@@ -282,6 +311,9 @@ class TerrainScene:
         if method not in LODS:
             raise VisMobileError(f"terrain method {method!r}: one of {', '.join(METHODS)}")
         if method not in self.lods:
+            if isinstance(self.lod, PagedLod):
+                raise VisMobileError(f"{self.path}: a tiled terrain is drawn by the tiles "
+                                     "method only")
             self.lods[method] = LODS[method](self.heightmap, self.profile)
         self.method, self.lod = method, self.lods[method]
 

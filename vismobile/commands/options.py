@@ -100,7 +100,7 @@ RANGES = {
         "--jobs": Range(1, MAX_JOBS),
     },
     "play": {"--images": Range(0, MAX_FRAMES), "--limit": Range(1, None),
-             "--lod-tau": Range(0.0, 1e6, float),
+             "--lod-tau": Range(0.0, 1e6, float), "--page-budget": Range(0.0, 1 << 20, float, above=True),
              "--cull": NOT_EMPTY, "--frames": NOT_EMPTY, "--fps": FPS},
     "compare": {
         "--jobs": Range(1, MAX_JOBS),

@@ -58,6 +58,9 @@ def add_parser(sub):
     parser.add_argument("--motion", type=Path, default=None, metavar="FILE.json",
                         help=MOTION_HELP)
     parser.add_argument("--fps", type=float, default=None, help=FPS_HELP)
+    parser.add_argument("--page-budget", type=float, default=16.0, metavar="MB",
+                        help="a .vmtiles terrain (terrain tile) is paged in by tiles: the "
+                             "memory its tile records may hold (default 16 MB)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
@@ -68,7 +71,7 @@ def run(args) -> int:
     # One llvmpipe thread, as every compare and tune run measures (study/tasks.py): on a
     # loaded machine the render threads' contention made the median swing several-fold.
     os.environ.setdefault("LP_NUM_THREADS", "1")
-    if str(args.world).lower().endswith(".vmt"):
+    if str(args.world).lower().endswith((".vmt", ".vmtiles")):
         return run_terrain(args)
     args.cull = default_cull(args.cull, args.structure)
     from ..app.playback import load_scene, parse_stages, play
@@ -153,7 +156,7 @@ def run_terrain(args) -> int:
     with Status(f"play {args.world}", enabled=not args.quiet) as status:
         status("loading the terrain and its LOD method")
         scene = TerrainScene(args.world, args.terrain_method, tau, stages, args.structure,
-                             args.profile)
+                             args.profile, int(args.page_budget * (1 << 20)))
     aspect = scene.profile.aspect
     if args.trajectory is not None:
         trajectory = Trajectory.load(args.trajectory, limit=args.limit,

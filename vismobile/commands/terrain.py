@@ -33,6 +33,11 @@ def add_parser(sub):
                             "triangles, about 80 MB; --obj-stride 2 quarters it; default none)")
     build.add_argument("--obj-stride", type=int, default=1,
                        help="sample stride of the exported mesh (power of two; default 1)")
+    tile = actions.add_parser(
+        "tile", help="write a .vmtiles file: the terrain's tile pyramid, paged in by tiles under "
+                     "a memory budget when played (play t.vmtiles --page-budget MB)")
+    tile.add_argument("terrain", type=Path, help="a .vmt terrain (without no-data samples)")
+    tile.add_argument("-o", "--out", type=Path, required=True, help="output .vmtiles file")
     info = actions.add_parser("info", help="print a .vmt terrain's size, scale and objects")
     info.add_argument("terrain", type=Path)
     return parser
@@ -41,6 +46,8 @@ def add_parser(sub):
 def run(args) -> int:
     if args.action == "info":
         return _info(args)
+    if args.action == "tile":
+        return _tile(args)
     from ..terrain import sources, store
     from ..terrain.mesh import terrain_world
     from ..terrain.placement import Placement, place_objects
@@ -129,4 +136,21 @@ def _info(args) -> int:
     if heightmap.valid is not None:
         print(f"no data    {int((~heightmap.valid).sum()):,} samples (holes, cut when drawn)")
     print(f"file size  {args.terrain.stat().st_size / 1024:,.1f} KB")
+    return 0
+
+
+def _tile(args) -> int:
+    from ..files.atomic import check_destination
+    from ..progress import Status
+    from ..terrain import store
+    from ..terrain.paged import write_tiles
+    from ..terrain.tiles import TilePyramid
+
+    check_destination(args.out)
+    heightmap, _ = store.load(args.terrain)
+    with Status(f"terrain tile {args.terrain}") as status:
+        status("the tile pyramid's statistics and records")
+        write_tiles(TilePyramid.build(heightmap, 16), args.out)
+    print(f"wrote {args.out}: {args.out.stat().st_size / (1 << 20):,.1f} MB of tiles of "
+          f"{heightmap.size}^2 samples (the objects stay in {args.terrain})")
     return 0

@@ -93,13 +93,17 @@ class TileArena:
         ti, tj = np.divmod(local, 1 << level)
         rows, cols, _ = selection_mesh(self.pyramid, TileSelection(
             level, ti, tj, np.zeros_like(level), 0, 0, 0))
-        records = terrain_vertices(self.heightmap, rows, cols).reshape(len(new_tiles), -1)
+        records = self._records(new_tiles, rows, cols)
         stride = self.per_tile * RECORD_BYTES
         for k, slot in enumerate(take):
             data = records[k].tobytes()
             self.vbo.write(data, offset=int(slot) * stride)
             self.uploaded_bytes += len(data)
         return slots
+
+    def _records(self, tiles, rows, cols) -> np.ndarray:
+        """(K, V) vertex records of tiles (flat ids) whose samples are rows, cols (K, V)."""
+        return terrain_vertices(self.heightmap, rows, cols).reshape(len(tiles), -1)
 
     def draw(self, selection, camera) -> DrawStats:
         """Write the tiles new to the arena, then draw the selection (shaded) in one
@@ -148,6 +152,40 @@ class TileArena:
         for buffer in (self.vbo, self.ibo, self.indirect, self.vao):
             if buffer is not None:
                 buffer.release()
+
+
+class PagedArena(TileArena):
+    """A TileArena whose vertices come from a terrain/paged.PagedTiles (tiles read from disk
+    under its memory budget) instead of an in-memory heightmap."""
+
+    def __init__(self, paged, profile, budget_bytes: int = DEFAULT_BUDGET):
+        self.paged = paged
+        super().__init__(paged.pyramid, profile, budget_bytes)
+
+    def _records(self, tiles, rows, cols) -> np.ndarray:
+        from .terrain import height_colors
+
+        stand = self.paged.heightmap
+        raw = np.stack(self.paged.records(tiles))  # (K, V, 4) uint8
+        samples = raw[..., :2].copy().view("<u2")[..., 0].astype(np.float64)
+        nx = raw[..., 2].view(np.int8) / 127.0
+        nz = raw[..., 3].view(np.int8) / 127.0
+        ny = np.sqrt(np.maximum(1.0 - nx * nx - nz * nz, 0.0))
+        normal = np.stack([nx, ny, nz], -1)
+        normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+        dtype = np.dtype([("position", np.float32, 3), ("normal", np.float32, 3),
+                          ("color", np.uint8, 4)])
+        records = np.empty(rows.shape, dtype=dtype)
+        y = (stand.z_offset + stand.z_scale * samples).astype(np.float32)
+        records["position"] = np.stack([cols * stand.spacing, y, rows * stand.spacing], -1)
+        records["normal"] = normal
+        records["color"] = height_colors(y, stand.low, stand.high)
+        return records
+
+    def draw(self, selection, camera) -> DrawStats:
+        """As TileArena.draw; tiles new to the arena are read through the page cache."""
+        self.paged.current = set()
+        return super().draw(selection, camera)
 
 
 BLOCK_CELLS = 32  # cells per block side (33^2 vertices: uint16-indexable)
