@@ -3,7 +3,8 @@ chains too) and trajectory CSVs (issue 11); textured GLB and OBJ+MTL scenes (iss
 lists (issue 31); compare's and tune's --structures lists with baked PVS labels and the --scheduler
 address of compare and partition (issue 29); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
 heightmaps (issue 28); GeoTIFF heightmaps and .vmt terrains as `play` runs them (vmtplay: LOD, objects culled, a frame;
-issue 30); GLB node animations and JSON motion files (animglb, motion: issue 25). Every input must load or end in a VisMobileError (one clean line from
+issue 30); GLB node animations and JSON motion files (animglb, motion: issue 25), a motion file
+as play --motion takes it and --fps values (playmotion, fps: issue 25). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
 Three modes:
@@ -19,7 +20,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
@@ -174,7 +175,17 @@ def animated_seeds(folder: Path) -> dict:
                 (2, "rotation", [0, 1], [[0, 0, 0, 1], [0, 1, 0, 0]], "STEP"),
                 (2, "scale", [0, 1], [[1, 1, 1], [2, 2, 2]], "STEP")]
     animated_glb(folder / "seed-anim.glb", meshes, channels, parents=[None, 0, None])
-    return {"animglb": [(folder / "seed-anim.glb").read_bytes()], "motion": [MOTION_JSON]}
+    return {"animglb": [(folder / "seed-anim.glb").read_bytes()], "motion": [MOTION_JSON],
+            "playmotion": [MOTION_JSON, DOOR_JSON], "fps": FPS_TEXTS}
+
+
+# play's and view's --motion as the commands take it (issue 25 deliverable 5): a hinge track
+# about a pivot (W7's doors), held shut then open, as scenes/crowd.py writes them.
+DOOR_JSON = (b'{"fps": 24, "objects": {"c": {"times": [0, 0.5, 1], "rotation": [[0, 0, 0, 1], '
+             b'[0, 0.3827, 0, 0.9239], [0, 0.7071, 0, 0.7071]], "pivot": [0, 0, 0], '
+             b'"interpolation": "step"}}}')
+# --fps values (commands/options.py RANGES: (0, 1e4]).
+FPS_TEXTS = [b"30", b"24.5", b"0.001", b"10000"]
 
 
 # ---- mutations (driven by pick(n) -> int in [0, n), so random and atheris share them) -------
@@ -447,6 +458,41 @@ def load_motion(path):
     AnimatedWorld.from_motion_file(cube, path).posed(2.2)
 
 
+def load_play_motion(path):
+    """A motion file as `play --motion` takes it: the cube world (object "c") as an OBJ, its
+    octree, the motion attached, two frames culled (vfc+tbfc at each frame's time) and drawn
+    with the moving cube posed."""
+    import numpy as np
+
+    import hostile
+    from vismobile.app.playback import load_scene, play
+    from vismobile.world.trajectory import Trajectory
+    from vismobile.world.world import World
+
+    obj = Path(path).with_name("cube.obj")
+    World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"]).to_obj(obj)
+    scene = load_scene(obj, "octree:2", motion=path)
+    walk = Trajectory(np.array([[0.5, 0.5, 6.0, 0.0, 0.0], [0.5, 0.5, 5.0, 10.0, 0.0]]))
+    play(scene, walk, ("vfc", "tbfc"))
+
+
+def load_fps(path):
+    """--fps text through play's parser, its RANGES check and the scene's fps check."""
+    from vismobile.app.animation import check_fps
+    from vismobile.app.cli import build_parser
+    from vismobile.commands import options
+    from vismobile.errors import VisMobileError
+
+    text = path.read_bytes()[:256].decode("utf-8", errors="replace")
+    try:
+        args = build_parser().parse_args(["play", "w1", "-o", str(path) + ".out", "--fps",
+                                          text])
+    except SystemExit:  # argparse's own refusal (exit 2, one usage line)
+        raise VisMobileError(f"--fps {text!r}: not a number") from None
+    options.check(args)
+    assert 0.0 < check_fps(args.fps) <= 1e4
+
+
 def load_vmt(path):
     from vismobile.files.loader import load_world
 
@@ -504,7 +550,8 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "vmtplay": (load_vmt_play, ".vmt"),
          "npy": (load_heightmap, ".npy"), "tif": (load_heightmap, ".tif"),
          "vmtiles": (load_vmtiles, ".vmtiles"), "objmtl": (load_textured_obj, ".obj"),
-         "animglb": (load_animated, ".glb"), "motion": (load_motion, ".json")}
+         "animglb": (load_animated, ".glb"), "motion": (load_motion, ".json"),
+         "playmotion": (load_play_motion, ".json"), "fps": (load_fps, ".txt")}
 
 
 def run_case(target, data, folder):
