@@ -240,7 +240,7 @@ def circle_cameras(hm, step, frames, eye_height=1.0):
                    far=1.5 * w) for a, b, c, d in zip(x, y, z, yaw)]
 
 
-def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0)) -> list:
+def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0), walk_above=None) -> list:
     """ROAM's frame time against speed: the walking ROAM and the incremental one, each
     coherent along the circle at each speed (3 warm-up frames), updated alternately on the
     same cameras; medians of wall time and of the thread's CPU time (immune to the shared
@@ -251,9 +251,12 @@ def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0)) -> list:
     for step in steps:
         cameras = circle_cameras(hm, step, frames + 3)
         roams = {False: Roam(hm), True: Roam(hm, incremental=True)}
+        if walk_above is not None:  # the hybrid: incremental, walking frames above a speed
+            roams["hybrid"] = Roam(hm, incremental=True, walk_above=walk_above)
         record = {key: {"ms": [], "cpu": [], "ops": [], "tris": []} for key in roams}
         for k, camera in enumerate(cameras):
-            for key in ((False, True) if k % 2 else (True, False)):
+            keys = list(roams)
+            for key in (keys if k % 2 else keys[::-1]):
                 cpu = time.thread_time()
                 frame = roams[key].update(camera, profile.resolution, tau)
                 cpu = (time.thread_time() - cpu) * 1000
@@ -263,7 +266,7 @@ def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0)) -> list:
                     r["cpu"].append(cpu)
                     r["ops"].append(frame.splits + frame.merges)
                     r["tris"].append(len(frame.triangles))
-        for key in (False, True):
+        for key in roams:
             r = record[key]
             rows.append({"step": step, "incremental": key,
                          "ms_median": float(np.median(r["ms"])),
@@ -297,26 +300,31 @@ def main(argv=None) -> int:
                         help="only Pires's cached chunks against rebuilding (circle paths)")
     parser.add_argument("--roam-speeds", action="store_true",
                         help="only ROAM's frame time at 0.1, 1 and 10 units a frame")
+    parser.add_argument("--walk-above", type=float, default=None,
+                        help="with --roam-speeds, also the hybrid ROAM: incremental, walking "
+                             "frames whose eye moved more than this many units")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_terrain.md")
     args = parser.parse_args(argv)
     profile = get_profile("ipaq-hx2490b")
     lines, record = [], {}
     if args.roam_speeds:
         hm = heightmap(args.size)
-        rows = roam_speeds(hm, args.frames, args.tau, profile)
+        rows = roam_speeds(hm, args.frames, args.tau, profile, walk_above=args.walk_above)
         record["roam_speeds"] = rows
         lines += [f"## ROAM frame time against speed, {args.size}^2, tau = {args.tau} px, "
                   f"circle, {args.frames} frames a speed, medians", "",
                   "| units / frame | ROAM | frame ms | CPU ms | splits + merges | triangles |",
                   "|---:|---|---:|---:|---:|---:|"]
         for r in rows:
-            lines.append(f"| {r['step']:g} | {'incremental' if r['incremental'] else 'walking'} "
+            kind = {False: "walking", True: "incremental"}.get(r["incremental"], "hybrid")
+            lines.append(f"| {r['step']:g} | {kind} "
                          f"| {r['ms_median']:.2f} | {r['cpu_ms_median']:.2f} | "
                          f"{r['ops_median']:.0f} | {r['triangles_median']:,.0f} |")
-        for inc in (False, True):
+        for inc in dict.fromkeys(r["incremental"] for r in rows):
             t = {r["step"]: r["ms_median"] for r in rows if r["incremental"] == inc}
             c = {r["step"]: r["cpu_ms_median"] for r in rows if r["incremental"] == inc}
-            lines.append(f"\n{'incremental' if inc else 'walking'}: 0.1 / 10 units a frame = "
+            name = {False: "walking", True: "incremental"}.get(inc, "hybrid")
+            lines.append(f"\n{name}: 0.1 / 10 units a frame = "
                          f"{t[0.1] / t[10.0]:.2f} (CPU {c[0.1] / c[10.0]:.2f})")
         print("\n".join(lines), flush=True)
         args.skip_speed = args.skip_errors = args.skip_horizon = True

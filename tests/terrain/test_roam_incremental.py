@@ -43,3 +43,22 @@ def test_a_still_or_slow_camera_rescores_little(fractal257):
                         RESOLUTION, 1.0)
     assert roam.emitter.rebuilt < 0.2 * roam.emitter.per_side ** 2
     assert moved.bound_px <= 1.0
+
+
+def test_the_hybrid_walks_fast_frames_and_queues_slow_ones_within_tau(fractal257):
+    """walk_above: fast frames walk and emit per triangle, slow ones after them reseed the
+    queues; every frame stays within tau on the dense lattice, crack-free at the end."""
+    truth = reference(fractal257, 4, alternating=True)
+    # 2 units a frame (fast circle: 0.25 a frame here), then 0.3 and 0.025 (slow: 0.025)
+    fast = path_cameras(fractal257, "circle", "fast", frames=4, every=8)
+    slow = path_cameras(fractal257, "circle", "slow", frames=4, start=252, every=1)
+    roam = Roam(fractal257, incremental=True, walk_above=1.0)
+    whole = Roam(fractal257, incremental=True, walk_above=1.0)
+    for camera in fast + slow:
+        frame = roam.update(camera, RESOLUTION, 1.0)
+        errors = screen_errors(fractal257, rasterise(fractal257, frame.triangles, 4), truth,
+                               camera, RESOLUTION, 4)
+        assert errors.max() <= 1.0 and frame.bound_px <= 1.0
+        last = whole.update(camera, RESOLUTION, 1.0, cull=False)
+    assert roam.fast_frames == 3  # the three fast steps; the slow frames queue
+    _check_mesh(last.triangles, fractal257.size)

@@ -117,10 +117,13 @@ class Roam:
     scored cannot have brought above tau (no budget only; the mesh is the same either way).
     incremental: wake-up queues and block emission (module doc): frames within tau as well,
     with the merges of diamonds that left the view deferred and whole blocks drawn.
+    walk_above: with incremental, a frame whose eye moved more than this many world units
+    since the last one walks the mesh and emits per triangle instead (the queues are reseeded
+    on the next slow frame): at speeds where most candidates wake anyway, walking is cheaper.
     """
 
     def __init__(self, heightmap: Heightmap, geomorph: int = 0, defer: bool = True,
-                 incremental: bool = False):
+                 incremental: bool = False, walk_above: float | None = None):
         self.heightmap = heightmap
         self.n = heightmap.exponent
         N = heightmap.size
@@ -170,6 +173,8 @@ class Roam:
         self.emitter = BlockEmitter(self.heights, self.n, heightmap.spacing) \
             if incremental else None
         self.need_walk = True
+        self.walk_above = None if walk_above is None else float(walk_above)
+        self.fast_frames = 0  # frames walked for their speed (walk_above)
 
     def reset(self):
         """Back to the two root triangles (the next frame refines from scratch)."""
@@ -198,8 +203,10 @@ class Roam:
         start = time.perf_counter()
         stats = np.zeros(8)
         eye = camera.eye
+        step = 0.0
         if self.last_eye is not None:
-            self.travel += float(np.linalg.norm(eye - self.last_eye))
+            step = float(np.linalg.norm(eye - self.last_eye))
+            self.travel += step
         self.last_eye = eye
         if self.knob != (lam, float(tau)) or not self.defer:  # one lambda and tau only
             self.until[:] = 0.0
@@ -207,6 +214,11 @@ class Roam:
             self.knob = (lam, float(tau))
             self.need_walk = True
         lazy = self.incremental and budget is None
+        fast = lazy and self.walk_above is not None and step > self.walk_above
+        if fast:  # walk this frame; the queues are reseeded on the next slow one
+            lazy = False
+            self.need_walk = True
+            self.fast_frames += 1
         walk = not lazy or self.need_walk or self.alive_count == 0
         if lazy and walk:  # (re)seed the wake-up heap from a full walk
             self.hsize[0] = 0
@@ -226,14 +238,14 @@ class Roam:
                 self.touched, self.tcount, self.changed, self.dying, self.clock,
                 self.geomorph)
             born_all.append(born[:born_count])
-            if self.emitter is not None:
+            if self.emitter is not None and not fast:
                 if walk or self.tcount[3]:
                     self.emitter.invalidate()
                 else:
                     self.emitter.mark(self.changed, int(self.tcount[2]))
             if lazy:
                 self._rewake(eye, lam, float(tau))
-            self.need_walk = bool(lazy and (self.tcount[1] or stats[6]))
+            self.need_walk = bool(fast or (lazy and (self.tcount[1] or stats[6])))
             if not stats[6]:
                 break
             walk = True
@@ -246,7 +258,9 @@ class Roam:
             self.alive = grown
             self.frame_number += 1
         centre = (N // 2) * N + N // 2
-        if self.emitter is not None and self.split[centre]:
+        if fast and self.emitter is not None:
+            self.emitter.invalidate()
+        if self.emitter is not None and self.split[centre] and not fast:
             triangles = self.emitter.emit(self.split, self.alive, self.alive_count, planes,
                                           cull)
         else:
