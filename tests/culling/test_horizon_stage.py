@@ -194,3 +194,32 @@ def test_triangles_wholly_off_screen_are_dropped(kit):
     assert not off[result.triangles].any()
     assert 0 < result.stats["horizon.triangles_off_screen"] <= off[plain].sum()  # nodes first
     assert not len(np.setdiff1d(kit.visible_ids(world, cam, False), result.triangles))
+
+
+def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
+    # The stage tests nodes and triangles in one numba call each (horizon_tests.py); they must
+    # decide as the Horizon's own tests do, box by box and triangle by triangle.
+    from vismobile.culling.horizon import HorizonStage
+    from vismobile.culling.horizon_tests import _nodes, _triangles, horizon_arrays, off_screen
+
+    part = kit.structure("w5", "octree")
+    stage = HorizonStage()
+    culler = Culler(part, "vfc")
+    stage.prepare(culler.tree)
+    tree, hidden_seen = culler.tree, 0
+    for z, yaw in ((250.0, 0.0), (150.0, 20.0), (100.0, -90.0)):
+        cam = Camera((70.0, 1.7, z), yaw=yaw, pitch=0.0, aspect=kit.ASPECT)
+        horizon = stage.cast(cam)
+        nodes = np.flatnonzero(tree.nonempty)
+        expected = horizon.hidden(tree.node_bounds[nodes] + stage.grow)
+        assert np.array_equal(_nodes(tree.node_bounds, nodes, stage.margin,
+                                     *horizon_arrays(horizon)), expected)
+        ids = np.arange(len(stage.corners))
+        planes = np.asarray(cam.frustum_planes())
+        off, behind = _triangles(stage.corners, ids, planes, 1e-6, True,
+                                 *horizon_arrays(horizon), stage.margin)
+        assert np.array_equal(off, off_screen(stage.corners, planes, 1e-6))
+        expected = horizon.hidden_points(stage.corners, stage.margin)
+        assert np.array_equal(behind, expected & ~off)
+        hidden_seen += int(behind.sum()) + int(expected.sum())
+    assert hidden_seen > 0

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from vismobile.terrain.horizon import Horizon, HorizonCaster
-from vismobile.terrain.horizon_bands import frustum_slopes, level_bands, no_stops
+from vismobile.terrain.horizon_bands import (frame_bands, frustum_slopes, level_bands,
+                                             no_stops)
 from vismobile.terrain.horizon_cells import CellCaster
 from vismobile.world.camera import Camera
 
@@ -36,6 +37,9 @@ def test_frustum_slopes_bound_every_ray_of_the_band(pitch):
         camera = Camera((3.0, 2.0, -4.0), yaw=yaw, pitch=pitch, aspect=0.75, fov=45.0)
         forward, right, tans, _, _ = level_bands(camera, 24)
         highs, lows = frustum_slopes(camera, forward, right, tans)
+        both = frame_bands(camera, 24)  # the cast's one call gives the same
+        assert np.array_equal(both[2], tans) and np.array_equal(both[5], highs)
+        assert np.array_equal(both[6], lows)
         high, low = sampled_slopes(camera, forward, right, tans)
         seen = np.isfinite(high)
         assert np.all(highs[seen] >= high[seen] - 1e-12)
@@ -56,12 +60,12 @@ def test_a_stopped_cast_is_a_lower_bound_of_the_full_one():
     for pitch in (-50.0, 0.0, 50.0):
         camera = Camera((32.0, 7.0, 60.0), yaw=10.0, pitch=pitch, aspect=0.75, fov=45.0)
         stopped = caster.cast(camera)
-        original = cells.frustum_slopes
-        cells.frustum_slopes = lambda cam, f, r, tans: no_stops(len(tans) - 1)
+        original = cells.frame_bands
+        cells.frame_bands = lambda cam, bands: original(cam, bands)[:5] + no_stops(bands)
         try:
             full = caster.cast(camera)
         finally:
-            cells.frustum_slopes = original
+            cells.frame_bands = original
         assert np.all(stopped.values <= full.values)
         assert 0 <= stopped.pieces <= full.pieces <= full.values.size
         if pitch < 0:  # the ground soon beats the frustum's top in every band

@@ -22,9 +22,10 @@ inside or under a solid) this test still runs.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from ..terrain.horizon import Horizon
 from ..terrain.horizon_cells import CellCaster
+from .horizon_tests import _nodes, _triangles, horizon_arrays, off_screen
 from .horizon_solids import MAX_CELLS, find_solids, solid_map
 from .precision import device_move, world_scale
 from .shared import per_object
@@ -111,7 +112,11 @@ class HorizonStage:
             # of vfc+tbfc at 0.85x occlusion's time, against 0.479x at 0.70x as here); then the
             # triangles.
             nodes = state.nodes[tree.nonempty[state.nodes]]
-            hidden = horizon.hidden(tree.node_bounds[nodes] + self.grow)
+            if isinstance(horizon, Horizon):  # float64: one numba call
+                hidden = _nodes(tree.node_bounds, nodes, self.margin,
+                                *horizon_arrays(horizon))
+            else:
+                hidden = horizon.hidden(tree.node_bounds[nodes] + self.grow)
             tested = len(nodes)
             state.count(f"{self.name}.nodes_culled", hidden.sum())
             state.nodes = nodes[~hidden]
@@ -125,39 +130,19 @@ class HorizonStage:
             planes, slack = state.planes, tree.tol + self.margin
 
             def keep_of(ids):  # holds the stats dict, not the state (no cycle)
-                corners = self.corners[ids]
-                off = off_screen(corners, planes, slack)
-                behind = np.zeros(len(ids), dtype=bool)
-                if horizon is not None:
-                    rest = np.flatnonzero(~off)
-                    behind[rest] = horizon.hidden_points(corners[rest], self.margin)
+                if isinstance(horizon, Horizon):  # float64: one numba call
+                    off, behind = _triangles(self.corners, ids, planes, slack, True,
+                                             *horizon_arrays(horizon), self.margin)
+                else:
+                    corners = self.corners[ids]
+                    off = off_screen(corners, planes, slack)
+                    behind = np.zeros(len(ids), dtype=bool)
+                    if horizon is not None:
+                        rest = np.flatnonzero(~off)
+                        behind[rest] = horizon.hidden_points(corners[rest], self.margin)
                 stats[key + "off_screen"] = stats.get(key + "off_screen", 0) + int(off.sum())
                 stats[key + "culled"] = stats.get(key + "culled", 0) + int(behind.sum())
                 stats[key + "tested"] = stats.get(key + "tested", 0) + len(ids)
                 return ~(off | behind)
 
             state.filters.append(keep_of)
-
-
-def off_screen(corners, planes, slack: float) -> np.ndarray:
-    """(K,) bool: triangles (K, 3, 3) whose three corners all lie more than `slack` outside one
-    of the inward planes (P, 4) (unit normals; inside where n.x + d >= 0): the whole triangle
-    is outside the frustum. planes are the Culler's conservative planes (pushed out by the
-    arithmetic's margin); slack adds the tree's tolerance and the device's vertex move, so a
-    triangle the device could draw inside the frustum is never called off screen."""
-    return _off_screen(np.asarray(corners, np.float64), np.asarray(planes, np.float64),
-                       float(slack))
-
-
-@njit(cache=True)
-def _off_screen(corners, planes, slack):
-    out = np.zeros(corners.shape[0], dtype=np.bool_)
-    for n in range(corners.shape[0]):
-        for p in range(planes.shape[0]):
-            a, b, c, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3] + slack
-            if (a * corners[n, 0, 0] + b * corners[n, 0, 1] + c * corners[n, 0, 2] + d < 0
-                    and a * corners[n, 1, 0] + b * corners[n, 1, 1] + c * corners[n, 1, 2] + d < 0
-                    and a * corners[n, 2, 0] + b * corners[n, 2, 1] + c * corners[n, 2, 2] + d < 0):
-                out[n] = True
-                break
-    return out

@@ -207,44 +207,50 @@ def _hidden(points, eye, forward, right, tans, depths, values, ceiling, bases, c
     level frame (depth and lateral by grow (|a_x| + |a_z|) for the axis a, height by grow):
     its slopes' extremes lie at that box's corners, so each bound is its corner's ratio."""
     out = np.zeros(points.shape[0], dtype=np.bool_)
+    origin = np.zeros(3)
+    for n in range(points.shape[0]):
+        out[n] = hidden_one(points[n], origin, eye, forward, right, tans, depths, values,
+                            ceiling, bases, clamp, grow)
+    return out
+
+
+@njit(cache=True, inline="always")
+def hidden_one(points, origin, eye, forward, right, tans, depths, values, ceiling, bases,
+               clamp, grow):
+    """_hidden for one hull of points (C, 3), taken relative to origin (3,) first."""
     bands = tans.shape[0] - 1
     dz = grow * (abs(forward[0]) + abs(forward[2]))
     dl = grow * (abs(right[0]) + abs(right[2]))
-    for n in range(points.shape[0]):
-        zmin, tmin, tmax, mmin, mmax = np.inf, np.inf, -np.inf, np.inf, -np.inf
-        for q in range(points.shape[1]):
-            x = points[n, q, 0] - eye[0]
-            y = points[n, q, 1] - eye[1]
-            w = points[n, q, 2] - eye[2]
-            z = x * forward[0] + w * forward[2]
-            lateral = x * right[0] + w * right[2]
-            z_lo, z_hi = z - dz, z + dz
-            if z_lo <= 0:
-                zmin = -1.0
-                break
-            zmin = min(zmin, z_lo)
-            l_lo, l_hi, y_lo, y_hi = lateral - dl, lateral + dl, y - grow, y + grow
-            tmin = min(tmin, l_lo / (z_hi if l_lo >= 0 else z_lo))
-            tmax = max(tmax, l_hi / (z_lo if l_hi >= 0 else z_hi))
-            mmin = min(mmin, y_lo / (z_hi if y_lo >= 0 else z_lo))
-            mmax = max(mmax, y_hi / (z_lo if y_hi >= 0 else z_hi))
-        if zmin <= depths[0] or tmax < tans[0] or tmin > tans[bands] \
-                or (not clamp and (tmin < tans[0] or tmax > tans[bands])):
-            continue
-        # Last slice that ends before the box's nearest depth.
-        k = np.searchsorted(depths, zmin, side="right") - 2
-        if k < 0:
-            continue
-        b0 = np.searchsorted(tans, tmin, side="right") - 1
-        b1 = np.searchsorted(tans, tmax, side="left") - 1
-        hidden = True
-        for b in range(max(b0, 0), min(b1, bands - 1) + 1):
-            if not (values[b, k] > mmax and mmin > ceiling[b]) \
-                    or (bases.shape[0] > 0 and not mmin > bases[b, k]):
-                hidden = False
-                break
-        out[n] = hidden
-    return out
+    zmin, tmin, tmax, mmin, mmax = np.inf, np.inf, -np.inf, np.inf, -np.inf
+    for q in range(points.shape[0]):
+        x = (points[q, 0] - origin[0]) - eye[0]
+        y = (points[q, 1] - origin[1]) - eye[1]
+        w = (points[q, 2] - origin[2]) - eye[2]
+        z = x * forward[0] + w * forward[2]
+        lateral = x * right[0] + w * right[2]
+        z_lo, z_hi = z - dz, z + dz
+        if z_lo <= 0:
+            return False
+        zmin = min(zmin, z_lo)
+        l_lo, l_hi, y_lo, y_hi = lateral - dl, lateral + dl, y - grow, y + grow
+        tmin = min(tmin, l_lo / (z_hi if l_lo >= 0 else z_lo))
+        tmax = max(tmax, l_hi / (z_lo if l_hi >= 0 else z_hi))
+        mmin = min(mmin, y_lo / (z_hi if y_lo >= 0 else z_lo))
+        mmax = max(mmax, y_hi / (z_lo if y_hi >= 0 else z_hi))
+    if zmin <= depths[0] or tmax < tans[0] or tmin > tans[bands] \
+            or (not clamp and (tmin < tans[0] or tmax > tans[bands])):
+        return False
+    # Last slice that ends before the box's nearest depth.
+    k = np.searchsorted(depths, zmin, side="right") - 2
+    if k < 0:
+        return False
+    b0 = np.searchsorted(tans, tmin, side="right") - 1
+    b1 = np.searchsorted(tans, tmax, side="left") - 1
+    for b in range(max(b0, 0), min(b1, bands - 1) + 1):
+        if not (values[b, k] > mmax and mmin > ceiling[b]) \
+                or (bases.shape[0] > 0 and not mmin > bases[b, k]):
+            return False
+    return True
 
 
 ONE = 1 << 16

@@ -71,6 +71,23 @@ def level_bands(camera, bands: int):
     return forward, right, tans, float(deepest), bool(clamp)
 
 
+def frame_bands(camera, bands: int):
+    """level_bands(camera, bands) and frustum_slopes over its bands in one numba call:
+    (forward, right, tans, deepest, clamp, highs, lows)."""
+    forward, right, tans, deepest, clamp, highs, lows = _frame(
+        float(camera.yaw), float(camera.pitch), float(camera.fov), float(camera.aspect),
+        int(bands))
+    return forward, right, tans, float(deepest), bool(clamp), highs, lows
+
+
+@njit(cache=True)
+def _frame(yaw, pitch, fov, aspect, bands):
+    corners = _corners_of(yaw, pitch, fov, aspect)
+    forward, right, tans, deepest, clamp = _level(corners, yaw, bands)
+    highs, lows = _slopes(corners, forward, right, tans)
+    return forward, right, tans, deepest, clamp, highs, lows
+
+
 def no_stops(bands: int) -> tuple:
     """(highs, lows) (bands,) float64 that stop no band: +inf and -inf."""
     return np.full(bands, np.inf), np.full(bands, -np.inf)

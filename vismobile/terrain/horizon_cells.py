@@ -17,7 +17,7 @@ import numpy as np
 
 from .horizon import (NO_BASES, NO_BASES_RAW, ONE, SLOPE_LIMIT, FixedHorizon, Horizon, _cast,
                       _cast_fixed)
-from .horizon_bands import frustum_slopes, level_bands, stops_raw
+from .horizon_bands import frame_bands, frustum_slopes, stops_raw
 from .horizon_mips import _highest_in, pack
 
 NOTHING_RAW = -(1 << 60)  # raw "no solid" (below every 16.16 value)
@@ -101,7 +101,7 @@ class CellCaster:
         the map's reach)."""
         eye = np.asarray(camera.eye, dtype=np.float64)
         local = eye - self.origin
-        forward, right, tans, deepest, clamp = level_bands(camera, self.bands)
+        forward, right, tans, deepest, clamp, highs, lows = frame_bands(camera, self.bands)
         span = tans[-1]
         size = self.sizes[0] * self.spacing
         reach = float(np.hypot(max(abs(local[0]), abs(local[0] - size)),
@@ -123,7 +123,7 @@ class CellCaster:
         ceiling = np.full(self.bands, first)
         pieces = _cast(self.flat, self.offsets, self.sizes, self.spacing, local, forward, right,
                        tans, depths, 0.0, values, self.high_flat, zclip, ceiling, self.bflat,
-                       bases, self.top, *frustum_slopes(camera, forward, right, tans))
+                       bases, self.top, highs, lows)
         return Horizon(local, forward, right, tans, depths, values, ceiling, bases, self.origin,
                        clamp, pieces)
 
