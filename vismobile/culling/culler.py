@@ -182,6 +182,7 @@ class Culler:
             result = state.finish()
         finally:
             state.filters.clear()  # they close over state: no cycle outlives the frame
+            state.late_filters.clear()
         for stage in self.stages:
             observe = getattr(stage, "observe", None)
             if observe is not None:

@@ -387,7 +387,7 @@ class DepthBufferOcclusion(OccluderChoice):
         if self.triangles and (written or self.self_occluders or self.screen):
             def keep_of(ids):
                 return ~self._hidden_triangles(state, ids, move, margin, recede, written > 0)
-            state.filters.append(keep_of)
+            state.late_filters.append(keep_of)
 
     def _apply_compiled(self, state) -> None:
         """apply's path with vfc deferred on an in-memory World (shells, no first_reach) in one
@@ -433,7 +433,7 @@ class DepthBufferOcclusion(OccluderChoice):
             state.nodes = frustum_refine(self.tree, state, "vfc")
         if self.triangles and self.screen:
             move = self._view(state.camera)[4]
-            state.filters.append(lambda ids: ~self._hidden_triangles(
+            state.late_filters.append(lambda ids: ~self._hidden_triangles(
                 state, ids, move, 0.0, np.sqrt(3.0) * move, False))
 
     def nearest_far(self, margin, recede) -> float:

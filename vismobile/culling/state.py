@@ -40,6 +40,8 @@ class CullState:
               (int64, in their order), applied after gathering
     frustum_pending : True when `vfc` left its frustum test to the next node stage (`occlusion`
               walks frustum and buffer in one pass: Culler._fuse); that stage clears it
+    late_filters : filters applied after `filters`: costly tests (occlusion's triangle test)
+              that should see only the survivors of the cheap ones (tbfc); same result
     """
 
     tree: Tree
@@ -50,6 +52,7 @@ class CullState:
     filters: list = field(default_factory=list)
     cull_back: bool = False
     frustum_pending: bool = False
+    late_filters: list = field(default_factory=list)
 
     def count(self, key: str, amount) -> None:
         self.stats[key] = self.stats.get(key, 0) + int(amount)
@@ -63,7 +66,8 @@ class CullState:
         alive until the cyclic collector runs (issue 28: 1.7 MB a Culler).
         """
         ids, runs = self.tree.gather(self.nodes)  # leaves share triangles: each once
-        filters, self.filters = self.filters, []
+        filters, self.filters = self.filters + self.late_filters, []
+        self.late_filters = []
         for keep_of in filters:
             kept = keep_of(ids)
             ids = ids[kept] if kept.dtype == np.bool_ else kept
