@@ -86,3 +86,21 @@ def test_play_cli_takes_a_motion_file_and_refuses_a_bad_one(capsys, tmp_path):
 def test_a_partition_file_does_not_move():
     with pytest.raises(VisMobileError, match="static"):
         load_scene("x.vmp", motion="m.json")
+
+
+def test_play_regional_picks_per_portal_cell_and_says_which(tmp_path):
+    from vismobile.commands.play import regional_choices
+
+    choices = regional_choices("portals+tbfc;vfc+occlusion+tbfc")
+    assert choices == ["tbfc+portals", "vfc+tbfc+occlusion"]
+    scene = load_scene("w7", "portal:2")
+    path = Trajectory.load(trajectory_for("w7"))
+    result = play(scene, path, "vfc", PROFILE, frames="stride:100", regional=choices)
+    picks = result.summary["regional"]
+    assert picks and set(picks.values()) <= set(choices)
+    assert set(result.frames["active_stages"]) <= set(choices)
+    with pytest.raises(VisMobileError, match="portal structure"):
+        play(load_scene("w1", "octree:2"), path, "vfc", PROFILE, frames="stride:600",
+             regional=choices)
+    with pytest.raises(VisMobileError, match="no stage"):
+        regional_choices(" ; ")

@@ -80,6 +80,8 @@ CASES = [
     (["play", "{d}/m.obj", "--trajectory", "{d}/t.csv", "-o", "{d}/r", "--fps", "nan"],
      "--fps"),
     (["view", "{d}/m.obj", "--fps", "1e9"], "--fps"),
+    (["play", "{d}/m.obj", "--trajectory", "{d}/t.csv", "-o", "{d}/r", "--regional", " "],
+     "--regional"),
 ]
 
 

@@ -199,10 +199,10 @@ def test_structure_lists_and_schedulers_parse_or_are_refused_in_one_line(tmp_pat
     assert 0 < refused < 200  # the mutations reach both outcomes
 
 
-@pytest.mark.parametrize("target", ["animglb", "motion", "playmotion", "fps"])
+@pytest.mark.parametrize("target", ["animglb", "motion", "playmotion", "fps", "regional"])
 def test_animated_inputs_load_or_are_refused_in_one_error(tmp_path, target):
     """Issue 25's inputs (a GLB with node animations, a JSON motion file, one as play --motion
-    takes it, --fps values) fuzzed: each seed loads and poses, and each seeded mutation loads
+    takes it, --fps values, play --regional choices) fuzzed: each seed loads and poses, and each seeded mutation loads
     or is refused with a VisMobileError (any other exception fails the test)."""
     import random
     import sys

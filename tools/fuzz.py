@@ -4,7 +4,8 @@ lists (issue 31); compare's and tune's --structures lists with baked PVS labels 
 address of compare and partition (issue 29); PLY, STL, OFF, GLB, gzip-compressed meshes, .vmt terrains and .npy
 heightmaps (issue 28); GeoTIFF heightmaps and .vmt terrains as `play` runs them (vmtplay: LOD, objects culled, a frame;
 issue 30); GLB node animations and JSON motion files (animglb, motion: issue 25), a motion file
-as play --motion takes it and --fps values (playmotion, fps: issue 25). Every input must load or end in a VisMobileError (one clean line from
+as play --motion takes it, --fps values and play --regional choices (playmotion, fps,
+regional: issue 25). Every input must load or end in a VisMobileError (one clean line from
 the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
 Three modes:
@@ -20,7 +21,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps,regional]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
@@ -176,7 +177,8 @@ def animated_seeds(folder: Path) -> dict:
                 (2, "scale", [0, 1], [[1, 1, 1], [2, 2, 2]], "STEP")]
     animated_glb(folder / "seed-anim.glb", meshes, channels, parents=[None, 0, None])
     return {"animglb": [(folder / "seed-anim.glb").read_bytes()], "motion": [MOTION_JSON],
-            "playmotion": [MOTION_JSON, DOOR_JSON], "fps": FPS_TEXTS}
+            "playmotion": [MOTION_JSON, DOOR_JSON], "fps": FPS_TEXTS,
+            "regional": REGIONAL_TEXTS}
 
 
 # play's and view's --motion as the commands take it (issue 25 deliverable 5): a hinge track
@@ -184,6 +186,8 @@ def animated_seeds(folder: Path) -> dict:
 DOOR_JSON = (b'{"fps": 24, "objects": {"c": {"times": [0, 0.5, 1], "rotation": [[0, 0, 0, 1], '
              b'[0, 0.3827, 0, 0.9239], [0, 0.7071, 0, 0.7071]], "pivot": [0, 0, 0], '
              b'"interpolation": "step"}}}')
+# play --regional choices (compare's --cull grammar, ';' between combinations).
+REGIONAL_TEXTS = [b"portals+tbfc;vfc+occlusion+tbfc", b"vfc;portals", b"pvs+vfc;vfc+tbfc"]
 # --fps values (commands/options.py RANGES: (0, 1e4]).
 FPS_TEXTS = [b"30", b"24.5", b"0.001", b"10000"]
 
@@ -493,6 +497,23 @@ def load_fps(path):
     assert 0.0 < check_fps(args.fps) <= 1e4
 
 
+def load_regional(path):
+    """play --regional text: parsed (commands/play.regional_choices) and, when it parses, a
+    RegionalCuller over the cube's portal structure culls one camera."""
+    import hostile
+    from vismobile.app.playback import Scene, make_culler
+    from vismobile.commands.play import regional_choices
+    from vismobile.partition import partition
+    from vismobile.world.camera import Camera
+    from vismobile.world.world import World
+
+    text = path.read_bytes()[:4096].decode("utf-8", errors="replace")
+    choices = regional_choices(text)
+    cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
+    scene = Scene(cube, partition(cube, "portal", depth=1), "portal:1")
+    make_culler(scene, (), None, regional=choices).cull(Camera((0.5, 0.5, 4.0)))
+
+
 def load_vmt(path):
     from vismobile.files.loader import load_world
 
@@ -551,7 +572,8 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "npy": (load_heightmap, ".npy"), "tif": (load_heightmap, ".tif"),
          "vmtiles": (load_vmtiles, ".vmtiles"), "objmtl": (load_textured_obj, ".obj"),
          "animglb": (load_animated, ".glb"), "motion": (load_motion, ".json"),
-         "playmotion": (load_play_motion, ".json"), "fps": (load_fps, ".txt")}
+         "playmotion": (load_play_motion, ".json"), "fps": (load_fps, ".txt"),
+         "regional": (load_regional, ".txt")}
 
 
 def run_case(target, data, folder):

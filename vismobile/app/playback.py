@@ -184,10 +184,12 @@ class _Culled:
     cull_back: bool
 
 
-def make_culler(scene: Scene, stages, profile=None, adaptive=False):
+def make_culler(scene: Scene, stages, profile=None, adaptive=False, regional=None):
     """vismobile.culling.Culler over the scene's partition, or all triangles without one.
 
     profile  : its arithmetic mode and screen go to the Culler (culling.device_options)
+    regional : stage strings: a culling/regional.RegionalCuller picking per portal cell of the
+               eye the cheapest of them (device model); `stages` is then ignored
     adaptive : wrap it in an AdaptiveCuller that switches off stages that stop paying; a dict
                is passed to AdaptiveCuller as keyword options (e.g. a clock for tests).
     """
@@ -204,6 +206,17 @@ def make_culler(scene: Scene, stages, profile=None, adaptive=False):
     def factory(partition, names):
         return Culler(partition, names, **options)
 
+    if regional:
+        from ..culling.regional import RegionalCuller
+
+        if scene.partition.kind != "portal":
+            raise VisMobileError(f"--regional picks per portal cell: it needs a portal "
+                                 f"structure (--structure portal:N); this one is "
+                                 f"{scene.structure}")
+        try:
+            return RegionalCuller(scene.partition, list(regional), culler_factory=factory)
+        except ValueError as error:
+            raise VisMobileError(f"--regional {';'.join(regional)}: {error}") from None
     try:
         if adaptive:
             tuning = adaptive if isinstance(adaptive, dict) else {}
@@ -216,7 +229,8 @@ def make_culler(scene: Scene, stages, profile=None, adaptive=False):
 
 def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
          frames_every=0, gif=False, hud=False, progress=False, frame_limit=None,
-         gif_every=None, adaptive=False, frames="all", lod_tau=None) -> PlaybackResult:
+         gif_every=None, adaptive=False, frames="all", lod_tau=None,
+         regional=None) -> PlaybackResult:
     """Play trajectory through the scene; write outputs to out (if given) atomically.
 
     stages       : culling stage names (see vismobile.culling), () for none
@@ -232,6 +246,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     adaptive     : switch stages off (and back on) while they cost more than they save; a dict
                    is passed to AdaptiveCuller as options; the switches go to summary.json
                    ("adaptive_events") and frames.csv (active_stages)
+    regional     : stage strings; a RegionalCuller picks per portal cell the cheapest of them
+                   (frames.csv active_stages names each frame's pick)
     lod_tau      : draw objects at the coarsest level whose error projects below lod_tau pixels
                    (the partition's LOD chains, built when it has none) and measure each
                    frame against the full-detail frame of the same culling (docs/lod.md);
@@ -248,7 +264,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
     profile.check_range(world.extent, f"world {world.name!r}")
     lod_view = _lod_view(scene, profile, lod_tau, progress)
     memory = profile.check_memory(world, scene.partition)
-    culler = make_culler(scene, stages, profile, adaptive)
+    culler = make_culler(scene, stages, profile, adaptive, regional)
     renderer = lod_view.renderer if lod_view else renderer_for(world, profile)
     poser = None
     if scene.animated is not None:
@@ -319,6 +335,7 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
                                 upload_ms=drawn.upload_ms + pose_ms)
         if adaptive and hasattr(culler, "observe_render"):
             culler.observe_render(drawn.render_ms, culled.stats)
+        if adaptive or regional:
             active[index] = culled.stats.get("active_stages", active[index])
         frame_ms = cull_ms + drawn.render_ms
         if not compiled:
@@ -366,6 +383,8 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         # frames' counters (vismobile/device/costmodel.py).
         "timing": label(None), "model": model_block(counters),
         "adaptive": bool(adaptive), "adaptive_events": list(getattr(culler, "events", [])),
+        "regional": {str(region): culler.choices[pick] for region, pick in
+                     sorted(culler.decisions.items())} if regional else None,
         # an animated scene: objects moved (their vertex upload is in render_ms, upload_ms)
         "moving_objects": poser.count if poser is not None else 0,
         "scene_fps": scene.fps if poser is not None else None,

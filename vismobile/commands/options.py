@@ -101,7 +101,8 @@ RANGES = {
     },
     "play": {"--images": Range(0, MAX_FRAMES), "--limit": Range(1, None),
              "--lod-tau": Range(0.0, 1e6, float), "--page-budget": Range(0.0, 1 << 20, float, above=True),
-             "--cull": NOT_EMPTY, "--frames": NOT_EMPTY, "--fps": FPS},
+             "--cull": NOT_EMPTY, "--frames": NOT_EMPTY, "--fps": FPS,
+             "--regional": NOT_EMPTY},
     "compare": {
         "--jobs": Range(1, MAX_JOBS),
         "--agreement": Range(0, 1000),

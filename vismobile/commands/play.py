@@ -55,6 +55,11 @@ def add_parser(sub):
                         help="a .vmt terrain's LOD method: tiles (seed 002's tile quadtree), "
                              "roettger (Röttger's quadtree with Pires's cached chunks), roam "
                              "(split and merge queues); default tiles")
+    parser.add_argument("--regional", default=None, metavar="CHOICES",
+                        help="pick per portal cell of the eye the cheapest of these stage "
+                             "combinations (separated by ;, e.g. "
+                             "'portals+tbfc;vfc+occlusion+tbfc'), priced by the iPaq model "
+                             "on each region's first 2 frames; needs a portal structure")
     parser.add_argument("--motion", type=Path, default=None, metavar="FILE.json",
                         help=MOTION_HELP)
     parser.add_argument("--fps", type=float, default=None, help=FPS_HELP)
@@ -94,7 +99,8 @@ def run(args) -> int:
                      trajectory.poses[:, :3], args.fix_winding)
     result = play(scene, trajectory, args.cull, profile, args.out, frames_every=args.images,
                   gif=args.gif, hud=args.hud, progress=not args.quiet, frame_limit=args.limit,
-                  adaptive=args.adaptive, frames=args.frames, lod_tau=args.lod_tau)
+                  adaptive=args.adaptive, frames=args.frames, lod_tau=args.lod_tau,
+                  regional=regional_choices(args.regional))
     s = result.summary
     corr = s["pearson_frame_ms_triangles"]
     print(f"{s['frames']} frames of {s['world']} ({s['structure']}, cull "
@@ -128,10 +134,29 @@ def run(args) -> int:
     for event in s["adaptive_events"]:
         print(f"frame {event['frame']}: {event['stage']} {event['action']} (saves "
               f"{event['saving_ms']:.3f} ms, costs {event['cost_ms']:.3f} ms per frame)")
+    for region, choice in (s.get("regional") or {}).items():
+        print(f"  region (portal cell) {region}: {choice}")
     if s.get("moving_objects"):
         print(f"  {s['moving_objects']:,} moving objects, frame f at t = f / {s['scene_fps']:g} s")
     print(f"wrote {args.out}/frames.csv and {args.out}/summary.json")
     return 0
+
+
+def regional_choices(text):
+    """--regional text -> canonical stage strings (compare's --cull grammar: ; separates), or
+    None; VisMobileError on a bad one."""
+    if text is None:
+        return None
+    from ..errors import VisMobileError
+    from ..study.matrix import parse_culls
+
+    try:
+        choices = [c for c in parse_culls(text) if c != "none"]
+    except ValueError as error:
+        raise VisMobileError(f"--regional {text!r}: {error}") from None
+    if not choices:
+        raise VisMobileError(f"--regional {text!r}: no stage combination")
+    return choices
 
 
 def run_terrain(args) -> int:
