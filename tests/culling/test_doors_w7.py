@@ -1,7 +1,8 @@
 """W7 (issue 25), doors shut and on their schedule: every conservative stage and combination
 (test_conservative.COMBOS) keeps every triangle the item buffer of the frame's pose shows, on
 sampled frames of W7's path (street, entrance, gallery, in front of shut doors, back out) and on
-random cameras inside the building at random times; and a shut door removes what lies behind."""
+random cameras inside the building at random times; portals with the doors shut in the device's
+float32 and fixed16.16 vertex formats; and a shut door removes what lies behind."""
 import importlib.util
 from pathlib import Path
 
@@ -80,3 +81,28 @@ def test_a_shut_door_hides_the_room_behind_it(kit, thesis_world, tmp_path_factor
         part = animated_w7(thesis_world, tmp_path_factory, doors)
         sent[doors] = len(Culler(part, "portals").cull(camera, time=20.0).triangles)
     assert sent["closed"] < 0.5 * sent["open"]
+
+
+@pytest.mark.parametrize("fmt", ["float32", "fixed16.16"])
+def test_shut_doors_keep_what_the_device_shows(kit, thesis_world, tmp_path_factory, fmt):
+    """In the device's vertex formats (render/device_view.py: what the device draws from its
+    rounded vertices), portals with every door shut keeps every triangle the device shows."""
+    from vismobile.culling import device_options
+    from vismobile.device.profile import get_profile
+    from vismobile.render.device_view import device_buffers, shown_ids
+
+    part = animated_w7(thesis_world, tmp_path_factory, "closed")
+    profile = get_profile(kit.PROFILE, fmt)
+    combos = ("portals", "portals,occlusion,cbfc,cone,tbfc")
+    cullers = {c: Culler(part, c, **device_options(profile)) for c in combos}
+    shut = 0
+    for cam, t in cameras(kit, seed=31)[::2]:
+        posed = part.animated.posed(t)
+        for combo, culler in cullers.items():
+            back = bool(kit.BACKFACE_STAGES & set(parse_stages(combo)))
+            truth = shown_ids(device_buffers(posed, cam, profile, back))
+            result = culler.cull(cam, time=t)
+            shut += result.stats.get("portals.portals_shut", 0)
+            missing = np.setdiff1d(truth, result.triangles)
+            assert not len(missing), f"{combo} in {fmt} dropped {len(missing)}, camera {cam}"
+    assert shut > 0
