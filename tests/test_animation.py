@@ -54,6 +54,15 @@ def test_the_posed_renderer_draws_each_frames_pose(tmp_path):
         renderer.draw(np.arange(24), camera, kind="item")
         assert np.array_equal(renderer.read_ids(),
                               item_buffer(animated.posed(t), None, camera, PROFILE))
+    mover = np.arange(12, 24)  # a frame drawing only the mover poses only it
+    for t in (0.25, 0.75):
+        poser.pose(t, mover)
+        assert poser.posed == 1
+        renderer.draw(mover, camera, kind="item")
+        assert np.array_equal(renderer.read_ids(),
+                              item_buffer(animated.posed(t), mover, camera, PROFILE))
+    poser.pose(0.5, np.arange(12))  # only the still cube drawn: nothing to move
+    assert poser.posed == 0
 
 
 def test_play_w7_moves_its_objects_and_sends_the_moving_ones(tmp_path, thesis_world):

@@ -316,8 +316,9 @@ def play(scene: Scene, trajectory, stages=(), profile="ipaq-hx2490b", out=None,
         cpu_start = time.process_time()  # every thread of this process: cull, llvmpipe
         # A cull that compiled a code path the warm-up missed is timed again (timing.timed).
         at = _time(scene, frame)
-        pose_ms = poser.pose(at) if poser is not None else 0.0  # the moved vertices' upload
         culled, cull_ms, compiled = timed(_culls(culler, at), camera)
+        # the drawn moving objects' vertices to this frame's pose (their upload)
+        pose_ms = poser.pose(at, culled.triangles) if poser is not None else 0.0
         compile_ms += compiled
         if lod_view:
             lod = lod_view.draw(culled.triangles, camera, bool(culled.cull_back))

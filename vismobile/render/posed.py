@@ -4,22 +4,48 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
+
 
 class Poser:
     """Moves a renderer's moving objects to their pose at time t: the objects' matrices, their
     vertices (only theirs), and one vertex-record rewrite of their triangles (Renderer.move).
-    Cost O(moving triangles) per frame, never the world."""
+    Cost O(moving triangles) per frame, never the world; O(the drawn ones' triangles) when
+    told which triangles the frame draws."""
 
     def __init__(self, animated, renderer):
         self.animated, self.renderer = animated, renderer
         self.count = len(animated.motion)
+        self._track_of = None  # (T,) int64 moving object (track) of each triangle, -1 static
+        self.posed = 0  # moving objects posed by the last pose()
 
-    def pose(self, t) -> float:
-        """Draw the moving objects as they stand at t from now on; returns the wall ms."""
+    def pose(self, t, triangles=None) -> float:
+        """Draw the moving objects as they stand at t from now on; with `triangles` (the world
+        ids this frame draws) only the moving objects among them (the others are not drawn:
+        their records keep an older pose until a frame draws them). Returns the wall ms."""
         start = time.perf_counter()
         a = self.animated
-        vertices = a.posed_vertices(a.matrices(t))
-        self.renderer.move(a.moving_triangles, vertices[a.local_triangles])
+        matrices = a.matrices(t)
+        if triangles is None:
+            vertices = a.posed_vertices(matrices)
+            self.renderer.move(a.moving_triangles, vertices[a.local_triangles])
+            self.posed = self.count
+            return (time.perf_counter() - start) * 1000.0
+        if self._track_of is None:
+            track_of = np.full(a.world.triangle_count, -1, dtype=np.int64)
+            track_of[a.moving_triangles] = np.repeat(np.arange(self.count),
+                                                     np.diff(a.tri_start))
+            self._track_of = track_of
+        tracks = self._track_of[np.asarray(triangles, dtype=np.int64)]
+        tracks = np.unique(tracks[tracks >= 0])
+        self.posed = len(tracks)
+        if len(tracks):
+            vertices = a.posed_vertices(matrices, tracks)
+            first, last = a.tri_start[tracks], a.tri_start[tracks + 1]
+            lengths = last - first
+            local = np.repeat(first - np.cumsum(lengths) + lengths, lengths) + \
+                np.arange(int(lengths.sum()))
+            self.renderer.move(a.moving_triangles[local], vertices[a.local_triangles[local]])
         return (time.perf_counter() - start) * 1000.0
 
 

@@ -487,16 +487,17 @@ class Session:
         """Cull and draw the current camera; overlays and god view added (not timed)."""
         camera = self.camera()
         at = self.scene_time()
+        start = time.perf_counter()
+        culled = self.culler.cull(camera) if at is None else self.culler.cull(camera, time=at)
+        cull_ms = (time.perf_counter() - start) * 1000.0
         pose_ms = 0.0
-        if at is not None:  # the moving objects' vertices to this frame's pose
+        if at is not None:  # the drawn moving objects' vertices to this frame's pose
             from ..app.animation import Poser
 
             if self._poser is None or self._poser.renderer is not self.renderer:
                 self._poser = Poser(self.animated, self.renderer)
-            pose_ms = self._poser.pose(at)
-        start = time.perf_counter()
-        culled = self.culler.cull(camera) if at is None else self.culler.cull(camera, time=at)
-        cull_ms = (time.perf_counter() - start) * 1000.0
+            # the culled overlay draws what was not sent too: then every object is posed
+            pose_ms = self._poser.pose(at, None if self.show_culled else culled.triangles)
         renderer = self.renderer
         selection = None
         if self.lod_tau is not None and self._lod is not None:
