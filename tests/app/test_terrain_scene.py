@@ -78,7 +78,7 @@ def test_play_writes_triangles_and_error_per_frame(terrain, tmp_path):
 
     out = tmp_path / "run"
     code = main(["play", str(terrain), "--lod", "1", "--terrain-method", "roam", "--limit", "6",
-                 "--quiet", "-o", str(out)])
+                 "--no-object-lod", "--quiet", "-o", str(out)])
     assert code == 0
     rows = list(csv.DictReader(open(out / "frames.csv")))
     assert len(rows) == 6
@@ -124,3 +124,22 @@ def test_tune_picks_the_cheapest_method_and_tau_within_the_error(terrain, tmp_pa
     assert result["choice"] == min(rows, key=lambda r: r["cost_ms"])
     assert all(r["error_px_max"] <= r["tau"] + 1e-9 for r in rows)
     assert "choice: --terrain-method" in capsys.readouterr().out
+
+
+def test_the_same_knob_draws_the_objects_at_their_level_of_detail(tmp_path):
+    """object_lod: each kept object at its coarsest level within tau (lod/); a coarser tau
+    sends fewer object triangles, and the chains come from the cache the second time."""
+    hm = sources.diamond_square(65, seed=2, roughness=0.5, relief=0.1)
+    path = tmp_path / "few.vmt"
+    store.save(path, hm, place_objects(hm, 3, seed=5, height=6.0))
+    camera = Camera((32.0, float(hm.bounds()[1, 1]) + 20, 90.0), yaw=0, pitch=-25, fov=60,
+                    aspect=240 / 320, near=0.1, far=300)
+    sent = {}
+    for tau in (0.5, 8.0):
+        scene = TerrainScene(path, "tiles", tau, (), "none", object_lod=True,
+                             cache_dir=tmp_path / "cache")
+        sent[tau] = scene.frame(camera).object_triangles
+        plain = TerrainScene(path, "tiles", tau, (), "none")
+        assert plain.frame(camera).object_triangles >= sent[tau]
+    assert 0 < sent[8.0] < sent[0.5]
+    assert list((tmp_path / "cache" / "lod").glob("*.npz"))

@@ -4,7 +4,8 @@ Per frame (TerrainScene.frame): the LOD method selects the ground for the camera
 (tiles, roettger or roam: terrain/), the drawn pieces' largest nested vertical error sets how
 far the horizon sinks the ground (terrain/ground.py), the objects standing on the terrain go
 through the engine's Culler with the chosen stages over their partition (`horizon` casts over
-the heightmap), and the renderer draws the ground, then the kept objects Z-buffered into it.
+the heightmap), each kept object is drawn (with object_lod at its coarsest level of detail
+whose error projects below the same tau, lod/) Z-buffered into the ground.
 
 Renderers keep their vertex buffers across frames: the tiles' per-tile slots
 (render/tile_arena.py), Röttger's chunk grids with cached index slots (render/chunks.py),
@@ -250,7 +251,8 @@ class TerrainScene:
     """
 
     def __init__(self, path, method="tiles", tau=1.0, stages=("vfc", "horizon"),
-                 structure="octree:4", profile="ipaq-hx2490b", page_budget=16 << 20):
+                 structure="octree:4", profile="ipaq-hx2490b", page_budget=16 << 20,
+                 object_lod: bool = False, cache_dir=None):
         from ..device.profile import get_profile
         from ..terrain import store
         from ..terrain.placement import Placement
@@ -277,13 +279,14 @@ class TerrainScene:
             self.heightmap, self.placement = store.load(path)
             self.lods = {method: LODS[method](self.heightmap, self.profile)}
         self.lod = self.lods[method]
-        self.objects = self.culler = self.object_renderer = None
+        self.objects = self.culler = self.object_renderer = self.object_lod = None
         self.last = self.culled = None  # the last frame's selection and culled objects
         self.structure = "none"
+        self.object_lod_on = bool(object_lod)
         if len(self.placement):
-            self._objects(structure)
+            self._objects(structure, cache_dir)
 
-    def _objects(self, structure):
+    def _objects(self, structure, cache_dir=None):
         from ..render.renderer import Renderer
         from ..terrain.ground import TerrainGround
         from ..world.world import World
@@ -304,6 +307,17 @@ class TerrainScene:
         self.culler = make_culler(Scene(objects, partition, self.structure), self.stages,
                                   self.profile)
         self.object_renderer = Renderer(objects, self.profile)
+        if self.object_lod_on:
+            # The same knob drives the objects' level of detail (lod/: each object's coarsest
+            # level whose error projects below tau pixels); chains built once per objects
+            # world and kept in cache_dir (study.engine.load_chains: 40 objects took 30 s of
+            # CPU to build).
+            from ..lod import LodSelector, render_world
+            from ..study.engine import load_chains
+
+            chains = load_chains(objects, cache_dir)
+            self.object_lod = LodSelector(objects, chains, self.profile.resolution)
+            self.object_renderer = Renderer(render_world(objects, chains), self.profile)
         self.partition = partition
 
     def set_method(self, method: str) -> None:
@@ -349,8 +363,12 @@ class TerrainScene:
         drawn = self.lod.draw(selected, camera)
         render_ms, upload_ms = drawn.render_ms, drawn.upload_ms
         if culled is not None and len(culled.triangles):
-            more = self.object_renderer.draw(culled.triangles, camera,
-                                             bool(culled.cull_back), clear=False)
+            sent = culled.triangles
+            if self.object_lod is not None:
+                start = time.perf_counter()
+                sent = self.object_lod.select(culled.triangles, camera, self.tau).triangles
+                lod_ms += (time.perf_counter() - start) * 1000.0
+            more = self.object_renderer.draw(sent, camera, bool(culled.cull_back), clear=False)
             render_ms += more.render_ms
             upload_ms += more.upload_ms
             object_triangles = more.triangles

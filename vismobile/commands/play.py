@@ -63,6 +63,10 @@ def add_parser(sub):
     parser.add_argument("--motion", type=Path, default=None, metavar="FILE.json",
                         help=MOTION_HELP)
     parser.add_argument("--fps", type=float, default=None, help=FPS_HELP)
+    parser.add_argument("--no-object-lod", action="store_true",
+                        help="a .vmt terrain's objects at full detail (default: at their "
+                             "coarsest LOD level within the same --lod pixels; chains built "
+                             "once, then cached beside the built worlds)")
     parser.add_argument("--page-budget", type=float, default=16.0, metavar="MB",
                         help="a .vmtiles terrain (terrain tile) is paged in by tiles: the "
                              "memory its tile records may hold (default 16 MB)")
@@ -179,9 +183,13 @@ def run_terrain(args) -> int:
     stages = parse_stages(args.cull if args.cull is not None else "vfc+horizon")
     tau = 1.0 if args.lod_tau is None else args.lod_tau
     with Status(f"play {args.world}", enabled=not args.quiet) as status:
-        status("loading the terrain and its LOD method")
+        from ..scenes.thesis import default_cache_dir
+
+        status("loading the terrain, its LOD method and its objects' LOD chains (built once, "
+               "then cached)")
         scene = TerrainScene(args.world, args.terrain_method, tau, stages, args.structure,
-                             args.profile, int(args.page_budget * (1 << 20)))
+                             args.profile, int(args.page_budget * (1 << 20)),
+                             object_lod=not args.no_object_lod, cache_dir=default_cache_dir())
     aspect = scene.profile.aspect
     if args.trajectory is not None:
         trajectory = Trajectory.load(args.trajectory, limit=args.limit,
