@@ -10,8 +10,10 @@ interleaved frame by frame in one process along W2's path (t = frame / 30; four 
 Prints a markdown table: per N the median ms of the static vfc, of "update + vfc" (the static
 vfc plus the dynamic half's decisions: pose, refit, BVH frustum walk, the objects to draw) and of
 the full cull (also listing every moving triangle id drawn and merging them with the static
-ones), their ratios to the static vfc (of the medians, and the median per-frame ratio), the pose
-alone, moving objects in the frustum, BVH nodes visited and rebuilds (hardware-independent). Numba's first compiles are
+ones), their ratios to the static vfc (of the medians, and the median per-frame ratio), posing
+every object (what a frame would cost without the swept boxes), the candidates (swept boxes
+in the frustum), moving objects in the frustum, BVH nodes visited, objects swept anew per frame
+and BVH rebuilds (hardware-independent). Numba's first compiles are
 warmed up before anything is timed.
 """
 from __future__ import annotations
@@ -27,7 +29,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from vismobile.culling import Culler  # noqa: E402
-from vismobile.culling.moving import bvh_frustum  # noqa: E402
 from vismobile.partition import partition  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
 from vismobile.scenes.animated import animated_instances  # noqa: E402
@@ -53,14 +54,10 @@ def timed(function) -> float:
 
 
 def update_and_walk(moving, camera, t, tol) -> int:
-    """The dynamic half's decisions alone: pose (matrices, boxes), BVH refit, frustum walk
-    (the objects to draw, not their triangle ids)."""
+    """The dynamic half's decisions alone: pose (sweeps and refits when intervals end), the
+    BVH frustum walk, the candidates posed and tested: the objects to draw, not their ids."""
     moving.pose(t)
-    b = moving.bvh
-    b.update(moving.boxes)
-    planes = np.ascontiguousarray(camera.frustum_planes())
-    return bvh_frustum(b.lo, b.hi, b.first, b.start, b.count, b.order, b.node_count,
-                       moving.boxes, planes, tol, moving._out, moving._stack, moving._masks)[0]
+    return len(moving.in_frustum(np.ascontiguousarray(camera.frustum_planes()), tol)[0])
 
 
 def bench(static, dynamic, frames, rounds) -> dict:
@@ -78,15 +75,18 @@ def bench(static, dynamic, frames, rounds) -> dict:
             s_ms.append(got["s"])
             d_ms.append(got["d"])
             u_ms.append(got["u"])
-    stats = {"objects_in_frustum": [], "nodes": [], "rebuilds": 0, "sent": []}
+    stats = {"objects_in_frustum": [], "nodes": [], "rebuilds": 0, "sent": [], "swept": 0,
+             "candidates": []}
     for camera, t in frames:  # untimed: the counters, and the dynamic half alone
         result = dynamic.cull(camera, time=t)
         stats["objects_in_frustum"].append(result.stats.get("moving.objects_sent", 0))
         stats["nodes"].append(result.stats.get("moving.nodes_visited", 0))
         stats["rebuilds"] += result.stats.get("moving.rebuilds", 0)
+        stats["swept"] += result.stats.get("moving.swept", 0)
+        stats["candidates"].append(result.stats.get("moving.candidates", 0))
         stats["sent"].append(result.stats["triangles_sent"])
     for camera, t in frames:
-        parts.append(timed(lambda: moving.pose(t)))
+        parts.append(timed(lambda: (moving.pose(t), moving._exact(moving._all))))
     s, d, u = np.array(s_ms), np.array(d_ms), np.array(u_ms)
     return {"static": float(np.median(s)), "dynamic": float(np.median(d)),
             "ratio": float(np.median(d) / np.median(s)), "frame_ratio": float(np.median(d / s)),
@@ -94,6 +94,8 @@ def bench(static, dynamic, frames, rounds) -> dict:
             "pose": float(np.median(parts)),
             "in_frustum": float(np.median(stats["objects_in_frustum"])),
             "nodes": float(np.median(stats["nodes"])), "rebuilds": stats["rebuilds"],
+            "swept": stats["swept"] / len(frames),
+            "candidates": float(np.median(stats["candidates"])),
             "sent": float(np.median(stats["sent"]))}
 
 
@@ -128,14 +130,16 @@ def main(argv=None) -> int:
              f"{args.frames} frames of the indoor path x {args.rounds} rounds, interleaved",
              "",
              "| instances | moving triangles | static vfc ms | update + vfc ms | ratio "
-             "| full cull ms | ratio of medians | per-frame ratio | pose ms | objects in frustum "
-             "| BVH nodes visited | rebuilds | sent | world s | partition + culler s |",
-             "|" + " --- |" * 15]
+             "| full cull ms | ratio of medians | per-frame ratio | posing all ms | candidates "
+             "| objects in frustum | BVH nodes visited | swept a frame | rebuilds | sent | world s "
+             "| partition + culler s |",
+             "|" + " --- |" * 17]
     for n, moving, made, built, r in rows:
         lines.append(f"| {n:,} | {moving:,} | {r['static']:.3f} | {r['update']:.3f} | "
                      f"{r['update_ratio']:.2f}x | {r['dynamic']:.3f} | "
                      f"{r['ratio']:.2f}x | {r['frame_ratio']:.2f}x | {r['pose']:.3f} | "
-                     f"{r['in_frustum']:.0f} | {r['nodes']:.0f} | {r['rebuilds']} | "
+                     f"{r['candidates']:.0f} | {r['in_frustum']:.0f} | {r['nodes']:.0f} | "
+                     f"{r['swept']:.1f} | {r['rebuilds']} | "
                      f"{r['sent']:,.0f} | {made:.1f} | {built:.1f} |")
     text = "\n".join(lines)
     print(text)

@@ -39,8 +39,8 @@ def structure(kit, kind):
 
 
 def frames(kit, part, count, seed):
-    """(camera, time): random cameras in the world's box at random times, and every other one
-    3 units from a random moving object at that time, looking at it."""
+    """(camera, time): random cameras in the world's box at random times, and two in three
+    2.5 units from a random moving object at that time, looking at it."""
     animated = part.animated
     rng = np.random.default_rng(seed)
     cams = kit.random_cameras(part.static, count, seed)
@@ -48,12 +48,12 @@ def frames(kit, part, count, seed):
     out = []
     for i, cam in enumerate(cams):
         t = float(rng.uniform(0, 10))
-        if i % 2:
+        if i % 3:
             box = animated.bounds_at(t)[1][rng.integers(len(animated.motion))]
             centre = box.mean(axis=0)
             yaw = rng.uniform(0, 360)
             forward = np.array([-np.sin(np.radians(yaw)), 0.0, -np.cos(np.radians(yaw))])
-            eye = np.clip(centre - 3.0 * forward, low, high)
+            eye = np.clip(centre - 2.5 * forward, low, high)
             cam = Camera(eye, yaw=yaw, pitch=0.0, aspect=kit.ASPECT)
         out.append((cam, t))
     return out

@@ -119,6 +119,8 @@ class Culler:
             self.moving = MovingObjects(self.animated,
                                         {stage.name: stage for stage in self.stages}, arithmetic)
             self._doors = attach_doors(self.stages, self.animated.animated)
+            if self._doors is not None:  # their matrices every frame (pose computes them)
+                self.moving.always = np.asarray(self._doors[1], dtype=np.int64)
             ids = self.animated.animated.static_ids
             self._static_prefix = not len(ids) or int(ids[-1]) == len(ids) - 1  # ids 0..S-1
 

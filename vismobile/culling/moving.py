@@ -1,10 +1,14 @@
 """Culling of the moving objects of an AnimatedPartition (partition/dynamic.py), after the static
 stages have culled the static triangles of the same frame.
 
-Per frame at time t: the moving objects' matrices (motion.py), their boxes at t (the rest box's
-corners moved, animated.moved_boxes), the BVH refitted (rebuilt when degraded), then per stage:
-- frustum (`vfc`, `vfc_thesis`, `portals`, `pvs`, `occlusion`): BVH walk, object boxes against
-  the frame's conservative planes (kernels._box_planes, tol toward keeping);
+Per frame at time t: the BVH holds each object's temporal bounding volume (world/swept.py: a box
+holding it over the interval around t in which its channels stay within one key segment); only
+the objects whose interval ended are swept anew, and then the BVH is refitted (rebuilt when its
+SAH cost degraded). The frustum walk over the swept boxes gives the candidates; only they are
+posed (matrices, exact boxes: animated.moved_boxes). Then per stage:
+- frustum (`vfc`, `vfc_thesis`, `portals`, `pvs`, `occlusion`): BVH walk over the swept boxes,
+  then each candidate's exact box at t, against the frame's conservative planes
+  (kernels._box_planes, tol toward keeping);
 - `portals`: an object is kept when its box overlaps a cell the stage found visible this frame
   (grown by the tree's slack), or overlaps no cell at all; every object in the frustum is kept
   in a frame where the stage fell back to the frustum. A sight line into a cell the flood did
@@ -19,8 +23,9 @@ corners moved, animated.moved_boxes), the BVH refitted (rebuilt when degraded), 
 - `tbfc`: each triangle at t, the exact test with tbfc's bound (facing.not_backfacing);
 - `cbfc`, `cbfc_thesis`, `cone`, `horizon`, `occlusion_thesis`: moving objects are not culled
   by them (conservative: their tables hold rest-pose normals and boxes).
-Cost: O(moving objects) for matrices, boxes and refit, plus what is in the frustum; never the
-static world.
+Cost: a compare per moving object (is its interval over?), sweeping and refitting only when
+intervals end (once per key segment: W2's walkers every 60 frames), posing only the candidates;
+never the static world.
 """
 from __future__ import annotations
 
@@ -28,7 +33,9 @@ import numpy as np
 from numba import njit
 
 from ..partition.dynamic import DynamicBVH
-from ..world.animated import BOX_PAD, _moved_boxes, transform_rows
+from ..world.animated import BOX_PAD, _moved_rows, moved_boxes, transform_rows
+from ..world.motion import _matrices
+from ..world.swept import expired, swept_boxes
 from .facing import not_backfacing
 from .hiz import cull_nodes, hidden_triangles
 from .kernels import _box_planes
@@ -75,6 +82,47 @@ def bvh_frustum(lo, hi, first, start, count, order, n_nodes, boxes, planes, tol,
             out[found] = k
             found += 1
     return found, visited, tests
+
+
+@njit(cache=True, nogil=True)
+def frustum_pose(lo, hi, first, start, count, order, n_nodes, swept, planes, tol, out, stack,
+                 masks, t, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv, ss,
+                 pre, post, rest, pad, matrices, boxes):
+    """One frame's frustum decision for the moving objects, in one compiled call: the swept
+    boxes through the BVH (bvh_frustum), the candidates sorted, posed at time t (motion's
+    _matrices into matrices, their exact boxes into boxes: animated._moved_boxes' arithmetic)
+    and their exact boxes tested (boxes_in_frustum). out[:count] = the objects kept; returns
+    (count, BVH nodes visited, candidates, plane tests)."""
+    found, visited, tests = bvh_frustum(lo, hi, first, start, count, order, n_nodes, swept,
+                                        planes, tol, out, stack, masks)
+    candidates = np.sort(out[:found])
+    _matrices(t, candidates, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv,
+              ss, pre, post, matrices)
+    _moved_rows(rest, matrices, candidates, pad, boxes)
+    keep = np.empty(found, dtype=np.bool_)
+    tests += boxes_in_frustum(boxes, candidates, planes, tol, keep)
+    kept = 0
+    for i in range(found):
+        if keep[i]:
+            out[kept] = candidates[i]
+            kept += 1
+    return kept, visited, found, tests
+
+
+@njit(cache=True, nogil=True)
+def boxes_in_frustum(boxes, rows, planes, tol, keep):
+    """keep[i]: boxes[rows[i]] is not outside the planes (tol toward keeping); returns the
+    plane tests made."""
+    full = (np.int64(1) << len(planes)) - 1
+    tests = 0
+    for i in range(len(rows)):
+        k = rows[i]
+        outside, _, n = _box_planes(boxes[k, 0, 0], boxes[k, 0, 1], boxes[k, 0, 2],
+                                    boxes[k, 1, 0], boxes[k, 1, 1], boxes[k, 1, 2], planes, full,
+                                    tol)
+        keep[i] = not outside
+        tests += n
+    return tests
 
 
 @njit(cache=True, nogil=True)
@@ -180,36 +228,98 @@ class MovingObjects:
                       np.full(m, -1, np.int64), np.full(m, -1, np.int64),
                       np.full(m, -1, np.int64))
         self._frame = 0
-        self.boxes = a.rest_boxes.copy()
-        self.matrices = np.empty((m, 4, 4))
+        self.boxes = a.rest_boxes.copy()  # exact boxes at the frame's time (candidates' rows)
+        self.matrices = np.empty((m, 4, 4))  # exact matrices (candidates' and `always` rows)
+        self.swept = a.rest_boxes.copy()  # temporal bounding volumes (world/swept.py)
+        self.valid_from = np.full(m, np.inf)  # nothing valid yet: the first frame sweeps all
+        self.valid_until = np.full(m, -np.inf)
+        self._expired = np.empty(m, dtype=np.int64)
+        self.always = np.zeros(0, dtype=np.int64)  # rows whose matrices every pose computes
+        self.time, self.magnitude, self._rest = None, 0.0, False
+        self._all = np.arange(m, dtype=np.int64)
 
     def pose(self, time) -> float:
-        """The objects' matrices and boxes at time (None: rest), in place; returns the boxes'
-        largest |coordinate| (the Culler's planes are inflated for it)."""
-        self.animated.matrices(time, self.matrices)
-        self.magnitude = _moved_boxes(self.animated.rest_boxes, self.matrices, BOX_PAD,
-                                      self.boxes)
+        """Bring the swept boxes to `time` (None: the rest pose): the tracks whose interval
+        ended are swept anew and the BVH refitted (rebuilt when its SAH cost degraded), and the
+        `always` rows' matrices computed. Returns the largest |coordinate| of the swept boxes
+        (they hold every exact box: the Culler's planes are inflated for it)."""
+        a, motion = self.animated, self.animated.motion
+        self.time, self.expired, self.rebuilt = time, 0, False
+        if time is None:
+            if not self._rest:  # the rest boxes, exact: valid for no time
+                self.swept[:] = a.rest_boxes
+                self.valid_from.fill(np.inf)
+                self.valid_until.fill(-np.inf)
+                self.magnitude = float(np.abs(self.swept).max(initial=0.0))
+                self.rebuilt = self.bvh.update(self.swept)
+                self._rest = True
+            self.matrices[self.always] = np.eye(4)
+            return self.magnitude
+        t = float(time)
+        if not np.isfinite(t):
+            raise ValueError(f"time must be finite, got {time}")
+        self._rest = False
+        count = expired(t, self.valid_from, self.valid_until, self._expired)
+        if count:
+            c = motion.channels
+            swept_boxes(t, self._expired[:count], motion.loop, motion.duration, motion.step,
+                        *c["translation"], *c["rotation"], *c["scale"], motion.pre,
+                        motion.post, a.rest_boxes, self.swept, self.valid_from,
+                        self.valid_until)
+            self.magnitude = float(np.abs(self.swept).max(initial=0.0))
+            self.rebuilt = self.bvh.update(self.swept)
+            self.expired = count
+        if len(self.always):
+            motion.matrices(t, self.matrices, self.always)
         return self.magnitude
+
+    def _exact(self, rows) -> None:
+        """Matrices and exact boxes (animated.moved_boxes) of rows at the posed time."""
+        if self.time is None:
+            self.matrices[rows] = np.eye(4)
+        else:
+            self.animated.motion.matrices(self.time, self.matrices, rows)
+        self.boxes[rows] = moved_boxes(self.animated.rest_boxes[rows], self.matrices[rows])
+
+    def in_frustum(self, planes, tol) -> tuple:
+        """(objects (K,) int64 sorted whose exact box at the posed time is not outside the
+        planes (P, 4), BVH nodes visited, candidates, plane tests): the swept boxes through the
+        BVH, then the candidates posed (matrices, exact boxes) and tested. After pose()."""
+        b = self.bvh
+        if self.time is None:  # the rest pose: identity matrices, the rest boxes
+            found, visited, tests = bvh_frustum(b.lo, b.hi, b.first, b.start, b.count, b.order,
+                                                b.node_count, self.swept, planes, tol,
+                                                self._out, self._stack, self._masks)
+            candidates = np.sort(self._out[:found])
+            self._exact(candidates)
+            return candidates, visited, len(candidates), tests
+        motion, c = self.animated.motion, self.animated.motion.channels
+        kept, visited, found, tests = frustum_pose(
+            b.lo, b.hi, b.first, b.start, b.count, b.order, b.node_count, self.swept, planes,
+            tol, self._out, self._stack, self._masks, self.time, motion.loop, motion.duration,
+            motion.step, motion.simple, *c["translation"], *c["rotation"], motion.arc,
+            *c["scale"], motion.pre, motion.post, self.animated.rest_boxes, BOX_PAD,
+            self.matrices, self.boxes)
+        return self._out[:kept].copy(), visited, found, tests
 
     def cull(self, state, static) -> np.ndarray:
         """(S,) int64 sorted: static (the static half's world ids, sorted) with the moving
         objects' ids to draw; after pose(time) and the static stages of the same frame."""
         static = np.ascontiguousarray(static, dtype=np.int64)
-        a, matrices, boxes = self.animated, self.matrices, self.boxes
-        rebuilt = self.bvh.update(boxes)
-        state.count("moving.objects", len(boxes))
-        state.count("moving.rebuilds", int(rebuilt))
+        a = self.animated
+        state.count("moving.objects", len(a.motion))
+        state.count("moving.rebuilds", int(self.rebuilt))
+        state.count("moving.swept", self.expired)
         if self.frustum:
-            b = self.bvh
-            found, visited, tests = bvh_frustum(b.lo, b.hi, b.first, b.start, b.count, b.order,
-                                                b.node_count, boxes, np.ascontiguousarray(
-                                                    state.planes), self._tol(state, boxes),
-                                                self._out, self._stack, self._masks)
-            objects = np.sort(self._out[:found])
+            objects, visited, candidates, tests = self.in_frustum(
+                np.ascontiguousarray(state.planes), self._tol(state))
             state.count("moving.nodes_visited", visited)
+            state.count("moving.candidates", candidates)
             state.count("plane_tests", tests)
         else:
-            objects = np.arange(len(boxes), dtype=np.int64)
+            objects = self._all
+            self._exact(objects)
+        boxes, matrices = self.boxes, self.matrices
         if not len(objects):
             state.count("moving.objects_sent", 0)
             state.count("moving.triangles_sent", 0)
@@ -253,8 +363,8 @@ class MovingObjects:
     def _scale(self, state, boxes=None) -> float:
         return max(self.magnitude, *map(abs, state.camera.position))
 
-    def _tol(self, state, boxes) -> float:
-        return float(state.tree.tol) * max(1.0, self._scale(state, boxes)
+    def _tol(self, state) -> float:
+        return float(state.tree.tol) * max(1.0, self._scale(state)
                                            / max(state.tree.scale, 1e-300))
 
     def _cells(self, name, state, boxes, objects) -> np.ndarray:

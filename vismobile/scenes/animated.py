@@ -28,15 +28,18 @@ def instance_model(kind: str) -> tuple:
 
 
 def animated_instances(world: World, count: int, seed: int = 0, models=MODELS, keys: int = 4,
-                       period: float = 2.0, height: float | None = None) -> AnimatedWorld:
+                       period: float = 2.0, height: float | None = None,
+                       stride: float | None = None) -> AnimatedWorld:
     """world plus `count` moving instances (objects named "<model>_moving_<i>"): each stands
-    at a random place in the world's box, walks a looping path through `keys` random places
-    (one every `period` seconds, back to its start), turning about +y, its height `height`
-    (default 1/40 of the box's largest side). Deterministic in seed."""
+    at a random place in the world's box and walks a looping path through `keys` places, each
+    at most `stride` (default 3 heights) from the one before along each axis (one every
+    `period` seconds, back to its start), turning about +y; its height `height` (default 1/40
+    of the box's largest side). Deterministic in seed."""
     rng = np.random.default_rng(seed)
     low, high = world.extent
     size = float((high - low).max())
     height = size / 40.0 if height is None else float(height)
+    step = 3.0 * height if stride is None else float(stride)
     inner_low, inner_high = low + 0.05 * (high - low), high - 0.05 * (high - low)
     parts, tracks = [world], []
     base = len(world.object_names)
@@ -51,9 +54,10 @@ def animated_instances(world: World, count: int, seed: int = 0, models=MODELS, k
         ids.append(np.full(len(t), i, dtype=np.int32))
         names.append(f"{kind}_moving_{i}")
         offset += len(v)
-        places = rng.uniform(inner_low, inner_high, size=(keys, 3))
-        places[:, 1] = rng.uniform(low[1], max(low[1], high[1] - height), size=keys)
-        places[0] = start
+        steps = rng.uniform(-step, step, size=(keys, 3))
+        steps[0] = 0.0
+        places = np.clip(start + np.cumsum(steps, axis=0), inner_low,
+                         np.maximum(inner_low, inner_high - [0, height, 0]))
         times = np.arange(keys + 1) * period
         moves = np.vstack([places, places[:1]]) - start
         yaw = np.concatenate([[0.0], rng.uniform(-np.pi, np.pi, keys - 1), [0.0]])

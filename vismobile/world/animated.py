@@ -228,6 +228,24 @@ def _moved_boxes(boxes, matrices, pad, out):
     return most
 
 
+@njit(cache=True, nogil=True)
+def _moved_rows(boxes, matrices, rows, pad, out):
+    """out[k] = the moved box of boxes[k] under matrices[k] (moved_boxes' arithmetic) for k in
+    rows."""
+    for i in range(len(rows)):
+        k = rows[i]
+        m = matrices[k]
+        for r in range(3):
+            lo, hi, mag = m[r, 3], m[r, 3], abs(m[r, 3])
+            for c in range(3):
+                a, b = m[r, c] * boxes[k, 0, c], m[r, c] * boxes[k, 1, c]
+                lo += min(a, b)
+                hi += max(a, b)
+                mag += max(abs(a), abs(b))
+            out[k, 0, r] = lo - pad * mag
+            out[k, 1, r] = hi + pad * mag
+
+
 def moved_boxes(boxes, matrices) -> np.ndarray:
     """(M, 2, 3) float64 boxes (M, 2, 3) under affine matrices (M, 4, 4): the box of the moved
     corners (per row, the sum of each term's extremes), padded by BOX_PAD times the row's

@@ -147,6 +147,7 @@ class Motion:
                                        -1, WIDTH[name]), start)
 
         self.arc = _arcs(self.channels["rotation"][1])
+        self._all = np.arange(m, dtype=np.int64)
 
     def __len__(self) -> int:
         return len(self.object_ids)
@@ -178,16 +179,18 @@ class Motion:
             out[name] = result
         return out
 
-    def matrices(self, t: float, out=None) -> tuple:
+    def matrices(self, t: float, out=None, rows=None) -> tuple:
         """(object ids (M,) int64, matrices (M, 4, 4) float64) mapping each moving object's
         rest-pose coordinates to its pose at time t (module docstring); one compiled pass
-        (out: an (M, 4, 4) float64 array to fill, else a new one)."""
+        (out: an (M, 4, 4) float64 array to fill, else a new one; rows: (k,) int64 tracks, only
+        their matrices written)."""
         t = float(t)
         if not np.isfinite(t):
             raise ValueError(f"time must be finite, got {t}")
         out = np.empty((len(self), 4, 4)) if out is None else out
         c = self.channels
-        _matrices(t, self.loop, self.duration, self.step, self.simple, *c["translation"],
+        rows = self._all if rows is None else rows
+        _matrices(t, rows, self.loop, self.duration, self.step, self.simple, *c["translation"],
                   *c["rotation"], self.arc, *c["scale"], self.pre, self.post, out)
         return self.object_ids, out
 
@@ -314,14 +317,15 @@ def _segment(times, a, b, t, step):
 
 
 @njit(cache=True, nogil=True)
-def _matrices(t, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv, ss, pre,
-              post, out):
-    """out[k] = post[k] @ T R S @ pre[k] of track k at time t (looping tracks wrapped), as
+def _matrices(t, rows, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv, ss,
+              pre, post, out):
+    """out[k] = post[k] @ T R S @ pre[k] of track k in rows at time t (looping tracks wrapped), as
     _sample_track samples: every track in one pass, scalars only. arc (R, 3): per rotation key,
     the slerp to the next key's (angle, 1 / sin(angle), sign; angle 0: lerp), precomputed."""
     trs = np.empty((3, 4))
     mid = np.empty((3, 4))
-    for k in range(len(loop)):
+    for i in range(len(rows)):
+        k = rows[i]
         local = t
         if loop[k] and duration[k] > 0:
             local = t - np.floor(t / duration[k]) * duration[k]

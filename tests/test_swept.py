@@ -1,0 +1,63 @@
+"""world/swept.py: a track's temporal bounding volume holds its exact moved box at every time of
+its interval (random tracks: linear and step, looping or clamped, pivots, scales, pre/post
+matrices), and the interval is where its channels stay within one key segment."""
+import numpy as np
+
+from vismobile.world.animated import moved_boxes
+from vismobile.world.motion import Motion, Track
+from vismobile.world.swept import expired, swept_boxes
+
+
+def random_motion(rng, count=40):
+    tracks = []
+    for i in range(count):
+        channels = {}
+        for name, width in (("translation", 3), ("rotation", 4), ("scale", 3)):
+            if rng.random() < 0.8:
+                k = int(rng.integers(1, 5))
+                times = np.sort(rng.choice(np.arange(0.0, 8.0, 0.25), k, replace=False))
+                values = rng.normal(size=(k, width)) * (5 if name == "translation" else 1)
+                if name == "rotation" and rng.random() < 0.3:
+                    values[:] = values[0]  # a fixed turn: the exact branch
+                if name == "scale":
+                    values = rng.uniform(0.3, 2.0, (k, 3)) * rng.choice([-1, 1], 3)
+                channels[name] = (times, values)
+        pre = post = None
+        if rng.random() < 0.3:  # a glTF-like parent transform
+            post = np.eye(4)
+            post[:3, :3] = rng.normal(size=(3, 3))
+            post[:3, 3] = rng.normal(size=3)
+            pre = np.linalg.inv(post)
+        tracks.append(Track(i, interpolation="step" if rng.random() < 0.3 else "linear",
+                            loop=bool(rng.random() < 0.5), pivot=tuple(rng.normal(size=3)),
+                            pre=pre, post=post, **channels))
+    return Motion(tracks)
+
+
+def test_swept_boxes_hold_the_exact_box_over_their_interval():
+    rng = np.random.default_rng(7)
+    motion = random_motion(rng)
+    m = len(motion)
+    rest = np.sort(rng.normal(size=(m, 2, 3)), axis=1)
+    c = motion.channels
+    rows = np.arange(m)
+    for t in rng.uniform(-2, 20, 30):
+        out, start, until = np.empty((m, 2, 3)), np.empty(m), np.empty(m)
+        swept_boxes(t, rows, motion.loop, motion.duration, motion.step, *c["translation"],
+                    *c["rotation"], *c["scale"], motion.pre, motion.post, rest, out, start,
+                    until)
+        assert np.all(start <= t) and np.all(t < until)
+        for probe in np.linspace(0, 1, 9):  # times across each track's interval
+            lo = np.where(np.isfinite(start), start, t - 5.0)
+            hi = np.where(np.isfinite(until), until, t + 5.0)
+            times = lo + probe * (hi - lo) * (1 - 1e-9)
+            for k in range(m):
+                exact = moved_boxes(rest[k:k + 1], motion.matrices(times[k])[1][k:k + 1])[0]
+                assert np.all(exact[0] >= out[k, 0]) and np.all(exact[1] <= out[k, 1]), \
+                    (k, t, times[k], exact, out[k])
+
+
+def test_expired_lists_tracks_outside_their_interval():
+    out = np.empty(3, dtype=np.int64)
+    count = expired(1.0, np.array([0.0, 1.5, -np.inf]), np.array([1.0, 2.0, np.inf]), out)
+    assert list(out[:count]) == [0, 1]
