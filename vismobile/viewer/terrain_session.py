@@ -67,9 +67,10 @@ class TerrainSession(Session):
         return Camera((x, y, z), yaw, pitch, aspect=self.profile.aspect, **self.options)
 
     def set_view_size(self, width: int, height: int) -> None:
+        """The terrain's renderers are built for the profile's screen: it stays that size
+        (a desktop window shows it as it is)."""
         if self.profile.name == "desktop" and (width, height) != self.profile.resolution:
-            raise VisMobileError("a terrain view keeps its profile's screen; pass "
-                                 "--profile ipaq-hx2490b or nokia-n82")
+            self.message = "a terrain view keeps the profile's screen size"
 
     def press(self, action: str) -> None:
         terrain = self.terrain
