@@ -1,16 +1,20 @@
-"""`vismobile worlds build [--out DIR]`: generate the six thesis worlds and print their table."""
+"""`vismobile worlds build [--out DIR]`: generate the six thesis worlds and W7 (ours, with its
+motion file) and print their table."""
 from pathlib import Path
 
 
 def add_parser(sub):
-    parser = sub.add_parser("worlds", help="build the six thesis worlds (Table 5.2)")
+    parser = sub.add_parser("worlds", help="build the six thesis worlds (Table 5.2) and W7 "
+                                           "(ours: it moves)")
     actions = parser.add_subparsers(dest="action", required=True)
-    build = actions.add_parser("build", help="generate W1-W6 as OBJ files, deterministically")
+    build = actions.add_parser("build", help="generate W1-W7 as OBJ files (W7 also "
+                                             "w7.motion.json), deterministically")
     build.add_argument("-o", "--out", type=Path, default=None,
                        help="output directory (default: $VISMOBILE_WORLDS, worlds/ in a source "
                             "checkout, else ~/.cache/vismobile/worlds)")
     build.add_argument("--only", default=None,
-                       help="comma-separated subset of w1, w2, w3, w4, w5, w6 (default all)")
+                       help="comma-separated subset of w1, w2, w3, w4, w5, w6, w7 (default "
+                            "all)")
     return parser
 
 
