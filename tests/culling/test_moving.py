@@ -106,3 +106,24 @@ def test_static_cull_unchanged_and_time_ignored(kit):
     culler = Culler(part, "vfc,occlusion,tbfc")
     cam = kit.random_cameras(part, 1, seed=3)[0]
     assert np.array_equal(culler.cull(cam).triangles, culler.cull(cam, time=2.0).triangles)
+
+
+@pytest.mark.parametrize("kind", ["octree:2", "portal:1", "bsp", "grid", "kdtree"])
+def test_a_world_where_everything_moves(kit, tmp_path, kind):
+    """No static triangle left: the static half is one empty node, the moving objects culled."""
+    from vismobile.files.gltf_write import animated_glb
+    from vismobile.world.animated import AnimatedWorld
+
+    cube = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    animated_glb(tmp_path / "all.glb", [dict(name="a", vertices=cube, faces=faces),
+                                         dict(name="b", vertices=cube + [0, 0, -3], faces=faces)],
+                 [(0, "translation", [0, 1], [[0, 0, 0], [3, 0, 0]], "LINEAR"),
+                  (1, "rotation", [0, 1], [[0, 0, 0, 1], [0, 1, 0, 0]], "LINEAR")])
+    animated = AnimatedWorld.from_gltf(tmp_path / "all.glb")
+    culler = Culler(partition(animated, kind), "vfc,occlusion,tbfc")
+    for t in (0.0, 0.4, 0.9, 2.0):
+        cam = Camera((0.0, 0.5, 4.0), yaw=0.0, pitch=-5.0, aspect=kit.ASPECT)
+        truth = kit.visible_ids(animated.posed(t), cam, True)
+        assert len(truth) and not len(np.setdiff1d(truth, culler.cull(cam, time=t).triangles))

@@ -24,7 +24,8 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                pvs="conservative" (any kind) bakes the view cells' visible sets (pvs.py)
     progress : optional callable(done, total) for long builds
     An AnimatedWorld (world/animated.py) gives a dynamic.AnimatedPartition: its static
-    triangles partitioned as asked, its moving objects left to the Culler's dynamic BVH.
+    triangles partitioned as asked (none: a one-node octree), its moving objects left to the
+    Culler's dynamic BVH.
     Raises ValueError on an unknown kind or parameter, or a parameter out of range.
     """
     from . import bsp, grid, kdtree, octree, portal
@@ -33,8 +34,10 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     if hasattr(world, "static_world"):  # an AnimatedWorld: its static triangles partitioned
         from .dynamic import AnimatedPartition
 
-        return AnimatedPartition(world, partition(world.static_world(), kind, progress,
-                                                  **params))
+        static = world.static_world()
+        if not static.triangle_count:  # everything moves: an empty static half (one node)
+            return AnimatedPartition(world, partition(static, "octree", progress, depth=1))
+        return AnimatedPartition(world, partition(static, kind, progress, **params))
 
     if isinstance(kind, str) and ":" in kind:
         kind, given = parse_spec(kind)
