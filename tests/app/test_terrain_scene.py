@@ -78,12 +78,14 @@ def test_play_writes_triangles_and_error_per_frame(terrain, tmp_path):
 
     out = tmp_path / "run"
     code = main(["play", str(terrain), "--lod", "1", "--terrain-method", "roam", "--limit", "6",
-                 "--no-object-lod", "--quiet", "-o", str(out)])
+                 "--no-object-lod", "--measure-error", "--quiet", "-o", str(out)])
     assert code == 0
     rows = list(csv.DictReader(open(out / "frames.csv")))
     assert len(rows) == 6
     assert all(int(r["ground_triangles"]) > 0 for r in rows)
     assert all(0 < float(r["error_px"]) <= 1.0 for r in rows)
+    # the measured error at the samples stays within the bound (and so within tau)
+    assert all(0 < float(r["sample_error_px"]) <= float(r["error_px"]) + 1e-6 for r in rows)
     summary = json.loads((out / "summary.json").read_text())
     assert summary["method"] == "roam" and summary["tau"] == 1.0
 

@@ -11,7 +11,9 @@ frames.csv columns (one row per played frame):
   kept nodes, that the horizon stage hid;
 - page_misses, page_prefetched, page_bytes: for a .vmtiles terrain paged in by tiles, the
   tiles read at once this frame, those the loader thread read ahead since the last frame, and
-  the bytes held (records plus statistics; 0 for a .vmt); waypoint.
+  the bytes held (records plus statistics; 0 for a .vmt);
+- sample_error_px: with --measure-error, the exact largest screen error over the samples in
+  the frustum (untimed, O(N^2)), the measured counterpart of error_px; nan without; waypoint.
 summary.json: the run's settings and mean / median / p95 of each column. Numba's first-use
 compile is in no figure: the first played camera is run once, untimed, and the method's
 frame-to-frame state reset before the measured frames.
@@ -30,7 +32,7 @@ from ..stats import summarize
 
 COLUMNS = ("frame", "lod_ms", "cull_ms", "render_ms", "frame_ms", "ground_triangles",
            "object_triangles", "triangles_sent", "error_px", "error_world", "horizon_nodes",
-           "horizon_triangles", "page_misses", "page_prefetched", "page_bytes", "waypoint")
+           "horizon_triangles", "page_misses", "page_prefetched", "page_bytes", "sample_error_px", "waypoint")
 NUMERIC = COLUMNS[1:-1]
 
 
@@ -51,7 +53,7 @@ def terrain_camera_options(heightmap) -> dict:
 
 
 def play_terrain(scene, cameras, labels=None, out=None, frames_every=0, progress=False,
-                 played=None) -> dict:
+                 played=None, measure=False) -> dict:
     """Play cameras (a list) through a TerrainScene; write OUT/frames.csv, summary.json and
     every frames_every-th frame as a PNG (staged, summary.json last). Returns the summary."""
     from ..progress import Progress
@@ -72,7 +74,8 @@ def play_terrain(scene, cameras, labels=None, out=None, frames_every=0, progress
         f = scene.frame(camera)
         row = (f.lod_ms, f.cull_ms, f.render_ms, f.lod_ms + f.cull_ms + f.render_ms,
                f.ground_triangles, f.object_triangles, f.triangles, f.error_px, f.error_world,
-               f.nodes_hidden, f.triangles_hidden) + _paging(scene)
+               f.nodes_hidden, f.triangles_hidden) + _paging(scene) + \
+            ((scene.sample_error_px(camera) if measure else np.nan),)
         for name, value in zip(NUMERIC, row):
             table[name][index] = value
         if out is not None and frames_every and index % frames_every == 0:
@@ -87,6 +90,8 @@ def play_terrain(scene, cameras, labels=None, out=None, frames_every=0, progress
     for name in NUMERIC:
         summary[name] = summarize(table[name]) if count else None
     summary["error_px_max"] = float(table["error_px"].max()) if count else None
+    summary["sample_error_px_max"] = float(table["sample_error_px"].max()) \
+        if count and measure else None
     if out is not None:
         text = io.StringIO()
         text.write(",".join(COLUMNS) + "\n")
@@ -98,7 +103,7 @@ def play_terrain(scene, cameras, labels=None, out=None, frames_every=0, progress
                        f"{table['error_world'][i]:.6g},{int(table['horizon_nodes'][i])},"
                        f"{int(table['horizon_triangles'][i])},"
                        f"{int(table['page_misses'][i])},{int(table['page_prefetched'][i])},"
-                       f"{int(table['page_bytes'][i])},"
+                       f"{int(table['page_bytes'][i])},{table['sample_error_px'][i]:.4f},"
                        f"{labels.get(played[i], '')}\n")
         with staged_directory(out, marker="summary.json") as stage:
             for frame, data in saved.items():

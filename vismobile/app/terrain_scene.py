@@ -111,6 +111,12 @@ class TilesLod:
         """One glDrawElements per tile (its own vertex buffer, uint16 indices)."""
         return len(selection.level)
 
+    def drawn_heights(self, selection) -> np.ndarray:
+        """(N, N) drawn height at every sample (NaN where nothing is drawn)."""
+        from ..terrain.tiles import selection_heights
+
+        return selection_heights(self.pyramid, selection)
+
     def reset(self) -> None:
         """Forget frame-to-frame state (the arena's slots stay: they are only a cache)."""
 
@@ -162,6 +168,12 @@ class RoettgerLod:
         """One glCallList per visible chunk, plus one draw of the coarse leaves."""
         return len(frame.chunks) + (len(frame.coarse) > 0)
 
+    def drawn_heights(self, frame) -> np.ndarray:
+        from ..terrain.raster import triangle_heights
+
+        return triangle_heights(self.roettger.heightmap.heights.astype(np.float64),
+                                self.lists.sample_triangles(frame))
+
     def reset(self) -> None:
         """Forget the cached chunks (the next frame rebuilds every visible one)."""
         self.lists.cache = [None] * len(self.lists.cache)
@@ -212,6 +224,11 @@ class RoamLod:
     def calls(self, frame) -> int:
         """One glDrawElements per batch of 21,845 triangles (65,535 uint16 vertices)."""
         return -(-len(frame.triangles) // 21845)
+
+    def drawn_heights(self, frame) -> np.ndarray:
+        from ..terrain.raster import triangle_heights
+
+        return triangle_heights(self.roam.heights, frame.triangles)
 
     def reset(self) -> None:
         """Back to the two root triangles."""
@@ -378,6 +395,16 @@ class TerrainScene:
 
     def read_rgb(self) -> np.ndarray:
         return self.lod.renderer.read_rgb()
+
+    def sample_error_px(self, camera) -> float:
+        """The last frame's exact largest screen error (pixels) over the samples in the
+        frustum that the drawn ground covers (study.terrain.vertex_errors): the measured
+        counterpart of the frame's bound; O(N^2), not for timed frames."""
+        from ..study.terrain import vertex_errors
+
+        errors = vertex_errors(self.heightmap, self.lod.drawn_heights(self.last), camera,
+                               self.profile.resolution)
+        return float(errors.max()) if len(errors) else 0.0
 
 
 def default_cameras(heightmap, count=None, aspect=240 / 320):

@@ -63,6 +63,9 @@ def add_parser(sub):
     parser.add_argument("--motion", type=Path, default=None, metavar="FILE.json",
                         help=MOTION_HELP)
     parser.add_argument("--fps", type=float, default=None, help=FPS_HELP)
+    parser.add_argument("--measure-error", action="store_true",
+                        help="a .vmt terrain: also measure each frame's exact largest screen "
+                             "error at the samples (frames.csv sample_error_px; untimed)")
     parser.add_argument("--no-object-lod", action="store_true",
                         help="a .vmt terrain's objects at full detail (default: at their "
                              "coarsest LOD level within the same --lod pixels; chains built "
@@ -207,7 +210,8 @@ def run_terrain(args) -> int:
     else:
         cameras = [cameras[f] for f in played]
     labels = {int(f): label for label, f in waypoints.items()}
-    s = play_terrain(scene, cameras, labels, args.out, args.images, not args.quiet, played)
+    s = play_terrain(scene, cameras, labels, args.out, args.images, not args.quiet, played,
+                     measure=args.measure_error)
     if not s["frames"]:
         print(f"0 frames of {s['world']}")
         return 0
@@ -216,7 +220,9 @@ def run_terrain(args) -> int:
           f"{scene.structure}, cull {'+'.join(stages) or 'none'}): "
           f"{s['ground_triangles']['mean']:,.0f} ground and "
           f"{s['object_triangles']['mean']:,.0f} object triangles per frame on average; "
-          f"error bound at most {s['error_px_max']:.3f} px")
+          f"error bound at most {s['error_px_max']:.3f} px"
+          + (f", measured at most {s['sample_error_px_max']:.3f} px"
+             if s.get("sample_error_px_max") is not None else ""))
     print(f"  {s['frame_ms']['median']:8.2f} ms/frame median on this machine (LOD "
           f"{s['lod_ms']['median']:.2f}, cull {s['cull_ms']['median']:.2f}, render "
           f"{s['render_ms']['median']:.2f})")
