@@ -116,3 +116,37 @@ def test_terrain_build_pads_a_file_and_reads_its_nodata(tmp_path, capsys):
     assert np.allclose(hm.heights[:20, :30][hm.valid[:20, :30]], h[h > -9999], atol=1e-3)
     assert main(["terrain", "info", str(tmp_path / "dem.vmt")]) == 0
     assert "no data" in capsys.readouterr().out
+
+
+def test_roettger_counts_the_horizontal_error_too():
+    """Röttger's blocks add Table 4.1's horizontal error (block_horizontal): at tau 2 px its
+    cut stays within 2 px of its own full-resolution cut on the holed map's views."""
+    from vismobile.study.terrain import draw_four_eight
+    from vismobile.terrain.roettger import Roettger, block_horizontal
+
+    valid = np.ones((5, 5), bool)
+    valid[0, 2] = False  # the top side's midpoint of the one 4-cell block
+    assert block_horizontal(valid, 4, 1.0)[0, 0] == 2.0
+    base = sources.diamond_square(257, seed=9, roughness=0.5, relief=0.03)
+    h = base.heights.astype(np.float64)
+    i, j = np.mgrid[0:257, 0:257]
+    h[(i - 128) ** 2 + (j - 80) ** 2 < 30 ** 2] = np.nan
+    h[200:203, 20:240] = np.nan
+    holed = quantize(h, 1.0, "holed")
+    profile = get_profile("ipaq-hx2490b")
+    renderer = TerrainRenderer(holed, profile)
+    roettger = Roettger(holed)
+    clear = np.rint(np.array(CLEAR_RGB) * 255)
+    rng = np.random.default_rng(2)
+    for _ in range(6):
+        x, z = rng.uniform(20, 236, 2)
+        camera = Camera((x, float(holed.height_at(x, z)) + rng.uniform(20, 80), z),
+                        yaw=rng.uniform(0, 360), pitch=rng.uniform(-70, -20), fov=60,
+                        near=0.5, far=800, aspect=profile.aspect)
+        full_count = draw_four_eight(renderer, holed, camera)
+        full = np.abs(renderer.read_rgb() - clear).max(axis=-1) > 1
+        frame = roettger.update(camera, profile.resolution, 2.0)
+        renderer.draw_samples(frame.triangles, camera)
+        lod = np.abs(renderer.read_rgb() - clear).max(axis=-1) > 1
+        assert not (lod & ~dilate(full, 2)).any() and not (full & ~dilate(lod, 2)).any()
+        assert len(frame.triangles) < 0.5 * full_count

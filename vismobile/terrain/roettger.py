@@ -87,6 +87,29 @@ def fan_errors(heights, s):
     return out
 
 
+def block_horizontal(valid, s: int, spacing: float) -> np.ndarray:
+    """(m, m) float64 seed 002's horizontal error (tiles.horizontal_error's Table 4.1) of each
+    block of s cells: over its fan's edges A-C-B, the four sides (corner, midpoint, corner) and
+    the two diagonals through the centre; hsize = s / 2 spacings (diagonals sqrt(2) times)."""
+    h = s // 2
+    hsize = h * spacing
+
+    def value(a, c, b, scale):
+        return np.where(a != b, 0.5 * scale, np.where(a != c, scale, 0.0))
+
+    v = valid
+    corner = v[::s, ::s]
+    top = value(corner[:-1, :-1], v[0:-1:s, h::s], corner[:-1, 1:], hsize)
+    bottom = value(corner[1:, :-1], v[s::s, h::s], corner[1:, 1:], hsize)
+    left = value(corner[:-1, :-1], v[h::s, 0:-1:s], corner[1:, :-1], hsize)
+    right = value(corner[:-1, 1:], v[h::s, s::s], corner[1:, 1:], hsize)
+    centre = v[h::s, h::s]
+    diagonal = np.sqrt(2.0) * hsize
+    one = value(corner[:-1, :-1], centre, corner[1:, 1:], diagonal)
+    two = value(corner[:-1, 1:], centre, corner[1:, :-1], diagonal)
+    return np.maximum.reduce([top, bottom, left, right, one, two])
+
+
 def roughness(heightmap: Heightmap, C: float) -> tuple:
     """(d2, hmin, hmax, centre heights, levels): flat float64 per block, d2 K-propagated.
 
@@ -112,6 +135,8 @@ def roughness(heightmap: Heightmap, C: float) -> tuple:
         m = 1 << level
         centre = h[half::s, half::s]
         exact = fan_errors(h, s)
+        if heightmap.valid is not None:  # seed 002's holes: E = length(E_h, E_v)
+            exact = np.hypot(exact, block_horizontal(heightmap.valid, s, heightmap.spacing))
         if nested is not None:
             exact = np.maximum(exact, nested.reshape(m, 2, m, 2).max(axis=(1, 3)))
         nested = exact
