@@ -150,3 +150,43 @@ def test_roettger_counts_the_horizontal_error_too():
         lod = np.abs(renderer.read_rgb() - clear).max(axis=-1) > 1
         assert not (lod & ~dilate(full, 2)).any() and not (full & ~dilate(lod, 2)).any()
         assert len(frame.triangles) < 0.5 * full_count
+
+
+def test_roam_counts_the_horizontal_error_too():
+    """ROAM's wedgies add Table 4.1's horizontal error (bintree.horizontal_wedgies, nested by
+    maximum), as length(e_h, e_v): at tau 2 px its cut stays within 2 px of its own
+    full-resolution cut (measured: 1 px with e_h, up to 8 px without)."""
+    from vismobile.study.terrain import draw_four_eight
+    from vismobile.terrain.bintree import horizontal_wedgies
+    from vismobile.terrain.roam import Roam
+
+    valid = np.ones((3, 3), bool)
+    valid[0, 1] = False  # an edge diamond's vertex between two valid corners
+    e = horizontal_wedgies(valid, 1, 1.0).reshape(3, 3)
+    # (0, 1): its corners (0, 0), (0, 2) valid, itself not: hsize = 1; the centre's own
+    # diagonal is all valid, but it nests its child (0, 1)
+    assert e[0, 1] == 1.0 and e[1, 1] == 1.0 and e[1, 0] == 0.0
+    base = sources.diamond_square(257, seed=9, roughness=0.5, relief=0.03)
+    h = base.heights.astype(np.float64)
+    i, j = np.mgrid[0:257, 0:257]
+    h[(i - 128) ** 2 + (j - 80) ** 2 < 30 ** 2] = np.nan
+    h[200:203, 20:240] = np.nan
+    holed = quantize(h, 1.0, "holed")
+    profile = get_profile("ipaq-hx2490b")
+    renderer = TerrainRenderer(holed, profile)
+    roam = Roam(holed)
+    clear = np.rint(np.array(CLEAR_RGB) * 255)
+    rng = np.random.default_rng(2)
+    for _ in range(6):
+        x, z = rng.uniform(20, 236, 2)
+        camera = Camera((x, float(holed.height_at(x, z)) + rng.uniform(20, 80), z),
+                        yaw=rng.uniform(0, 360), pitch=rng.uniform(-70, -20), fov=60,
+                        near=0.5, far=800, aspect=profile.aspect)
+        full_count = draw_four_eight(renderer, holed, camera)
+        full = np.abs(renderer.read_rgb() - clear).max(axis=-1) > 1
+        roam.reset()
+        frame = roam.update(camera, profile.resolution, 2.0)
+        renderer.draw_samples(frame.triangles, camera)
+        lod = np.abs(renderer.read_rgb() - clear).max(axis=-1) > 1
+        assert not (lod & ~dilate(full, 2)).any() and not (full & ~dilate(lod, 2)).any()
+        assert len(frame.triangles) < 0.2 * full_count

@@ -82,6 +82,44 @@ def wedgies(heights, n):
 
 
 @njit(cache=True)
+def horizontal_wedgies(valid, n, spacing):
+    """(N*N,) float64 seed 002's horizontal error per split vertex v on maps with no data
+    (Rodrigues's Table 4.1 over the diamond's hypotenuse A-v-B: hsize = |Av| when A and B
+    agree and v differs, hsize / 2 when A and B differ), nested as a maximum over its
+    children, like the tiles' (tiles.horizontal_error)."""
+    N = valid.shape[0]
+    error = np.zeros(N * N)
+    g = np.empty((4, 2), np.int64)
+    for s in range(n):
+        h = 1 << s
+        for square in range(2):
+            for r in range(0, N, h):
+                for c in range(0, N, h):
+                    a, b = _low(r), _low(c)
+                    if min(a, b) != h or (a == b) != (square == 1):
+                        continue
+                    hh, sq = _geometry(r, c, n, g)
+                    va, vb = valid[g[2, 0], g[2, 1]], valid[g[3, 0], g[3, 1]]
+                    half = np.sqrt(float((r - g[2, 0]) ** 2 + (c - g[2, 1]) ** 2)) * spacing
+                    local = 0.0
+                    if va != vb:
+                        local = 0.5 * half
+                    elif va != valid[r, c]:
+                        local = half
+                    worst = local
+                    if sq or hh > 1:
+                        for k in range(2):
+                            if g[k, 0] < 0:
+                                continue
+                            for e in range(2, 4):
+                                mr = (g[k, 0] + g[e, 0]) // 2
+                                mc = (g[k, 1] + g[e, 1]) // 2
+                                worst = max(worst, error[mr * N + mc])
+                    error[r * N + c] = worst
+    return error
+
+
+@njit(cache=True)
 def wedgie_ranges(heights, error, n):
     """(lo, hi) (N*N,) float32 height range of each diamond's wedgies: its corners' heights
     -+ e(v), rounded outward."""

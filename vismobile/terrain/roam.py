@@ -62,7 +62,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bintree import _geometry, wedgie_ranges, wedgies
+from .bintree import _geometry, horizontal_wedgies, wedgie_ranges, wedgies
 from .heightmap import Heightmap
 from .roam_emit import BlockEmitter
 from .roam_frame import _emit, _frame, _rewake
@@ -130,6 +130,9 @@ class Roam:
         self.heights = heightmap.heights.astype(np.float64)
         start = time.perf_counter()
         error = wedgies(self.heights, self.n)
+        if heightmap.valid is not None:  # seed 002's holes: e = length(e_h, e_v), nested
+            error = np.hypot(error, horizontal_wedgies(heightmap.valid, self.n,
+                                                       heightmap.spacing))
         lo, hi = wedgie_ranges(self.heights, error, self.n)
         # Per diamond, one 16-byte row read by the per-frame priorities: the wedgie box's
         # height range and e (float32 rounded up), so a priority costs one cache line.
