@@ -90,7 +90,7 @@ def sampled(name, world, part, traj, picks, counts):
               f"pixels ({100 * missed_px / max(pixels, 1):.3f}%)", flush=True)
 
 
-def run(name, frames, randoms, counts=(), only_sampled=False):
+def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1):
     world = build_world(name)
     part = partition(world, "portal", depth=2)
     if only_sampled:
@@ -98,7 +98,7 @@ def run(name, frames, randoms, counts=(), only_sampled=False):
                                                         else "indoor.csv"))
         picks = np.linspace(0, len(traj) - 1, frames).astype(int)
         return sampled(name, world, part, traj, picks, counts)
-    extras, stats = bake(part)
+    extras, stats = bake(part, jobs=jobs)
     with tempfile.TemporaryDirectory() as tmp:
         save_partition(part, Path(tmp) / "a.vmp")
         before = os.path.getsize(Path(tmp) / "a.vmp")
@@ -164,10 +164,11 @@ def main():
     parser.add_argument("--random", type=int, default=2000)
     parser.add_argument("--sampled", default="", help="sample counts, e.g. 4,16,64")
     parser.add_argument("--only-sampled", action="store_true")
+    parser.add_argument("--jobs", type=int, default=1, help="bake processes")
     args = parser.parse_args()
     counts = [int(n) for n in args.sampled.split(",") if n]
     for name in args.worlds.split(","):
-        run(name.strip(), args.frames, args.random, counts, args.only_sampled)
+        run(name.strip(), args.frames, args.random, counts, args.only_sampled, args.jobs)
 
 
 if __name__ == "__main__":

@@ -158,6 +158,24 @@ def test_vmp_keeps_the_pvs_and_refuses_a_corrupt_one(zigzag, tmp_path):
         check_pvs({**x, "pvs_runs": runs}, zigzag.world.triangle_count)
 
 
+def test_back_faces_go_back_in_without_a_backface_stage(zigzag):
+    # the bake left out what faces away from a whole cell (partition/pvs_back.py); pvs,vfc
+    # (no back-face stage) takes them back, pvs,vfc,tbfc does not need them
+    from vismobile.partition.pvs import check_pvs
+
+    assert zigzag.extras["pvs_back"][0] >= 0.5
+    cam = Camera((2.0, 1.5, 2.0), yaw=-90.0, aspect=4 / 3)
+    plain = Culler(zigzag, "pvs,vfc")
+    culled = Culler(zigzag, "pvs,vfc,tbfc")
+    assert not plain.stages[0].back_culled and culled.stages[0].back_culled
+    found, span = plain.stages[0].lookup(cam)
+    every, _, _ = plain.stages[0].visible(found, drop_back=False)
+    front, _, _ = plain.stages[0].visible(found, drop_back=True)
+    assert front.sum() < every.sum() and not np.any(front & ~every)
+    with pytest.raises(ValueError, match="pvs_back"):
+        check_pvs({**zigzag.extras, "pvs_back": np.array([-1.0])}, zigzag.world.triangle_count)
+
+
 def test_bad_pvs_mode(zigzag):
     with pytest.raises(ValueError, match="pvs mode"):
         partition(zigzag.world, "portal", depth=1, pvs="sometimes")

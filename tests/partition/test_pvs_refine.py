@@ -75,3 +75,20 @@ def test_unshared_edges_and_their_crack_portals(literal):
     assert len(pairs) >= 1 and set(map(tuple, pairs)) == {(0, 1)}
     lo, hi = quads.min(axis=(0, 1)), quads.max(axis=(0, 1))
     assert np.allclose(lo[0], 1.0) and np.allclose(hi[0], 1.0)  # on the shared face
+
+
+def test_region_backfacing_holds_for_every_eye_in_the_box():
+    # whatever it calls back-facing from the box, tbfc's device-rounded test calls back-facing
+    # from random eyes inside it (culling/triangle_backface.py), and it finds some
+    from vismobile.culling.triangle_backface import certainly_backfacing, triangle_cross
+    from vismobile.partition.pvs_back import region_backfacing
+
+    rng = np.random.default_rng(5)
+    corners = rng.uniform(-10, 10, (400, 3, 3))
+    lo, hi = np.array([-1.0, -2.0, 0.5]), np.array([1.5, 0.0, 2.0])
+    delta = 2.0 ** -16
+    back = region_backfacing(corners, lo, hi, delta)
+    assert 0 < back.sum() < len(back)
+    cross, abs_cross, la, lb = triangle_cross(corners[back])
+    for eye in lo + rng.uniform(0, 1, (64, 3)) * (hi - lo):
+        assert certainly_backfacing(cross, abs_cross, la, lb, corners[back, 0], eye, delta).all()

@@ -111,6 +111,9 @@ class Culler:
                                  f"of map_partition") from None
         self._fuse()
         self._cover()
+        for stage in self.stages:  # pvs leaves out back faces only when they are culled
+            if stage.name == "pvs":
+                stage.back_culled = bool(set(self.names) & set(BACKFACE_STAGES))
         self.moving = None
         self._doors = None  # (portals stage, door rows in the motion) of an animated world
         if self.animated is not None:

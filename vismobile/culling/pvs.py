@@ -14,17 +14,25 @@ on everything, counted in `pvs.fallbacks`) when the partition holds no PVS, the 
 view cell, its near plane is within the device's move, or the device's reach exceeds the
 bake's growth.
 
+The bake leaves out what faces away from a whole cell grown by pvs_back (partition/pvs_back.py):
+with a back-face stage in the combination (the Culler sets back_culled) and the eye within
+pvs_back of every cell taken, the sets are handed on as stored; otherwise the triangles facing
+away from each cell grown by pvs_back go back in (computed when the cells' union is decoded).
+
 Contract: with pvs=sampled:N (render/pvs_sampled.py) aggressive, it misses what no sample
 point saw. With pvs=conservative: conservative against the item buffer without back-face
-culling, for eyes it does not fall back on, as partition/pvs.py bakes it (the portals' contract; with back faces culled the
-portals' known limit applies: a one-sided wall lying in a cell face, seen from behind).
+culling, for eyes it does not fall back on, as partition/pvs.py bakes it (the portals'
+contract); with back faces culled, against the back-face-culled item buffer with the portals'
+known limit (a one-sided wall lying in a cell face, seen from behind: an eye on or inside a
+hollow wall or slab sees through the backs of its faces).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..geometry.boxes import boxes_contain_point
-from ..partition.pvs import ids_of
+from ..partition.pvs import back_delta, ids_of
+from ..partition.pvs_back import region_backfacing
 from .precision import device_move, world_scale
 from .state import CullState
 from .tree import Tree
@@ -54,6 +62,10 @@ class PVSStage:
         # a sampled PVS (render/pvs_sampled.py) is aggressive: no growth to check against
         self.sampled = str(tree.partition.params.get("pvs", "")).startswith("sampled")
         self.magnitude = world_scale(tree.world.vertices)
+        # the sets leave out what faces away from a whole cell grown by pvs_back (the bake's
+        # from-region back-face test): without back-face culling those go back in
+        self.back = float(np.asarray(extras["pvs_back"])[0]) if "pvs_back" in extras else None
+        self.back_culled = False  # set by the Culler: a back-face stage is in the combination
 
     def reach(self, camera) -> float:
         """2 sqrt(3) device_move at the world's and the eye's magnitude (portals.device_reach)."""
@@ -65,19 +77,25 @@ class PVSStage:
         (a superset of the cells within grow of the eye: boxes grown, not rounded)."""
         return np.flatnonzero(boxes_contain_point(self.cells, camera.eye, self.tree.tol + grow))
 
-    def visible(self, cells) -> tuple:
+    def visible(self, cells, drop_back=True) -> tuple:
         """(keep (T,) bool, draw nodes (D,) int64, everything: bool) of the union of the
-        cells' sets, cached."""
-        key = tuple(int(c) for c in cells)
+        cells' sets, cached; with drop_back False (and a pvs_back) the triangles facing away
+        from each cell grown by pvs_back go back in (partition/pvs_back.py)."""
+        add_back = self.back is not None and not drop_back
+        key = tuple(int(c) for c in cells) + ((-1,) if add_back else ())
         hit = self.cache.get(key)
         if hit is not None:
             return hit
         tree = self.tree
         keep = np.zeros(tree.world.triangle_count, dtype=bool)
         self.decoded = 0  # run pairs decoded (the device model prices a cache miss by them)
-        for c in key:
+        for c in cells:
             keep[ids_of(self.runs[self.start[c]:self.start[c + 1]])] = True
             self.decoded += int(self.start[c + 1] - self.start[c]) // 2
+            if add_back:
+                lo, hi = self.cells[c]
+                keep |= region_backfacing(tree.world.corners, lo - self.back, hi + self.back,
+                                          back_delta(tree.world))
         nodes = cover_nodes(tree, keep)
         if len(self.cache) >= KEEP:
             self.cache.pop(next(iter(self.cache)))
@@ -91,7 +109,9 @@ class PVSStage:
             state.count(f"{self.name}.fallbacks", 1)
             return
         self.decoded = 0
-        keep, nodes, everything = self.visible(found)
+        found, span = found
+        drop_back = self.back_culled and self.back is not None and span <= self.back
+        keep, nodes, everything = self.visible(found, drop_back)
         state.count(f"{self.name}.cells", len(found))
         # what a device pays (device/costmodel.py): every view cell's box tested, the runs
         # decoded when the cells' union was not cached, each gathered triangle looked up
@@ -118,7 +138,7 @@ class PVSStage:
         ty = np.tan(np.radians(camera.fov) / 2.0)
         reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
         found = self.eye_cells(camera, grow + reach)
-        return found if len(found) else None
+        return (found, self.tree.tol + grow + reach) if len(found) else None
 
 
 def cover_nodes(tree: Tree, keep) -> np.ndarray:

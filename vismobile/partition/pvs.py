@@ -10,6 +10,9 @@ conservative). The result is stored with the partition as extras, so it travels 
     pvs_start  (V + 1,)  int64    offsets into pvs_runs, two per run
     pvs_runs   (R,)      int32    per cell, ascending [first, end) pairs of triangle ids
     pvs_grow   (1,)      float64  how far eyes and portals were grown (device rounding)
+    pvs_back   (1,)      float64  a set may leave out what faces away from the whole cell
+                                  grown by this much (pvs_back.py; done where it stores
+                                  fewer runs; optional: older files hold every triangle)
 
 A sight line starts where the near plane cuts it, within the near plane's reach of the eye,
 perhaps beyond a wall next to it: the runtime stage takes the union of the sets of every cell
@@ -19,9 +22,16 @@ portals close its inside): each cell's set holds every triangle of the closed ou
 
 Contract (conservative): for every eye in a view cell grown by pvs_grow, every triangle the
 item buffer without back-face culling shows along a line starting in that cell is in the
-cell's set, provided the portals cover every opening (portal.py). Errs toward visible:
-separating planes only remove lines that cannot exist, sides within the tolerance count, and a
-source whose walk exceeds the budget keeps every connected cell.
+cell's set, or faces away from every eye in the cell grown by pvs_back (pvs_back.py's bound;
+the stage puts those back unless back faces are culled), provided the portals cover every
+opening (portal.py). Errs toward visible: separating planes only remove lines that cannot
+exist, a triangle facing out of the cell it is marked from is left to the cells in front of
+it when every source point is in front of it (pvs_kernels._behind_cell), sides within the
+tolerance count, and a source whose walk exceeds the budget keeps every connected cell.
+Known limit (tools/pvs_slack.py, docs/partition.md): the item buffer sees through the
+rasteriser's cracks along edges two triangles do not share by both corners, which no portal
+models; the hollow walls' open insides keep the sets large (tools/bench_pvs.py measures the
+drops on the paths and on random in-cell cameras).
 """
 from __future__ import annotations
 
@@ -30,6 +40,7 @@ import time
 import numpy as np
 
 from . import pvs_kernels
+from .pvs_back import region_backfacing
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
 
 MODES = ("conservative",)
@@ -37,6 +48,25 @@ EXECUTOR_CHUNKS = 32  # source-cell chunks handed to a given executor (a progres
 BUDGET = 200_000  # cell walks per source cell before it keeps every connected cell
 GROW_RELATIVE, GROW_ABSOLUTE = 2.0 ** -20, 2.0 ** -16  # a device move (culling/precision.py)
 TOLERANCE = 1e-9  # relative to the world's size: plane sides within it count as on it
+# The from-region back-face test holds for eyes this far outside a cell (a share of the world's
+# size, at least BACK_MIN): the stage drops back faces only for cameras whose near plane's
+# reach fits (culling/pvs.py), and only when the combination culls back faces.
+BACK_RELATIVE, BACK_MIN = 0.002, 0.5
+# culling/precision.py's device move, doubled (2^-20 x the magnitude, plus 2^-16)
+DEVICE_RELATIVE, DEVICE_ABSOLUTE = 2.0 ** -19, 2.0 ** -15
+
+
+def back_delta(world) -> float:
+    """The device move the back-face test covers (twice precision.device_move's, at twice the
+    world's magnitude)."""
+    vertices = np.asarray(world.vertices)
+    scale = float(max(-vertices.min(), vertices.max())) if vertices.size else 0.0
+    return DEVICE_RELATIVE * 2.0 * scale + DEVICE_ABSOLUTE
+
+
+def back_reach(world) -> float:
+    """How far outside its cell an eye may be for the cell's back-face test (BACK_RELATIVE)."""
+    return max(BACK_MIN, BACK_RELATIVE * float(np.ptp(world.extent, axis=0).max()))
 
 
 def bake_grow(world) -> float:
@@ -187,12 +217,23 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         from .pvs_leaves import leaf_sets
 
         boxes, masks = leaf_sets(partition, boxes, masks, tol)
-    runs = [runs_of(m) for m in masks]
+    reach = back_reach(world)
+    delta = back_delta(world)
+    corners = world.corners
+    runs = []
+    for c, mask in enumerate(masks):  # the from-region back-face test (pvs_back.py)
+        ids = np.flatnonzero(mask)
+        lo, hi = boxes[c]
+        front = mask.copy()
+        front[ids[region_backfacing(corners[ids], lo - reach, hi + reach, delta)]] = False
+        whole, kept = runs_of(mask), runs_of(front)
+        runs.append(kept if len(kept) <= len(whole) else whole)  # only where it stores less
     start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
     extras = {"pvs_cells": np.asarray(boxes, dtype=np.float64).copy(),
               "pvs_start": start,
               "pvs_runs": (np.concatenate(runs) if runs else np.zeros(0)).astype(np.int32),
-              "pvs_grow": np.array([grow], dtype=np.float64)}
+              "pvs_grow": np.array([grow], dtype=np.float64),
+              "pvs_back": np.array([reach], dtype=np.float64)}
     stats = {"seconds": time.perf_counter() - began, "cells": len(boxes),
              "overflowed": int(sum(s < 0 for _, s in results)),
              "walks": int(sum(max(s, 0) for _, s in results))}

@@ -13,6 +13,10 @@ def check_pvs(x, triangles) -> None:
     if len(present) != len(names):
         raise ValueError(f"pvs extras missing: {', '.join(n for n in names if n not in x)}")
     cells, start, runs, grow = (np.asarray(x[n]) for n in names)
+    if "pvs_back" in x:
+        back = np.asarray(x["pvs_back"])
+        if back.shape != (1,) or not np.isfinite(back).all() or back[0] < 0:
+            raise ValueError("pvs_back must be one finite non-negative value")
     if cells.ndim != 3 or cells.shape[1:] != (2, 3) or not np.isfinite(cells).all() \
             or np.any(cells[:, 0] > cells[:, 1]):
         raise ValueError("pvs_cells must be (V, 2, 3) finite boxes")

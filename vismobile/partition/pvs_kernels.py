@@ -142,9 +142,37 @@ def clip_polygon(poly, n, planes, np_, tol, scratch):
 
 
 @njit(cache=True)
-def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, tol, visible):
-    """Mark the cell's triangles not wholly on the negative side of one of the planes; True
-    when every triangle of the cell is marked now."""
+def _behind_cell(t, corners, lo, hi, src, tol):
+    """True when triangle t's plane has the cell box [lo, hi] on its back side (within tol) and
+    every source point strictly in front (beyond tol): a line from the source can then reach t
+    from inside the cell only through t's front half-space (it crosses the plane once), never
+    from the cell's side, so another cell on the line, in front of t, marks it if anything."""
+    v0, v1, v2 = corners[t, 0], corners[t, 1], corners[t, 2]
+    a0, a1, a2 = v1[0] - v0[0], v1[1] - v0[1], v1[2] - v0[2]
+    b0, b1, b2 = v2[0] - v0[0], v2[1] - v0[1], v2[2] - v0[2]
+    n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    length = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if length == 0.0:
+        return False
+    n0, n1, n2 = n0 / length, n1 / length, n2 / length
+    d = -(n0 * v0[0] + n1 * v0[1] + n2 * v0[2])
+    # the cell's farthest corner toward the normal
+    top = d + (n0 * (hi[0] if n0 > 0 else lo[0]) + n1 * (hi[1] if n1 > 0 else lo[1])
+               + n2 * (hi[2] if n2 > 0 else lo[2]))
+    if top > tol:
+        return False
+    for i in range(len(src)):
+        if n0 * src[i, 0] + n1 * src[i, 1] + n2 * src[i, 2] + d <= tol:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, tol, visible,
+          lo, hi, src):
+    """Mark the cell's triangles not wholly on the negative side of one of the planes, nor
+    facing out of the cell with every source point in front of them (_behind_cell); True when
+    every triangle of the cell is marked now."""
     every = True
     for r in range(cell_ref_start[cell], cell_ref_end[cell]):
         t = tri_refs[r]
@@ -158,6 +186,8 @@ def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, to
             if best < -tol:
                 seen = False
                 break
+        if seen and _behind_cell(t, corners, lo, hi, src, tol):
+            seen = False
         if seen:
             visible[t] = True
         else:
@@ -257,7 +287,8 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             count = separators(src, 8, True, entry, ne, planes, 0, ne == 8)
             if not done[cell]:  # a cell wholly marked needs no more marking
                 done[cell] = _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners,
-                                   planes, count, tol, visible)
+                                   planes, count, tol, visible, cell_bounds[cell, 0],
+                                   cell_bounds[cell, 1], src)
             cell_seen[cell] = True
         for q in range(cell_portal_start[cell], cell_portal_start[cell + 1]):
             p = cell_portals[q]
