@@ -53,6 +53,9 @@ def run_terrain(args, script) -> int:
     session = TerrainSession.open_terrain(args.world, args.terrain_method, args.lod, stages,
                                           args.structure, args.profile, args.trajectory,
                                           record_path=args.record_to)
+    from ..render.context import release_current
+
+    release_current()  # the scene built its buffers in the headless context: free the thread
     frames = run_window(session, args.scale, script, args.screenshot)
     if script is None:
         print(f"{frames} frames; {session.message or 'bye'}")
