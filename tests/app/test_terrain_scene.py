@@ -145,3 +145,28 @@ def test_the_same_knob_draws_the_objects_at_their_level_of_detail(tmp_path):
         assert plain.frame(camera).object_triangles >= sent[tau]
     assert 0 < sent[8.0] < sent[0.5]
     assert list((tmp_path / "cache" / "lod").glob("*.npz"))
+
+
+def test_a_terrain_with_holes_plays_with_every_method_and_hides_nothing(tmp_path):
+    """No-data samples (seed 002's holes) through play: each method draws them cut (the hole's
+    centre shows the clear colour) and the horizon hides nothing over such a terrain."""
+    from vismobile.render.shaders import CLEAR_RGB
+    from vismobile.terrain.heightmap import quantize
+
+    base = sources.diamond_square(129, seed=4, roughness=0.5, relief=0.1)
+    h = base.heights.astype(np.float64)
+    i, j = np.mgrid[0:129, 0:129]
+    h[(i - 64) ** 2 + (j - 64) ** 2 < 20 ** 2] = np.nan
+    hm = quantize(h, 1.0, "lake")
+    path = tmp_path / "lake.vmt"
+    store.save(path, hm, place_objects(hm, 20, seed=1, height=4.0))
+    top = float(np.nanmax(h))
+    camera = Camera((64.0, top + 60.0, 64.0), yaw=0, pitch=-89.9, fov=30, aspect=240 / 320,
+                    near=0.5, far=400)
+    clear = np.rint(np.array(CLEAR_RGB) * 255)
+    for method in METHODS:
+        scene = TerrainScene(path, method, 1.0, ("vfc", "horizon"), "octree:3")
+        f = scene.frame(camera)
+        assert f.ground_triangles > 0 and f.nodes_hidden == f.triangles_hidden == 0
+        image = scene.read_rgb()
+        assert np.abs(image[160, 120] - clear).max() <= 1, method  # the lake's centre
