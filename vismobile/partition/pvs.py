@@ -40,7 +40,7 @@ import time
 import numpy as np
 
 from . import pvs_kernels
-from .pvs_back import region_backfacing
+from .pvs_back import region_backfacing, triangle_terms
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
 
 MODES = ("conservative",)
@@ -219,13 +219,13 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         boxes, masks = leaf_sets(partition, boxes, masks, tol)
     reach = back_reach(world)
     delta = back_delta(world)
-    corners = world.corners
+    terms = triangle_terms(world.corners)
     runs = []
     for c, mask in enumerate(masks):  # the from-region back-face test (pvs_back.py)
         ids = np.flatnonzero(mask)
         lo, hi = boxes[c]
         front = mask.copy()
-        front[ids[region_backfacing(corners[ids], lo - reach, hi + reach, delta)]] = False
+        front[ids[region_backfacing(None, lo - reach, hi + reach, delta, terms, ids)]] = False
         whole, kept = runs_of(mask), runs_of(front)
         runs.append(kept if len(kept) <= len(whole) else whole)  # only where it stores less
     start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)

@@ -17,29 +17,40 @@ import numpy as np
 GAMMA_8 = 8 * 2.0 ** -53 / (1 - 8 * 2.0 ** -53)
 
 
-def region_backfacing(corners, lo, hi, delta) -> np.ndarray:
-    """(T,) bool: triangles certainly back-facing from every eye in the box [lo, hi].
-
-    corners : (T, 3, 3) float64 triangle corners
-    lo, hi  : (3,) the box (already grown by the eyes' reach)
-    delta   : per-coordinate device move of corners and eyes
-    """
+def triangle_terms(corners) -> tuple:
+    """Per triangle, once per world: (v0, cross c, c_abs (the cross product of absolute values),
+    |v1 - v0|, |v2 - v0|) for region_backfacing. corners : (T, 3, 3) float64."""
     corners = np.asarray(corners, dtype=np.float64).reshape(-1, 3, 3)
     v0 = corners[:, 0]
     a = corners[:, 1] - v0
     b = corners[:, 2] - v0
     c = np.cross(a, b)
     c_abs = np.abs(a[:, [1, 2, 0]] * b[:, [2, 0, 1]]) + np.abs(a[:, [2, 0, 1]] * b[:, [1, 2, 0]])
-    la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
-    back = np.ones(len(corners), dtype=bool)
+    return v0, c, c_abs, np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+
+
+def region_backfacing(corners, lo, hi, delta, terms=None, ids=None) -> np.ndarray:
+    """(T,) bool: triangles certainly back-facing from every eye in the box [lo, hi].
+
+    corners : (T, 3, 3) float64 triangle corners (unused when terms are given)
+    lo, hi  : (3,) the box (already grown by the eyes' reach)
+    delta   : per-coordinate device move of corners and eyes
+    terms   : optional triangle_terms of every triangle, with ids (S,) the ones to test
+              (returns (S,) bool)
+    """
+    v0, c, c_abs, la, lb = triangle_terms(corners) if terms is None else terms
+    if ids is not None:
+        v0, c, c_abs, la, lb = v0[ids], c[ids], c_abs[ids], la[ids], lb[ids]
+    back = np.ones(len(v0), dtype=bool)
     root3 = np.sqrt(3.0)
+    fixed = 2 * la * lb
     for k in range(8):
         e = np.where([k & 1, k & 2, k & 4], hi, lo).astype(np.float64)
         w = v0 - e
-        lw = np.linalg.norm(w, axis=1)
-        det = -(c * w).sum(axis=1)  # c . (e - v0)
-        bound = (root3 * delta * (2 * lw * (la + lb) + 2 * la * lb)
+        lw = np.sqrt(np.einsum("ij,ij->i", w, w))
+        det = -np.einsum("ij,ij->i", c, w)  # c . (e - v0)
+        bound = (root3 * delta * (2 * lw * (la + lb) + fixed)
                  + 36 * delta ** 2 * (lw + la + lb) + 48 * delta ** 3
-                 + GAMMA_8 * (c_abs * np.abs(w)).sum(axis=1))
+                 + GAMMA_8 * np.einsum("ij,ij->i", c_abs, np.abs(w)))
         back &= det < -2.0 * bound
     return back

@@ -172,7 +172,7 @@ def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, to
           lo, hi, src):
     """Mark the cell's triangles not wholly on the negative side of one of the planes, nor
     facing out of the cell with every source point in front of them (_behind_cell); True when
-    every triangle of the cell is marked now."""
+    every triangle of the cell is marked now or left to other cells (so for every crossing)."""
     every = True
     for r in range(cell_ref_start[cell], cell_ref_end[cell]):
         t = tri_refs[r]
@@ -186,12 +186,11 @@ def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, to
             if best < -tol:
                 seen = False
                 break
-        if seen and _behind_cell(t, corners, lo, hi, src, tol):
-            seen = False
-        if seen:
-            visible[t] = True
-        else:
+        if not seen:
             every = False
+        elif not _behind_cell(t, corners, lo, hi, src, tol):
+            visible[t] = True
+        # else: left to the cells in front for this source, whatever the crossing
     return every
 
 
