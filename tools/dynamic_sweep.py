@@ -6,7 +6,7 @@ of the frame's pose; optionally in the device's float32 and fixed16.16 vertex fo
 three buffers of render/device_view.py).
 
     .venv/bin/python tools/dynamic_sweep.py [--instances 1000] [--frames 12]
-        [--modes float64,float32,fixed16.16] [--seed 3]
+        [--modes float64,float32,fixed16.16] [--structures octree,portal] [--seed 3]
 
 Prints one markdown row per structure and mode: frames, culls, visible triangles (moving ones
 among them), dropped triangles (must be 0).
@@ -106,6 +106,7 @@ def main(argv=None) -> int:
     parser.add_argument("--frames", type=int, default=12)
     parser.add_argument("--modes", default="float64,float32,fixed16.16")
     parser.add_argument("--seed", type=int, default=3)
+    parser.add_argument("--structures", default="octree,portal")
     args = parser.parse_args(argv)
     all_combos, options = combos()
     animated = animated_instances(build_world("w2"), args.instances, seed=args.seed)
@@ -115,7 +116,8 @@ def main(argv=None) -> int:
     print("| structure | mode | frames | culls | visible (moving) | dropped |")
     print("| --- | --- | ---: | ---: | ---: | ---: |")
     failed = 0
-    for kind, params in STRUCTURES.items():
+    for kind in args.structures.split(","):
+        params = STRUCTURES[kind]
         part = partition(animated, kind, **params)
         for mode in args.modes.split(","):
             row = sweep(part, shots, mode, all_combos, options)
