@@ -49,9 +49,9 @@ def test_top_level_help_and_unknown_world(capsys):
     help_text = build_parser().format_help()
     assert "first steps:" in help_text and "vismobile play w2" in help_text
     assert "Command-line entry point" not in help_text
-    assert main(["info", "w7"]) == 2
+    assert main(["info", "w9"]) == 2
     err = capsys.readouterr().err
-    assert "w7: unknown world" in err and "unsupported mesh format" not in err
+    assert "w9: unknown world" in err and "unsupported mesh format" not in err
 
 
 def test_hostile_cull_lists_end_in_one_clean_error():
