@@ -20,8 +20,9 @@ _BOX_FACES = np.array([[q[0], q[1], q[2]] for q in _FACE_QUADS]
 
 
 def box_mesh(boxes) -> tuple[np.ndarray, np.ndarray]:
-    """(8B, 3) float64 vertices and (12B, 3) int64 outward-facing triangles of (B, 2, 3) boxes:
-    box b owns vertices 8b..8b+7 and triangles 12b..12b+11."""
+    """(8B, 3) float64 vertices and (12B, 3) int64 triangles of (B, 2, 3) boxes: box b owns
+    vertices 8b..8b+7 and triangles 12b..12b+11. Wound inward (signed volume -V; reverse the
+    index columns for outward faces, as scenes.crowd does)."""
     vertices = box_corners(boxes).reshape(-1, 3)
     triangles = (_BOX_FACES[None] + 8 * np.arange(len(vertices) // 8)[:, None, None])
     return vertices, triangles.reshape(-1, 3)
