@@ -53,7 +53,7 @@ def test_paged_frames_match_the_in_memory_method_within_the_budget(tiled):
 def test_a_malformed_tiled_terrain_is_refused(tiled, tmp_path):
     _, _, path = tiled
     data = path.read_bytes()
-    for name, bad in (("magic.vmtiles", b"XXXX" + data[4:]),
+    for name, bad in (("magic.vmtiles", bytes(b ^ 0xFF for b in data[:4]) + data[4:]),
                       ("short.vmtiles", data[:len(data) - 10]),
                       ("stats.vmtiles", data[:200] + bytes([data[200] ^ 1]) + data[201:])):
         (tmp_path / name).write_bytes(bad)
