@@ -236,33 +236,18 @@ def trs_matrices(translation, rotation, scale) -> np.ndarray:
 
 @njit(cache=True, nogil=True, inline="always")
 def _sample_track(times, values, a, b, t, step, quaternion, neutral, out):
-    """out (width,) = the channel keys values[a:b] at times[a:b] sampled at t: binary search,
-    then hold (step), lerp or slerp (quaternion, shortest arc, normalised)."""
+    """out (width,) = the channel keys values[a:b] at times[a:b] sampled at t: _segment's
+    binary search, then hold (step), lerp or slerp (quaternion, shortest arc, normalised)."""
     width = values.shape[1]
     if a == b:
         for j in range(width):
             out[j] = neutral[j]
         return
-    if t <= times[a]:
-        for j in range(width):
-            out[j] = values[a, j]
-        return
-    if t >= times[b - 1]:
-        for j in range(width):
-            out[j] = values[b - 1, j]
-        return
-    lo, hi = a, b - 1  # times[lo] < t < times[hi]
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if times[mid] <= t:
-            lo = mid
-        else:
-            hi = mid
-    if step:
+    lo, hi, u = _segment(times, a, b, t, step)
+    if lo == hi:  # held: before the first key, past the last, or a step
         for j in range(width):
             out[j] = values[lo, j]
         return
-    u = (t - times[lo]) / (times[hi] - times[lo])
     if not quaternion:
         for j in range(width):
             out[j] = values[lo, j] + u * (values[hi, j] - values[lo, j])
