@@ -118,30 +118,9 @@ class TileArena:
         commands[:, 1] = 1
         commands[:, 2] = self.first[selection.sides]
         commands[:, 3] = slots * self.per_tile
-        data = commands.tobytes()
-        if self.indirect is None or self.indirect.size < len(data):
-            if self.indirect is not None:
-                self.indirect.release()
-            self.indirect = ctx.buffer(reserve=max(len(data), 20 * 1024))
-        if data:
-            self.indirect.write(data)
+        _write_commands(self, ctx, commands, 1)
         upload_ms = (time.perf_counter() - start) * 1000.0
-        target.use()
-        ctx.viewport = (0, 0, *self.profile.resolution)
-        target.clear(*CLEAR_RGB, 1.0, depth=1.0)
-        ctx.depth_func = "<"
-        ctx.front_face = "ccw"
-        ctx.enable_only(ctx.DEPTH_TEST)
-        prog = program(shaded_kind(self.heightmap), "float32")
-        if self.vao is None:
-            self.vao = ctx.vertex_array(
-                prog, [(self.vbo, "3f 3f 4f1", "in_position", "in_normal", "in_color")],
-                index_buffer=self.ibo, index_element_size=2)
-        prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
-        _set_lights(prog)
-        if len(slots):
-            self.vao.render_indirect(self.indirect, count=len(slots))
-        ctx.finish()
+        _draw_indirect(self, ctx, target, camera, len(slots))
         return DrawStats((time.perf_counter() - start) * 1000.0, 1, int(selection.triangles),
                          upload_ms)
 
@@ -291,30 +270,9 @@ class BlockArena:
             self.vao = None
         if indices:
             self.ibo.write(indices)
-        data = commands.tobytes()
-        if self.indirect is None or self.indirect.size < len(data):
-            if self.indirect is not None:
-                self.indirect.release()
-            self.indirect = ctx.buffer(reserve=max(2 * len(data), 20 * 1024))
-        if data:
-            self.indirect.write(data)
+        _write_commands(self, ctx, commands, 2)
         upload_ms = (time.perf_counter() - start) * 1000.0
-        target.use()
-        ctx.viewport = (0, 0, *self.profile.resolution)
-        target.clear(*CLEAR_RGB, 1.0, depth=1.0)
-        ctx.depth_func = "<"
-        ctx.front_face = "ccw"
-        ctx.enable_only(ctx.DEPTH_TEST)
-        prog = program(shaded_kind(self.heightmap), "float32")
-        if self.vao is None:
-            self.vao = ctx.vertex_array(
-                prog, [(self.vbo, "3f 3f 4f1", "in_position", "in_normal", "in_color")],
-                index_buffer=self.ibo, index_element_size=2)
-        prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
-        _set_lights(prog)
-        if len(blocks):
-            self.vao.render_indirect(self.indirect, count=len(blocks))
-        ctx.finish()
+        _draw_indirect(self, ctx, target, camera, len(blocks))
         ms = (time.perf_counter() - start) * 1000.0
         self.spilled = len(spill)
         calls = 1
@@ -326,3 +284,36 @@ class BlockArena:
 
     def read_rgb(self) -> np.ndarray:
         return self.fallback.read_rgb()
+
+
+def _write_commands(arena, ctx, commands, grow: int) -> None:
+    """Upload (N, 5) uint32 indirect draw commands to arena.indirect, reallocated (grow x the
+    size, at least 20 KB) when they no longer fit."""
+    data = commands.tobytes()
+    if arena.indirect is None or arena.indirect.size < len(data):
+        if arena.indirect is not None:
+            arena.indirect.release()
+        arena.indirect = ctx.buffer(reserve=max(grow * len(data), 20 * 1024))
+    if data:
+        arena.indirect.write(data)
+
+
+def _draw_indirect(arena, ctx, target, camera, count: int) -> None:
+    """Clear target and draw the first count commands of arena.indirect from arena.vbo and
+    arena.ibo, shaded and depth-tested (the vertex array made once), then glFinish."""
+    target.use()
+    ctx.viewport = (0, 0, *arena.profile.resolution)
+    target.clear(*CLEAR_RGB, 1.0, depth=1.0)
+    ctx.depth_func = "<"
+    ctx.front_face = "ccw"
+    ctx.enable_only(ctx.DEPTH_TEST)
+    prog = program(shaded_kind(arena.heightmap), "float32")
+    if arena.vao is None:
+        arena.vao = ctx.vertex_array(
+            prog, [(arena.vbo, "3f 3f 4f1", "in_position", "in_normal", "in_color")],
+            index_buffer=arena.ibo, index_element_size=2)
+    prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
+    _set_lights(prog)
+    if count:
+        arena.vao.render_indirect(arena.indirect, count=count)
+    ctx.finish()
