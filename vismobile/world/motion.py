@@ -235,6 +235,20 @@ def trs_matrices(translation, rotation, scale) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True, inline="always")
+def rotation_scale(x, y, z, w, sx, sy, sz, m):
+    """m[:3, :3] = R(x, y, z, w) @ diag(sx, sy, sz), R the unit quaternion's rotation."""
+    m[0, 0] = (1 - 2 * (y * y + z * z)) * sx
+    m[0, 1] = 2 * (x * y - z * w) * sy
+    m[0, 2] = 2 * (x * z + y * w) * sz
+    m[1, 0] = 2 * (x * y + z * w) * sx
+    m[1, 1] = (1 - 2 * (x * x + z * z)) * sy
+    m[1, 2] = 2 * (y * z - x * w) * sz
+    m[2, 0] = 2 * (x * z - y * w) * sx
+    m[2, 1] = 2 * (y * z + x * w) * sy
+    m[2, 2] = (1 - 2 * (x * x + y * y)) * sz
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _sample_track(times, values, a, b, t, step, quaternion, neutral, out):
     """out (width,) = the channel keys values[a:b] at times[a:b] sampled at t: _segment's
     binary search, then hold (step), lerp or slerp (quaternion, shortest arc, normalised)."""
@@ -345,15 +359,7 @@ def _matrices(t, rows, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc
                 w = wa * rv[lo, 3] + wb * rv[hi, 3]
                 norm = np.sqrt(x * x + y * y + z * z + w * w)
                 x, y, z, w = x / norm, y / norm, z / norm, w / norm
-        trs[0, 0] = (1 - 2 * (y * y + z * z)) * sx
-        trs[0, 1] = 2 * (x * y - z * w) * sy
-        trs[0, 2] = 2 * (x * z + y * w) * sz
-        trs[1, 0] = 2 * (x * y + z * w) * sx
-        trs[1, 1] = (1 - 2 * (x * x + z * z)) * sy
-        trs[1, 2] = 2 * (y * z - x * w) * sz
-        trs[2, 0] = 2 * (x * z - y * w) * sx
-        trs[2, 1] = 2 * (y * z + x * w) * sy
-        trs[2, 2] = (1 - 2 * (x * x + y * y)) * sz
+        rotation_scale(x, y, z, w, sx, sy, sz, trs)
         trs[0, 3], trs[1, 3], trs[2, 3] = tx, ty, tz
         if simple[k]:  # pre, post pure translations: R S, then R S pre_t + t + post_t
             for r in range(3):

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .motion import rotation_scale
+
 SWEEP_PAD = 2.0 ** -30
 # Intervals are cut to windows of this many seconds (in each track's own time, staggered by a
 # per-track phase so that the sweeps spread over the frames), and translation is bounded over
@@ -112,15 +114,7 @@ def swept_boxes(t, rows, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, s
             sx = sy = sz = 1.0
             if s0 >= 0:
                 sx, sy, sz = sv[s0, 0], sv[s0, 1], sv[s0, 2]
-            m[0, 0] = (1 - 2 * (y * y + z * z)) * sx
-            m[0, 1] = 2 * (x * y - z * w) * sy
-            m[0, 2] = 2 * (x * z + y * w) * sz
-            m[1, 0] = 2 * (x * y + z * w) * sx
-            m[1, 1] = (1 - 2 * (x * x + z * z)) * sy
-            m[1, 2] = 2 * (y * z - x * w) * sz
-            m[2, 0] = 2 * (x * z - y * w) * sx
-            m[2, 1] = 2 * (y * z + x * w) * sy
-            m[2, 2] = (1 - 2 * (x * x + y * y)) * sz
+            rotation_scale(x, y, z, w, sx, sy, sz, m)
             for r in range(3):
                 lo = hi = 0.0
                 for c in range(3):
