@@ -83,9 +83,10 @@ def _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut):
 
 
 @njit(cache=True, nogil=True)
-def _mark_segment(ax, ay, bx, by, width, height, mask, bit):
+def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi):
     """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of,
-    a border pixel's square taken GUARD_PX wider off screen (errs toward more pixels)."""
+    a border pixel's square taken GUARD_PX wider off screen (errs toward more pixels), and
+    widens each marked row's span [row_lo, row_hi] (height,) int64 to hold the pixels marked."""
     steep = abs(by - ay) > abs(bx - ax)
     if steep:
         ax, ay, bx, by = ay, ax, by, bx
@@ -114,11 +115,16 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit):
         r1 = min(max(np.floor(y1), 0.0), minor - 1.0)
         if not r0 <= r1:
             continue
-        for r in range(int(r0), int(r1) + 1):
-            if steep:
+        if steep:  # row c, columns r0..r1
+            row_lo[c] = min(row_lo[c], int(r0))
+            row_hi[c] = max(row_hi[c], int(r1))
+            for r in range(int(r0), int(r1) + 1):
                 mask[c * width + r] |= bit
-            else:
+        else:  # column c, rows r0..r1
+            for r in range(int(r0), int(r1) + 1):
                 mask[r * width + c] |= bit
+                row_lo[r] = min(row_lo[r], c)
+                row_hi[r] = max(row_hi[r], c)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -173,6 +179,11 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     cn = np.empty(3)
     row_l = np.empty(height)  # per row: leftmost and rightmost crossing of the triangle
     row_r = np.empty(height)
+    # Per row: the columns this group marked (step 3 visits only them), reset as it goes.
+    span_lo = np.full(height, width, dtype=np.int64)
+    span_hi = np.full(height, -1, dtype=np.int64)
+    # Per triangle of ids: 1 when step 1 cut it at the near plane (step 2 marks the cut side).
+    was_cut = np.zeros(len(ids), dtype=np.uint8)
     sx, sy = 0.5 * width / tx, 0.5 * height / ty
     nearest = np.inf
     written = 0
@@ -192,6 +203,8 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
             if n == 0:
                 continue
             for c in range(n):
+                if cut[c]:
+                    was_cut[k] = 1
                 nearest = min(nearest, poly[c, 2])
                 xs[c] = poly[c, 0] / poly[c, 2] * sx + 0.5 * width
                 ys[c] = poly[c, 1] / poly[c, 2] * sy + 0.5 * height
@@ -230,11 +243,13 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 # Only centres are marked yet (mask is zero where each group starts): a fill.
                 base = rr * width
                 mask[base + int(c0):base + int(c1) + 1] = _CENTRE
+                span_lo[rr] = min(span_lo[rr], int(c0))
+                span_hi[rr] = max(span_hi[rr], int(c1))
         gx0 = int(max(np.floor(bx0) - 1.0, 0.0)) if bx0 < np.inf else width
         gx1 = int(min(np.floor(bx1) + 1.0, width - 1.0)) if bx1 > -np.inf else -1
         gy0 = int(max(np.floor(by0) - 1.0, 0.0)) if by0 < np.inf else height
         gy1 = int(min(np.floor(by1) + 1.0, height - 1.0)) if by1 > -np.inf else -1
-        if gx1 < gx0 or gy1 < gy0:
+        if gx1 < gx0 or gy1 < gy0:  # nothing marked (the box holds every mark)
             start = stop
             continue
         # 2. Pixels unpaired pieces, crease pieces or near-plane cuts pass near.
@@ -261,7 +276,10 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 _mark_segment(pa[0] / pa[2] * sx + 0.5 * width,
                               pa[1] / pa[2] * sy + 0.5 * height,
                               pb[0] / pb[2] * sx + 0.5 * width,
-                              pb[1] / pb[2] * sy + 0.5 * height, width, height, mask, bit)
+                              pb[1] / pb[2] * sy + 0.5 * height, width, height, mask, bit,
+                              span_lo, span_hi)
+            if not was_cut[k]:
+                continue  # no near-plane side to mark
             n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
             for c in range(n):
                 d = (c + 1) % n
@@ -270,7 +288,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                                   poly[c, 1] / clip * sy + 0.5 * height,
                                   poly[d, 0] / clip * sx + 0.5 * width,
                                   poly[d, 1] / clip * sy + 0.5 * height, width, height, mask,
-                                  _BOUNDARY)
+                                  _BOUNDARY, span_lo, span_hi)
         # 3. The group's plane, farthest over each pixel's corners: covered pixels take it,
         # crease pixels keep the largest over groups; scratch cleared.
         t = ids[start]
@@ -285,7 +303,9 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
             c0_ = (cn[2] - cn[0] * tx - cn[1] * ty) / dd
             low = min(a, 0.0) + min(b, 0.0)
         for rr in range(gy0, gy1 + 1):
-            for i in range(gx0, gx1 + 1):
+            i0, i1 = span_lo[rr], span_hi[rr]  # the row's marked columns (none: i0 > i1)
+            span_lo[rr], span_hi[rr] = width, -1
+            for i in range(i0, i1 + 1):
                 p = rr * width + i
                 m = mask[p]
                 if m == 0:
