@@ -38,14 +38,28 @@ def _to_camera(p, eye, rot, out):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _box_to_camera(lo, hi, node, eye, rot, corner, cam):
-    """Node's 8 box corners into cam (8, 3) in camera space; returns their nearest depth."""
+def _box_to_camera(lo, hi, node, eye, rot, cam):
+    """Node's 8 box corners into cam (8, 3) in camera space (corner k takes hi on axis a when
+    bit a of k is set); returns their nearest depth. Each row's products are formed once per
+    box side: the same products summed in the same order as _to_camera of each corner (bit for
+    bit), a quarter of the multiplications (the node walks' largest cost on W2)."""
+    xl, xh = lo[node, 0] - eye[0], hi[node, 0] - eye[0]
+    yl, yh = lo[node, 1] - eye[1], hi[node, 1] - eye[1]
+    zl, zh = lo[node, 2] - eye[2], hi[node, 2] - eye[2]
+    for r in range(3):
+        ax0, ax1 = rot[r, 0] * xl, rot[r, 0] * xh
+        ay0, ay1 = rot[r, 1] * yl, rot[r, 1] * yh
+        az0, az1 = rot[r, 2] * zl, rot[r, 2] * zh
+        cam[0, r] = ax0 + ay0 + az0
+        cam[1, r] = ax1 + ay0 + az0
+        cam[2, r] = ax0 + ay1 + az0
+        cam[3, r] = ax1 + ay1 + az0
+        cam[4, r] = ax0 + ay0 + az1
+        cam[5, r] = ax1 + ay0 + az1
+        cam[6, r] = ax0 + ay1 + az1
+        cam[7, r] = ax1 + ay1 + az1
     zmin = np.inf
     for k in range(8):
-        corner[0] = hi[node, 0] if k & 1 else lo[node, 0]
-        corner[1] = hi[node, 1] if k & 2 else lo[node, 1]
-        corner[2] = hi[node, 2] if k & 4 else lo[node, 2]
-        _to_camera(corner, eye, rot, cam[k])
         zmin = min(zmin, cam[k, 2])
     return zmin
 

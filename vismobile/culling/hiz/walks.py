@@ -69,7 +69,6 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
     returns (kept count, nodes visited, nodes culled)"""
     cols = (width + tw - 1) // tw
     cam = np.empty((8, 3))
-    corner = np.empty(3)
     r = np.empty(12)
     for k in range(len(roots)):
         draw_mark[roots[k]] = frame
@@ -99,7 +98,7 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
         if not nonempty[node]:
             continue
         visited += 1
-        zmin = _box_to_camera(lo, hi, node, eye, rot, corner, cam)
+        zmin = _box_to_camera(lo, hi, node, eye, rot, cam)
         n = child_count[node]
         if under and n == 0 and zmin <= nearest_far:
             out[count] = node  # nearer than every covered pixel's bound: cannot be hidden
@@ -141,7 +140,6 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
     returns (kept count, nodes visited, plane tests, outside the frustum, hidden, tested)"""
     cols = (width + tw - 1) // tw
     cam = np.empty((8, 3))
-    corner = np.empty(3)
     r = np.empty(12)
     planes_count = planes.shape[0]
     full = (np.int64(1) << planes_count) - 1
@@ -164,7 +162,7 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
         if outside:
             outside_count += 1
             continue
-        zmin = _box_to_camera(lo, hi, node, eye, rot, corner, cam)
+        zmin = _box_to_camera(lo, hi, node, eye, rot, cam)
         n = child_count[node]
         if n == 0 and zmin <= nearest_far:
             out[count] = node  # nearer than every covered pixel's bound: cannot be hidden
