@@ -2,14 +2,18 @@
 with moving objects.
 
     .venv/bin/python tools/bench_w7.py [--step 10] [--pvs] [--viewer 1000] [--skip-drops]
+                                       [--auto-cells] [--door-stages portals]
 
+Sections 1 and 3 partition W7 by portal:2 with walls=True (cells on both faces of every wall:
+a room per storey; --auto-cells: portal.py's automatic cells).
 1. dropped: every conservative combination (tests/culling/test_conservative.COMBOS) on every
    --step-th frame of trajectories/hybrid.csv at t = f / 30 s, doors on their schedule, against
    the item buffer of that frame's pose (back faces culled in it when a backface stage is on).
-2. doors: triangles `portals` sends (portal:2 over the static part, moving objects through
-   culling/moving.py) on every other frame, with every door shut and with the scheduled doors,
-   each against every door open; summed over the whole path, over the frames inside the
-   building, and over the frames 2 m from the shut door into room (2, 0) (frames 600-616).
+2. doors: triangles `portals` (or --door-stages) sends (portal:2 over the static part, moving
+   objects through culling/moving.py) on every other frame, with every door shut and with the
+   scheduled doors, each against every door open; summed over the whole path, over the frames
+   inside the building, over the street frames, and over the frames 2 m from the shut door
+   into room (2, 0) (frames 600-616); over both cell layouts (LAYOUTS).
 3. regional: RegionalCuller (portals+tbfc | vfc+occlusion+tbfc, with --pvs also
    pvs+vfc+tbfc over a conservative bake) against each fixed choice, every --step-th frame:
    triangles sent and iPaq-model ms summed (regional's probe culls added), and which choice
@@ -48,6 +52,8 @@ PATH = ROOT / "trajectories" / "hybrid.csv"
 FPS = 30.0
 INSIDE = (460, 888)  # frames between the walker's entrance crossings
 FACING = (600, 617)  # 2 m from the door into room (2, 0), facing it
+# the portal octree's cells: automatic (portal.py's default) or on both faces of every wall
+LAYOUTS = {"automatic": False, "wall": True}
 
 
 def combos():
@@ -88,23 +94,28 @@ def dropped(part, step: int) -> dict:
     return out
 
 
-def door_ratios(folder: Path) -> None:
+def door_ratios(folder: Path, stages: str = "portals") -> None:
     path = Trajectory.load(PATH)
     frames = np.arange(0, len(path), 2)
-    sent = {}
-    for doors in ("closed", "scheduled", "open"):
-        culler = Culler(partition(animated(doors, folder), "portal", depth=2), "portals")
-        sent[doors] = np.array([len(culler.cull(path.camera(f), time=f / FPS).triangles)
-                                for f in frames])
     inside = (frames >= INSIDE[0]) & (frames <= INSIDE[1])
     facing = (frames >= FACING[0]) & (frames <= FACING[1])
-    print(f"2. portals, triangles sent on {len(frames)} frames (every 2nd), against every door"
-          f" open ({sent['open'].sum():,} on the path):")
-    for doors in ("closed", "scheduled"):
-        ratio = [sent[doors][m].sum() / sent["open"][m].sum()
-                 for m in (np.ones(len(frames), bool), inside, facing)]
-        print(f"   doors {doors:9s} whole path {ratio[0]:.3f}x  inside {ratio[1]:.3f}x  "
-              f"facing the shut door {ratio[2]:.3f}x")
+    parts = {"whole path": np.ones(len(frames), bool), "inside": inside, "street": ~inside,
+             "facing the shut door": facing}
+    for layout, walls in LAYOUTS.items():
+        sent, fallbacks = {}, 0
+        for doors in ("closed", "scheduled", "open"):
+            part = partition(animated(doors, folder), "portal", depth=2, walls=walls)
+            culler = Culler(part, stages)
+            results = [culler.cull(path.camera(f), time=f / FPS) for f in frames]
+            sent[doors] = np.array([len(r.triangles) for r in results])
+            fallbacks += sum(r.stats.get("portals.fallbacks", 0) for r in results)
+        print(f"2. {stages} over {layout} cells ({len(part.extras['cell_node'])}), triangles "
+              f"sent on {len(frames)} frames (every 2nd), against every door open "
+              f"({sent['open'].sum():,} on the path; {fallbacks} fallbacks to vfc in 3 runs):")
+        for doors in ("closed", "scheduled"):
+            ratio = "  ".join(f"{name} {sent[doors][m].sum() / sent['open'][m].sum():.3f}x"
+                              for name, m in parts.items())
+            print(f"   doors {doors:9s} {ratio}")
 
 
 def regional(part, step: int, choices) -> None:
@@ -139,19 +150,24 @@ def main(argv=None) -> int:
     parser.add_argument("--pvs", action="store_true", help="regional may pick a baked PVS")
     parser.add_argument("--viewer", type=int, default=1000, help="street walkers (0: skip)")
     parser.add_argument("--skip-drops", action="store_true")
+    parser.add_argument("--auto-cells", action="store_true",
+                        help="drops and regional over the automatic portal cells (default: walls)")
+    parser.add_argument("--door-stages", default="portals",
+                        help="the stages whose sent triangles section 2 compares (portals)")
     args = parser.parse_args(argv)
     build_world("w7")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         scheduled = AnimatedWorld.from_motion_file(build_world("w7"), motion_path("w7"))
-        part = partition(scheduled, "portal", depth=2)
+        walls = not args.auto_cells
+        part = partition(scheduled, "portal", depth=2, walls=walls)
         if not args.skip_drops:
             dropped(part, args.step)
-        door_ratios(folder)
+        door_ratios(folder, args.door_stages)
         choices = ["portals+tbfc", "vfc+occlusion+tbfc"]
         if args.pvs:
             start = time.perf_counter()
-            part = partition(scheduled, "portal", depth=2, pvs="conservative")
+            part = partition(scheduled, "portal", depth=2, walls=walls, pvs="conservative")
             print(f"   (PVS bake {time.perf_counter() - start:.1f} s)")
             choices.append("pvs+vfc+tbfc")
         regional(part, args.step, choices)

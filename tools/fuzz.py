@@ -50,7 +50,7 @@ sys.path.insert(0, str(ROOT / "tools"))  # hostile.py: writers of the formats
 MODEL = ROOT.parent / "shared" / "models" / "suzanne.obj"
 TRAJECTORY = ROOT / "trajectories" / "indoor.csv"
 STRUCTURES = (("grid", {}), ("octree", {"depth": 3}), ("portal", {"depth": 1}),
-              ("portal", {"depth": 1, "pvs": "conservative"}),
+              ("portal", {"depth": 1, "pvs": "conservative"}), ("portal", {"depth": 1, "walls": True}),
               ("bsp", {"min_leaf": 16}), ("kdtree", {}))
 EXTREMES = (b"1e308", b"-1e308", b"nan", b"inf", b"-0", b"0", b"1e30", b"1e31", b"9" * 400,
             b"-1", b"2147483648", b"1" + b"0" * 40, b"0x10", b"1_0", b"\xa0", b"\xc2\xa0")
@@ -67,7 +67,8 @@ def seeds(folder: Path) -> dict:
     world = World.from_obj(MODEL)
     vmps = []
     for kind, params in STRUCTURES:
-        path = folder / f"seed-{kind}{'-pvs' if 'pvs' in params else ''}.vmp"
+        path = folder / f"seed-{kind}{'-pvs' if 'pvs' in params else ''}" \
+                        f"{'-walls' if 'walls' in params else ''}.vmp"
         save_partition(partition(world, kind, **params), path)
         vmps.append(path.read_bytes())
     # A partition carrying level-of-detail chains (extras lod_*, checked on load).
@@ -253,7 +254,8 @@ def load_trajectory(path):
 
 
 # The structure grammar's seeds: every kind, its parameters and the PVS bake.
-STRUCTURE_TEXTS = [b"grid:4", b"octree:3", b"portal:depth=1,pvs=conservative", b"bsp:min_leaf=16",
+STRUCTURE_TEXTS = [b"grid:4", b"octree:3", b"portal:depth=1,pvs=conservative", b"portal:1,walls=true",
+                   b"bsp:min_leaf=16",
                    b"kdtree:split=median,max_depth=6,min_leaf=4", b"kdtree:ratio=8,bins=16"]
 CUBE_OBJ = ("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
             "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 3 4 8\nf 3 8 7\n"

@@ -1,8 +1,11 @@
 """W7 (issue 25), doors shut and on their schedule: every conservative stage and combination
 (test_conservative.COMBOS) keeps every triangle the item buffer of the frame's pose shows, on
 sampled frames of W7's path (street, entrance, gallery, in front of shut doors, back out) and on
-random cameras inside the building at random times; portals with the doors shut in the device's
-float32 and fixed16.16 vertex formats; and a shut door removes what lies behind."""
+random cameras inside the building and on the streets around it at random times, over the default
+portal cells and over cells on both faces of every wall (`walls=True`: a room per storey, the
+streets' portals into the building its doors, windows and arches); portals with the doors shut
+in the device's float32 and fixed16.16 vertex formats; and a shut door removes what lies behind,
+seen from inside and from the street."""
 import importlib.util
 from pathlib import Path
 
@@ -27,17 +30,18 @@ FRAMES = (120, 400, 470, 530, 600, 660, 760, 870, 1000)  # street, door, gallery
 _CACHE = {}
 
 
-def animated_w7(thesis_world, tmp_path_factory, doors):
-    if doors not in _CACHE:
+def animated_w7(thesis_world, tmp_path_factory, doors, walls=False):
+    if (doors, walls) not in _CACHE:
         path = tmp_path_factory.mktemp("motion") / f"{doors}.json"
         write_motion("w7", path, doors=doors)
         world = AnimatedWorld.from_motion_file(thesis_world("w7"), path)
-        _CACHE[doors] = partition(world, "portal", depth=2)
-    return _CACHE[doors]
+        _CACHE[doors, walls] = partition(world, "portal", depth=2, walls=walls)
+    return _CACHE[doors, walls]
 
 
 def cameras(kit, seed):
-    """(camera, time): the path's FRAMES at f / 30 s, and random cameras in the building."""
+    """(camera, time): the path's FRAMES at f / 30 s, random cameras in the building, and
+    random cameras on the streets around it (within 12 m of its walls, up to 10 m high)."""
     path = Trajectory.load(ROOT / "trajectories" / "hybrid.csv")
     out = [(path.camera(f, kit.ASPECT), f / 30.0) for f in FRAMES]
     rng = np.random.default_rng(seed)
@@ -47,16 +51,26 @@ def cameras(kit, seed):
                rng.uniform(foot[0, 1], foot[1, 1])]
         out.append((Camera(eye, yaw=rng.uniform(0, 360), pitch=rng.uniform(-40, 40),
                            aspect=kit.ASPECT), rng.uniform(0, 40)))
+    for side in range(4):  # west, south, east, north of the building
+        high, column = side >= 2, side % 2  # column 0: x off the wall, 1: z off the wall
+        eye = np.array([rng.uniform(foot[0, 0], foot[1, 0]), rng.uniform(0.5, 10.0),
+                        rng.uniform(foot[0, 1], foot[1, 1])])
+        away = rng.uniform(1.0, 12.0)
+        eye[2 * column] = foot[1, column] + away if high else foot[0, column] - away
+        out.append((Camera(eye, yaw=rng.uniform(0, 360), pitch=rng.uniform(-30, 30),
+                           aspect=kit.ASPECT), rng.uniform(0, 40)))
     return out
 
 
-@pytest.mark.parametrize("doors", ["closed", "scheduled"])
-def test_no_stage_drops_a_visible_triangle_on_w7(kit, thesis_world, tmp_path_factory, doors):
-    part = animated_w7(thesis_world, tmp_path_factory, doors)
+@pytest.mark.parametrize("doors, walls", [("closed", False), ("closed", True),
+                                          ("scheduled", True)])
+def test_no_stage_drops_a_visible_triangle_on_w7(kit, thesis_world, tmp_path_factory, doors,
+                                                 walls):
+    part = animated_w7(thesis_world, tmp_path_factory, doors, walls)
     animated = part.animated
     cullers = {combo: Culler(part, combo, **OPTIONS.get(combo, {})) for combo in COMBOS}
     shut = 0
-    for i, (cam, t) in enumerate(cameras(kit, seed=7 if doors == "closed" else 8)):
+    for i, (cam, t) in enumerate(cameras(kit, seed=(7 if doors == "closed" else 8) + walls)):
         posed = animated.posed(t)
         truth = {}
         for combo, culler in cullers.items():
@@ -71,15 +85,31 @@ def test_no_stage_drops_a_visible_triangle_on_w7(kit, thesis_world, tmp_path_fac
     assert shut > 0  # the doors did block portals on these frames
 
 
-def test_a_shut_door_hides_the_room_behind_it(kit, thesis_world, tmp_path_factory):
+@pytest.mark.parametrize("walls", [False, True])
+def test_a_shut_door_hides_the_room_behind_it(kit, thesis_world, tmp_path_factory, walls):
     """Frame 608: the walker, 2 m away, faces the door into room (2, 0); shut, portals sends a fraction
     of what it sends with every door open."""
     path = Trajectory.load(ROOT / "trajectories" / "hybrid.csv")
     camera = path.camera(608, kit.ASPECT)
     sent = {}
     for doors in ("closed", "open"):
-        part = animated_w7(thesis_world, tmp_path_factory, doors)
+        part = animated_w7(thesis_world, tmp_path_factory, doors, walls)
         sent[doors] = len(Culler(part, "portals").cull(camera, time=20.0).triangles)
+    assert sent["closed"] < 0.5 * sent["open"]
+
+
+def test_from_the_street_a_shut_entrance_hides_the_rooms(kit, thesis_world, tmp_path_factory):
+    """Frame 420: on the street 7 m before the entrance, facing it. Over wall cells the street's
+    portals into the building are its openings: the portals run outdoors (no fallback), and
+    with the entrance shut they send under half of what they send with every door open."""
+    path = Trajectory.load(ROOT / "trajectories" / "hybrid.csv")
+    camera = path.camera(420, kit.ASPECT)
+    sent = {}
+    for doors in ("closed", "open"):
+        part = animated_w7(thesis_world, tmp_path_factory, doors, walls=True)
+        result = Culler(part, "portals").cull(camera, time=14.0)
+        assert "portals.fallbacks" not in result.stats
+        sent[doors] = len(result.triangles)
     assert sent["closed"] < 0.5 * sent["open"]
 
 

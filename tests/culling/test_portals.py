@@ -96,6 +96,26 @@ def test_w2_frame_692_sees_a_wall_through_an_open_slab(kit):
     assert not len(np.setdiff1d(shown, sent))
 
 
+def test_wall_cells_keep_the_storey_above_out_of_a_ground_floor_view(kit):
+    """From a ground-floor room, over automatic cells the open strips inside the hollow walls
+    and the slab join the room to the rooms above; over wall cells the strips lie in thin cells
+    of their own, and `portals` sends a fraction of the upper storey (drops nothing)."""
+    from vismobile.partition import partition
+
+    w1 = kit.world("w1")
+    upper = np.array([n.startswith("s1_") for n in w1.object_names])[w1.object_ids]
+    cam = Camera((4.0, 1.7, 12.5), yaw=-90.0, pitch=20.0, aspect=kit.ASPECT)
+    shown = kit.visible_ids(w1, cam, False)
+    sent = {}
+    for walls in (False, True):
+        part = partition(w1, "portal", depth=1, walls=walls)
+        result = Culler(part, "portals").cull(cam)
+        assert "portals.fallbacks" not in result.stats
+        assert not len(np.setdiff1d(shown, result.triangles))
+        sent[walls] = int(upper[result.triangles].sum())
+    assert sent[True] < 0.5 * sent[False]
+
+
 # Issue 17 on the device: W1 moved by 1e5 and drawn in float32 (a rounding step of 0.0078, the
 # device's moves up to 16 of them). Cameras near walls and portals with small near planes; the
 # device's own item buffer shows rooms behind the walls next to the eye. Before the portal

@@ -13,8 +13,9 @@ block hollow walls, slabs and closed objects (partition/portal.py). So the trave
 for an eye in free space: no triangle's box within the near plane's reach (the near plane
 clips nearer geometry, so the item buffer sees through it), and six axis rays from the eye
 (Moller-Trumbore against the triangles along each axis line) each hit a triangle from its
-front or meet nothing (at most MAX_ESCAPES of them). An eye seeing a back face or mostly
-nothing (inside a wall or a slab, past a slab's edge), an eye near a surface, an eye outside
+front or meet nothing (at most MAX_ESCAPES of them, or any number when the ray down meets a
+front: an eye standing over the ground or a floor, outdoors). An eye seeing a back face or
+mostly nothing (inside a wall or a slab, past a slab's edge), an eye near a surface, an eye outside
 every cell, or a partition without portals falls back to plain `vfc` (portals.fallbacks).
 
 Device rounding. The device draws corners and eye moved by up to m = sqrt(3) device_move
@@ -56,6 +57,7 @@ EXTRAS = ("cell_node", "cell_bounds", "portal_cells", "portal_start", "portal_ve
           "cell_portal_start", "cell_portals")
 RECT_SLACK = 1e-7  # NDC units added around every rectangle
 MAX_ESCAPES = 2  # axis rays from a free-space eye that may meet nothing (through windows)
+GROUND_ESCAPES = True  # ... or any number when the ray down hits a front face (outdoors)
 
 
 def portal_rects(vertices, starts, eye, rotation, tx: float, ty: float,
@@ -180,11 +182,12 @@ def _axis_hits(eye, axis, sign, tol, cell_bounds, cell_node, ref_start, ref_end,
 
 
 @njit(cache=True, nogil=True)
-def free_space(eye, reach, tol, max_escapes, cell_bounds, cell_node, ref_start, ref_end,
+def free_space(eye, reach, tol, max_escapes, ground, cell_bounds, cell_node, ref_start, ref_end,
                tri_refs, tri_bounds, corners, normals):
     """PortalStage.eye_in_free_space over flat arrays (reach already grown by tol): no
     triangle box within reach, and each of the six axis rays first hits a front face or
-    escapes, at most max_escapes escaping. Errs toward False (see the method)."""
+    escapes, at most max_escapes escaping unless `ground` and the ray down (-y) hits a front
+    face. Errs toward False (see the method)."""
     every = (0, 1, 2)
     for c in range(len(cell_node)):
         if not _box_holds(cell_bounds, c, eye, reach, every):
@@ -193,19 +196,20 @@ def free_space(eye, reach, tol, max_escapes, cell_bounds, cell_node, ref_start, 
         for r in range(ref_start[node], ref_end[node]):
             if _box_holds(tri_bounds, tri_refs[r], eye, reach, every):
                 return False
-    escapes = 0
+    nearest = np.empty((3, 2))
     for axis in range(3):
-        nearest = np.empty(2)
         for k, sign in enumerate((1.0, -1.0)):
-            nearest[k] = _axis_hits(eye, axis, sign, tol, cell_bounds, cell_node, ref_start,
-                                    ref_end, tri_refs, tri_bounds, corners, normals, np.inf)
-            escapes += np.isinf(nearest[k])
-        if escapes > max_escapes:
-            return False
+            nearest[axis, k] = _axis_hits(eye, axis, sign, tol, cell_bounds, cell_node,
+                                          ref_start, ref_end, tri_refs, tri_bounds, corners,
+                                          normals, np.inf)
+    # more escapes only over ground: the ray down must hit (a front face, checked below)
+    if np.isinf(nearest).sum() > max_escapes and not (ground and np.isfinite(nearest[1, 1])):
+        return False
+    for axis in range(3):
         for k, sign in enumerate((1.0, -1.0)):
-            if np.isfinite(nearest[k]) and _axis_hits(
+            if np.isfinite(nearest[axis, k]) and _axis_hits(
                     eye, axis, sign, tol, cell_bounds, cell_node, ref_start, ref_end, tri_refs,
-                    tri_bounds, corners, normals, nearest[k]) > 0:
+                    tri_bounds, corners, normals, nearest[axis, k]) > 0:
                 return False
     return True
 
@@ -265,19 +269,21 @@ class PortalStage:
     def eye_in_free_space(self, eye, reach: float) -> bool:
         """True when no triangle's box comes within `reach` of the eye and each of the six axis
         rays from the eye either first hits a triangle's front or escapes; at most MAX_ESCAPES
-        escape.
+        escape, or any number when the ray down hits a front face (GROUND_ESCAPES: an eye on
+        a street over the ground sees the sky and the street's two ends).
 
         Errs toward False: a back face among the triangles hit within the slack of the nearest
         one counts. Single-sided surfaces face free space, so from inside a hollow wall, a slab
         or a closed object a ray meets a back face; an eye past the edge of a slab (nothing
-        around it) sees nothing in most directions, a room's eye escapes only through windows.
+        around it) sees nothing in most directions, a room's eye escapes only through windows; an
+        eye over the front of a ground or floor is not past an edge, whatever else it sees.
         The near plane clips what lies closer than `reach`, so an eye that close to a wall sees
         through it.
         eye : (3,) float64;  reach : float, distance of the near plane's corners from the eye
         """
         tree = self.tree
         return free_space(np.asarray(eye, dtype=np.float64), reach + tree.tol, tree.tol,
-                          MAX_ESCAPES, self.x["cell_bounds"], self.cell_node, tree.ref_start,
+                          MAX_ESCAPES, GROUND_ESCAPES, self.x["cell_bounds"], self.cell_node, tree.ref_start,
                           tree.ref_end, tree.tri_refs, self.bounds, self.corners, self.normals)
 
     def device_reach(self, camera) -> tuple:

@@ -20,6 +20,7 @@ import numpy as np
 
 from . import grid
 from .layout import make_partition
+from .portal_edges import auto_edges, wall_edges
 from .octree import check_depth, chain_levels, subdivide
 from .solids import outward_solid_faces
 
@@ -33,38 +34,6 @@ THICKNESS = 1e-7
 COINCIDE = 1e-9
 # Rectangles per face before one box per open region is stored instead.
 MAX_RECTS = 8
-
-
-def auto_edges(world, cells):
-    """Quantile boundaries (grid.auto_edges) snapped to the nearest large axis-aligned wall plane.
-
-    Snapping puts cell faces on walls, where portals are doorways rather than whole faces.
-    """
-    edges = grid.auto_edges(world, grid.auto_counts(world, cells))
-    low, high = world.extent
-    for axis in range(3):
-        e = edges[axis]
-        if len(e) <= 2:
-            continue
-        aligned = np.abs(world.normals[:, axis]) > 0.999
-        if not aligned.any():
-            continue
-        pos = world.centroids[aligned, axis]
-        keys, inverse = np.unique(np.round(pos, 6), return_inverse=True)
-        area = np.bincount(inverse, weights=world.areas[aligned])
-        actual = np.empty(len(keys))
-        actual[inverse] = pos  # snap to a wall's own coordinate, not its 6-decimal key
-
-        snapped = e.copy()
-        for b in range(1, len(e) - 1):
-            reach = 0.5 * min(e[b] - e[b - 1], e[b + 1] - e[b])
-            near = np.flatnonzero(np.abs(keys - e[b]) < reach)
-            near = near[(keys[near] > low[axis]) & (keys[near] < high[axis])]
-            if len(near):
-                snapped[b] = actual[near[np.argmax(area[near])]]
-        snapped = np.unique(snapped)
-        edges[axis] = snapped
-    return edges
 
 
 def _components(open_mask):
@@ -534,7 +503,7 @@ def find_portals(world, edges, thickness, samples=FACE_SAMPLES, eps=None):
 
 
 def build(world, depth=2, slabs=None, auto=False, cells=None, thickness=None,
-          samples=FACE_SAMPLES, progress=None):
+          samples=FACE_SAMPLES, walls=False, progress=None):
     """Portal octree: root -> every grid cell (level 1, empty ones too) -> each cell's octree.
 
     depth     : octree depth inside each cell, 1..3
@@ -542,17 +511,26 @@ def build(world, depth=2, slabs=None, auto=False, cells=None, thickness=None,
                 (default sqrt(T) / 2, 8..256) snapped to wall planes
     thickness : distance from a face plane within which a triangle lies in it (default
                 THICKNESS x the world's size)
+    walls     : True puts a boundary on every large wall plane instead (portal_edges.wall_edges:
+                both faces of each hollow wall and slab, at most MAX_PORTAL_CELLS cells); not
+                with slabs or cells
     returns   : Partition with extras octant (N,) int8 (-1 above the cell octrees), cell_node (C,) int32, cell_bounds (C, 2, 3) float64,
                 portal_cells, portal_start, portal_vertices (find_portals), cell_portal_start
                 (C + 1,) int64 and cell_portals (2P,) int32 (CSR cell -> portal ids), grid_x/y/z
     """
     depth = check_depth(depth, 1, 3, "portal octree depth")
+    if not isinstance(walls, (bool, np.bool_)):
+        raise ValueError(f"portal walls must be true or false, got {walls!r}")
+    if walls and (slabs is not None or cells is not None or auto):
+        raise ValueError("portal walls=true places the cells itself: give no slabs, cells or auto")
     if cells is not None:
         grid.check_cells(cells, MAX_PORTAL_CELLS, "portal")
     if slabs is not None:
         counts = [len(e) - 1 for e in grid.resolve_edges(world, slabs, auto, cells)]
         grid.check_cells(int(np.prod(counts)), MAX_PORTAL_CELLS, "portal")
-    if slabs is None:
+    if walls:
+        edges = wall_edges(world, MAX_PORTAL_CELLS)
+    elif slabs is None:
         target = int(np.clip(round(np.sqrt(world.triangle_count) / 2), 8, 256)) if cells is None else int(cells)
         edges = auto_edges(world, target)
     else:
@@ -579,8 +557,10 @@ def build(world, depth=2, slabs=None, auto=False, cells=None, thickness=None,
     ids = np.tile(np.arange(len(portal_cells)), 2)
     order = np.lexsort((ids, ends))
     cell_portal_start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=count))])
-    params = {"depth": depth, "auto": slabs is None, "slabs": [len(e) - 1 for e in edges],
+    params = {"depth": depth, "auto": slabs is None and not walls, "slabs": [len(e) - 1 for e in edges],
               "thickness": thickness, "samples": int(samples)}
+    if walls:  # only when asked: a default partition's params (and .vmp) stay as they were
+        params["walls"] = True
     result, flat = make_partition(
         "portal", params, world, parent, last_node + starts[-1], last_tri, region,
         node_extras={"octant": octant},
