@@ -7,9 +7,12 @@ each LOD method at tau 1 px and each arithmetic (a float32 and a 16.16 profile).
 runs the TerrainScene frame (LOD, vfc+horizon over an octree), then draws the drawn LOD ground
 and every object into the item buffer: an object triangle that shows must have been kept.
 Prints per map, method and profile the cameras, the cameras with a drop, the dropped
-triangles and the object triangles the horizon removed; exit code 1 on any drop.
+triangles and the object triangles the horizon removed; exit code 1 on any drop. `--holes`:
+the same maps with no-data holes (lakes, single samples, a one-sample gap), drawn cut by the
+alpha test in the shaded and the item buffer alike.
 
     nice -n 5 python tools/terrain_objects_sweep.py --cameras 100   # ~5 min on one core
+    nice -n 5 python tools/terrain_objects_sweep.py --cameras 100 --holes
 """
 from __future__ import annotations
 
@@ -28,9 +31,30 @@ from vismobile.terrain.placement import place_objects
 from vismobile.world.camera import Camera
 
 
-def maps():
-    return {"steep": sources.diamond_square(129, seed=7, roughness=0.6, relief=0.35),
-            "noisy": sources.diamond_square(129, seed=21, roughness=0.85, relief=0.12)}
+def holed(hm, seed):
+    """The map with no-data holes (seed 002): lakes (disks of 3-15 samples' radius), a few
+    single samples and a gap one sample wide across part of the map."""
+    from vismobile.terrain.heightmap import quantize
+
+    rng = np.random.default_rng(seed)
+    h = hm.heights.astype(np.float64)
+    n = hm.size
+    i, j = np.mgrid[0:n, 0:n]
+    for _ in range(6):
+        ci, cj = rng.uniform(0.1, 0.9, 2) * n
+        h[(i - ci) ** 2 + (j - cj) ** 2 < rng.uniform(3, 15) ** 2] = np.nan
+    h[rng.integers(0, n, 40), rng.integers(0, n, 40)] = np.nan
+    row = int(rng.integers(n // 4, 3 * n // 4))
+    h[row, n // 5: 4 * n // 5] = np.nan
+    return quantize(h, hm.spacing, hm.name + "-holes")
+
+
+def maps(holes=False):
+    out = {"steep": sources.diamond_square(129, seed=7, roughness=0.6, relief=0.35),
+           "noisy": sources.diamond_square(129, seed=21, roughness=0.85, relief=0.12)}
+    if holes:
+        out = {f"{k}-holes": holed(v, len(k)) for k, v in out.items()}
+    return out
 
 
 def cameras(hm, count, seed):
@@ -62,15 +86,19 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cameras", type=int, default=100)
     parser.add_argument("--objects", type=int, default=60)
+    parser.add_argument("--holes", action="store_true",
+                        help="the maps with no-data holes (lakes, single samples, a gap)")
+    parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--profiles", default="desktop,ipaq-hx2490b")
     args = parser.parse_args(argv)
     failed = False
     with tempfile.TemporaryDirectory() as folder:
-        for name, hm in maps().items():
+        for name, hm in maps(args.holes).items():
             path = Path(folder) / f"{name}.vmt"
             store.save(path, hm, place_objects(hm, args.objects, seed=3, height=4.0))
             views = cameras(hm, args.cameras, seed=len(name))
-            for profile in ("desktop", "ipaq-hx2490b"):
-                for method in METHODS:
+            for profile in args.profiles.split(","):
+                for method in args.methods.split(","):
                     start = time.perf_counter()
                     scene = TerrainScene(path, method, 1.0, ("vfc", "horizon"), "octree:3",
                                          profile)

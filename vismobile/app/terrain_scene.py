@@ -70,6 +70,30 @@ def bound_px(lam, errors, distances) -> float:
         return float((lam * errors[positive] / distances[positive]).max())
 
 
+def triangle_cut_boxes(valid, triangles) -> np.ndarray:
+    """(K, 4) int64 cell boxes [i0, i1, j0, j1] of the triangles (T, 3) (sample ids) with a
+    no-data corner (valid: (N, N) bool): the alpha test may open them anywhere over their
+    extent (terrain/ground.py)."""
+    n = valid.shape[0]
+    t = np.asarray(triangles, np.int64).reshape(-1, 3)
+    t = t[~valid.ravel()[t].all(axis=1)]
+    r, c = np.divmod(t, n)
+    return np.stack([r.min(1), np.maximum(r.max(1) - 1, r.min(1)), c.min(1),
+                     np.maximum(c.max(1) - 1, c.min(1))], 1)
+
+
+def block_cut_boxes(valid, rows, cols, size) -> np.ndarray:
+    """(K, 4) int64 cell boxes of square blocks (first sample rows, cols (K,), side size (K,)
+    cells) whose 3 x 3 samples at their own scale (corners, edge midpoints, centre: every
+    vertex a Röttger fan can use) include a no-data one."""
+    steps = np.array([0, 1, 2])
+    r = rows[:, None] + (size[:, None] // 2) * steps[None]
+    c = cols[:, None] + (size[:, None] // 2) * steps[None]
+    holed = ~valid[r[:, :, None], c[:, None, :]].all(axis=(1, 2))
+    r0, c0, s = rows[holed], cols[holed], size[holed]
+    return np.stack([r0, r0 + s - 1, c0, c0 + s - 1], 1).astype(np.int64)
+
+
 class TilesLod:
     """Seed 002's tile quadtree, drawn from per-tile vertex slots that persist."""
 
@@ -81,6 +105,25 @@ class TilesLod:
 
         self.pyramid = TilePyramid.build(heightmap, 16)
         self.renderer = TileArena(self.pyramid, profile)
+        self.holed = tile_holes(self.pyramid) if heightmap.valid is not None else None
+
+    def cut_boxes(self, selection) -> np.ndarray:
+        """(K, 4) cell boxes that may be cut (terrain/ground.py): in each drawn tile with a
+        no-data vertex, every quad of its stride grid with a no-data corner, grown by one quad
+        on each side (a reduced side's triangle spans two quads)."""
+        p = self.pyramid
+        flat = p.offsets[selection.level] + selection.ti * (1 << selection.level) + selection.tj
+        holed = self.holed[flat]
+        stride = 1 << (p.levels - selection.level[holed])
+        a = np.arange(p.patch + 1)
+        rows = (selection.ti[holed] * p.patch)[:, None] * stride[:, None] + a * stride[:, None]
+        cols = (selection.tj[holed] * p.patch)[:, None] * stride[:, None] + a * stride[:, None]
+        bad = ~self.pyramid.heightmap.valid[rows[:, :, None], cols[:, None, :]]
+        quads = bad[:, :-1, :-1] | bad[:, 1:, :-1] | bad[:, :-1, 1:] | bad[:, 1:, 1:]
+        k, qi, qj = np.nonzero(quads)
+        s = stride[k]
+        r0, c0 = rows[k, qi] - s, cols[k, qj] - s
+        return np.stack([r0, r0 + 3 * s - 1, c0, c0 + 3 * s - 1], 1).astype(np.int64)
 
     def select(self, camera, resolution, tau):
         from ..terrain.tiles import select_tiles
@@ -124,6 +167,24 @@ class TilesLod:
         return self.renderer.draw(selection, camera)
 
 
+def tile_holes(pyramid) -> np.ndarray:
+    """(tiles,) bool per flat tile id: one of its (P+1)^2 vertices at its level's stride is a
+    no-data sample (a summed-area table per level)."""
+    valid, p, levels = pyramid.heightmap.valid, pyramid.patch, pyramid.levels
+    out = np.zeros(int(pyramid.offsets[-1]), np.bool_)
+    for level in range(levels + 1):
+        stride = 1 << (levels - level)
+        bad = ~valid[::stride, ::stride]
+        table = np.zeros((bad.shape[0] + 1, bad.shape[1] + 1), np.int64)
+        table[1:, 1:] = bad.cumsum(0).cumsum(1)
+        lo = np.arange(1 << level) * p
+        hi = lo + p + 1
+        count = (table[hi[:, None], hi[None]] - table[lo[:, None], hi[None]]
+                 - table[hi[:, None], lo[None]] + table[lo[:, None], lo[None]])
+        out[pyramid.offsets[level]:pyramid.offsets[level + 1]] = (count > 0).ravel()
+    return out
+
+
 class RoettgerLod:
     """Seed 000's Röttger CLOD with Pires's cached chunks (terrain/display_lists.py)."""
 
@@ -160,6 +221,13 @@ class RoettgerLod:
         high = np.stack([(bj + 1) * size, r.hmax[flat], (bi + 1) * size], 1)
         _, lam = pixel_scale(camera, resolution)
         return bound_px(lam, e, box_distance(camera.eye, low, high)), float(e.max())
+
+    def cut_boxes(self, frame) -> np.ndarray:
+        """(K, 4) cell boxes of the drawn leaves with a no-data vertex (terrain/ground.py)."""
+        r = self.roettger
+        rows = r.leaf_rows[:r.leaf_count]
+        size = (r.heightmap.size - 1) >> rows[:, 0]
+        return block_cut_boxes(r.heightmap.valid, rows[:, 1] * size, rows[:, 2] * size, size)
 
     def triangles(self, frame) -> int:
         return int(frame.triangles)
@@ -217,6 +285,10 @@ class RoamLod:
         if not self.roam.split[centre]:  # the two roots, emitted corner first
             best = max(best, float(self.roam.wedge[centre, 2]))
         return float(frame.bound_px), best
+
+    def cut_boxes(self, frame) -> np.ndarray:
+        """(K, 4) cell boxes of the drawn triangles with a no-data corner (terrain/ground.py)."""
+        return triangle_cut_boxes(self.roam.heightmap.valid, frame.triangles)
 
     def triangles(self, frame) -> int:
         return len(frame.triangles)
@@ -371,6 +443,8 @@ class TerrainScene:
         if self.culler is not None:
             _, lam = pixel_scale(camera, resolution)
             self.objects.ground.sink = error_px / lam  # terrain/ground.py
+            if self.heightmap.valid is not None:
+                self.objects.ground.cut = self.lod.cut_boxes(selected)
             start = time.perf_counter()
             culled = self.culled = self.culler.cull(camera)
             cull_ms = (time.perf_counter() - start) * 1000.0

@@ -23,8 +23,13 @@ TAUS = (0.5, 1.0, 2.0, 4.0)
 
 def tune_terrain(path, cameras, profile="ipaq-hx2490b", methods=METHODS, taus=TAUS,
                  max_error_px: float = 1.0, stages=("vfc", "horizon"), structure="octree:4",
-                 cost="device", progress=None) -> dict:
-    """{"rows": one dict per candidate, "choice": the cheapest row, "cost": its kind}."""
+                 cost="device", progress=None, object_lod: bool = False,
+                 cache_dir=None) -> dict:
+    """{"rows": one dict per candidate, "choice": the cheapest row, "cost": its kind}.
+
+    object_lod: each candidate draws the objects at their coarsest level of detail within its
+    own tau (TerrainScene's object_lod; chains built once and kept in cache_dir), so the
+    objects' triangles are priced at the LOD the candidate would play them with."""
     from ..device.costmodel import DEVICES, device_model
 
     candidates = [float(t) for t in taus if float(t) <= max_error_px]
@@ -35,7 +40,8 @@ def tune_terrain(path, cameras, profile="ipaq-hx2490b", methods=METHODS, taus=TA
     for method in methods:
         for tau in candidates:
             if scene is None:
-                scene = TerrainScene(path, method, tau, stages, structure, profile)
+                scene = TerrainScene(path, method, tau, stages, structure, profile,
+                                     object_lod=object_lod, cache_dir=cache_dir)
             else:
                 scene.set_method(method)
                 scene.tau = tau
@@ -64,7 +70,8 @@ def tune_terrain(path, cameras, profile="ipaq-hx2490b", methods=METHODS, taus=TA
     choice = min(rows, key=lambda r: r["cost_ms"])
     kind = "device model" if cost == "device" and scene.profile.name in DEVICES else "measured"
     return {"rows": rows, "choice": choice, "cost": kind, "profile": scene.profile.name,
-            "max_error_px": max_error_px, "stages": list(stages), "structure": structure}
+            "max_error_px": max_error_px, "stages": list(stages), "structure": structure,
+            "object_lod": scene.object_lod is not None}
 
 
 def report(result) -> str:
@@ -78,7 +85,8 @@ def report(result) -> str:
                      f"{r['ground_triangles']:>9,.0f} {r['object_triangles']:>8,.0f} "
                      f"{r['error_px_max']:>8.3f}")
     c = result["choice"]
+    detail = "at their LOD within tau" if result.get("object_lod") else "at full detail"
     lines.append(f"choice: --terrain-method {c['method']} --lod {c['tau']:g} "
-                 f"(objects: {'+'.join(result['stages'])} over {result['structure']}): "
+                 f"(objects {detail}: {'+'.join(result['stages'])} over {result['structure']}): "
                  f"{c['cost_ms']:.2f} ms a frame")
     return "\n".join(lines)

@@ -49,6 +49,10 @@ def add_parser(sub):
                         help="also pick the level-of-detail tolerance for the chosen "
                              "configuration: the fastest tau up to PX pixels of projected "
                              "error, with its PSNR against full detail (docs/lod.md)")
+    parser.add_argument("--no-object-lod", action="store_true",
+                        help="a .vmt terrain's objects at full detail (default: each candidate "
+                             "draws them at their coarsest LOD level within its tau, as play "
+                             "does; chains built once, then cached beside the built worlds)")
     parser.add_argument("--quiet", action="store_true", help="no status lines on stderr")
     return parser
 
@@ -152,11 +156,15 @@ def run_terrain(args) -> int:
         lap = default_cameras(heightmap, None, profile.aspect)
         pick = np.unique(np.linspace(0, len(lap) - 1, args.probe).astype(int))
         cameras = [lap[int(f)] for f in pick]
+    from ..scenes.thesis import default_cache_dir
+
     with Status(f"tune {args.world}", enabled=not args.quiet) as status:
         result = tune_terrain(args.world, cameras, profile,
                               max_error_px=1.0 if args.max_error_px is None
                               else args.max_error_px,
-                              cost=args.cost, progress=status)
+                              cost=args.cost, progress=status,
+                              object_lod=not args.no_object_lod,
+                              cache_dir=default_cache_dir())
     print(report(result))
     if args.out:
         atomic_write_bytes(args.out, (json.dumps(result, indent=2) + "\n").encode())

@@ -34,6 +34,10 @@ def add_parser(sub):
     parser.add_argument("--terrain-method", choices=("tiles", "roettger", "roam"),
                         default="tiles",
                         help="a .vmt terrain's LOD method at start (default tiles; M cycles)")
+    parser.add_argument("--no-object-lod", action="store_true",
+                        help="a .vmt terrain's objects at full detail (default: at their "
+                             "coarsest LOD level within the terrain's tau, which T cycles; "
+                             "chains built once, then cached beside the built worlds)")
     parser.add_argument("--motion", type=Path, default=None, metavar="FILE.json",
                         help=MOTION_HELP)
     parser.add_argument("--fps", type=float, default=None, help=FPS_HELP)
@@ -50,8 +54,12 @@ def run_terrain(args, script) -> int:
     from ..viewer.window import run as run_window
 
     stages = parse_stages(args.cull if args.cull is not None else "vfc+horizon")
+    from ..scenes.thesis import default_cache_dir
+
     session = TerrainSession.open_terrain(args.world, args.terrain_method, args.lod, stages,
                                           args.structure, args.profile, args.trajectory,
+                                          object_lod=not args.no_object_lod,
+                                          cache_dir=default_cache_dir(),
                                           record_path=args.record_to)
     from ..render.context import release_current
 

@@ -29,14 +29,35 @@ uniform uint u_first_id;
 out uint f_id;
 void main() { f_id = u_first_id + uint(gl_PrimitiveID) + 1u; }
 """
-_ITEM_PROGRAM = []
+# The item buffer of a terrain with holes: the same alpha test as the "cut" program (the
+# no-data vertices' alpha 0 interpolated the same way), so ids show exactly the drawn ground.
+CUT_ITEM_VERTEX = """#version 330
+in vec3 in_position;
+in vec4 in_color;
+uniform mat4 u_mvp;
+invariant gl_Position;
+smooth out float v_alpha;
+void main() { gl_Position = u_mvp * vec4(in_position, 1.0); v_alpha = in_color.a; }
+"""
+CUT_ITEM_FRAGMENT = """#version 330
+uniform uint u_first_id;
+smooth in float v_alpha;
+out uint f_id;
+void main() {
+    if (v_alpha <= 0.5) discard;
+    f_id = u_first_id + uint(gl_PrimitiveID) + 1u;
+}
+"""
+_ITEM_PROGRAM = {}
 
 
-def _item_program():
-    if not _ITEM_PROGRAM:
-        _ITEM_PROGRAM.append(gl_context().program(vertex_shader=ITEM_VERTEX,
-                                                  fragment_shader=ITEM_FRAGMENT))
-    return _ITEM_PROGRAM[0]
+def _item_program(cut: bool = False):
+    if cut not in _ITEM_PROGRAM:
+        vertex, fragment = (CUT_ITEM_VERTEX, CUT_ITEM_FRAGMENT) if cut else \
+            (ITEM_VERTEX, ITEM_FRAGMENT)
+        _ITEM_PROGRAM[cut] = gl_context().program(vertex_shader=vertex,
+                                                  fragment_shader=fragment)
+    return _ITEM_PROGRAM[cut]
 
 
 def height_colors(heights, low: float, high: float) -> np.ndarray:
@@ -170,8 +191,9 @@ class TerrainRenderer:
         ctx.depth_func = "<"
         ctx.front_face = "ccw"
         ctx.enable_only(ctx.DEPTH_TEST)
+        cut = self.heightmap.valid is not None
         prog = program(shaded_kind(self.heightmap), "float32") if kind == "shaded" \
-            else _item_program()
+            else _item_program(cut)
         prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
         if kind == "shaded":
             _set_lights(prog)
@@ -187,8 +209,9 @@ class TerrainRenderer:
                                        index_element_size=2)
             else:
                 prog["u_first_id"].value = first_id
-                vao = ctx.vertex_array(prog, [(vbo, "3f 16x", "in_position")], index_buffer=ibo,
-                                       index_element_size=2)
+                layout = (vbo, "3f 12x 4f1", "in_position", "in_color") if cut else \
+                    (vbo, "3f 16x", "in_position")
+                vao = ctx.vertex_array(prog, [layout], index_buffer=ibo, index_element_size=2)
             vao.render(vertices=indices.size)
             first_id += len(indices)
             drawn += len(indices)

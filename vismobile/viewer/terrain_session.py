@@ -56,8 +56,11 @@ class TerrainSession(Session):
     @classmethod
     def open_terrain(cls, path, method="tiles", tau=1.0, stages=("vfc", "horizon"),
                      structure="octree:4", profile="ipaq-hx2490b", trajectory=None,
-                     **options) -> "TerrainSession":
-        return cls(TerrainScene(path, method, tau, stages, structure, profile), trajectory,
+                     object_lod: bool = False, cache_dir=None, **options) -> "TerrainSession":
+        """object_lod: the objects at their coarsest level of detail within the terrain's tau
+        (TerrainScene's; T changes both)."""
+        return cls(TerrainScene(path, method, tau, stages, structure, profile,
+                                object_lod=object_lod, cache_dir=cache_dir), trajectory,
                    **options)
 
     def camera(self):
@@ -120,8 +123,8 @@ class TerrainSession(Session):
         lines = [
             f"{t.method} at tau {t.tau:g} px   (M method, T tau)",
             f"ground {f.ground_triangles:,} tris  bound {f.error_px:.2f} px",
-            f"objects {f.object_triangles:,} tris  {'+'.join(self.stages) or 'no culling'}"
-            f" / {t.structure}",
+            f"objects {f.object_triangles:,} tris{' at LOD' if t.object_lod else ''}  "
+            f"{'+'.join(self.stages) or 'no culling'} / {t.structure}",
             f"horizon hid {f.nodes_hidden} nodes, {f.triangles_hidden:,} tris",
             f"LOD {f.lod_ms:.2f} cull {f.cull_ms:.2f} render {f.render_ms:.2f} ms "
             f"({1000.0 / max(frame_ms, 1e-9):.0f} fps here)",
