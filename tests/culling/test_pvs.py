@@ -17,16 +17,28 @@ MODES = ("float64", "float32", "fixed16.16")
 def zigzag_world(kit):
     """Five rooms 3 high and 4 deep in a row along x (faces in), split by hollow walls 0.2 thick
     at x = 4k (k = 1..4) whose doorways alternate between the two ends of each wall: from the
-    first room the fourth and fifth are hidden. The cells are the rooms (cell faces x = 4k)."""
+    first room the fourth and fifth are hidden. The cells are the rooms (cell faces x = 4k).
+    Every surface is a grid of rectangles on common breaks, so walls meet floors, ceilings and
+    each other corner to corner: only the doorways' edges are unshared (partition/pvs_cracks.py;
+    a crease of T-junctions along the side walls would let a grazing line through every wall)."""
     rect, end = kit.rect, 20.2
-    parts = [rect(1, 0.0, (0, 4), (0, end), 1), rect(1, 3.0, (0, 4), (0, end), -1),
-             rect(2, 0.0, (0, end), (0, 3), 1), rect(2, 4.0, (0, end), (0, 3), -1),
-             rect(0, 0.0, (0, 3), (0, 4), 1), rect(0, end, (0, 3), (0, 4), -1)]
+    xs = [0.0] + [v for k in range(1, 5) for v in (4.0 * k, 4.0 * k + 0.2)] + [end]
+    ys, zs = [0.0, 2.0, 3.0], [0.0, 0.2, 1.0, 3.0, 3.8, 4.0]
+    spans = {name: list(zip(b[:-1], b[1:])) for name, b in (("x", xs), ("y", ys), ("z", zs))}
+    parts = []
+    for x in spans["x"]:
+        for z in spans["z"]:
+            parts += [rect(1, 0.0, z, x, 1), rect(1, 3.0, z, x, -1)]
+        for y in spans["y"]:
+            parts += [rect(2, 0.0, x, y, 1), rect(2, 4.0, x, y, -1)]
+    for y in spans["y"]:
+        for z in spans["z"]:
+            parts += [rect(0, 0.0, y, z, 1), rect(0, end, y, z, -1)]
     for k in range(1, 5):
-        z0, z1 = (0.2, 1.0) if k % 2 else (3.0, 3.8)
+        door = (0.2, 1.0) if k % 2 else (3.0, 3.8)
         for x, facing in ((4.0 * k, -1), (4.0 * k + 0.2, 1)):
-            parts += [rect(0, x, (0, 3), (0, z0), facing), rect(0, x, (0, 3), (z1, 4), facing),
-                      rect(0, x, (2, 3), (z0, z1), facing)]
+            parts += [rect(0, x, y, z, facing) for y in spans["y"] for z in spans["z"]
+                      if not (y == (0.0, 2.0) and z == door)]
     return kit.literal_world(parts, name="zigzag")
 
 

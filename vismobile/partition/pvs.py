@@ -24,14 +24,14 @@ Contract (conservative): for every eye in a view cell grown by pvs_grow, every t
 item buffer without back-face culling shows along a line starting in that cell is in the
 cell's set, or faces away from every eye in the cell grown by pvs_back (pvs_back.py's bound;
 the stage puts those back unless back faces are culled), provided the portals cover every
-opening (portal.py). Errs toward visible: separating planes only remove lines that cannot
-exist, a triangle facing out of the cell it is marked from is left to the cells in front of
-it when every source point is in front of it (pvs_kernels._behind_cell), sides within the
-tolerance count, and a source whose walk exceeds the budget keeps every connected cell.
-Known limit (tools/pvs_slack.py, docs/partition.md): the item buffer sees through the
-rasteriser's cracks along edges two triangles do not share by both corners, which no portal
-models; the hollow walls' open insides keep the sets large (tools/bench_pvs.py measures the
-drops on the paths and on random in-cell cameras).
+opening (portal.py) and the rasteriser's cracks lie within pvs_cracks.py's width of the
+edges two triangles do not share by both corners (T-junctions, creases, borders: each is a
+crack portal the walk passes, any number per line). Errs toward visible: separating planes
+only remove lines that cannot exist, a triangle facing out of the cell it is marked from is
+left to the cells in front of it when every source point is in front of it
+(pvs_kernels._behind_cell), sides within the tolerance count, and a source whose walk
+exceeds the budget keeps every connected cell. The hollow walls' open insides and the cracks
+into them keep the sets large (docs/partition.md; tools/pvs_sweep.py measures the drops).
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ import time
 
 import numpy as np
 
-from . import pvs_kernels
+from . import pvs_cracks, pvs_kernels
 from .pvs_back import region_backfacing, triangle_terms
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
 
@@ -120,13 +120,14 @@ def bake_cells(world, g, sources, grow, tol, budget=BUDGET):
     corners = world.corners
     crack = np.zeros(len(pcells), dtype=np.bool_)
     crack[len(pcells) - int(g.get("cracks", 0)):] = True  # pvs_cracks appends them last
+    slope = pvs_cracks.CRACK_SLOPE
     out = []
     for s in sources:
         visible = np.zeros(world.triangle_count, dtype=np.bool_)
         seen = np.zeros(cells, dtype=np.bool_)
         steps = pvs_kernels.flow_from_cell(int(s), bounds[s, 0], bounds[s, 1], bounds, pcells,
                                            quads, cps, cp, start[:-1], start[1:], tris, corners,
-                                           grow, tol, budget, visible, seen, crack)
+                                           grow, tol, budget, visible, seen, crack, slope)
         if steps < 0:  # too many walks: every connected cell, whole
             for c in np.flatnonzero(_connected(int(s), pcells, cps, cp, cells)):
                 visible[tris[start[c]:start[c + 1]]] = True
@@ -179,8 +180,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         raise ValueError(f"unknown pvs mode {mode!r}; valid: {', '.join(MODES)}")
     began = time.perf_counter()
     world = partition.world
-    g = view_grid(world, cells)
     grow = bake_grow(world)
+    g = view_grid(world, cells, grow=grow)
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
     count = len(g["cell_bounds"])
     sources = np.arange(count)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import grid, portal
-from .pvs_cracks import with_cracks
+from .pvs_cracks import crack_reach, with_cracks
 from .pvs_refine import refine
 
 # A second face is looked for this far (a fraction of the world's extent along the axis).
@@ -77,13 +77,14 @@ def paired_edges(world, cells) -> list:
     return edges
 
 
-def view_grid(world, cells=None, thickness=None, split=False) -> dict:
+def view_grid(world, cells=None, thickness=None, split=False, grow=0.0) -> dict:
     """The PVS's own cells and portals: {'edges', 'cell_bounds' (C, 2, 3), 'cell_start'
     (C + 1,) int64 and 'cell_tris' (R,) int64 (CSR cell -> triangles within thickness),
     'portal_cells', 'portal_start', 'portal_vertices' (portal.find_portals), 'cell_portal_start'
-    (C + 1,) int64, 'cell_portals' (2P,) int64}; with split, thin cells are split at the walls
-    inside them (pvs_refine.refine: the cells no longer form a grid, 'parent' names each one's
-    grid cell) and the rasteriser's cracks become portals (pvs_cracks.with_cracks)."""
+    (C + 1,) int64, 'cell_portals' (2P,) int64, 'cracks': how many portals at the end are the
+    rasteriser's cracks (pvs_cracks.with_cracks, reach from `grow`, the bake's growth)}; with
+    split, thin cells are split at the walls inside them (pvs_refine.refine: the cells no
+    longer form a grid, 'parent' names each one's grid cell)."""
     target = int(np.clip(round(np.sqrt(world.triangle_count) / 2), 8, 256)) if cells is None \
         else int(cells)
     edges = paired_edges(world, target)
@@ -102,6 +103,6 @@ def view_grid(world, cells=None, thickness=None, split=False) -> dict:
          "cell_tris": tri.astype(np.int64), "portal_cells": pcells.astype(np.int64),
          "portal_start": pstart, "portal_vertices": pverts,
          "cell_portal_start": cps, "cell_portals": ids[order].astype(np.int64)}
-    if not split:
-        return g
-    return with_cracks(world, refine(world, g, thickness), thickness)
+    if split:
+        g = refine(world, g, thickness)
+    return with_cracks(world, g, thickness, crack_reach(world, grow))

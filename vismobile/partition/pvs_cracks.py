@@ -2,20 +2,31 @@
 
 Two triangles meeting along an edge with the same two corners never leave a gap (the GPU's
 fill rule); an edge that is not shared so (a T-junction, two surfaces meeting in a crease with
-their own vertices, a mesh's border) may leave single pixels open along it, and the item buffer
-shows what lies behind (W1: a ceiling meeting a wall, the inside of the slab above seen
-through the crease; the hollow walls are otherwise closed once pvs_refine seals the doorways).
-A line through such an edge passes from one cell to another without crossing an open face, so
-every unshared edge lying on the boundary of two cells becomes a degenerate portal (a segment)
-between them: the walk (pvs_kernels.flow_from_cell) takes it like any other portal.
+their own vertices, a mesh's border) may leave pixels open along it, and the item buffer shows
+what lies behind (W1: a floor meeting a wall, the ceiling below the slab seen through the
+crease). Every unshared edge becomes a segment portal between each pair of cells whose
+common face (or line) it lies in, and the walk (pvs_kernels.flow_from_cell) lets every line
+through it that comes within its width: grow + CRACK_SLOPE x the distance from the source.
 
-Sound: the crack portals hold every point of every unshared edge where it lies in two cells'
-boxes (within eps), for every pair of cells whose boxes both hold it, face or edge neighbours.
+Contract: the sets hold what the item buffer shows through a crack where the line of sight
+passes the wall within the crack's width w = grow + CRACK_SLOPE x (its distance from the eye)
+of an unshared edge. A rasteriser snapping vertices to 1/2^b of a pixel opens gaps about 2^-b
+pixels wide across the line of sight, which on a wall met at an angle a lie within
+2^-b / sin(a) pixels of the edge; CRACK_SLOPE is CRACK_PIXELS = 1/16 of a pixel PIXEL_SLOPE
+= 2^-6 wide per unit of depth (a 120° field of view over at least 222 pixels; the devices'
+240 x 320 buffers have 0.0108 at 120°): it covers b = 8 (llvmpipe, most GPUs) on walls met at
+more than 3.6° and b = 4 (GL's minimum) at right angles. A line passing the wall at such a
+point y leaves a cell A for a cell B there, y lies on their common face or line, and so does
+the wall's unshared edge (crack_portals): the walk lets it through the pair's crack portal,
+with y in the crossing box (pvs_kernels._crack_candidate).
 """
 from __future__ import annotations
 
 import numpy as np
 
+CRACK_PIXELS = 1.0 / 16.0  # gap width in pixels (module docstring)
+PIXEL_SLOPE = 2.0 ** -6  # pixel width per unit of depth the contract covers
+CRACK_SLOPE = CRACK_PIXELS * PIXEL_SLOPE  # crack width per unit of distance from the eye
 CHUNK = 2048  # edges tested against every cell at once
 
 
@@ -53,43 +64,63 @@ def _clip(seg, lo, hi, eps):
     return t0, t1
 
 
-def crack_portals(world, boxes, eps) -> tuple:
-    """(pairs (K, 2) int64 low cell id first, quads (K, 4, 3) float64 degenerate segments) of
-    the unshared edges lying in two cells' boxes (grown by eps); collinear pieces of one pair
-    along one axis-aligned line are merged into their bounding segment."""
+def crack_reach(world, grow) -> float:
+    """The widest crack (grow + CRACK_SLOPE x the world box's diagonal)."""
+    return grow + CRACK_SLOPE * float(np.linalg.norm(np.ptp(world.extent, axis=0)))
+
+
+def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
+    """(pairs (K, 2) int64 low cell id first, quads (K, 4, 3) float64 degenerate segments
+    [q0, q1, q1, q0]) of the unshared edges: for every pair of cells whose boxes touch along a
+    face or a line (within eps) in which the edge lies, the part of the edge within reach +
+    eps of that face or line; collinear pieces of one pair along one axis-aligned line are
+    merged into their bounding segment.
+
+    Why only those: a line passes a surface at a crack point y into another cell only where
+    the surface lies in a cell face (portal.py: walls within the cells' thickness of a face
+    block; anything else lies inside a cell, which the walk crosses whole), so y lies in the
+    face A | B of the cells before and after it (or on their common line), and so does the
+    wall's unshared edge within the crack's width of y."""
     seg = unshared_edges(world)
     lo_b, hi_b = boxes[:, 0], boxes[:, 1]
+    near = eps + reach
     pieces = {}
     for s in range(0, len(seg), CHUNK):
         part = seg[s:s + CHUNK]
         slo, shi = part.min(axis=1), part.max(axis=1)
-        hit = ((slo[:, None] <= hi_b[None] + eps) & (shi[:, None] >= lo_b[None] - eps)).all(-1)
+        hit = ((slo[:, None] <= hi_b[None] + near) & (shi[:, None] >= lo_b[None] - near)).all(-1)
         e, c = np.nonzero(hit)
-        t0, t1 = _clip(part[e], lo_b[c], hi_b[c], eps)
+        t0, t1 = _clip(part[e], lo_b[c], hi_b[c], near)
         ok = t0 <= t1
         e, c, t0, t1 = e[ok], c[ok], t0[ok], t1[ok]
         if not len(e):
             continue
-        # cells per edge: every pair of them whose parameter ranges overlap
+        # cells per edge: every pair of them touching along a face (or a line) the edge lies in
         order = np.argsort(e, kind="stable")
-        e, c, t0, t1 = e[order], c[order], t0[order], t1[order]
+        e, c = e[order], c[order]
         starts = np.flatnonzero(np.r_[True, e[1:] != e[:-1]])
         ends = np.r_[starts[1:], len(e)]
         for i0, i1 in zip(starts, ends):
             if i1 - i0 < 2:
                 continue
-            p, d = part[e[i0], 0], part[e[i0], 1] - part[e[i0], 0]
+            edge = part[e[i0]]
+            p, d = edge[0], edge[1] - edge[0]
+            axis = np.flatnonzero(np.abs(d) > 0)
             for i in range(i0, i1):
                 for j in range(i + 1, i1):
-                    a0, a1 = max(t0[i], t0[j]), min(t1[i], t1[j])
+                    a, b = sorted((int(c[i]), int(c[j])))
+                    lo = np.maximum(lo_b[a], lo_b[b])
+                    hi = np.minimum(hi_b[a], hi_b[b])
+                    flat = hi - lo <= eps
+                    if np.any(hi < lo - eps) or not flat.any():
+                        continue  # the boxes do not touch (or overlap: not cells)
+                    if np.any(np.abs(edge[:, flat] - 0.5 * (lo + hi)[flat]) > eps):
+                        continue  # the edge does not lie in their common face or line
+                    u0, u1 = _clip(edge[None], lo[None], hi[None], near)
+                    a0, a1 = float(u0[0]), float(u1[0])
                     if a0 > a1:
                         continue
-                    a, b = sorted((int(c[i]), int(c[j])))
-                    if np.sum(np.minimum(hi_b[a], hi_b[b]) - np.maximum(lo_b[a], lo_b[b])
-                              > eps) < 2:
-                        continue  # edge neighbours: the line crosses a face neighbour's face
                     q0, q1 = p + a0 * d, p + a1 * d
-                    axis = np.flatnonzero(np.abs(d) > 0)
                     if len(axis) == 1:  # axis-aligned: merge along its line
                         k = int(axis[0])
                         key = (a, b, k) + tuple(np.round(np.delete(q0, k), 9))
@@ -108,9 +139,11 @@ def crack_portals(world, boxes, eps) -> tuple:
     return pairs, quads
 
 
-def with_cracks(world, g, eps) -> dict:
-    """The view grid g (pvs_cells.view_grid) with the crack portals appended."""
-    pairs, quads = crack_portals(world, np.asarray(g["cell_bounds"], dtype=np.float64), eps)
+def with_cracks(world, g, eps, reach=0.0) -> dict:
+    """The view grid g (pvs_cells.view_grid) with the crack portals (crack_portals: cells
+    within reach of an unshared edge) appended last, their count in g['cracks']."""
+    pairs, quads = crack_portals(world, np.asarray(g["cell_bounds"], dtype=np.float64), eps,
+                                 reach)
     if not len(pairs):
         return g
     pcells = np.concatenate([np.asarray(g["portal_cells"], dtype=np.int64).reshape(-1, 2), pairs])

@@ -232,28 +232,68 @@ def _grown_quad(portal_quads, p, grow, cand):
 
 
 @njit(cache=True)
+def _crack_candidate(portal_quads, p, src, grow, slope, planes, np_, tol, lo_i, hi_i, cand):
+    """cand[:4] <- a box holding every point where a line from the source box src (8 corners)
+    may pass crack portal p (pvs_cracks.py: the segment portal_quads[p, 0]-[p, 1]) from one
+    of its cells into the other: within the crack's width w (grow + slope x the farthest
+    source-to-segment distance) of the part of the segment whose w-box reaches every plane's
+    side >= -tol, and on the cells' common face or line [lo_i, hi_i] (within tol). Returns 4,
+    or 0 when no such point is left."""
+    q0, q1 = portal_quads[p, 0], portal_quads[p, 1]
+    far = 0.0
+    for i in range(8):  # the farthest pair of two convex sets is a pair of their vertices
+        for q in (q0, q1):
+            d0, d1, d2 = src[i, 0] - q[0], src[i, 1] - q[1], src[i, 2] - q[2]
+            far = max(far, d0 * d0 + d1 * d1 + d2 * d2)
+    w = grow + slope * np.sqrt(far)
+    t0, t1 = 0.0, 1.0
+    for k in range(np_):
+        plane = planes[k]
+        slack = tol + w * (abs(plane[0]) + abs(plane[1]) + abs(plane[2]))
+        f0, f1 = _side(plane, q0) + slack, _side(plane, q1) + slack
+        if f0 < 0.0 and f1 < 0.0:
+            return 0
+        if f0 < 0.0:
+            t0 = max(t0, f0 / (f0 - f1))
+        elif f1 < 0.0:
+            t1 = min(t1, f0 / (f0 - f1))
+        if t0 > t1:
+            return 0
+    for a in range(3):
+        a0 = q0[a] + t0 * (q1[a] - q0[a])
+        a1 = q0[a] + t1 * (q1[a] - q0[a])
+        lo = max(min(a0, a1) - w, lo_i[a] - tol)
+        hi = min(max(a0, a1) + w, hi_i[a] + tol)
+        if lo > hi:
+            return 0
+        if hi_i[a] - lo_i[a] <= tol:  # the common face's axis: flat (fewer, tighter planes)
+            lo = hi = 0.5 * (lo_i[a] + hi_i[a])
+        cand[0, a], cand[1, a], cand[2, a], cand[3, a] = lo, hi, lo, hi
+    return 4
+
+
+@njit(cache=True)
 def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
                    cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
-                   corners, grow, tol, budget, visible, cell_seen, crack):
+                   corners, grow, tol, budget, visible, cell_seen, crack, slope):
     """Each portal crossing (portal, direction) keeps one box holding every
     point where a line from the source may cross it (the union over all sequences), so the walk
     is a fixed point instead of an enumeration. The eyes are the box [src_lo, src_hi] (grown
-    by `grow`) inside the source cell (the whole cell, or a part of it). The exit portals of the cell a crossing enters
-    are clipped by the separators of (source box, crossing box), the surviving parts grow those
-    exits' boxes, and a crossing whose box grew is walked again. The entered cell's triangles
-    are marked against the same planes.
+    by `grow`) inside the source cell (the whole cell, or a part of it). The exit portals of
+    the cell a crossing enters are clipped by the separators of (source box, crossing box),
+    the surviving parts grow those exits' boxes, and a crossing whose box grew is walked
+    again. The entered cell's triangles are marked against the same planes.
 
     Sound: a line from the source crossing portals p1, p2, ... crosses each at a point of its
     box (induction: its exit point lies beyond its entry point and the source, so on the
     positive side of every separator of the two, and survives the clip). Errs toward visible.
-    Crack portals (crack[p], pvs_cracks.py: lines where the rasteriser may leave a pixel open)
-    are taken once per line of sight: a crossing is walked in layer 0 (no crack crossed yet) or
-    layer 1 (one crossed), each with its own box, and a crack leads from layer 0 to 1 only (a
-    line through two cracks needs an eye on a plane through both: pvs.py's contract).
+    Crack portals (crack[p], pvs_cracks.py: unshared edges, where the rasteriser may leave a
+    pixel open) are crossed by every line passing within their width (grow + slope x the
+    distance from the source): their crossing box is the clipped segment grown by that width,
+    cut to the two cells' common face or line, and a line may pass any number of them.
     Returns the crossings walked, or -1 past `budget` (the caller keeps every connected cell).
     """
-    crossings = 2 * len(portal_cells)
-    states = 2 * crossings
+    states = 2 * len(portal_cells)
     box = np.empty((states, 2, 3))
     for d in range(states):
         for a in range(3):
@@ -269,6 +309,7 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     planes = np.empty((MAX_PLANES, 4))
     scratch = np.empty((MAX_VERTS, 3))
     cand = np.empty((MAX_VERTS, 3))
+    common = np.empty((2, 3))
     for r in range(cell_ref_start[source], cell_ref_end[source]):
         visible[tri_refs[r]] = True
     cell_seen[source] = True
@@ -276,10 +317,9 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     current = -1  # the crossing being walked; -1: the source itself
     while True:
         if current < 0:
-            cell, count, came, layer = source, 0, -1, 0
+            cell, count, came = source, 0, -1
         else:
-            layer = current // crossings
-            p = (current % crossings) // 2
+            p = current // 2
             cell = portal_cells[p, 1] if current % 2 == 0 else portal_cells[p, 0]
             came = p
             ne = _flat_rectangle(box[current, 0], box[current, 1], entry)
@@ -291,17 +331,25 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             cell_seen[cell] = True
         for q in range(cell_portal_start[cell], cell_portal_start[cell + 1]):
             p = cell_portals[q]
-            if p == came or (crack[p] and layer == 1):
+            if p == came:
                 continue
             forward = portal_cells[p, 0] == cell
             m = portal_cells[p, 1] if forward else portal_cells[p, 0]
             if m == source:
                 continue
-            _grown_quad(portal_quads, p, grow, cand)
-            n = clip_polygon(cand, 4, planes, count, tol, scratch)
+            if crack[p]:
+                a, b = portal_cells[p, 0], portal_cells[p, 1]
+                for k in range(3):  # the two cells' common face or line
+                    common[0, k] = max(cell_bounds[a, 0, k], cell_bounds[b, 0, k])
+                    common[1, k] = min(cell_bounds[a, 1, k], cell_bounds[b, 1, k])
+                n = _crack_candidate(portal_quads, p, src, grow, slope, planes, count, tol,
+                                     common[0], common[1], cand)
+            else:
+                _grown_quad(portal_quads, p, grow, cand)
+                n = clip_polygon(cand, 4, planes, count, tol, scratch)
             if n == 0:
                 continue
-            d = 2 * p + (0 if forward else 1) + (1 if crack[p] or layer == 1 else 0) * crossings
+            d = 2 * p + (0 if forward else 1)
             grew = False
             for a in range(3):
                 lo, hi = np.inf, -np.inf
