@@ -51,12 +51,16 @@ PRESETS = {"screen": lambda profile: {"screen": profile.resolution},
 
 
 def combo_options(combo, profile) -> tuple:
-    """(stages string, Culler keyword options) of a "stages@preset+preset" combo."""
+    """(stages string, Culler keyword options) of a "stages@preset+preset" combo: "screen"
+    goes to occlusion and horizon (whichever run), the others to occlusion."""
     stages, _, presets = combo.partition("@")
-    occlusion = {}
+    options = {}
     for name in filter(None, presets.split("+")):
-        occlusion.update(PRESETS[name](profile))
-    return stages, ({"occlusion": occlusion} if occlusion else {})
+        targets = ("occlusion", "horizon") if name == "screen" else ("occlusion",)
+        for stage in targets:
+            if stage in stages.split(","):
+                options.setdefault(stage, {}).update(PRESETS[name](profile))
+    return stages, options
 
 
 def brute_force_frustum(corners, planes):
@@ -266,29 +270,36 @@ def structure_rows(world, cameras, stages="vfc", labels=("octree:3", "octree:4",
 
 
 HORIZON_COMBOS = ("vfc,tbfc", "vfc,horizon,tbfc", "vfc,occlusion,tbfc")
+# --screen: both occlusion stages also drop triangles covering no pixel centre of the screen.
+SCREEN_COMBOS = ("vfc,horizon,tbfc@screen", "vfc,occlusion,tbfc@screen")
 
 
-def horizon_rows(world, cameras, labels, rounds=3) -> list:
+def horizon_rows(world, cameras, labels, rounds=3, profile=None, screen=False) -> list:
     """Rows (structure, combo, mean sent, sent / vfc,tbfc's, median ms, ms / occlusion's,
-    horizon nodes culled, horizon triangles culled per frame) of HORIZON_COMBOS on each
-    structure: every camera culled by the three in turn (interleaved), `rounds` times, after a
+    horizon nodes culled, horizon triangles culled, horizon triangles covering no centre per
+    frame) of HORIZON_COMBOS (and SCREEN_COMBOS with screen, at profile's resolution) on each
+    structure: every camera culled by each in turn (interleaved), `rounds` times, after a
     warm-up pass."""
     from vismobile.partition.spec import parse_spec
 
+    combos = HORIZON_COMBOS + (SCREEN_COMBOS if screen else ())
     rows = []
     for label in labels:
         kind, params = parse_spec(label)
         part = partition(world, kind, **params)
-        cullers = {combo: Culler(part, combo) for combo in HORIZON_COMBOS}
-        sent = {combo: [] for combo in HORIZON_COMBOS}
-        stats = {combo: {} for combo in HORIZON_COMBOS}
+        cullers = {}
+        for combo in combos:
+            stages, options = combo_options(combo, profile)
+            cullers[combo] = Culler(part, stages, **options)
+        sent = {combo: [] for combo in combos}
+        stats = {combo: {} for combo in combos}
         for cam in cameras:  # warm-up and counters
             for combo, culler in cullers.items():
                 result = culler.cull(cam)
                 sent[combo].append(len(result.triangles))
                 for key, value in result.stats.items():
                     stats[combo][key] = stats[combo].get(key, 0) + value
-        times = {combo: [] for combo in HORIZON_COMBOS}
+        times = {combo: [] for combo in combos}
         for _ in range(rounds):
             for cam in cameras:
                 for combo, culler in cullers.items():
@@ -297,13 +308,14 @@ def horizon_rows(world, cameras, labels, rounds=3) -> list:
                     times[combo].append(time.perf_counter() - start)
         base = float(np.mean(sent["vfc,tbfc"]))
         occ_ms = float(np.median(times["vfc,occlusion,tbfc"])) * 1e3
-        for combo in HORIZON_COMBOS:
+        for combo in combos:
             ms = float(np.median(times[combo])) * 1e3
             st = stats[combo]
             rows.append((label, combo, float(np.mean(sent[combo])),
                          float(np.mean(sent[combo])) / max(base, 1), ms, ms / occ_ms,
                          st.get("horizon.nodes_culled", 0) / len(cameras),
-                         st.get("horizon.triangles_culled", 0) / len(cameras)))
+                         st.get("horizon.triangles_culled", 0) / len(cameras),
+                         st.get("horizon.triangles_subpixel", 0) / len(cameras)))
     return rows
 
 
@@ -326,15 +338,17 @@ def horizon_report(args, profile) -> int:
         frames = np.unique(np.linspace(0, len(traj) - 1, args.frames).astype(int))
         cameras = [traj.camera(int(f), profile.aspect) for f in frames]
         path = Path(args.trajectory).name
-    rows = horizon_rows(world, cameras, args.horizon_structures.split(","))
+    rows = horizon_rows(world, cameras, args.horizon_structures.split(","), profile=profile,
+                        screen=args.screen)
     print(f"horizon on {args.world.upper()} ({world.triangle_count:,} triangles), "
-          f"{len(cameras)} frames of {path}, interleaved, medians of 3 rounds\n\n"
-          "| structure | stages | mean sent | sent / vfc,tbfc | median ms | ms / occlusion's "
-          "| horizon nodes culled | horizon triangles culled |\n"
-          "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for label, combo, sent, ratio, ms, vs, nodes, tris in rows:
+          f"{len(cameras)} frames of {path}, interleaved, medians of 3 rounds"
+          f"{'; @screen: ' + 'x'.join(map(str, profile.resolution)) if args.screen else ''}"
+          "\n\n| structure | stages | mean sent | sent / vfc,tbfc | median ms | "
+          "ms / occlusion's | horizon nodes culled | horizon triangles culled | "
+          "horizon no-centre culled |\n| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for label, combo, sent, ratio, ms, vs, nodes, tris, sub in rows:
         print(f"| {label} | {combo} | {sent:.1f} | {ratio:.3f} | {ms:.3f} | {vs:.2f} | "
-              f"{nodes:.1f} | {tris:.1f} |")
+              f"{nodes:.1f} | {tris:.1f} | {sub:.1f} |")
     return 0
 
 
@@ -357,6 +371,10 @@ def main(argv=None) -> int:
                     help="only compare vfc,tbfc / vfc,horizon,tbfc / vfc,occlusion,tbfc on these "
                          "structures (e.g. octree:4,octree:5,kdtree) and exit; --world terrain "
                          "runs the terrain world with objects on its valley path")
+    ap.add_argument("--screen", action="store_true",
+                    help="with --horizon-structures: also vfc,horizon,tbfc and "
+                         "vfc,occlusion,tbfc dropping triangles that cover no pixel centre of "
+                         "the profile's screen (safe at that resolution only)")
     ap.add_argument("--structures-vfc", default=None,
                     help="only compare vfc on these structures (comma-separated specs, e.g. "
                          "octree:3,octree:4,octree:5,octree:6,kdtree) and exit")

@@ -6,11 +6,14 @@ models standing on it), on octree 4 and the kd-tree.
 
     .venv/bin/python tools/horizon_objects.py [--worlds w5,w6,terrain] [--random 2000]
         [--modes float32,fixed16.16] [--fixed-random 200] [--structures octree:4,kdtree]
+        [--screen]
 
 Prints one row per world, structure and mode: cameras, cameras with a dropped triangle,
 triangles dropped, and the triangles the stage culled (so a row that culls nothing is seen).
 Truth: the item buffer (float32), or what a fixed16.16 device shows three ways (its transform,
-the rounding alone, the exact world). Exit code 1 when anything was dropped. Run one world at a
+the rounding alone, the exact world). --screen also checks the stage with the profile's screen
+(triangles covering no pixel centre dropped too) against the same truth, in extra rows.
+Exit code 1 when anything was dropped. Run one world at a
 time on the shared machine (a few minutes each).
 """
 from __future__ import annotations
@@ -91,18 +94,25 @@ def truth_of(world, cam, profile):
     return ids[ids != SENTINEL]
 
 
-def sweep(world, cameras, part, profile):
-    """(cameras with a drop, triangles dropped, triangles culled by the stage)."""
-    culler = Culler(part, "vfc,horizon,tbfc", **device_options(profile))
-    bad = dropped = culled = 0
+def sweep(world, cameras, part, profile, screen=False):
+    """[(cameras with a drop, triangles dropped, triangles culled by the stage, of them
+    covering no pixel centre)]: the stage in the profile's arithmetic, and with screen also
+    with the profile's screen (device_options: horizon's `screen`), against the same truth."""
+    options = [{"arithmetic": profile.vertex_format}] + ([device_options(profile)] if screen
+                                                         else [])
+    cullers = [Culler(part, "vfc,horizon,tbfc", **o) for o in options]
+    counts = [[0, 0, 0, 0] for _ in cullers]
     for cam in cameras:
         truth = truth_of(world, cam, profile)
-        result = culler.cull(cam)
-        culled += result.stats.get("horizon.triangles_culled", 0)
-        missing = len(np.setdiff1d(truth, result.triangles))
-        bad += missing > 0
-        dropped += missing
-    return bad, dropped, culled
+        for culler, count in zip(cullers, counts):
+            result = culler.cull(cam)
+            subpixel = result.stats.get("horizon.triangles_subpixel", 0)
+            count[2] += result.stats.get("horizon.triangles_culled", 0) + subpixel
+            count[3] += subpixel
+            missing = len(np.setdiff1d(truth, result.triangles))
+            count[0] += missing > 0
+            count[1] += missing
+    return counts
 
 
 def main(argv=None) -> int:
@@ -114,9 +124,12 @@ def main(argv=None) -> int:
                     help="random cameras in fixed16.16 (three renders each; default 200)")
     ap.add_argument("--structures", default="octree:4,kdtree")
     ap.add_argument("--profile", default="ipaq-hx2490b")
+    ap.add_argument("--screen", action="store_true",
+                    help="also check the stage with the profile's screen (triangles covering "
+                         "no pixel centre dropped too), against the same truth")
     args = ap.parse_args(argv)
     print("| world | cameras | structure | mode | cameras dropping | triangles dropped | "
-          "triangles culled | s |")
+          "triangles culled (no centre) | s |")
     print("| --- | --- | --- | --- | ---: | ---: | ---: | ---: |")
     failed = False
     for name in args.worlds.split(","):
@@ -135,11 +148,14 @@ def main(argv=None) -> int:
                         cameras = cameras[:args.fixed_random]
                         label = f"random {len(cameras)}"
                     start = time.perf_counter()
-                    bad, dropped, culled = sweep(world, cameras, part, profile)
-                    failed |= dropped > 0
-                    print(f"| {name} | {label} ({len(cameras)}) | {spec} | {mode} | {bad} | "
-                          f"{dropped} | {culled} | {time.perf_counter() - start:.0f} |",
-                          flush=True)
+                    rows = sweep(world, cameras, part, profile, args.screen)
+                    seconds = time.perf_counter() - start
+                    for k, (bad, dropped, culled, sub) in enumerate(rows):
+                        failed |= dropped > 0
+                        mode_label = f"{mode} @screen" if k else mode
+                        print(f"| {name} | {label} ({len(cameras)}) | {spec} | {mode_label} | "
+                              f"{bad} | {dropped} | {culled} ({sub}) | {seconds:.0f} |",
+                              flush=True)
     return 1 if failed else 0
 
 

@@ -124,16 +124,22 @@ def test_horizon_never_drops_a_visible_triangle(kit, name, mode):
         pitch = [0.0, rng.uniform(-89, 89), rng.uniform(-30, 30)][i % 3]
         cameras.append(Camera(pos, yaw=rng.uniform(0, 360), pitch=pitch, aspect=kit.ASPECT,
                               near=[0.1, 1e-3, 1.0][i % 3]))
-    culled = 0
+    culled = subpixel = 0
     for part in parts:
-        culler = Culler(part, "vfc,horizon,tbfc", **device_options(profile))
+        culler = Culler(part, "vfc,horizon,tbfc", arithmetic=profile.vertex_format)
+        # With the device's screen: also the triangles covering no pixel centre of it.
+        screen = Culler(part, "vfc,horizon,tbfc", **device_options(profile))
         for cam in cameras:
             truth = shown_ids(device_buffers(world, cam, profile, True))
             result = culler.cull(cam)
             culled += result.stats.get("horizon.triangles_culled", 0)
             missing = np.setdiff1d(truth, result.triangles)
             assert not len(missing), (name, part.kind, mode, cam, missing[:5])
-    assert culled > 0  # the check saw the stage hide something
+            result = screen.cull(cam)
+            subpixel += result.stats.get("horizon.triangles_subpixel", 0)
+            missing = np.setdiff1d(truth, result.triangles)
+            assert not len(missing), (name, part.kind, mode, cam, "screen", missing[:5])
+    assert culled > 0 and subpixel > 0  # the check saw the stage hide something
 
 
 def test_adaptive_runs_the_horizon_and_never_drops(kit):
@@ -163,7 +169,8 @@ def test_the_stage_is_in_every_registry():
     assert "toggle:horizon" in PRESSED.values()
     from vismobile.culling.horizon import HorizonStage
 
-    for bad in ({"bands": 0}, {"step": 2.0}, {"cells": 0}):
+    for bad in ({"bands": 0}, {"step": 2.0}, {"cells": 0}, {"screen": (0, 320)},
+                {"screen": (240,)}):
         with pytest.raises(ValueError):
             HorizonStage(**bad)
 
@@ -177,6 +184,12 @@ def test_the_device_model_prices_the_horizon(kit):
     plain = Culler(part, "vfc,tbfc").cull(cam).stats
     assert stats["horizon.pieces"] > 0 and stats["horizon.triangles_tested"] > 0
     assert cull_cycles(stats, 50.0) > cull_cycles(plain, 50.0) + 60 * stats["horizon.pieces"] - 1
+    # With the device's screen the centre test is priced on what reached it.
+    screen = Culler(part, "vfc,horizon,tbfc", horizon={"screen": (240, 320)}).cull(cam).stats
+    assert 0 < screen["horizon.triangles_centre_tested"] <= screen["horizon.triangles_tested"]
+    assert cull_cycles(screen, 50.0) == cull_cycles(stats, 50.0) + 80 * screen[
+        "horizon.triangles_centre_tested"] - 200 * (stats["horizon.triangles_tested"]
+                                                    - screen["horizon.triangles_tested"])
 
 
 def test_triangles_wholly_off_screen_are_dropped(kit):
@@ -200,13 +213,16 @@ def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
     # The stage tests nodes and triangles in one numba call each (horizon_tests.py); they must
     # decide as the Horizon's own tests do, box by box and triangle by triangle.
     from vismobile.culling.horizon import HorizonStage
-    from vismobile.culling.horizon_tests import _nodes, _triangles, horizon_arrays, off_screen
+    from vismobile.culling.horizon_tests import (NO_SCREEN, _nodes, _triangles, horizon_arrays,
+                                                 off_screen)
 
     part = kit.structure("w5", "octree")
     stage = HorizonStage()
     culler = Culler(part, "vfc")
     stage.prepare(culler.tree)
-    tree, hidden_seen = culler.tree, 0
+    from vismobile.culling.hiz import covers_no_sample
+
+    tree, hidden_seen, subpixel_seen = culler.tree, 0, 0
     for z, yaw in ((250.0, 0.0), (150.0, 20.0), (100.0, -90.0)):
         cam = Camera((70.0, 1.7, z), yaw=yaw, pitch=0.0, aspect=kit.ASPECT)
         horizon = stage.cast(cam)
@@ -216,10 +232,77 @@ def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
                                      *horizon_arrays(horizon)), expected)
         ids = np.arange(len(stage.corners))
         planes = np.asarray(cam.frustum_planes())
-        off, behind = _triangles(stage.corners, ids, planes, 1e-6, True,
-                                 *horizon_arrays(horizon), stage.margin)
+        off, behind, sub = _triangles(stage.corners, ids, planes, 1e-6, True,
+                                      *horizon_arrays(horizon), stage.margin, *NO_SCREEN)
+        assert not sub.any()
         assert np.array_equal(off, off_screen(stage.corners, planes, 1e-6))
         expected = horizon.hidden_points(stage.corners, stage.margin)
         assert np.array_equal(behind, expected & ~off)
         hidden_seen += int(behind.sum()) + int(expected.sum())
+        # With a screen: the centre test of hiz (camera space), on what the horizon kept.
+        stage.screen = (240, 320)
+        samples = stage.samples(cam)
+        off2, behind2, sub = _triangles(stage.corners, ids, planes, 1e-6, True,
+                                        *horizon_arrays(horizon), stage.margin, *samples)
+        assert np.array_equal(off2, off) and np.array_equal(behind2, behind)
+        eye, rotation, near, tx, ty, width, height, move = samples
+        cam_space = (stage.corners - eye) @ rotation.T
+        expected = covers_no_sample(cam_space, near, tx, ty, width, height, move)
+        assert np.array_equal(sub, expected & ~off & ~behind)
+        subpixel_seen += int(sub.sum())
+        stage.screen = None
+    assert hidden_seen > 0 and subpixel_seen > 0
+
+
+@pytest.mark.parametrize("name", ["w5", "terrain"])
+def test_the_fixed_point_triangle_kernel_matches_hidden_points(kit, name):
+    # fixed16.16 tests triangles in one numba call (_triangles_fixed over hidden_one_fixed);
+    # it must decide as FixedHorizon.hidden_points does, triangle by triangle, on an object
+    # world's solids and on a terrain's ground (a 65^2 fractal, boxes standing on it).
+    from vismobile.culling.horizon import HorizonStage
+    from vismobile.culling.horizon_tests import (NO_SCREEN, _triangles_fixed, fixed_arrays,
+                                                 off_screen)
+    from vismobile.terrain.horizon import FixedHorizon
+
+    if name == "w5":
+        part, eyes = kit.structure("w5", "octree"), [(70.0, 1.7, 250.0), (150.0, 1.7, 100.0)]
+    else:
+        from vismobile.partition import partition
+        from vismobile.terrain import sources
+        from vismobile.terrain.ground import TerrainGround
+
+        hm = sources.diamond_square(65, seed=2, roughness=0.5, relief=0.2)
+        rng = np.random.default_rng(5)
+        boxes = []
+        for x, z in rng.uniform(2, 60, (40, 2)) * hm.spacing:
+            h = float(hm.height_at(x, z))
+            boxes.append((x, z, x + 1.5, z + 1.5, h - 1.0, h + 2.0))
+        world = boxes_world(boxes, bottoms=True)
+        world.ground = TerrainGround(hm)
+        part = partition(world, "octree", depth=3)
+        eyes = [(x, float(hm.height_at(x, z)) + up, z) for x, z, up in ((5.0, 5.0, 3.0),
+                                                                       (60.0, 30.0, 1.0))]
+    stage = HorizonStage()
+    stage.arithmetic = "fixed16.16"
+    culler = Culler(part, "vfc")
+    stage.prepare(culler.tree)
+    ids = np.arange(len(stage.corners))
+    hidden_seen = 0
+    for eye in eyes:
+        for yaw in (0.0, 45.0, 200.0):
+            cam = Camera(eye, yaw=yaw, pitch=-5.0, aspect=kit.ASPECT)
+            horizon = stage.cast(cam)
+            if horizon is None:
+                continue
+            assert isinstance(horizon, FixedHorizon)
+            planes = np.asarray(cam.frustum_planes())
+            off, behind, sub = _triangles_fixed(stage.corners, ids, planes, 1e-6,
+                                                horizon.origin, stage.margin,
+                                                float(horizon.limit), *fixed_arrays(horizon),
+                                                *NO_SCREEN)
+            assert not sub.any()
+            assert np.array_equal(off, off_screen(stage.corners, planes, 1e-6))
+            expected = horizon.hidden_points(stage.corners, stage.margin)
+            assert np.array_equal(behind, expected & ~off)
+            hidden_seen += int(behind.sum())
     assert hidden_seen > 0

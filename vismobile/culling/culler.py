@@ -56,9 +56,11 @@ def parse_stages(stages) -> tuple:
 
 def device_options(profile) -> dict:
     """Culler keyword arguments that tie culling to a device profile: its arithmetic mode
-    (vertex format) and its screen, so occlusion may drop triangles that cover no pixel centre."""
-    return {"arithmetic": profile.vertex_format,
-            "occlusion": {"screen": tuple(profile.resolution)}}
+    (vertex format) and its screen, so occlusion and horizon may drop triangles that cover no
+    pixel centre."""
+    screen = tuple(profile.resolution)
+    return {"arithmetic": profile.vertex_format, "occlusion": {"screen": screen},
+            "horizon": {"screen": screen}}
 
 
 class Culler:

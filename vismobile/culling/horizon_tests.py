@@ -1,12 +1,18 @@
 """The `horizon` stage's per-frame tests in numba (culling/horizon.py): node boxes and triangles
-against a float64 horizon (terrain/horizon.py's hidden_one) in one call each, and the off-screen
-test of triangles. A call costs a few microseconds of dispatch, so each test is one call."""
+against a float64 horizon (terrain/horizon.py's hidden_one) in one call each, the off-screen
+test of triangles and, with a screen, the pixel-centre test (hiz's _covers_no_sample). A call
+costs a few microseconds of dispatch, so each test is one call."""
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-from ..terrain.horizon import hidden_one
+from ..terrain.horizon import hidden_one, hidden_one_fixed
+from .hiz.buffer import _covers_no_sample
+from .hiz.raster import _to_camera
+
+# No screen: _triangles' sample arguments (eye, rotation, near, tx, ty, width 0, height, move).
+NO_SCREEN = (np.zeros(3), np.eye(3), 1.0, 1.0, 1.0, 0, 0, 0.0)
 
 
 def off_screen(corners, planes, slack: float) -> np.ndarray:
@@ -17,8 +23,8 @@ def off_screen(corners, planes, slack: float) -> np.ndarray:
     triangle the device could draw inside the frustum is never called off screen."""
     corners = np.asarray(corners, np.float64)
     ids = np.arange(len(corners))
-    off, _ = _triangles(corners, ids, np.asarray(planes, np.float64), float(slack), False,
-                        *_NO_HORIZON)
+    off, _, _ = _triangles(corners, ids, np.asarray(planes, np.float64), float(slack), False,
+                           *_NO_HORIZON, *NO_SCREEN)
     return off
 
 
@@ -35,19 +41,64 @@ def _outside(c, planes, slack):
 
 @njit(cache=True)
 def _triangles(corners, ids, planes, slack, test, origin, eye, forward, right, tans, depths,
-               values, ceiling, bases, clamp, grow):
-    """(off, behind) (K,) bool for triangles ids (K,) of corners (T, 3, 3): off screen (see
-    off_screen), else (when test) behind the horizon (hidden_one, corners grown by grow)."""
+               values, ceiling, bases, clamp, grow, view_eye, rotation, near, tx, ty, sw, sh,
+               sample_move):
+    """(off, behind, subpixel) (K,) bool for triangles ids (K,) of corners (T, 3, 3): off
+    screen (see off_screen), else (when test) behind the horizon (hidden_one, corners grown by
+    grow), else (sw > 0) covering no pixel centre of an sw x sh screen (hiz's
+    _covers_no_sample: the camera view_eye (3,), rotation (3, 3) rows right, up, forward, near,
+    half tangents tx, ty, corners moved by up to sample_move per coordinate)."""
     off = np.zeros(ids.shape[0], dtype=np.bool_)
     behind = np.zeros(ids.shape[0], dtype=np.bool_)
+    subpixel = np.zeros(ids.shape[0], dtype=np.bool_)
+    cam = np.empty((3, 3))
+    px = np.empty(3)
+    py = np.empty(3)
     for n in range(ids.shape[0]):
         c = corners[ids[n]]
         if _outside(c, planes, slack):
             off[n] = True
-        elif test:
-            behind[n] = hidden_one(c, origin, eye, forward, right, tans, depths, values,
-                                   ceiling, bases, clamp, grow)
-    return off, behind
+        elif test and hidden_one(c, origin, eye, forward, right, tans, depths, values,
+                                 ceiling, bases, clamp, grow):
+            behind[n] = True
+        elif sw > 0:
+            subpixel[n] = _no_centre(c, view_eye, rotation, near, tx, ty, sw, sh, sample_move,
+                                     cam, px, py)
+    return off, behind, subpixel
+
+
+@njit(cache=True, inline="always")
+def _no_centre(c, view_eye, rotation, near, tx, ty, sw, sh, sample_move, cam, px, py):
+    """hiz's _covers_no_sample of the world triangle c (3, 3) (cam, px, py: scratch)."""
+    for k in range(3):
+        _to_camera(c[k], view_eye, rotation, cam[k])
+    return _covers_no_sample(cam, near, tx, ty, sw, sh, sample_move, 16, px, py)
+
+
+@njit(cache=True)
+def _triangles_fixed(corners, ids, planes, slack, origin, grow, limit, eye, forward, right,
+                     tans, depths, values, ceiling, bases, clamp, view_eye, rotation, near, tx,
+                     ty, sw, sh, sample_move):
+    """_triangles against a 16.16 FixedHorizon (its origin, limit and raw arrays): behind as
+    FixedHorizon.hidden_points(corners, grow) decides, in one call (hidden_one_fixed)."""
+    off = np.zeros(ids.shape[0], dtype=np.bool_)
+    behind = np.zeros(ids.shape[0], dtype=np.bool_)
+    subpixel = np.zeros(ids.shape[0], dtype=np.bool_)
+    acc = np.empty(5, np.int64)
+    cam = np.empty((3, 3))
+    px = np.empty(3)
+    py = np.empty(3)
+    for n in range(ids.shape[0]):
+        c = corners[ids[n]]
+        if _outside(c, planes, slack):
+            off[n] = True
+        elif hidden_one_fixed(c, origin, grow, limit, eye, forward, right, tans, depths,
+                              values, ceiling, bases, clamp, acc):
+            behind[n] = True
+        elif sw > 0:
+            subpixel[n] = _no_centre(c, view_eye, rotation, near, tx, ty, sw, sh, sample_move,
+                                     cam, px, py)
+    return off, behind, subpixel
 
 
 @njit(cache=True)
@@ -64,6 +115,13 @@ def _nodes(bounds, nodes, grow, origin, eye, forward, right, tans, depths, value
         out[n] = hidden_one(corners, origin, eye, forward, right, tans, depths, values,
                             ceiling, bases, clamp, 0.0)
     return out
+
+
+def fixed_arrays(horizon) -> tuple:
+    """A FixedHorizon's origin, limit and raw arrays in _triangles_fixed's order (the grow
+    goes between origin and limit)."""
+    return (horizon.eye, horizon.forward, horizon.right, horizon.tans, horizon.depths,
+            horizon.values, horizon.ceiling, horizon.bases, horizon.clamp)
 
 
 def horizon_arrays(horizon) -> tuple:

@@ -116,6 +116,8 @@ def design(rows, names) -> np.ndarray:
 #                                                 the piece, a min-pyramid read of 1-4 cells)
 #   horizon.nodes_tested     : 0 float, 120 int  (8 corners to slopes, bands compared)
 #   horizon.triangles_tested : 0 float, 200 int  (3 corners grown by the margin, bands compared)
+#   horizon.triangles_centre_tested: 0 float, 80 int (with the screen: 3 corners projected,
+#                                                 16.16 divides, the centres in their box)
 #   pvs.cells_tested         : 0 float, 12 int   (the eye against one view cell's box: 6
 #                                                 16.16 compares, as a device would store it)
 #   pvs.runs_decoded         : 0 float, 40 int   (a cache miss: one [first, end) run of the
@@ -143,6 +145,7 @@ CULL_OPERATIONS = {
     "horizon.pieces": (0, 60),
     "horizon.nodes_tested": (0, 120),
     "horizon.triangles_tested": (0, 200),
+    "horizon.triangles_centre_tested": (0, 80),
     "pvs.cells_tested": (0, 12),
     "pvs.runs_decoded": (0, 40),
     "pvs.triangles_tested": (0, 4),
