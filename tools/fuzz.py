@@ -87,13 +87,14 @@ def seeds(folder: Path) -> dict:
             **format_seeds(world, folder, [textured_glb()])}
 
 
-def vmtiles_seed(heightmap, folder) -> bytes:
-    """A .vmtiles file of a small terrain (terrain tile; issue 30's paged terrains)."""
+def vmtiles_seed(heightmap, folder, name="seed") -> bytes:
+    """A .vmtiles file of a small terrain (terrain tile; issue 30's paged terrains; with
+    no-data samples: the holes flag and the no-data normal bytes)."""
     from vismobile.terrain.paged import write_tiles
     from vismobile.terrain.tiles import TilePyramid
 
-    write_tiles(TilePyramid.build(heightmap, 4), folder / "seed.vmtiles")
-    return (folder / "seed.vmtiles").read_bytes()
+    write_tiles(TilePyramid.build(heightmap, 4), folder / f"{name}.vmtiles")
+    return (folder / f"{name}.vmtiles").read_bytes()
 
 
 def format_seeds(world, folder: Path, glbs=()) -> dict:
@@ -151,7 +152,9 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
             "gz": [gzip.compress(plys[1])], "vmt": [(folder / "seed.vmt").read_bytes(),
                                                     (folder / "holes.vmt").read_bytes()],
             "vmtplay": [(folder / "seed.vmt").read_bytes()],
-            "npy": arrays, "tif": tifs, "vmtiles": [vmtiles_seed(heightmap, folder)],
+            "npy": arrays, "tif": tifs,
+            "vmtiles": [vmtiles_seed(heightmap, folder),
+                        vmtiles_seed(quantize(holed, 1.0, "holes"), folder, "holes")],
             **animated_seeds(folder)}
 
 

@@ -79,3 +79,53 @@ def test_terrain_tile_then_play_pages_within_the_budget(tiled, tmp_path, capsys)
     assert main(["play", str(tmp_path / "t.vmtiles"), "--terrain-method", "roam",
                  "-o", str(tmp_path / "bad")]) == 2
     assert "tiles method" in capsys.readouterr().err
+
+
+def test_a_terrain_with_holes_pages_and_draws_them_cut(tmp_path):
+    """No-data samples page too (normal bytes -128, -128; header holes): the same selection as
+    in memory, the image within normal quantisation, the lake's centre cut."""
+    from vismobile.render.shaders import CLEAR_RGB
+    from vismobile.terrain.heightmap import quantize
+    from vismobile.world.camera import Camera
+
+    base = sources.diamond_square(129, seed=4, roughness=0.5, relief=0.1)
+    h = base.heights.astype(np.float64)
+    i, j = np.mgrid[0:129, 0:129]
+    h[(i - 64) ** 2 + (j - 64) ** 2 < 20 ** 2] = np.nan
+    h[30, 10:60] = np.nan
+    hm = quantize(h, 1.0, "lake")
+    pyramid = TilePyramid.build(hm, 16)
+    path = tmp_path / "lake.vmtiles"
+    write_tiles(pyramid, path)
+    profile = get_profile("ipaq-hx2490b")
+    paged = PagedTiles(path, thread=False)
+    assert paged.heightmap.holes
+    arena, plain = PagedArena(paged, profile), TileArena(pyramid, profile)
+    top = float(np.nanmax(h))
+    cameras = [Camera((64.0, top + 60.0, 64.0), yaw=0, pitch=-89.9, fov=30, aspect=240 / 320,
+                      near=0.5, far=400)] + path_cameras(hm, "circle", "fast", frames=3, every=40)
+    try:
+        for k, camera in enumerate(cameras):
+            a = select_tiles(paged.pyramid, camera, profile.resolution, 1.0)
+            b = select_tiles(pyramid, camera, profile.resolution, 1.0)
+            assert all(np.array_equal(getattr(a, n), getattr(b, n))
+                       for n in ("level", "ti", "tj", "sides"))
+            arena.draw(a, camera)
+            image = arena.read_rgb().astype(np.float64)
+            plain.draw(b, camera)
+            mse = ((image - plain.read_rgb()) ** 2).mean()
+            assert mse == 0 or 10 * np.log10(255 ** 2 / mse) > 40
+            if k == 0:  # from above: the lake's centre shows the clear colour
+                assert np.abs(image[160, 120] - np.rint(np.array(CLEAR_RGB) * 255)).max() <= 1
+    finally:
+        paged.close()
+    import struct
+    import zlib
+
+    broken = tmp_path / "broken.vmtiles"  # a holes flag that is not a boolean
+    data = path.read_bytes().replace(b'"holes": true', b'"holes": 1.00')
+    length = struct.unpack("<I", data[4:8])[0]
+    head = data[12:12 + length]
+    broken.write_bytes(data[:8] + struct.pack("<I", zlib.crc32(head)) + data[12:])
+    with pytest.raises(WorldError, match="holes"):
+        PagedTiles(broken, thread=False)

@@ -470,6 +470,32 @@ class TerrainScene:
     def read_rgb(self) -> np.ndarray:
         return self.lod.renderer.read_rgb()
 
+    def visible_dropped(self, camera, renderer=None) -> int:
+        """Object triangles the last frame's culling dropped that the item buffer of its drawn
+        LOD ground (holes cut as drawn) plus every object at full detail shows: 0 when the
+        culling was conservative. renderer: a TerrainRenderer of the heightmap (one is made
+        when None). Not for timed frames."""
+        from ..render.terrain import TerrainRenderer
+
+        renderer = renderer or TerrainRenderer(self.heightmap, self.profile)
+        lod, selected, objects = self.lod, self.last, self.objects
+        if lod.name == "tiles":
+            from ..terrain.tiles import selection_mesh
+
+            first = renderer.draw(*selection_mesh(lod.pyramid, selected), camera,
+                                  kind="item").triangles
+        elif lod.name == "roettger":
+            first = renderer.draw_samples(lod.lists.sample_triangles(selected), camera,
+                                          kind="item").triangles
+        else:
+            first = renderer.draw_samples(selected.triangles, camera, kind="item").triangles
+        renderer.draw_mesh_items(objects.vertices, objects.triangles, camera, first)
+        ids = renderer.read_ids().ravel()
+        seen = np.unique(ids[(ids >= first) & (ids < first + objects.triangle_count)]) - first
+        kept = np.zeros(objects.triangle_count, bool)
+        kept[self.culled.triangles] = True
+        return int((~kept[seen]).sum())
+
     def sample_error_px(self, camera) -> float:
         """The last frame's exact largest screen error (pixels) over the samples in the
         frustum that the drawn ground covers (study.terrain.vertex_errors): the measured

@@ -67,7 +67,9 @@ def add_parser(sub):
     terrain = parser.add_argument_group("terrain sweep (--terrain)")
     terrain.add_argument("--terrain", type=Path, default=None,
                          help="a .vmt terrain (vismobile terrain build): sweep the pixel knob "
-                              "of the terrain methods instead of the matrix")
+                              "of the terrain methods instead of the matrix (its placed "
+                              "objects too: culled by vfc+horizon over octree:4 and drawn at "
+                              "their LOD within each tau, as play runs them; chains in --cache)")
     terrain.add_argument("--methods", default="tiles,roettger,roam",
                          help="comma-separated terrain methods: tiles, roettger, roam, "
                               "roam/BUDGET (default tiles,roettger,roam)")
@@ -250,9 +252,18 @@ def run_terrain(args) -> int:
     report_path = args.report or args.out / "report.html"
     for path in (args.out / "terrain.csv", args.out / "terrain.json", report_path):
         check_destination(path)
-    heightmap, _ = store.load(args.terrain)
+    heightmap, placement = store.load(args.terrain)
+    keys = SWEEP_KEYS
     with Status("compare --terrain", enabled=not args.quiet) as status:
         rows = sweep(heightmap, methods, paths, taus, profile, frames, progress=status)
+        if len(placement):  # the objects on it, as play runs them (study/terrain_objects.py)
+            from ..app.terrain_objects import OBJECT_KEYS, object_figures
+
+            figures = object_figures(args.terrain, methods, paths, taus, profile, frames,
+                                     cache_dir=args.cache, progress=status)
+            for row in rows:
+                row.update(figures.get((row["method"], row["path"], row["tau"]), {}))
+            keys = SWEEP_KEYS + OBJECT_KEYS
         peers = None
         if args.peers:
             from ..study.peers import PEERS, compare, missing
@@ -267,7 +278,7 @@ def run_terrain(args) -> int:
                             taus, profile)
         status("writing the report")
         buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=SWEEP_KEYS)
+        writer = csv.DictWriter(buffer, fieldnames=keys)
         writer.writeheader()
         writer.writerows(rows)
         atomic_write_bytes(args.out / "terrain.csv", buffer.getvalue().encode())
@@ -284,7 +295,13 @@ def run_terrain(args) -> int:
             rows, report_path, title=f"vismobile terrain comparison: {heightmap.name}",
             notes=f"{args.terrain}: {heightmap.size}^2 samples; {profile.name} "
                   f"({profile.resolution[0]}x{profile.resolution[1]}); frames {frames} of each "
-                  "path.", peers=peers, picture=picture)
+                  "path." + (f" {len(placement)} objects on it, culled by vfc+horizon over "
+                             "octree:4 and drawn at their LOD within each row's tau."
+                             if len(placement) else ""), peers=peers, picture=picture)
+    dropped = sum(r.get("objects_dropped", 0) for r in rows)
+    if len(placement):
+        print(f"objects: {dropped} visible object triangles dropped over every method, path "
+              "and tau (item buffer of the drawn ground and every object)")
     for path, row, met in recommend(rows):
         print(f"use on the {path} path: {row['method']}, tau {row['tau']:g} px "
               f"({row['triangles']:,.0f} triangles, {row['lod_ms'] + row['render_ms']:.2f} ms "

@@ -98,8 +98,10 @@ def terrain_vertices(heightmap, rows, cols, heights=None) -> np.ndarray:
 
 
 def shaded_kind(heightmap) -> str:
-    """The program kind that draws a heightmap: "cut" (the alpha test) when it has holes."""
-    return "cut" if heightmap.valid is not None else "shaded"
+    """The program kind that draws a heightmap: "cut" (the alpha test) when it has holes (a
+    paged terrain's stand-in says so with `holes`)."""
+    holes = heightmap.valid is not None or getattr(heightmap, "holes", False)
+    return "cut" if holes else "shaded"
 
 
 class TerrainRenderer:

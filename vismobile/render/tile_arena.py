@@ -147,8 +147,11 @@ class PagedArena(TileArena):
         stand = self.paged.heightmap
         raw = np.stack(self.paged.records(tiles))  # (K, V, 4) uint8
         samples = raw[..., :2].copy().view("<u2")[..., 0].astype(np.float64)
-        nx = raw[..., 2].view(np.int8) / 127.0
-        nz = raw[..., 3].view(np.int8) / 127.0
+        from ..terrain.paged import NO_DATA
+
+        missing = (raw[..., 2] == NO_DATA) & (raw[..., 3] == NO_DATA)  # no data: alpha 0
+        nx = np.where(missing, 0.0, raw[..., 2].view(np.int8) / 127.0)
+        nz = np.where(missing, 0.0, raw[..., 3].view(np.int8) / 127.0)
         ny = np.sqrt(np.maximum(1.0 - nx * nx - nz * nz, 0.0))
         normal = np.stack([nx, ny, nz], -1)
         normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
@@ -159,6 +162,7 @@ class PagedArena(TileArena):
         records["position"] = np.stack([cols * stand.spacing, y, rows * stand.spacing], -1)
         records["normal"] = normal
         records["color"] = height_colors(y, stand.low, stand.high)
+        records["color"][..., 3] = np.where(missing, 0, 255)
         return records
 
     def draw(self, selection, camera) -> DrawStats:

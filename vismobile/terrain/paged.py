@@ -6,6 +6,10 @@ a tile, all kept in memory at run time) and one fixed-size record per tile of ev
 (P+1)^2 vertices at the level's stride as uint16 sample, int8 normal x, int8 normal z (4 bytes
 a vertex; the normal from the full-resolution samples' central differences, as the renderer's).
 A 4097^2 map is 116,500 tile records of 1,156 bytes (135 MB) beside 2.8 MB of statistics.
+No-data samples (seed 002's holes) keep their fill as the sample and carry the normal bytes
+(-128, -128), which no unit normal has (its bytes lie in -127..127); the header then says
+"holes": true, the renderer draws them with alpha 0 through the alpha test, and the tiles'
+errors in the statistics hold the horizontal error as in memory.
 
 `PagedTiles(path, budget_bytes)` keeps only the statistics and the records of the tiles it
 holds, at most budget_bytes of them (an LRU: the least recently used go first, never one used
@@ -34,6 +38,7 @@ from ..files.atomic import atomic_write_bytes
 
 MAGIC = b"VMTT"
 MAX_HEADER = 1 << 20
+NO_DATA = 0x80  # both normal bytes of a no-data vertex: int8 -128, which no unit normal has
 
 
 def sample_normals(heightmap, rows, cols) -> np.ndarray:
@@ -65,20 +70,22 @@ def tile_records(pyramid, level: int, ti, tj) -> np.ndarray:
     out[..., :2] = samples.view(np.uint8).reshape(len(ti), -1, 2)
     out[..., 2] = np.clip(np.rint(normals[..., 0] * 127), -127, 127).astype(np.int8).view(np.uint8)
     out[..., 3] = np.clip(np.rint(normals[..., 2] * 127), -127, 127).astype(np.int8).view(np.uint8)
+    if hm.valid is not None:
+        out[~hm.valid[rows, cols], 2:] = NO_DATA
     return out
 
 
 def write_tiles(pyramid, path) -> None:
     """Write the .vmtiles file of an in-memory pyramid (module doc), atomically."""
     hm = pyramid.heightmap
-    if hm.valid is not None:
-        raise WorldError(path, "a terrain with no-data samples cannot be paged yet")
     stats = np.stack([pyramid.flat_error, pyramid.flat_hmin, pyramid.flat_hmax], 1)
     stats = stats.astype("<f8").tobytes()
     header = {"size": hm.size, "patch": pyramid.patch, "levels": pyramid.levels,
               "spacing": hm.spacing, "z_scale": hm.z_scale, "z_offset": hm.z_offset,
               "name": hm.name, "low": float(hm.bounds()[0, 1]),
               "high": float(hm.bounds()[1, 1]), "stats_crc": zlib.crc32(stats)}
+    if hm.valid is not None:
+        header["holes"] = True  # absent otherwise: a file without holes is as before
     head = json.dumps(header, sort_keys=True).encode()
     parts = [MAGIC, struct.pack("<II", len(head), zlib.crc32(head)), head, stats]
     for level in range(pyramid.levels + 1):
@@ -98,6 +105,7 @@ class _Stand:
         self.z_scale, self.z_offset = float(header["z_scale"]), float(header["z_offset"])
         self.name, self.valid = str(header.get("name", "terrain")), None
         self.low, self.high = float(header["low"]), float(header["high"])
+        self.holes = header.get("holes", False) is True  # no-data vertices in the records
 
     @property
     def extent(self) -> float:
@@ -155,6 +163,8 @@ class PagedTiles:
                                                     "high")]
             except (KeyError, TypeError, ValueError):
                 scale = [np.nan]
+            if not isinstance(header.get("holes", False), bool):
+                raise WorldError(path, "tiled terrain header: holes must be true or false")
             if not (np.isfinite(scale).all() and scale[0] > 0 and scale[1] > 0
                     and max(abs(v) for v in scale) <= 1e12 and scale[3] <= scale[4]):
                 raise WorldError(path, "tiled terrain header: spacing, z_scale, z_offset, "
