@@ -222,6 +222,7 @@ class DepthBufferOcclusion(OccluderChoice):
         # of an occluder point there (the tests' local shift).
         self.tile_near = np.full(self.tiles, np.inf)
         self.tile_shift = np.full(shift_table_size(self._rows, self._cols), np.inf)
+        self._shift_written = False  # tile_near / tile_shift hold a frame's values (else inf)
         self._local = None
         self.bits = np.zeros(count // 64 + 1, dtype=np.uint64)  # candidates' dedup, 1 bit each
         self._stack = np.empty(tree.node_count + 64, dtype=np.int64)
@@ -327,6 +328,7 @@ class DepthBufferOcclusion(OccluderChoice):
             pixels = self.shift(camera, move) * 0.5 * max(self.width / tx, self.height / ty)
             self._local = bool(pixels > (GUARD_PX if self.screen is None else LOCAL_SHIFT_PX))
         if self._local:  # else the table stays inf: the global shift everywhere
+            self._shift_written = True
             stamp_near(tables[0], tables[2], tables[3], eye, rotation, clip, tx, ty, self.width,
                        self.height, *self.tile, self.tile_near)
             tile_shifts(self.tile_near, np.sqrt(3.0) * move, max(tx, ty), self._rows,
@@ -341,8 +343,10 @@ class DepthBufferOcclusion(OccluderChoice):
         self._camera, self._planes = camera, np.ascontiguousarray(state.planes)
         self.nearest = np.inf
         self.depth.fill(np.inf)
-        self.tile_near.fill(np.inf)
-        self.tile_shift.fill(np.inf)  # no local bound until the table is built
+        if self._shift_written:  # no local bound until the table is built (most W2 frames
+            self.tile_near.fill(np.inf)  # never build it: 115 kB not rewritten)
+            self.tile_shift.fill(np.inf)
+            self._shift_written = False
         self._local = None
         self.reach = np.inf if self.first_reach is None else self.first_reach
         if not self._view(camera)[7] < np.inf:  # the device cannot order depths: no occluder
@@ -413,6 +417,7 @@ class DepthBufferOcclusion(OccluderChoice):
             self.tile_max, self.tile_any, self.tile_min, self.tile_near, self.tile_shift,
             GUARD_PX if self.screen is None else LOCAL_SHIFT_PX, *self.samples(camera, move),
             self._frame, stats)
+        self._shift_written = local == 1
         self._local = None if local < 0 else bool(local)
         for name, value in zip(FRAME_COUNTERS[:4] if kept < 0 else FRAME_COUNTERS, stats):
             state.count(name, value)
