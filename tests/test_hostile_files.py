@@ -4,6 +4,8 @@ heightmap files) exits 2 with one stderr line naming the file, no traceback, not
 behind. The decompression bombs run here against a lowered limit (the tool runs them at full
 size in a child and reports its peak RSS: docs/hardening.md)."""
 import gzip
+import json
+import struct
 import importlib.util
 import zlib
 from pathlib import Path
@@ -221,3 +223,43 @@ def test_animated_inputs_load_or_are_refused_in_one_error(tmp_path, target):
             data = fuzz.mutate_bytes(data, pick)
         outcomes[fuzz.run_case(target, data, tmp_path)] += 1
     assert outcomes["error"] > 0
+
+
+def test_crafted_pvs_packs_load_or_are_refused_in_one_error(tmp_path, literal):
+    """A baked PVS's zlib'd sets (partition/pvs_codec.py) edited inside and re-compressed
+    (tools/fuzz.py mutate_pvs_pack, CRCs recomputed): each loads or raises PartitionError."""
+    import random
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    import fuzz
+    from vismobile.errors import PartitionError
+    from vismobile.partition import load_partition, partition, save_partition
+
+    rect = literal.rect
+    world = literal.world([rect(1, 0.0, (0, 4), (0, 8), 1), rect(1, 3.0, (0, 4), (0, 8), -1),
+                           rect(0, 0.0, (0, 3), (0, 4), 1), rect(0, 8.0, (0, 3), (0, 4), -1),
+                           rect(2, 0.0, (0, 8), (0, 3), 1), rect(2, 4.0, (0, 8), (0, 3), -1),
+                           rect(0, 4.0, (0, 3), (0, 1.5), -1), rect(0, 4.0, (0, 3), (2.5, 4), -1)])
+    save_partition(partition(world, "portal", depth=1, pvs="conservative"), tmp_path / "p.vmp")
+    seed = (tmp_path / "p.vmp").read_bytes()
+    outcomes = {"ok": 0, "refused": 0}
+    for case in range(120):
+        pick = random.Random(f"pvs:{case}").randrange
+        header_len = struct.unpack_from("<8sIII", seed, 0)[2]
+        header = json.loads(seed[20:20 + header_len])
+        body_start = 20 + header_len + (-(20 + header_len) % 64)
+        body = bytearray(seed[body_start:])
+        sec = next(s for s in header["sections"] if s["name"] == "extras.pvs_pack")
+        body = fuzz.mutate_pvs_pack(sec, header["fields"]["extras.pvs_pack"], body, pick)
+        text = json.dumps(header, sort_keys=True, separators=(",", ":")).encode()
+        head = struct.pack("<8sIII", seed[:8], 1, len(text), zlib.crc32(text)) + text
+        path = tmp_path / f"case{case}.vmp"
+        path.write_bytes(head + b"\0" * (-len(head) % 64) + bytes(body))
+        try:
+            load_partition(path)
+            outcomes["ok"] += 1
+        except PartitionError as error:
+            assert "\n" not in str(error) and str(path) in str(error)
+            outcomes["refused"] += 1
+    assert outcomes["ok"] and outcomes["refused"]  # both sides reached

@@ -31,7 +31,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from vismobile.culling import Culler, device_options  # noqa: E402
 from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.partition import partition, save_partition  # noqa: E402
-from vismobile.partition.pvs import bake, ids_of  # noqa: E402
+from vismobile.partition.pvs import bake  # noqa: E402
+from vismobile.partition.pvs_codec import cell_sizes, decode  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
 from vismobile.world.camera import Camera  # noqa: E402
@@ -107,9 +108,9 @@ def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1):
         save_partition(part, Path(tmp) / "b.vmp")
         pvs_bytes = os.path.getsize(Path(tmp) / "b.vmp") - before
     obj = os.path.getsize(ROOT / "worlds" / f"{name}.obj")
-    start = extras["pvs_start"]
-    share = np.mean([len(ids_of(extras["pvs_runs"][start[c]:start[c + 1]]))
-                     for c in range(len(start) - 1)]) / world.triangle_count
+    cells = len(extras["pvs_cells"])
+    share = np.mean(cell_sizes(*decode(extras, cells, world.triangle_count), cells)) \
+        / world.triangle_count
     traj = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
                                                     else "indoor.csv"))
     picks = np.linspace(0, len(traj) - 1, frames).astype(int)

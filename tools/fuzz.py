@@ -12,7 +12,8 @@ Three modes:
 - mutate: seeded mutation of real files (a shared model, .vmp files of every structure built
   from it, a thesis trajectory): byte flips, insertions, deletions, repeats, truncation, extreme
   numbers swapped into tokens, and for .vmp crafted edits of the JSON header and of sections
-  with their CRC32s recomputed, so the checks behind the checksums are reached. A .vmp that
+  with their CRC32s recomputed, so the checks behind the checksums are reached (a baked PVS's
+  zlib'd sets re-compressed after an edit inside, mutate_pvs_pack). A .vmp that
   loads is also culled (vfc, occlusion, portals) from a camera inside its world.
 - hostile: issue 28's crafted cases (tools/hostile.py: bad indices, node graphs, instancing,
   URIs, bombs, special files, .vmt headers, heightmap shapes), each through the CLI in a child
@@ -207,7 +208,10 @@ def _mutate_vmp(data: bytes, pick) -> bytes:
     header = json.loads(data[HEADER.size:HEADER.size + length])
     body_start = HEADER.size + length + (-(HEADER.size + length) % 64)
     body = bytearray(data[body_start:])
-    if pick(2) == 0:
+    packs = [sec for sec in header["sections"] if sec["name"] == "extras.pvs_pack"]
+    if packs and header["fields"]["extras.pvs_pack"]["encoding"] == "raw" and pick(3) == 0:
+        body = mutate_pvs_pack(packs[0], header["fields"]["extras.pvs_pack"], body, pick)
+    elif pick(2) == 0:
         _edit_json(header, pick)
     elif header["sections"]:
         sec = header["sections"][pick(len(header["sections"]))]
@@ -219,6 +223,31 @@ def _mutate_vmp(data: bytes, pick) -> bytes:
     text = json.dumps(header, sort_keys=True, separators=(",", ":")).encode()
     head = HEADER.pack(magic, version, len(text), zlib.crc32(text)) + text
     return head + b"\0" * (-len(head) % 64) + bytes(body)
+
+
+def mutate_pvs_pack(sec, field, body, pick) -> bytearray:
+    """A PVS whose pvs_pack (partition/pvs_codec.py) still inflates, edited inside: a pattern
+    id or bits changed, the stream cut or lengthened, a zero bomb, bytes after the stream, or
+    another compression level; the new section goes at the end of the body (aligned), the
+    section entry, its CRC32 and the field's shape updated."""
+    start, size = sec["offset"], sec["nbytes"]
+    data = bytearray(zlib.decompress(bytes(body[start:start + size])))
+    edit = pick(6)
+    if edit == 0 and data:  # one byte: a pattern bit or a pattern id
+        data[pick(len(data))] = pick(256)
+    elif edit == 1 and data:
+        del data[pick(len(data)):]
+    elif edit == 2:
+        data += bytes([pick(256)]) * (1 + pick(64))
+    elif edit == 3:
+        data = bytearray(1 << (10 + pick(16)))  # inflates far past what pvs_shape declares
+    pack = zlib.compress(bytes(data), pick(10))
+    if edit == 4:
+        pack += bytes([pick(256)]) * (1 + pick(8))  # trailing bytes after the stream
+    body += b"\0" * (-len(body) % 64)
+    sec.update(offset=len(body), nbytes=len(pack), count=len(pack), crc32=zlib.crc32(pack))
+    field["shape"] = [len(pack)]
+    return body + pack
 
 
 def _edit_json(node, pick):
@@ -338,7 +367,7 @@ def load_and_cull(path):
     low, high = partition.world.extent
     eye = (low + high) / 2.0
     stages = ["vfc", "occlusion"] + (["portals"] if partition.kind == "portal" else []) \
-        + (["pvs"] if "pvs_runs" in partition.extras else [])
+        + (["pvs"] if "pvs_pack" in partition.extras else [])
     for names in (stages[:1], stages):
         culler = Culler(partition, [s for s in names if not (s == "vfc" and "portals" in names)])
         for yaw in (0.0, 135.0):

@@ -7,7 +7,7 @@ import pytest
 from vismobile.culling import Culler, device_options
 from vismobile.device.profile import get_profile
 from vismobile.partition import load_partition, partition
-from vismobile.partition.pvs import ids_of
+from vismobile.partition.pvs_codec import cell_mask, decode
 from vismobile.render import SENTINEL, item_buffer
 from vismobile.world.camera import Camera
 
@@ -69,6 +69,12 @@ def zigzag(kit):
     return partition(world, "portal", depth=1, slabs=SLABS, pvs="conservative")
 
 
+def cell_ids(extras, c, triangles):
+    """(S,) int64 ids of view cell c's stored set (partition/pvs_codec.py)."""
+    patterns, ids = decode(extras, len(extras["pvs_cells"]), triangles)
+    return np.flatnonzero(cell_mask(patterns, ids, c))
+
+
 def cell_of(part, point):
     boxes = part.extras["pvs_cells"]
     inside = np.flatnonzero(((boxes[:, 0] <= point) & (point <= boxes[:, 1])).all(axis=1))
@@ -79,7 +85,7 @@ def test_first_room_does_not_see_the_fourth(zigzag):
     x = zigzag.extras
     world = zigzag.world
     c = cell_of(zigzag, np.array([2.0, 1.5, 2.0]))
-    ids = ids_of(x["pvs_runs"][x["pvs_start"][c]:x["pvs_start"][c + 1]])
+    ids = cell_ids(x, c, world.triangle_count)
     walls = ids[np.abs(world.normals[ids, 0]) > 0.9]
     seen = np.unique(np.round(world.centroids[walls, 0], 3))
     assert seen.max() <= 12.2 and 12.0 in seen  # walls at 16 and beyond (rooms 4, 5) hidden
@@ -96,7 +102,7 @@ def test_any_structure_takes_a_pvs(zigzag):
     for spec in ("octree:2", "bsp", "grid:2"):
         part = partition(zigzag.world, spec, pvs="conservative")
         if spec != "bsp":  # the BSP tree's leaves are its view cells (test_pvs_leaves.py)
-            assert np.array_equal(part.extras["pvs_runs"], zigzag.extras["pvs_runs"])
+            assert np.array_equal(part.extras["pvs_pack"], zigzag.extras["pvs_pack"])
         culler = Culler(part, "pvs,vfc")
         cam = Camera((2.0, 1.5, 2.0), yaw=-90.0, aspect=4 / 3)
         truth = np.unique(item_buffer(zigzag.world, None, cam, get_profile("desktop")))
@@ -142,7 +148,7 @@ def test_vmp_keeps_the_pvs_and_refuses_a_corrupt_one(zigzag, tmp_path):
     path = tmp_path / "z.vmp"
     save_partition(zigzag, path)
     loaded = load_partition(path)
-    for name in ("pvs_cells", "pvs_start", "pvs_runs", "pvs_grow"):
+    for name in ("pvs_cells", "pvs_shape", "pvs_pack", "pvs_grow"):
         assert np.array_equal(loaded.extras[name], zigzag.extras[name])
     assert loaded.params["pvs"] == "conservative"
     import json
@@ -154,25 +160,42 @@ def test_vmp_keeps_the_pvs_and_refuses_a_corrupt_one(zigzag, tmp_path):
     header = json.loads(bytes(data[PREFIX.size:PREFIX.size + length]))
     base = PREFIX.size + length
     base += -base % ALIGN
-    section = next(s for s in header["sections"] if s["name"].startswith("extras.pvs_runs"))
+    section = next(s for s in header["sections"] if s["name"].startswith("extras.pvs_pack"))
     data[base + section["offset"]] ^= 0xFF  # one bit pattern in the PVS's runs
     bad = tmp_path / "bad.vmp"
     bad.write_bytes(bytes(data))
-    with pytest.raises(PartitionError, match="checksum of section extras.pvs_runs"):
+    with pytest.raises(PartitionError, match="checksum of section extras.pvs_pack"):
         load_partition(bad)
-    # a run out of order within a cell fails the check, whatever its CRC
-    x = dict(zigzag.extras)
-    runs = x["pvs_runs"].copy()
-    runs[[0, 1]] = runs[[1, 0]]
+    # whatever its CRC: a stream that does not inflate, or inflates to more or less than
+    # declared (a bomb stops at the declared size), or names a pattern past the count
+    import zlib
+
     from vismobile.partition.pvs import check_pvs
 
-    with pytest.raises(ValueError):
-        check_pvs({**x, "pvs_runs": runs}, zigzag.world.triangle_count)
+    x = dict(zigzag.extras)
+    count, triangles, size = (int(v) for v in x["pvs_shape"])
+    width = (len(x["pvs_cells"]) + 7) // 8
+    good = zlib.decompress(x["pvs_pack"].tobytes())
+    ids = np.frombuffer(good, dtype=f"<u{size}", offset=count * width).copy()
+    ids[0] = count
+    bad_ids = good[:count * width] + ids.tobytes()
+    for pack, match in ((x["pvs_pack"][:-3], "inflate"), (good[:-1], "inflate"),
+                        (good + b"\0", "inflates to other"),
+                        (b"\0" * (1 << 24), "inflates to other"),
+                        (bad_ids, "past pvs_shape")):
+        data = pack if isinstance(pack, np.ndarray) else np.frombuffer(
+            zlib.compress(bytes(pack)), dtype=np.uint8)
+        with pytest.raises(ValueError, match=match):
+            check_pvs({**x, "pvs_pack": data}, zigzag.world.triangle_count)
+    with pytest.raises(ValueError, match="triangles"):
+        check_pvs({**x, "pvs_shape": np.array([count, triangles + 1, size])}, triangles)
+    with pytest.raises(ValueError, match="older layout"):
+        check_pvs({"pvs_runs": np.zeros(2, np.int32)}, triangles)
 
 
 def test_back_faces_go_back_in_without_a_backface_stage(zigzag):
-    # the bake left out what faces away from a whole cell (partition/pvs_back.py); pvs,vfc
-    # (no back-face stage) takes them back, pvs,vfc,tbfc does not need them
+    # the stored sets hold what faces away from a whole cell (partition/pvs_back.py): pvs,vfc
+    # (no back-face stage) hands them on, pvs,vfc,tbfc leaves them out
     from vismobile.partition.pvs import check_pvs
 
     assert zigzag.extras["pvs_back"][0] >= 0.5
@@ -195,7 +218,7 @@ def test_bad_pvs_mode(zigzag):
 
 def test_spec_grammar_bakes(zigzag):
     part = partition(zigzag.world, "portal:depth=1,pvs=conservative", slabs=SLABS)
-    assert np.array_equal(part.extras["pvs_runs"], zigzag.extras["pvs_runs"])
+    assert np.array_equal(part.extras["pvs_pack"], zigzag.extras["pvs_pack"])
 
 
 def test_sampled_pvs_is_within_the_conservative_one(kit, zigzag):
@@ -206,12 +229,12 @@ def test_sampled_pvs_is_within_the_conservative_one(kit, zigzag):
     assert stats["renders"] == len(extras["pvs_cells"]) * 4 * 6 == 5 * 4 * 6
     x = zigzag.extras
     for c, (lo, hi) in enumerate(extras["pvs_cells"]):
-        sampled = ids_of(extras["pvs_runs"][extras["pvs_start"][c]:extras["pvs_start"][c + 1]])
+        sampled = cell_ids(extras, c, zigzag.world.triangle_count)
         # the conservative cells inside this room: their union bounds what it can see
         boxes = x["pvs_cells"]
         within = np.flatnonzero(((boxes[:, 0] >= lo - 1e-9) & (boxes[:, 1] <= hi + 1e-9)).all(1))
         conservative = np.unique(np.concatenate(
-            [ids_of(x["pvs_runs"][x["pvs_start"][k]:x["pvs_start"][k + 1]]) for k in within]))
+            [cell_ids(x, k, zigzag.world.triangle_count) for k in within]))
         assert 0 < len(sampled) and not len(np.setdiff1d(sampled, conservative))
         assert len(sampled) < len(conservative)
     with pytest.raises(ValueError, match="renders item buffers"):
@@ -232,7 +255,7 @@ def test_cli_bakes_both_kinds(kit, zigzag, tmp_path):
                               capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr
         loaded = load_partition(out)
-        assert loaded.params["pvs"] == mode and len(loaded.extras["pvs_start"]) > 1
+        assert loaded.params["pvs"] == mode and len(loaded.extras["pvs_cells"]) > 1
     # the bake over two processes writes the same sets
     spread = tmp_path / "spread.vmp"
     done = subprocess.run([sys.executable, "-m", "vismobile", "partition", str(mesh),
@@ -241,7 +264,7 @@ def test_cli_bakes_both_kinds(kit, zigzag, tmp_path):
     assert done.returncode == 0, done.stderr
     one = load_partition(tmp_path / "conserv.vmp").extras
     two = load_partition(spread).extras
-    assert all(np.array_equal(one[k], two[k]) for k in ("pvs_cells", "pvs_start", "pvs_runs"))
+    assert all(np.array_equal(one[k], two[k]) for k in ("pvs_cells", "pvs_shape", "pvs_pack"))
     bad = subprocess.run([sys.executable, "-m", "vismobile", "partition", str(mesh),
                           "--structure", "grid:2,pvs=sampled:x", "-o", str(tmp_path / "b.vmp")],
                          capture_output=True, text=True, timeout=600)

@@ -48,13 +48,13 @@ def baked(world, tmp_path_factory):
 
 def test_the_bake_is_cached_with_its_statistics(world, baked):
     part, cache = baked
-    assert part.params["pvs"] == "conservative" and "pvs_runs" in part.extras
+    assert part.params["pvs"] == "conservative" and "pvs_pack" in part.extras
     base, _ = engine.load_structure(world, "portal:1", cache)
-    assert "pvs_runs" not in base.extras  # the base structure is not touched
+    assert "pvs_pack" not in base.extras  # the base structure is not touched
     engine._BAKES.clear()
     engine._PARTITIONS.clear()
     again, seconds = engine.load_structure(world, "portal:1+pvs", cache)
-    assert seconds == 0.0 and np.array_equal(again.extras["pvs_runs"], part.extras["pvs_runs"])
+    assert seconds == 0.0 and np.array_equal(again.extras["pvs_pack"], part.extras["pvs_pack"])
     stats = engine.bake_stats(world, "portal:1+pvs", cache)  # read back from beside the file
     assert stats["cells"] == len(part.extras["pvs_cells"]) and stats["bytes"] > 0
     assert stats["seconds"] > 0 and 0 < stats["mean_set"] <= 1
@@ -123,7 +123,7 @@ def test_partition_bakes_over_dask_as_it_bakes_alone(tmp_path, world_file, world
     assert rc == 0 and "pvs         conservative" in capsys.readouterr().out
     alone = partition(world, "portal", depth=1, pvs="conservative")
     spread = load_partition(out)
-    for name in ("pvs_cells", "pvs_start", "pvs_runs"):
+    for name in ("pvs_cells", "pvs_shape", "pvs_pack"):
         assert np.array_equal(spread.extras[name], alone.extras[name]), name
 
 

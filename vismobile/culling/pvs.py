@@ -2,9 +2,11 @@
 
 The stage finds the view cells holding the eye (grown by the device's reach) and hands on only
 their sets: the draw nodes become the topmost subtrees whose leaves all hold a triangle of the
-set (or none at all), and a triangle filter keeps the set's triangles. The sets are decoded
-once per cell (per combination of cells on a boundary) and kept; a frame's own work is the cell
-lookup and the filter over what is gathered, nothing proportional to the world. No free-space
+set (or none at all), and a triangle filter keeps the set's triangles. The stored sets
+(partition/pvs_codec.py) are inflated once when the stage is prepared; a cell's set is then
+one gather of its pattern bits, done per combination of cells (on a boundary) and kept (KEEP
+combinations); a frame's own work is the cell lookup and the filter over what is gathered,
+nothing proportional to the world. No free-space
 test: the cells taken are all those within the near plane's reach (plus the device's) of the
 eye, since sight lines start on the near plane, perhaps beyond a wall next to the eye; the bake
 put the inside of every solid near a cell in its set (partition/pvs.py).
@@ -14,10 +16,10 @@ on everything, counted in `pvs.fallbacks`) when the partition holds no PVS, the 
 view cell, its near plane is within the device's move, or the device's reach exceeds the
 bake's growth.
 
-The bake leaves out what faces away from a whole cell grown by pvs_back (partition/pvs_back.py):
-with a back-face stage in the combination (the Culler sets back_culled) and the eye within
-pvs_back of every cell taken, the sets are handed on as stored; otherwise the triangles facing
-away from each cell grown by pvs_back go back in (computed when the cells' union is decoded).
+The sets are stored whole; with a back-face stage in the combination (the Culler sets
+back_culled) and the eye within pvs_back of every cell taken, each cell's set loses what faces
+away from the whole cell grown by pvs_back (partition/pvs_back.py, computed when the cells'
+union is decoded), which GL_CULL_FACE would cull anyway.
 
 Contract: with pvs=sampled:N (render/pvs_sampled.py) aggressive, it misses what no sample
 point saw. With pvs=conservative: conservative against the item buffer without back-face
@@ -31,13 +33,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.boxes import boxes_contain_point
-from ..partition.pvs import back_delta, ids_of
-from ..partition.pvs_back import region_backfacing
+from ..partition.pvs import back_delta
+from ..partition.pvs_back import region_backfacing, triangle_terms
+from ..partition.pvs_codec import cell_mask, decode
 from .precision import device_move, world_scale
 from .state import CullState
 from .tree import Tree
 
-EXTRAS = ("pvs_cells", "pvs_start", "pvs_runs", "pvs_grow")
+EXTRAS = ("pvs_cells", "pvs_shape", "pvs_pack", "pvs_grow")
 KEEP = 64  # decoded cell combinations kept
 
 
@@ -56,8 +59,9 @@ class PVSStage:
         if not self.available:
             return
         self.cells = np.asarray(extras["pvs_cells"], dtype=np.float64)
-        self.start = np.asarray(extras["pvs_start"], dtype=np.int64)
-        self.runs = np.asarray(extras["pvs_runs"])
+        # inflated once, here (the load checked it): K pattern bitsets, a pattern per triangle
+        self.patterns, self.ids = decode(extras, len(self.cells), tree.world.triangle_count)
+        self.terms = None  # triangle_terms for the back-face test, made on first use
         self.grow = float(np.asarray(extras["pvs_grow"])[0])
         # a sampled PVS (render/pvs_sampled.py) is aggressive: no growth to check against
         self.sampled = str(tree.partition.params.get("pvs", "")).startswith("sampled")
@@ -79,23 +83,27 @@ class PVSStage:
 
     def visible(self, cells, drop_back=True) -> tuple:
         """(keep (T,) bool, draw nodes (D,) int64, everything: bool) of the union of the
-        cells' sets, cached; with drop_back False (and a pvs_back) the triangles facing away
-        from each cell grown by pvs_back go back in (partition/pvs_back.py)."""
-        add_back = self.back is not None and not drop_back
-        key = tuple(int(c) for c in cells) + ((-1,) if add_back else ())
+        cells' sets, cached; with drop_back (and a pvs_back) each cell's set loses the
+        triangles facing away from the whole cell grown by pvs_back (partition/pvs_back.py)."""
+        drop = self.back is not None and drop_back
+        key = tuple(int(c) for c in cells) + ((-1,) if drop else ())
         hit = self.cache.get(key)
         if hit is not None:
             return hit
         tree = self.tree
         keep = np.zeros(tree.world.triangle_count, dtype=bool)
-        self.decoded = 0  # run pairs decoded (the device model prices a cache miss by them)
+        self.decoded = 0  # pattern ids gathered (the device model prices a cache miss by them)
         for c in cells:
-            keep[ids_of(self.runs[self.start[c]:self.start[c + 1]])] = True
-            self.decoded += int(self.start[c + 1] - self.start[c]) // 2
-            if add_back:
+            mask = cell_mask(self.patterns, self.ids, int(c))
+            self.decoded += len(self.ids)
+            if drop:
+                if self.terms is None:
+                    self.terms = triangle_terms(tree.world.corners)
                 lo, hi = self.cells[c]
-                keep |= region_backfacing(tree.world.corners, lo - self.back, hi + self.back,
-                                          back_delta(tree.world))
+                held = np.flatnonzero(mask)
+                mask[held[region_backfacing(None, lo - self.back, hi + self.back,
+                                            back_delta(tree.world), self.terms, held)]] = False
+            keep |= mask
         nodes = cover_nodes(tree, keep)
         if len(self.cache) >= KEEP:
             self.cache.pop(next(iter(self.cache)))
@@ -113,10 +121,11 @@ class PVSStage:
         drop_back = self.back_culled and self.back is not None and span <= self.back
         keep, nodes, everything = self.visible(found, drop_back)
         state.count(f"{self.name}.cells", len(found))
-        # what a device pays (device/costmodel.py): every view cell's box tested, the runs
-        # decoded when the cells' union was not cached, each gathered triangle looked up
+        # what a device pays (device/costmodel.py): every view cell's box tested, a pattern id
+        # per triangle gathered when the cells' union was not cached, each gathered triangle
+        # looked up
         state.count(f"{self.name}.cells_tested", len(self.cells))
-        state.count(f"{self.name}.runs_decoded", self.decoded)
+        state.count(f"{self.name}.ids_decoded", self.decoded)
         if everything:  # the cells see the whole world: nothing to hand on
             state.count(f"{self.name}.everything", 1)
             return

@@ -120,8 +120,8 @@ def design(rows, names) -> np.ndarray:
 #                                                 16.16 divides, the centres in their box)
 #   pvs.cells_tested         : 0 float, 12 int   (the eye against one view cell's box: 6
 #                                                 16.16 compares, as a device would store it)
-#   pvs.runs_decoded         : 0 float, 40 int   (a cache miss: one [first, end) run of the
-#                                                 set written into the keep table, memset)
+#   pvs.ids_decoded          : 0 float, 4 int    (a cache miss: per triangle, its pattern
+#                                                 id read, the cell's bit looked up, written)
 #   pvs.triangles_tested     : 0 float, 4 int    (one keep-table byte per gathered triangle)
 #   (the bake itself is offline: it costs no frame, only memory, Profile.estimate_memory)
 #   (the horizon priced as its 16.16 kernels, integer multiply-high and divide, as seed 001 ran
@@ -147,7 +147,7 @@ CULL_OPERATIONS = {
     "horizon.triangles_tested": (0, 200),
     "horizon.triangles_centre_tested": (0, 80),
     "pvs.cells_tested": (0, 12),
-    "pvs.runs_decoded": (0, 40),
+    "pvs.ids_decoded": (0, 4),
     "pvs.triangles_tested": (0, 4),
 }
 

@@ -162,7 +162,8 @@ class Profile:
                            normal and box (9 x 4 bytes), and the vertex array (3 x 4 bytes)
         partition        : every array of the partition (nodes, references, extras) as held,
                            level-of-detail chains included (extras lod_*), a PVS not
-        pvs              : a baked PVS (extras pvs_*): its arrays as held, plus the `pvs`
+        pvs              : a baked PVS (extras pvs_*): its arrays as held, its patterns and
+                           pattern ids inflated (partition/pvs_codec.py), plus the `pvs`
                            stage's decoded sets (PVS_DECODED combinations of view cells, one
                            byte per triangle each, culling/pvs.py KEEP)
         textures         : a textured world's (world.textures) mip chains, RGBA8, after the
@@ -183,8 +184,10 @@ class Profile:
         pvs = {k: v for k, v in extras.items() if k.startswith("pvs_")}
         if pvs:
             parts["partition"] -= sum(np.asarray(v).nbytes for v in pvs.values())
-            cells = max(len(pvs.get("pvs_start", ())) - 1, 0)
-            parts["pvs"] = (sum(np.asarray(v).nbytes for v in pvs.values())
+            cells = len(pvs.get("pvs_cells", ()))
+            shape = np.asarray(pvs.get("pvs_shape", (0, 0, 0)), dtype=np.int64)
+            inflated = int(shape[0]) * ((cells + 7) // 8) + int(shape[1]) * int(shape[2])
+            parts["pvs"] = (sum(np.asarray(v).nbytes for v in pvs.values()) + inflated
                             + min(PVS_DECODED, cells) * triangles)
         textures = getattr(world, "textures", None)
         if textures is not None:

@@ -7,12 +7,11 @@ conservative). The result is stored with the partition as extras, so it travels 
 (CRC'd sections, checked on load by `check`):
 
     pvs_cells  (V, 2, 3) float64  view-cell boxes
-    pvs_start  (V + 1,)  int64    offsets into pvs_runs, two per run
-    pvs_runs   (R,)      int32    per cell, ascending [first, end) pairs of triangle ids
+    pvs_shape, pvs_pack           the cells' sets, one pattern of cells per triangle, zlib'd
+                                  (pvs_codec.py)
     pvs_grow   (1,)      float64  how far eyes and portals were grown (device rounding)
-    pvs_back   (1,)      float64  a set may leave out what faces away from the whole cell
-                                  grown by this much (pvs_back.py; done where it stores
-                                  fewer runs; optional: older files hold every triangle)
+    pvs_back   (1,)      float64  the stage may leave out what faces away from the whole cell
+                                  grown by this much (pvs_back.py), when back faces are culled
 
 A sight line starts where the near plane cuts it, within the near plane's reach of the eye,
 perhaps beyond a wall next to it: the runtime stage takes the union of the sets of every cell
@@ -22,8 +21,8 @@ portals close its inside): each cell's set holds every triangle of the closed ou
 
 Contract (conservative): for every eye in a view cell grown by pvs_grow, every triangle the
 item buffer without back-face culling shows along a line starting in that cell is in the
-cell's set, or faces away from every eye in the cell grown by pvs_back (pvs_back.py's bound;
-the stage puts those back unless back faces are culled), provided the portals cover every
+cell's set (the stage leaves out what faces away from every eye in the cell grown by pvs_back
+only when back faces are culled: pvs_back.py's bound), provided the portals cover every
 opening (portal.py) and the rasteriser's cracks lie within pvs_cracks.py's width of the
 edges two triangles do not share by both corners (T-junctions, creases, borders: each is a
 crack portal the walk passes, any number per line). Errs toward visible: separating planes
@@ -40,8 +39,8 @@ import time
 import numpy as np
 
 from . import pvs_cracks, pvs_kernels
-from .pvs_back import region_backfacing, triangle_terms
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
+from .pvs_codec import encode
 
 MODES = ("conservative",)
 EXECUTOR_CHUNKS = 32  # source-cell chunks handed to a given executor (a progress step each)
@@ -218,23 +217,10 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         from .pvs_leaves import leaf_sets
 
         boxes, masks = leaf_sets(partition, boxes, masks, tol)
-    reach = back_reach(world)
-    delta = back_delta(world)
-    terms = triangle_terms(world.corners)
-    runs = []
-    for c, mask in enumerate(masks):  # the from-region back-face test (pvs_back.py)
-        ids = np.flatnonzero(mask)
-        lo, hi = boxes[c]
-        front = mask.copy()
-        front[ids[region_backfacing(None, lo - reach, hi + reach, delta, terms, ids)]] = False
-        whole, kept = runs_of(mask), runs_of(front)
-        runs.append(kept if len(kept) <= len(whole) else whole)  # only where it stores less
-    start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
     extras = {"pvs_cells": np.asarray(boxes, dtype=np.float64).copy(),
-              "pvs_start": start,
-              "pvs_runs": (np.concatenate(runs) if runs else np.zeros(0)).astype(np.int32),
+              **encode(masks, len(boxes)),
               "pvs_grow": np.array([grow], dtype=np.float64),
-              "pvs_back": np.array([reach], dtype=np.float64)}
+              "pvs_back": np.array([back_reach(world)], dtype=np.float64)}
     stats = {"seconds": time.perf_counter() - began, "cells": len(boxes),
              "overflowed": int(sum(s < 0 for _, s in results)),
              "walks": int(sum(max(s, 0) for _, s in results))}

@@ -3,7 +3,7 @@ jittered points inside it (six 90-degree faces of a cube map per point), the way
 artist-facing bake does it. It can miss what no sample point sees (thin gaps, far corners of a
 cell): its misses are measured along the paths, never assumed away (tools/bench_pvs.py).
 
-Same storage as the conservative bake (partition/pvs.py: pvs_cells, pvs_start, pvs_runs,
+Same storage as the conservative bake (partition/pvs.py: pvs_cells, pvs_shape, pvs_pack,
 pvs_grow), so the `pvs` stage looks it up alike; the partition's params say pvs="sampled:N".
 View cells: the portal structure's cells, the grid's cells, or else an automatic grid over the
 world's box (AUTO_CELLS per horizontal axis, AUTO_LAYERS layers).
@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from ..partition.pvs import runs_of
+from ..partition.pvs_codec import encode
 from ..world.camera import Camera
 from .item_buffer import SENTINEL, item_buffer
 
@@ -53,7 +53,7 @@ def bake_sampled(partition, samples: int, profile, seed: int = 0, progress=None)
     cube = dataclasses.replace(profile, resolution=(RESOLUTION, RESOLUTION))
     cells = view_cells(partition)
     rng = np.random.default_rng(seed)
-    runs = []
+    masks = []
     for c, (lo, hi) in enumerate(cells):
         seen = np.zeros(world.triangle_count, dtype=bool)
         # stratified along the cell's longest axis, jittered in all three
@@ -67,12 +67,10 @@ def bake_sampled(partition, samples: int, profile, seed: int = 0, progress=None)
                 ids = item_buffer(world, None, cam, cube, cull_back=False)
                 ids = np.unique(ids)
                 seen[ids[ids != SENTINEL].astype(np.int64)] = True
-        runs.append(runs_of(seen))
+        masks.append(seen)
         if progress is not None:
             progress(c + 1, len(cells))
-    start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
-    extras = {"pvs_cells": cells.copy(), "pvs_start": start,
-              "pvs_runs": np.concatenate(runs).astype(np.int32) if runs else np.zeros(0, np.int32),
+    extras = {"pvs_cells": cells.copy(), **encode(masks, len(cells)),
               "pvs_grow": np.array([0.0])}  # no growth: the stage knows it is sampled
     return extras, {"seconds": time.perf_counter() - began, "cells": len(cells),
                     "renders": len(cells) * int(samples) * len(FACES)}

@@ -164,7 +164,8 @@ def bake_pvs(base, mode: str, progress=None, jobs: int = 1, executor=None) -> tu
     sections in a .vmp), mean_set (mean share of the world in a cell's set)."""
     import copy
 
-    from ..partition.pvs import bake, ids_of
+    from ..partition.pvs import bake
+    from ..partition.pvs_codec import cell_sizes, decode
     from ..partition.store import stored_bytes
 
     if mode == "conservative":
@@ -180,13 +181,12 @@ def bake_pvs(base, mode: str, progress=None, jobs: int = 1, executor=None) -> tu
     built = copy.copy(base)
     built.extras = {**base.extras, **extras}
     built.params = {**base.params, "pvs": mode}
-    start = extras["pvs_start"]
-    runs = extras["pvs_runs"]
-    sizes = [len(ids_of(runs[start[c]:start[c + 1]])) for c in range(len(start) - 1)]
+    cells = len(extras["pvs_cells"])
+    sizes = cell_sizes(*decode(extras, cells, base.world.triangle_count), cells)
     summary = {"mode": mode, "seconds": float(stats["seconds"]), "cells": int(len(sizes)),
                "bytes": int(sum(stored_bytes(v) for v in extras.values())),
                "mean_set": float(np.mean(sizes) / max(base.world.triangle_count, 1))
-               if sizes else 0.0}
+               if len(sizes) else 0.0}
     return built, summary
 
 
