@@ -213,8 +213,8 @@ def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
     # The stage tests nodes and triangles in one numba call each (horizon_tests.py); they must
     # decide as the Horizon's own tests do, box by box and triangle by triangle.
     from vismobile.culling.horizon import HorizonStage
-    from vismobile.culling.horizon_tests import (NO_SCREEN, _nodes, _triangles, horizon_arrays,
-                                                 off_screen)
+    from vismobile.culling.horizon_tests import (NO_OBJECTS, NO_SCREEN, _nodes, _triangles,
+                                                 horizon_arrays, off_screen)
 
     part = kit.structure("w5", "octree")
     stage = HorizonStage()
@@ -233,7 +233,8 @@ def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
         ids = np.arange(len(stage.corners))
         planes = np.asarray(cam.frustum_planes())
         off, behind, sub = _triangles(stage.corners, ids, planes, 1e-6, True,
-                                      *horizon_arrays(horizon), stage.margin, *NO_SCREEN)
+                                      *horizon_arrays(horizon), stage.margin, *NO_SCREEN,
+                                      *NO_OBJECTS)
         assert not sub.any()
         assert np.array_equal(off, off_screen(stage.corners, planes, 1e-6))
         expected = horizon.hidden_points(stage.corners, stage.margin)
@@ -243,7 +244,8 @@ def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
         stage.screen = (240, 320)
         samples = stage.samples(cam)
         off2, behind2, sub = _triangles(stage.corners, ids, planes, 1e-6, True,
-                                        *horizon_arrays(horizon), stage.margin, *samples)
+                                        *horizon_arrays(horizon), stage.margin, *samples,
+                                        *NO_OBJECTS)
         assert np.array_equal(off2, off) and np.array_equal(behind2, behind)
         eye, rotation, near, tx, ty, width, height, move = samples
         cam_space = (stage.corners - eye) @ rotation.T
@@ -260,8 +262,8 @@ def test_the_fixed_point_triangle_kernel_matches_hidden_points(kit, name):
     # it must decide as FixedHorizon.hidden_points does, triangle by triangle, on an object
     # world's solids and on a terrain's ground (a 65^2 fractal, boxes standing on it).
     from vismobile.culling.horizon import HorizonStage
-    from vismobile.culling.horizon_tests import (NO_SCREEN, _triangles_fixed, fixed_arrays,
-                                                 off_screen)
+    from vismobile.culling.horizon_tests import (NO_OBJECTS, NO_SCREEN, _triangles_fixed,
+                                                 fixed_arrays, off_screen)
     from vismobile.terrain.horizon import FixedHorizon
 
     if name == "w5":
@@ -299,10 +301,53 @@ def test_the_fixed_point_triangle_kernel_matches_hidden_points(kit, name):
             off, behind, sub = _triangles_fixed(stage.corners, ids, planes, 1e-6,
                                                 horizon.origin, stage.margin,
                                                 float(horizon.limit), *fixed_arrays(horizon),
-                                                *NO_SCREEN)
+                                                *NO_SCREEN, *NO_OBJECTS)
             assert not sub.any()
             assert np.array_equal(off, off_screen(stage.corners, planes, 1e-6))
             expected = horizon.hidden_points(stage.corners, stage.margin)
             assert np.array_equal(behind, expected & ~off)
             hidden_seen += int(behind.sum())
     assert hidden_seen > 0
+
+
+@pytest.mark.parametrize("mode", ["float64", "fixed16.16"])
+def test_object_boxes_decide_whole_objects_once_a_frame(kit, mode):
+    # With object boxes a triangle whose object's box is off screen or behind the horizon goes
+    # with it (one box test a frame); the others are tested one by one as without them. So the
+    # boxes drop a superset, every extra one in a box the horizon hides, and nothing shown.
+    from vismobile.culling.horizon import HorizonStage
+    from vismobile.culling.horizon_tests import (BEHIND, NO_OBJECTS, NO_SCREEN, OFF,
+                                                 _triangles, _triangles_fixed, fixed_arrays,
+                                                 horizon_arrays)
+
+    world, part = kit.world("w6"), kit.structure("w6", "octree")
+    stage = HorizonStage()
+    stage.arithmetic = mode
+    stage.prepare(Culler(part, "vfc").tree)
+    ids = np.arange(len(stage.corners))
+    decided = 0
+    for z, yaw in ((250.0, 0.0), (150.0, 20.0), (100.0, -90.0)):
+        cam = Camera((70.0, 1.7, z), yaw=yaw, pitch=0.0, aspect=kit.ASPECT)
+        horizon = stage.cast(cam)
+        planes = np.asarray(cam.frustum_planes())
+
+        def run(objects):
+            if mode == "float64":
+                return _triangles(stage.corners, ids, planes, 1e-6, True,
+                                  *horizon_arrays(horizon), stage.margin, *NO_SCREEN, *objects)
+            return _triangles_fixed(stage.corners, ids, planes, 1e-6, horizon.origin,
+                                    stage.margin, float(horizon.limit), *fixed_arrays(horizon),
+                                    *NO_SCREEN, *objects)
+
+        off, behind, _ = run(NO_OBJECTS)
+        objects = stage.objects()
+        off_o, behind_o, _ = run(objects)
+        verdict = stage.verdict[stage.object_ids]
+        assert not ((off | behind) & ~(off_o | behind_o)).any()
+        extra = (off_o | behind_o) & ~(off | behind)
+        assert np.all(verdict[extra] == BEHIND)
+        assert np.all(off_o[verdict == OFF]) and np.all(behind_o[verdict == BEHIND])
+        decided += int((verdict == BEHIND).sum() + (verdict == OFF).sum())
+        shown = kit.visible_ids(world, cam, False)
+        assert not (off_o | behind_o)[shown].any()
+    assert decided > 0

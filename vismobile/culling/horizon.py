@@ -19,6 +19,10 @@ screen only, and vfc hands on whole leaves that straddle the frustum (the kd-tre
 91 of its 120 unseen triangles sent a frame were off screen). With no horizon cast (the eye
 inside or under a solid) this test still runs.
 
+Before its triangles, each object's box (grown as their corners are) is tested once a frame,
+off screen and behind the horizon; a box that is goes with all its triangles, which lie in it
+(the terrain world of 200 models: 90% of the triangles tested are decided by their box).
+
 With `screen` (the device's width, height) a triangle is also dropped when it covers no pixel
 centre of that screen (occlusion's test, hiz._covers_no_sample: corners moved by the device's
 rounding, 1/64 pixel slack): safe at that resolution without multisampling only (the item
@@ -39,6 +43,17 @@ from .precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE, device_move, world_scal
 from .shared import per_object
 from .state import CullState
 from .tree import Tree
+
+
+def object_boxes(world) -> np.ndarray:
+    """(O, 2, 3) float64 box of each object's triangles (object ids 0..O-1; empty: inverted)."""
+    ids = np.asarray(world.object_ids, dtype=np.int64)
+    count = int(ids.max()) + 1 if len(ids) else 0
+    boxes = np.empty((count, 2, 3))
+    boxes[:, 0], boxes[:, 1] = np.inf, -np.inf
+    np.minimum.at(boxes[:, 0], ids, world.bounds[:, 0])
+    np.maximum.at(boxes[:, 1], ids, world.bounds[:, 1])
+    return boxes
 
 
 class HorizonStage:
@@ -87,6 +102,19 @@ class HorizonStage:
         self.corners = world.corners
         self.grow = np.array([-self.margin, self.margin])[:, None]
         self.magnitude = world_scale(world.vertices)
+        # Each object's box, grown as the triangles' corners are: the triangle kernels test it
+        # once a frame, before its triangles (stamp, verdict: kept between frames).
+        self.object_ids = np.ascontiguousarray(world.object_ids, dtype=np.int32)
+        self.object_boxes = per_object(world, "horizon object boxes",
+                                       lambda: object_boxes(world)) + self.grow
+        self.stamp = np.zeros(len(self.object_boxes), np.int64)
+        self.verdict = np.zeros(len(self.object_boxes), np.int8)
+        self.frame = 0
+
+    def objects(self) -> tuple:
+        """_triangles' object arguments for a new frame (horizon_tests.NO_OBJECTS' order)."""
+        self.frame += 1
+        return self.object_ids, self.object_boxes, self.stamp, self.verdict, self.frame
 
     def samples(self, camera) -> tuple:
         """_triangles' screen arguments (eye, rotation, near, tx, ty, width, height, move) for
@@ -158,17 +186,18 @@ class HorizonStage:
             samples = self.samples(state.camera)
 
             def keep_of(ids):  # holds the stats dict, not the state (no cycle)
+                objects = self.objects()
                 if isinstance(horizon, Horizon):  # float64: one numba call
                     off, behind, sub = _triangles(self.corners, ids, planes, slack, True,
                                                   *horizon_arrays(horizon), self.margin,
-                                                  *samples)
+                                                  *samples, *objects)
                 elif horizon is not None:  # fixed16.16: one numba call too
                     off, behind, sub = _triangles_fixed(
                         self.corners, ids, planes, slack, horizon.origin, self.margin,
-                        float(horizon.limit), *fixed_arrays(horizon), *samples)
+                        float(horizon.limit), *fixed_arrays(horizon), *samples, *objects)
                 else:  # no horizon cast: off screen and centres
                     off, behind, sub = _triangles(self.corners, ids, planes, slack, False,
-                                                  *_NO_HORIZON, *samples)
+                                                  *_NO_HORIZON, *samples, *objects)
                 stats[key + "off_screen"] = stats.get(key + "off_screen", 0) + int(off.sum())
                 stats[key + "culled"] = stats.get(key + "culled", 0) + int(behind.sum())
                 stats[key + "subpixel"] = stats.get(key + "subpixel", 0) + int(sub.sum())

@@ -7,12 +7,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..terrain.horizon import hidden_one, hidden_one_fixed
+from ..terrain.horizon import hidden_one
+from ..terrain.horizon_fixed import hidden_one_fixed
 from .hiz.buffer import _covers_no_sample
 from .hiz.raster import _to_camera
 
 # No screen: _triangles' sample arguments (eye, rotation, near, tx, ty, width 0, height, move).
 NO_SCREEN = (np.zeros(3), np.eye(3), 1.0, 1.0, 1.0, 0, 0, 0.0)
+# No object boxes: _triangles' object arguments (object ids, boxes, stamp, verdict, frame).
+NO_OBJECTS = (np.zeros(0, np.int32), np.zeros((0, 2, 3)), np.zeros(0, np.int64),
+              np.zeros(0, np.int8), 0)
+OFF, BEHIND, TEST = 1, 2, 3  # an object box's verdict for this frame (_box_verdict)
 
 
 def off_screen(corners, planes, slack: float) -> np.ndarray:
@@ -24,7 +29,7 @@ def off_screen(corners, planes, slack: float) -> np.ndarray:
     corners = np.asarray(corners, np.float64)
     ids = np.arange(len(corners))
     off, _, _ = _triangles(corners, ids, np.asarray(planes, np.float64), float(slack), False,
-                           *_NO_HORIZON, *NO_SCREEN)
+                           *_NO_HORIZON, *NO_SCREEN, *NO_OBJECTS)
     return off
 
 
@@ -39,22 +44,80 @@ def _outside(c, planes, slack):
     return False
 
 
+@njit(cache=True, inline="always")
+def _box_off(box, planes, slack):
+    """True when the box (2, 3) lies more than slack outside one plane (its p-vertex does)."""
+    for p in range(planes.shape[0]):
+        d = planes[p, 3] + slack
+        for a in range(3):
+            d += planes[p, a] * (box[1, a] if planes[p, a] > 0 else box[0, a])
+        if d < 0:
+            return True
+    return False
+
+
+@njit(cache=True, inline="always")
+def _box_corners(box, out):
+    for c in range(8):
+        for a in range(3):
+            out[c, a] = box[1, a] if (c >> a) & 1 else box[0, a]
+
+
+@njit(cache=True, inline="always")
+def _verdict(o, object_boxes, stamp, verdict, frame, planes, slack, test, origin, eye,
+             forward, right, tans, depths, values, ceiling, bases, clamp, box8):
+    """The float64 verdict (OFF, BEHIND, TEST) of object o's box this frame, computed once a
+    frame (stamp) and kept in verdict: its triangles lie in the box, grown by the margin as
+    their corners are, so a box off screen or behind the horizon holds only such triangles."""
+    if stamp[o] != frame:
+        stamp[o] = frame
+        box = object_boxes[o]
+        verdict[o] = TEST
+        if _box_off(box, planes, slack):
+            verdict[o] = OFF
+        elif test:
+            _box_corners(box, box8)
+            if hidden_one(box8, origin, eye, forward, right, tans, depths, values, ceiling,
+                          bases, clamp, 0.0):
+                verdict[o] = BEHIND
+    return verdict[o]
+
+
 @njit(cache=True)
 def _triangles(corners, ids, planes, slack, test, origin, eye, forward, right, tans, depths,
                values, ceiling, bases, clamp, grow, view_eye, rotation, near, tx, ty, sw, sh,
-               sample_move):
+               sample_move, object_ids, object_boxes, stamp, verdict, frame):
     """(off, behind, subpixel) (K,) bool for triangles ids (K,) of corners (T, 3, 3): off
     screen (see off_screen), else (when test) behind the horizon (hidden_one, corners grown by
     grow), else (sw > 0) covering no pixel centre of an sw x sh screen (hiz's
     _covers_no_sample: the camera view_eye (3,), rotation (3, 3) rows right, up, forward, near,
-    half tangents tx, ty, corners moved by up to sample_move per coordinate)."""
+    half tangents tx, ty, corners moved by up to sample_move per coordinate). With object boxes
+    (object_ids (T,), object_boxes (O, 2, 3) grown by grow; stamp (O,) int64 and verdict (O,)
+    int8 kept between calls, frame a new number each frame) a triangle whose object's box is
+    off screen or behind is decided by the box, tested once a frame (_verdict)."""
     off = np.zeros(ids.shape[0], dtype=np.bool_)
     behind = np.zeros(ids.shape[0], dtype=np.bool_)
     subpixel = np.zeros(ids.shape[0], dtype=np.bool_)
     cam = np.empty((3, 3))
     px = np.empty(3)
     py = np.empty(3)
+    box8 = np.empty((8, 3))
+    boxes = object_boxes.shape[0] > 0
+    last, v = -1, TEST  # triangles come object by object: the last object's verdict
     for n in range(ids.shape[0]):
+        if boxes:
+            o = object_ids[ids[n]]
+            if o != last:
+                last = o
+                v = _verdict(o, object_boxes, stamp, verdict, frame, planes, slack, test,
+                             origin, eye, forward, right, tans, depths, values, ceiling, bases,
+                             clamp, box8)
+            if v == OFF:
+                off[n] = True
+                continue
+            if v == BEHIND:
+                behind[n] = True
+                continue
         c = corners[ids[n]]
         if _outside(c, planes, slack):
             off[n] = True
@@ -78,9 +141,10 @@ def _no_centre(c, view_eye, rotation, near, tx, ty, sw, sh, sample_move, cam, px
 @njit(cache=True)
 def _triangles_fixed(corners, ids, planes, slack, origin, grow, limit, eye, forward, right,
                      tans, depths, values, ceiling, bases, clamp, view_eye, rotation, near, tx,
-                     ty, sw, sh, sample_move):
+                     ty, sw, sh, sample_move, object_ids, object_boxes, stamp, verdict, frame):
     """_triangles against a 16.16 FixedHorizon (its origin, limit and raw arrays): behind as
-    FixedHorizon.hidden_points(corners, grow) decides, in one call (hidden_one_fixed)."""
+    FixedHorizon.hidden_points(corners, grow) decides, in one call (hidden_one_fixed); object
+    boxes as _triangles' (a box's 8 corners each rounded outward, hidden_one_fixed)."""
     off = np.zeros(ids.shape[0], dtype=np.bool_)
     behind = np.zeros(ids.shape[0], dtype=np.bool_)
     subpixel = np.zeros(ids.shape[0], dtype=np.bool_)
@@ -88,7 +152,31 @@ def _triangles_fixed(corners, ids, planes, slack, origin, grow, limit, eye, forw
     cam = np.empty((3, 3))
     px = np.empty(3)
     py = np.empty(3)
+    box8 = np.empty((8, 3))
+    boxes = object_boxes.shape[0] > 0
+    last, v = -1, TEST  # triangles come object by object: the last object's verdict
     for n in range(ids.shape[0]):
+        if boxes:
+            o = object_ids[ids[n]]
+            if o != last:
+                last = o
+                if stamp[o] != frame:
+                    stamp[o] = frame
+                    verdict[o] = TEST
+                    if _box_off(object_boxes[o], planes, slack):
+                        verdict[o] = OFF
+                    else:
+                        _box_corners(object_boxes[o], box8)
+                        if hidden_one_fixed(box8, origin, 0.0, limit, eye, forward, right,
+                                            tans, depths, values, ceiling, bases, clamp, acc):
+                            verdict[o] = BEHIND
+                v = verdict[o]
+            if v == OFF:
+                off[n] = True
+                continue
+            if v == BEHIND:
+                behind[n] = True
+                continue
         c = corners[ids[n]]
         if _outside(c, planes, slack):
             off[n] = True
