@@ -69,19 +69,6 @@ def cameras(hm, count, seed):
     return out
 
 
-def ground_items(scene, selected, renderer, camera) -> int:
-    lod = scene.lod
-    if lod.name == "tiles":
-        from vismobile.terrain.tiles import selection_mesh
-
-        return renderer.draw(*selection_mesh(lod.pyramid, selected), camera,
-                             kind="item").triangles
-    if lod.name == "roettger":
-        return renderer.draw_samples(lod.lists.sample_triangles(selected), camera,
-                                     kind="item").triangles
-    return renderer.draw_samples(selected.triangles, camera, kind="item").triangles
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cameras", type=int, default=100)
@@ -103,19 +90,10 @@ def main(argv=None) -> int:
                     scene = TerrainScene(path, method, 1.0, ("vfc", "horizon"), "octree:3",
                                          profile)
                     renderer = TerrainRenderer(scene.heightmap, scene.profile)
-                    objects = scene.objects
                     bad = dropped = removed = 0
                     for camera in views:
                         f = scene.frame(camera)
-                        kept = np.zeros(objects.triangle_count, bool)
-                        kept[scene.culled.triangles] = True
-                        first = ground_items(scene, scene.last, renderer, camera)
-                        renderer.draw_mesh_items(objects.vertices, objects.triangles, camera,
-                                                 first)
-                        ids = renderer.read_ids().ravel()
-                        seen = np.unique(ids[(ids >= first)
-                                             & (ids < first + objects.triangle_count)]) - first
-                        lost = int((~kept[seen]).sum())
+                        lost = scene.visible_dropped(camera, renderer)
                         bad += lost > 0
                         dropped += lost
                         removed += f.triangles_hidden

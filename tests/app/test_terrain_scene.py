@@ -33,38 +33,17 @@ def low_cameras(hm, count, seed):
     return cams
 
 
-def drawn_ground_items(scene, selected, renderer, camera):
-    """Item-draw the ground the method selected (ids below the objects')."""
-    lod = scene.lod
-    if lod.name == "tiles":
-        from vismobile.terrain.tiles import selection_mesh
-
-        stats = renderer.draw(*selection_mesh(lod.pyramid, selected), camera, kind="item")
-    elif lod.name == "roettger":
-        stats = renderer.draw_samples(lod.lists.sample_triangles(selected), camera, kind="item")
-    else:
-        stats = renderer.draw_samples(selected.triangles, camera, kind="item")
-    return stats.triangles
-
-
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("profile", ["desktop", "ipaq-hx2490b"])
 def test_horizon_never_hides_a_visible_object_triangle(terrain, method, profile):
     scene = TerrainScene(terrain, method, 1.0, ("vfc", "horizon"), "octree:3", profile)
     renderer = TerrainRenderer(scene.heightmap, scene.profile)
-    objects = scene.objects
     hidden_total = 0
     for camera in low_cameras(scene.heightmap, 12, seed=len(method) + len(profile)):
         f = scene.frame(camera)
         assert f.error_px <= 1.0 + 1e-9
-        kept = np.zeros(objects.triangle_count, bool)
-        kept[scene.culled.triangles] = True
-        selected = scene.last
-        first = drawn_ground_items(scene, selected, renderer, camera)
-        renderer.draw_mesh_items(objects.vertices, objects.triangles, camera, first)
-        ids = renderer.read_ids().ravel()
-        seen = np.unique(ids[(ids >= first) & (ids < first + objects.triangle_count)]) - first
-        assert kept[seen].all(), f"{method}: {int((~kept[seen]).sum())} visible triangles dropped"
+        lost = scene.visible_dropped(camera, renderer)
+        assert lost == 0, f"{method}: {lost} visible triangles dropped"
         hidden_total += int(f.nodes_hidden) + int(f.triangles_hidden)
     print(method, profile, hidden_total)
     assert hidden_total > 0  # the stage works on these low views, not only stays safe
@@ -229,19 +208,6 @@ def holed_terrain(tmp_path_factory):
     return path
 
 
-def visible_dropped(scene, renderer, camera) -> int:
-    """Object triangles the item buffer (drawn LOD ground cut by the alpha test, then every
-    object) shows that the last frame's culling dropped."""
-    objects = scene.objects
-    kept = np.zeros(objects.triangle_count, bool)
-    kept[scene.culled.triangles] = True
-    first = drawn_ground_items(scene, scene.last, renderer, camera)
-    renderer.draw_mesh_items(objects.vertices, objects.triangles, camera, first)
-    ids = renderer.read_ids().ravel()
-    seen = np.unique(ids[(ids >= first) & (ids < first + objects.triangle_count)]) - first
-    return int((~kept[seen]).sum())
-
-
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("profile", ["desktop", "ipaq-hx2490b"])
 def test_the_horizon_over_holes_hides_only_behind_drawn_ground(holed_terrain, method, profile):
@@ -255,13 +221,13 @@ def test_the_horizon_over_holes_hides_only_behind_drawn_ground(holed_terrain, me
     hidden = unstopped = 0
     for camera in low_cameras(scene.heightmap, 20, seed=11):
         f = scene.frame(camera)
-        assert visible_dropped(scene, renderer, camera) == 0, method
+        assert scene.visible_dropped(camera, renderer) == 0, method
         hidden += f.triangles_hidden
         stop, ground.stop_at_cuts = ground.stop_at_cuts, lambda horizon, *args: horizon
         try:
             scene.frame(camera)
         finally:
             ground.stop_at_cuts = stop
-        unstopped += visible_dropped(scene, renderer, camera)
+        unstopped += scene.visible_dropped(camera, renderer)
     assert hidden > 0
     assert unstopped > 0  # these views do look through holes
