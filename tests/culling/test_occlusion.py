@@ -373,14 +373,14 @@ def test_first_round_candidates_come_from_the_nearest_shells(kit):
     from pathlib import Path
 
     from vismobile.culling.hiz import gather_candidates, gather_shell_candidates
-    from vismobile.culling.occlusion import SHELL_GROWTH
+    from vismobile.culling.occlusion import FIRST_CANDIDATES, SHELL_GROWTH
     from vismobile.world.trajectory import Trajectory
 
     world = kit.world("w2")
     part = partition(world, "octree", depth=5)
     culler = Culler(part, "vfc,occlusion,tbfc")
     stage = culler.stages[1]
-    assert stage.name == "occlusion" and stage.first_candidates == stage.occluders
+    assert stage.name == "occlusion" and stage.first_candidates == FIRST_CANDIDATES
     tree = stage.tree
     traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
     cam = traj.camera(400, kit.ASPECT)

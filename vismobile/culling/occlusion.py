@@ -97,6 +97,13 @@ FRAME_COUNTERS = ("occlusion.occluders", "occlusion.pixels_covered", "occlusion.
                   "occlusion.nodes_culled")
 
 
+# The first round's candidate count (shells stop once the lists offered this many ids): the
+# near rooms' walls; what shows through their openings comes in the second round. 96 against
+# the former 256 (= occluders), W2 150 frames: 0.94x the time, sent 143.9 -> 142.2; w2x3:
+# 0.78x, 215.3 -> 212.8; W1, W3-W6 0.91-1.0x, sent within +-0.5 (docs/culling-performance.md).
+FIRST_CANDIDATES = 96
+
+
 class DepthBufferOcclusion(OccluderChoice):
     """`occlusion`: conservative tiled depth buffer occlusion culling; refines state.nodes.
 
@@ -123,8 +130,8 @@ class DepthBufferOcclusion(OccluderChoice):
                     (Culler._fuse). False: vfc walks first, the node pass re-enters its nodes
     first_candidates: the first round takes its candidates from the nodes nearest the eye
                     only: shells of distance from the smallest leaf's diagonal, each sqrt(2)
-                    wider, until their lists offered this many ids (None: `occluders`; 0: the
-                    whole frustum). What shows through the near rooms' openings offers occluders
+                    wider, until their lists offered this many ids (default FIRST_CANDIDATES;
+                    None: `occluders`; 0: the whole frustum). What shows through the near rooms' openings offers occluders
                     in the second round. The reach follows the scene and the tree, not world
                     units (docs/culling-performance: faster and tighter on tiled W2)
     first_reach   : None, or a depth (world units) overriding first_candidates: the first
@@ -141,7 +148,7 @@ class DepthBufferOcclusion(OccluderChoice):
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
                  candidates: int = 8, detail: float = 0.125, rounds: int = 2,
                  triangles: bool = True, self_occluders: int = 0, screen=None,
-                 fuse: bool = True, first_reach=None, first_candidates=None):
+                 fuse: bool = True, first_reach=None, first_candidates=FIRST_CANDIDATES):
         self.width, self.height = int(width), int(height)
         self.tile = tuple(int(v) for v in tile)
         self.occluders, self.candidates = int(occluders), int(candidates)
