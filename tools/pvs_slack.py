@@ -5,12 +5,13 @@ what item buffers from many points in that cell see (the slack), under three cel
 
 Per world, the K largest view cells of the shipped bake (pvs_cells.view_grid, split=False) that
 the other models leave whole, each baked (pvs.bake_cells) with:
-  shipped  the PVS's own portal grid (hollow walls are thin cells, open along their length);
+  shipped  the PVS's own portal grid (hollow walls are thin cells, open along their length)
+           without its crack portals - NOT conservative alone (the bake ships it with them);
   sealed   thin cells split at the walls inside them (pvs_refine: a doorway's reveals close the
            hollow wall's inside from the doorway) - NOT conservative alone: the item buffer
            sees through the rasteriser's cracks along unshared edges (below);
-  cracks   sealed plus every unshared edge on two cells' boundary as a portal, one crack per
-           line of sight (pvs_cracks, pvs_kernels' layers);
+  cracks   sealed plus every unshared edge in two cells' common face as a crack portal, any
+           number per line of sight, as the shipped bake does (pvs_cracks);
 and the sampled set: six 90-degree item buffers (no back-face culling) from --samples jittered
 points in the cell. Prints each cell's box and the four sets as shares of the world, then the
 medians and the conservative / sampled ratios, and the unshared edges and crack portals.
@@ -30,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.partition import portal, pvs  # noqa: E402
 from vismobile.partition.pvs_cells import view_grid  # noqa: E402
-from vismobile.partition.pvs_cracks import unshared_edges, with_cracks  # noqa: E402
+from vismobile.partition.pvs_cracks import crack_reach, unshared_edges, with_cracks  # noqa: E402
 from vismobile.partition.pvs_refine import refine  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
 from vismobile.render.pvs_sampled import FACES, RESOLUTION  # noqa: E402
@@ -64,9 +65,9 @@ def run(name, count, samples):
     grow = pvs.bake_grow(world)
     tol = pvs.TOLERANCE * size + grow
     began = time.perf_counter()
-    shipped = view_grid(world, split=False)
+    shipped = view_grid(world, split=False, cracks=False)
     sealed = refine(world, shipped, thickness)
-    cracked = with_cracks(world, sealed, thickness)
+    cracked = with_cracks(world, sealed, thickness, crack_reach(world, grow))
     models = {"shipped": shipped, "sealed": sealed, "cracks": cracked}
     print(f"{name}: cells shipped {len(shipped['cell_bounds'])}, sealed "
           f"{len(sealed['cell_bounds'])}; portals {len(shipped['portal_cells'])}, sealed "

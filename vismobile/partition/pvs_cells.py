@@ -77,14 +77,15 @@ def paired_edges(world, cells) -> list:
     return edges
 
 
-def view_grid(world, cells=None, thickness=None, split=False, grow=0.0) -> dict:
+def view_grid(world, cells=None, thickness=None, split=False, grow=0.0, cracks=True) -> dict:
     """The PVS's own cells and portals: {'edges', 'cell_bounds' (C, 2, 3), 'cell_start'
     (C + 1,) int64 and 'cell_tris' (R,) int64 (CSR cell -> triangles within thickness),
     'portal_cells', 'portal_start', 'portal_vertices' (portal.find_portals), 'cell_portal_start'
     (C + 1,) int64, 'cell_portals' (2P,) int64, 'cracks': how many portals at the end are the
     rasteriser's cracks (pvs_cracks.with_cracks, reach from `grow`, the bake's growth)}; with
     split, thin cells are split at the walls inside them (pvs_refine.refine: the cells no
-    longer form a grid, 'parent' names each one's grid cell)."""
+    longer form a grid, 'parent' names each one's grid cell); without cracks (a diagnostic,
+    tools/pvs_slack.py: not conservative) no crack portals."""
     target = int(np.clip(round(np.sqrt(world.triangle_count) / 2), 8, 256)) if cells is None \
         else int(cells)
     edges = paired_edges(world, target)
@@ -105,4 +106,4 @@ def view_grid(world, cells=None, thickness=None, split=False, grow=0.0) -> dict:
          "cell_portal_start": cps, "cell_portals": ids[order].astype(np.int64)}
     if split:
         g = refine(world, g, thickness)
-    return with_cracks(world, g, thickness, crack_reach(world, grow))
+    return with_cracks(world, g, thickness, crack_reach(world, grow)) if cracks else g
