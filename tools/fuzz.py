@@ -72,6 +72,26 @@ def seeds(folder: Path) -> dict:
                         f"{'-walls' if 'walls' in params else ''}.vmp"
         save_partition(partition(world, kind, **params), path)
         vmps.append(path.read_bytes())
+    # A PVS baked from an animated world with a door (extras pvs_door_*, checked on load): the
+    # model with a shut door box through it (a `door_*` moving object) and a one-key motion.
+    import numpy as np
+
+    from vismobile.scenes.crowd import outward_boxes
+    from vismobile.world.animated import AnimatedWorld
+    from vismobile.world.motion import Motion, Track
+
+    low, high = world.extent
+    mid = (low + high) / 2
+    box = np.array([[low[0], low[1], mid[2] - 0.05], [high[0], high[1], mid[2] + 0.05]])
+    vertices, triangles = outward_boxes(box[None])
+    door = World(vertices, triangles, np.zeros(len(triangles), dtype=np.int64), ["door_1"])
+    doored = World.concatenate([world, door], name="doored")
+    motion = Motion([Track(object_id=len(doored.object_names) - 1,
+                           translation=(np.array([0.0]), np.zeros((1, 3))))])
+    baked = partition(AnimatedWorld(doored, motion), "portal", depth=1, pvs="conservative",
+                      pvs_doors=True)
+    save_partition(baked.static, folder / "seed-pvs-doors.vmp")
+    vmps.append((folder / "seed-pvs-doors.vmp").read_bytes())
     # A partition carrying level-of-detail chains (extras lod_*, checked on load).
     from vismobile.lod.simplify import build_chains
 

@@ -117,7 +117,7 @@ class Culler:
             if stage.name == "pvs":
                 stage.back_culled = bool(set(self.names) & set(BACKFACE_STAGES))
         self.moving = None
-        self._doors = None  # (portals stage, door rows in the motion) of an animated world
+        self._doors = None  # ([portals, pvs stages], door rows in the motion) if doors
         if self.animated is not None:
             self.world_scale = max(self.world_scale,
                                    world_scale(self.animated.animated.rest_vertices))
@@ -177,7 +177,8 @@ class Culler:
         if self.moving is not None:  # where the objects are now: their magnitude too
             scale = max(scale, self.moving.pose(time))
             if self._doors is not None:  # where the doors stand: shut ones block portals
-                self._doors[0].door_matrices = self.moving.matrices[self._doors[1]]
+                for stage in self._doors[0]:
+                    stage.door_matrices = self.moving.matrices[self._doors[1]]
         planes = conservative_planes(camera.frustum_planes(), self.arithmetic, scale)
         state = CullState(self.tree, camera, planes, np.zeros(1, dtype=np.int64),
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})

@@ -24,77 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-DOOR_PREFIX = "door_"
-CLOSED = 1e-9  # largest |M - I| entry of a closed door's matrix
-BOX_TOLERANCE = 1e-9  # relative: vertices within this of a box corner are on it
-
-
-def is_box(corners) -> np.ndarray | None:
-    """(2, 3) float64 box whose closed outward surface the triangles (n, 3, 3) are, or None.
-
-    The test: every vertex is a corner of the triangles' bounding box, their total area is the
-    box's surface area, and their signed volume is the box's volume (closed, wound outward).
-    """
-    corners = np.asarray(corners, dtype=np.float64)
-    if len(corners) < 12:
-        return None
-    lo, hi = corners.reshape(-1, 3).min(axis=0), corners.reshape(-1, 3).max(axis=0)
-    size = hi - lo
-    tol = BOX_TOLERANCE * max(float(np.abs(corners).max()), 1.0)
-    if (size <= tol).any():
-        return None
-    points = corners.reshape(-1, 3)
-    on_corner = ((np.abs(points - lo) <= tol) | (np.abs(points - hi) <= tol)).all(axis=1)
-    if not on_corner.all():
-        return None
-    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    area = 0.5 * np.linalg.norm(cross, axis=1).sum()
-    surface = 2.0 * (size[0] * size[1] + size[1] * size[2] + size[0] * size[2])
-    volume = np.einsum("ij,ij->", corners[:, 0] - lo, cross) / 6.0
-    if abs(area - surface) > 1e-6 * surface or abs(volume - np.prod(size)) > 1e-6 * np.prod(size):
-        return None
-    return np.stack([lo, hi])
-
-
-def find_doors(names, object_ids, corners, moving_ids, prefix: str = DOOR_PREFIX) -> tuple:
-    """The doors among the moving objects: (rows (D,) int64 positions in moving_ids, boxes
-    (D, 2, 3) float64 closed boxes at rest).
-
-    names : object names;  object_ids (T,) per triangle;  corners (T, 3, 3) at rest;
-    moving_ids : (M,) object ids that move (the motion's track order)
-    """
-    rows, boxes = [], []
-    for row, object_id in enumerate(np.asarray(moving_ids, dtype=np.int64)):
-        if not str(names[object_id]).startswith(prefix):
-            continue
-        box = is_box(corners[object_ids == object_id])
-        if box is not None:
-            rows.append(row)
-            boxes.append(box)
-    return np.array(rows, dtype=np.int64), np.array(boxes, dtype=np.float64).reshape(-1, 2, 3)
-
-
-def door_pairs(portal_vertices, portal_start, boxes) -> tuple:
-    """(portal ids (K,) int64, door ids (K,) int64, depth (K,) float64) for the portals whose
-    every vertex lies strictly inside a door's box; depth is the smallest distance from one of
-    its vertices to that box's faces (> 0)."""
-    vertices = np.asarray(portal_vertices, dtype=np.float64)
-    starts = np.asarray(portal_start, dtype=np.int64)
-    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
-    portals, doors, depths = [], [], []
-    if len(starts) < 2 or not len(boxes):
-        empty = np.zeros(0, dtype=np.int64)
-        return empty, empty.copy(), np.zeros(0)
-    lows = np.minimum.reduceat(vertices, starts[:-1], axis=0)  # (P, 3) polygon bounds
-    highs = np.maximum.reduceat(vertices, starts[:-1], axis=0)
-    for d, (lo, hi) in enumerate(boxes):
-        depth = np.minimum((lows - lo).min(axis=1), (hi - highs).min(axis=1))
-        inside = np.flatnonzero(depth > 0)
-        portals.append(inside)
-        doors.append(np.full(len(inside), d, dtype=np.int64))
-        depths.append(depth[inside])
-    return (np.concatenate(portals).astype(np.int64), np.concatenate(doors),
-            np.concatenate(depths))
+from ..world.doors import (BOX_TOLERANCE, CLOSED, DOOR_PREFIX, door_pairs,  # noqa: F401
+                          find_doors, is_box)
 
 
 def closed_doors(matrices) -> tuple:
@@ -114,24 +45,33 @@ def blocked(portals, doors, depths, boxes, closed, slack, eye, reach, grow) -> n
     """
     if not len(portals):
         return np.zeros(0, dtype=np.int64)
-    eye = np.asarray(eye, dtype=np.float64)
-    margin = reach + slack  # (D,)
-    away = ((eye < boxes[:, 0] - margin[:, None]) | (eye > boxes[:, 1] + margin[:, None])).any(axis=1)
-    keep = closed[doors] & away[doors] & (depths > grow + slack[doors])
+    keep = shut(boxes, closed, slack, eye, reach)[doors] & (depths > grow + slack[doors])
     return np.unique(portals[keep])
 
 
+def shut(boxes, closed, slack, eye, reach) -> np.ndarray:
+    """(D,) bool doors that block their portals for this eye (rules 1 and 3: closed, the eye
+    outside the box grown by reach + slack); rule 2 is each portal's own (blocked; the PVS
+    bake checks it against its growth)."""
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
+    eye = np.asarray(eye, dtype=np.float64)
+    margin = reach + np.asarray(slack, dtype=np.float64)  # (D,)
+    away = ((eye < boxes[:, 0] - margin[:, None]) | (eye > boxes[:, 1] + margin[:, None])).any(axis=1)
+    return np.asarray(closed, dtype=bool) & away
+
+
 def attach_doors(stages, animated):
-    """Give the `portals` stage among `stages` the doors of an AnimatedWorld (find_doors over
-    its moving objects): (stage, rows into the motion's matrices) for the Culler to hand each
-    frame's door matrices on, or None without a portals stage or a door."""
-    stage = next((s for s in stages if s.name == "portals"), None)
-    if stage is None or not getattr(stage, "available", False):
+    """Give the `portals` and `pvs` stages among `stages` the doors of an AnimatedWorld
+    (find_doors over its moving objects): (those stages, rows into the motion's matrices) for
+    the Culler to hand each frame's door matrices on, or None without such a stage or a door."""
+    users = [s for s in stages if s.name in ("portals", "pvs") and getattr(s, "available", False)]
+    if not users:
         return None
     world = animated.world
     rows, boxes = find_doors(world.object_names, world.object_ids, world.corners,
                              animated.moving_object_ids)
     if not len(rows):
         return None
-    stage.use_doors(boxes)
-    return stage, rows
+    for stage in users:
+        stage.use_doors(boxes)
+    return users, rows

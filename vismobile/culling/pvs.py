@@ -21,6 +21,13 @@ back_culled) and the eye within pvs_back of every cell taken, each cell's set lo
 away from the whole cell grown by pvs_back (partition/pvs_back.py, computed when the cells'
 union is decoded), which GL_CULL_FACE would cull anyway.
 
+Doors (issue 25): a PVS baked from an AnimatedWorld with doors keeps, per view cell and door,
+what the door shut hides from the cell (partition/pvs.py door_sets). Each frame the doors that
+are shut for this eye (culling/doors.shut: closed, the eye outside the box beyond the near
+plane's reach) take their sets out of each cell's: a line from the eye through a shut door's
+portal meets the door first, so what only such lines reach is hidden (several shut doors:
+each one's set comes out, a subset of what they hide together). `pvs.doors_shut` counts them.
+
 Contract: with pvs=sampled:N (render/pvs_sampled.py) aggressive, it misses what no sample
 point saw. With pvs=conservative: conservative against the item buffer without back-face
 culling, for eyes it does not fall back on, as partition/pvs.py bakes it (the portals'
@@ -33,9 +40,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.boxes import boxes_contain_point
-from ..partition.pvs import back_delta
+from ..partition.pvs import back_delta, ids_of
 from ..partition.pvs_back import region_backfacing, triangle_terms
 from ..partition.pvs_codec import cell_mask, decode
+from .doors import closed_doors, shut
 from .precision import device_move, world_scale
 from .state import CullState
 from .tree import Tree
@@ -70,6 +78,30 @@ class PVSStage:
         # from-region back-face test): without back-face culling those go back in
         self.back = float(np.asarray(extras["pvs_back"])[0]) if "pvs_back" in extras else None
         self.back_culled = False  # set by the Culler: a back-face stage is in the combination
+        # what each shut door hides from each cell (partition/pvs.py door_sets), if baked
+        self.door_boxes = np.asarray(extras["pvs_door_boxes"], dtype=np.float64) \
+            if "pvs_door_boxes" in extras else None
+        self.door_ok = False  # use_doors: the world's doors are the baked ones
+        self.door_matrices = None  # this frame's door matrices (D, 4, 4), set by the Culler
+
+    def use_doors(self, boxes) -> None:
+        """The animated world's doors (culling/doors.attach_doors), rest boxes (D, 2, 3) in
+        the order of the matrices the Culler hands on: their sets are used only when they are
+        the doors the bake kept (same boxes, same order)."""
+        boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
+        self.door_ok = self.door_boxes is not None and boxes.shape == self.door_boxes.shape \
+            and bool(np.array_equal(boxes, self.door_boxes))
+
+    def shut_doors(self, camera, grow: float, reach: float) -> tuple:
+        """Sorted door ids whose sets leave this frame's (culling/doors.shut: closed, the eye
+        outside the box grown by the near plane's reach, the device's and what the door may
+        have moved; the portals' depth was checked at the bake, at its growth)."""
+        if not self.door_ok or self.door_matrices is None or self.sampled:
+            return ()
+        closed, slack = closed_doors(self.door_matrices)
+        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
+        return tuple(int(d) for d in np.flatnonzero(
+            shut(self.door_boxes, closed, slack * (scale + 1.0), camera.eye, reach + grow)))
 
     def reach(self, camera) -> float:
         """2 sqrt(3) device_move at the world's and the eye's magnitude (portals.device_reach)."""
@@ -81,18 +113,20 @@ class PVSStage:
         (a superset of the cells within grow of the eye: boxes grown, not rounded)."""
         return np.flatnonzero(boxes_contain_point(self.cells, camera.eye, self.tree.tol + grow))
 
-    def visible(self, cells, drop_back=True) -> tuple:
+    def visible(self, cells, drop_back=True, doors=()) -> tuple:
         """(keep (T,) bool, draw nodes (D,) int64, everything: bool) of the union of the
         cells' sets, cached; with drop_back (and a pvs_back) each cell's set loses the
-        triangles facing away from the whole cell grown by pvs_back (partition/pvs_back.py)."""
+        triangles facing away from the whole cell grown by pvs_back (partition/pvs_back.py);
+        and what each door of `doors` (shut) hides from it (door sets)."""
         drop = self.back is not None and drop_back
-        key = tuple(int(c) for c in cells) + ((-1,) if drop else ())
+        key = (tuple(int(c) for c in cells), drop, tuple(doors))
         hit = self.cache.get(key)
         if hit is not None:
             return hit
         tree = self.tree
         keep = np.zeros(tree.world.triangle_count, dtype=bool)
         self.decoded = 0  # pattern ids gathered (the device model prices a cache miss by them)
+        extras = tree.partition.extras
         for c in cells:
             mask = cell_mask(self.patterns, self.ids, int(c))
             self.decoded += len(self.ids)
@@ -103,6 +137,10 @@ class PVSStage:
                 held = np.flatnonzero(mask)
                 mask[held[region_backfacing(None, lo - self.back, hi + self.back,
                                             back_delta(tree.world), self.terms, held)]] = False
+            for d in doors:  # what a shut door hides from this cell, whichever way it faces
+                k = int(c) * len(self.door_boxes) + d
+                start = extras["pvs_door_start"]
+                mask[ids_of(extras["pvs_door_runs"][start[k]:start[k + 1]])] = False
             keep |= mask
         nodes = cover_nodes(tree, keep)
         if len(self.cache) >= KEEP:
@@ -119,8 +157,11 @@ class PVSStage:
         self.decoded = 0
         found, span = found
         drop_back = self.back_culled and self.back is not None and span <= self.back
-        keep, nodes, everything = self.visible(found, drop_back)
+        doors = self.shut_doors(camera, self.reach(camera), near_reach(camera))
+        keep, nodes, everything = self.visible(found, drop_back, doors)
         state.count(f"{self.name}.cells", len(found))
+        if doors:
+            state.count(f"{self.name}.doors_shut", len(doors))
         # what a device pays (device/costmodel.py): every view cell's box tested, a pattern id
         # per triangle gathered when the cells' union was not cached, each gathered triangle
         # looked up
@@ -137,17 +178,23 @@ class PVSStage:
         state.filters.append(keep_of)
 
     def lookup(self, camera):
-        """The view cells whose sets cover this camera (grown by the device's reach), or None
-        (fall back): no PVS, no cell, or the device's reach beyond the bake's growth."""
+        """(cells, span): the view cells whose sets cover this camera (grown by the device's
+        reach) and how far from the eye they were looked for, or None (fall back): no PVS,
+        no cell, or the device's reach beyond the bake's growth."""
         if not self.available:
             return None
         grow = self.reach(camera)
         if not self.sampled and (grow > self.grow or camera.near <= grow / (2.0 * np.sqrt(3.0))):
             return None
-        ty = np.tan(np.radians(camera.fov) / 2.0)
-        reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
+        reach = near_reach(camera)
         found = self.eye_cells(camera, grow + reach)
         return (found, self.tree.tol + grow + reach) if len(found) else None
+
+
+def near_reach(camera) -> float:
+    """Distance from the eye to the near plane's corners."""
+    ty = np.tan(np.radians(camera.fov) / 2.0)
+    return camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
 
 
 def cover_nodes(tree: Tree, keep) -> np.ndarray:

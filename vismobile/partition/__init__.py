@@ -21,7 +21,9 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                or "kdtree" (split=sah|median, ratio=, bins=, min_leaf=, max_depth=); or the
                CLI's structure text ("octree:4", "grid:8", "bsp:min_leaf=4"), whose
                parameters keyword params override;
-               pvs="conservative" (any kind) bakes the view cells' visible sets (pvs.py)
+               pvs="conservative" (any kind) bakes the view cells' visible sets (pvs.py);
+               with pvs_doors=True (an AnimatedWorld), also what each of its doors shut
+               hides from each cell (the bake walks again per door a cell's lines cross)
     progress : optional callable(done, total) for long builds
     An AnimatedWorld (world/animated.py) gives a dynamic.AnimatedPartition: its static
     triangles partitioned as asked (none: a one-node octree), its moving objects left to the
@@ -37,6 +39,14 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
         static = world.static_world()
         if not static.triangle_count:  # everything moves: an empty static half (one node)
             return AnimatedPartition(world, partition(static, "octree", progress, depth=1))
+        params = dict(params)
+        if params.pop("pvs_doors", False):  # per view cell, what each shut door hides (pvs.py)
+            from ..world.doors import find_doors
+
+            base = world.world
+            _, doors = find_doors(base.object_names, base.object_ids, base.corners,
+                                  world.moving_object_ids)
+            params["pvs_door_boxes"] = doors
         return AnimatedPartition(world, partition(static, kind, progress, **params))
 
     if isinstance(kind, str) and ":" in kind:
@@ -50,6 +60,7 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     build = builders[kind]
     params = dict(params)
     pvs_mode = params.pop("pvs", None)
+    pvs_doors = params.pop("pvs_door_boxes", None)  # door boxes (D, 2, 3) of an AnimatedWorld
     known = set(build.__code__.co_varnames[1:build.__code__.co_argcount]) - {"progress"}
     unknown = sorted(set(params) - known)
     if unknown:
@@ -68,7 +79,7 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     if pvs_mode is not None:
         from .pvs import bake
 
-        extras, _ = bake(result, pvs_mode, progress=progress)
+        extras, _ = bake(result, pvs_mode, progress=progress, doors=pvs_doors)
         result.extras.update(extras)
         result.params["pvs"] = pvs_mode
     return result

@@ -12,6 +12,9 @@ conservative). The result is stored with the partition as extras, so it travels 
     pvs_grow   (1,)      float64  how far eyes and portals were grown (device rounding)
     pvs_back   (1,)      float64  the stage may leave out what faces away from the whole cell
                                   grown by this much (pvs_back.py), when back faces are culled
+    pvs_door_boxes (D, 2, 3) float64, pvs_door_start (V D + 1,) int64, pvs_door_runs (R,)
+                                  int32: optional (bake(doors=...)), per (cell, door) the
+                                  runs of what the door shut hides from the cell (door_sets)
 
 A sight line starts where the near plane cuts it, within the near plane's reach of the eye,
 perhaps beyond a wall next to it: the runtime stage takes the union of the sets of every cell
@@ -109,9 +112,11 @@ def ids_of(runs) -> np.ndarray:
     return np.repeat(first - np.cumsum(lengths) + lengths, lengths) + np.arange(lengths.sum())
 
 
-def bake_cells(world, g, sources, grow, tol, budget=BUDGET):
-    """[(runs (2R,) int64, walks or -1)] for the given source cells of the view grid g
-    (pvs_cells.view_grid)."""
+def bake_cells(world, g, sources, grow, tol, budget=BUDGET, door_portals=()):
+    """[(runs (2R,) int64, walks or -1, hidden {door: runs (2H,) int64})] for the given source
+    cells of the view grid g (pvs_cells.view_grid). hidden[d]: what the source's walk reaches
+    with every portal open but not with door d's portals (door_portals[d], (k,) int64 ids)
+    blocked; only doors with a portal the open walk crossed are walked again."""
     cells = len(g["cell_bounds"])
     quads = np.asarray(g["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3)
     pcells, cps, cp = g["portal_cells"], g["cell_portal_start"], g["cell_portals"]
@@ -121,16 +126,33 @@ def bake_cells(world, g, sources, grow, tol, budget=BUDGET):
     crack[len(pcells) - int(g.get("cracks", 0)):] = True  # pvs_cracks appends them last
     slope = pvs_cracks.CRACK_SLOPE
     out = []
-    for s in sources:
+
+    def walk(s, blocked):
         visible = np.zeros(world.triangle_count, dtype=np.bool_)
-        seen = np.zeros(cells, dtype=np.bool_)
+        crossed = np.zeros(len(pcells), dtype=np.bool_)
         steps = pvs_kernels.flow_from_cell(int(s), bounds[s, 0], bounds[s, 1], bounds, pcells,
                                            quads, cps, cp, start[:-1], start[1:], tris, corners,
-                                           grow, tol, budget, visible, seen, crack, slope)
+                                           grow, tol, budget, visible,
+                                           np.zeros(cells, dtype=np.bool_), crack, slope,
+                                           blocked, crossed)
+        return visible, crossed, int(steps)
+
+    none = np.zeros(len(pcells), dtype=np.bool_)
+    for s in sources:
+        visible, crossed, steps = walk(s, none)
         if steps < 0:  # too many walks: every connected cell, whole
             for c in np.flatnonzero(_connected(int(s), pcells, cps, cp, cells)):
                 visible[tris[start[c]:start[c + 1]]] = True
-        out.append((runs_of(visible), int(steps)))
+        hidden = {}
+        for d, ports in enumerate(door_portals):
+            if steps < 0 or not crossed[ports].any():  # no line from the source crosses it
+                continue
+            blocked = none.copy()
+            blocked[ports] = True
+            shut, _, shut_steps = walk(s, blocked)
+            if shut_steps >= 0 and (visible & ~shut).any():
+                hidden[d] = visible & ~shut
+        out.append((runs_of(visible), steps, hidden))
     return out
 
 
@@ -159,7 +181,7 @@ def with_solids(world, boxes, masks, grow) -> list:
 
 
 def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
-         cells=None, executor=None) -> tuple:
+         cells=None, executor=None, doors=None) -> tuple:
     """The PVS extras (module docstring) of a partition of any kind, and bake statistics.
 
     The view cells are a portal grid of the PVS's own (pvs_cells.view_grid: about `cells`
@@ -171,6 +193,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     executor : optional pool with submit(fn, *args) -> future with result(), used instead of
                a process pool of `jobs`: the source cells split in EXECUTOR_CHUNKS chunks (a
                Dask Client: world and view grid scattered to its workers once)
+    doors    : optional (D, 2, 3) closed boxes of doors (world/doors.py): per view cell and
+               door, what the door shut hides from the cell (door_sets; not for a BSP)
     returns  : (extras dict, stats dict: seconds, cells, overflowed cells, walks)
     """
     from .pvs_cells import view_grid
@@ -184,6 +208,9 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
     count = len(g["cell_bounds"])
     sources = np.arange(count)
+    if doors is not None and partition.kind == "bsp":
+        doors = None  # the leaves' sets are unions of grid cells' (pvs_leaves.py): not kept
+    door_portals = door_portal_sets(world, g, doors, grow) if doors is not None else []
     results = []
     if executor is not None or (jobs > 1 and count > 1):
         from concurrent.futures import ProcessPoolExecutor
@@ -194,7 +221,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         shared = (pool.scatter([world, g], broadcast=True) if hasattr(pool, "scatter")
                   else (world, g))
         try:
-            futures = [pool.submit(bake_cells, *shared, c, grow, tol, budget) for c in chunks]
+            futures = [pool.submit(bake_cells, *shared, c, grow, tol, budget, door_portals)
+                       for c in chunks]
             for f in futures:
                 results.extend(f.result())
                 if progress is not None:
@@ -204,15 +232,16 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
                 pool.shutdown()
     else:
         for s in sources:
-            results.extend(bake_cells(world, g, [s], grow, tol, budget))
+            results.extend(bake_cells(world, g, [s], grow, tol, budget, door_portals))
             if progress is not None:
                 progress(len(results), count)
     masks = []
-    for r, _ in results:
+    for r, _, _ in results:
         mask = np.zeros(world.triangle_count, dtype=bool)
         mask[ids_of(r)] = True
         masks.append(mask)
     masks, boxes = with_solids(world, g["cell_bounds"], masks, grow), g["cell_bounds"]
+    door_extras = {} if doors is None else door_sets(results, masks, doors)
     if partition.kind == "bsp":  # the BSP tree's leaves are the view cells (pvs_leaves.py)
         from .pvs_leaves import leaf_sets
 
@@ -220,8 +249,41 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     extras = {"pvs_cells": np.asarray(boxes, dtype=np.float64).copy(),
               **encode(masks, len(boxes)),
               "pvs_grow": np.array([grow], dtype=np.float64),
-              "pvs_back": np.array([back_reach(world)], dtype=np.float64)}
+              "pvs_back": np.array([back_reach(world)], dtype=np.float64), **door_extras}
     stats = {"seconds": time.perf_counter() - began, "cells": len(boxes),
-             "overflowed": int(sum(s < 0 for _, s in results)),
-             "walks": int(sum(max(s, 0) for _, s in results))}
+             "overflowed": int(sum(s < 0 for _, s, _ in results)),
+             "walks": int(sum(max(s, 0) for _, s, _ in results)),
+             "door_sets": int(sum(len(h) for _, _, h in results))}
     return extras, stats
+
+
+def door_portal_sets(world, g, doors, grow) -> list:
+    """Per door, (k,) int64 the view grid's portals wholly inside its closed box deeper than
+    the door rule asks of the portals stage at the bake's growth (culling/doors.py rule 2:
+    1.5 grow plus what a closed door may move, at twice the world's magnitude)."""
+    from ..world.doors import CLOSED, door_pairs
+
+    doors = np.asarray(doors, dtype=np.float64).reshape(-1, 2, 3)
+    vertices = np.asarray(world.vertices)
+    scale = 2.0 * float(max(-vertices.min(), vertices.max())) if vertices.size else 0.0
+    portals, ids, depth = door_pairs(g["portal_vertices"], g["portal_start"], doors)
+    deep = depth > 1.5 * grow + 4.0 * CLOSED * (scale + 1.0)
+    return [np.unique(portals[deep & (ids == d)]) for d in range(len(doors))]
+
+
+def door_sets(results, masks, doors) -> dict:
+    """The door extras: pvs_door_boxes (D, 2, 3) float64, pvs_door_start (V D + 1,) int64
+    offsets (cell-major: c D + d) into pvs_door_runs (R,) int32 [first, end) runs of what
+    door d shut hides from cell c (bake_cells' hidden), less what the cell's set holds
+    besides its walk (with_solids: the insides of solids near it)."""
+    doors = np.asarray(doors, dtype=np.float64).reshape(-1, 2, 3)
+    runs = []
+    for (r, _, hidden), mask in zip(results, masks):
+        walked = np.zeros(len(mask), dtype=bool)
+        walked[ids_of(r)] = True
+        extra = mask & ~walked  # the solids' insides the cell keeps whatever the doors do
+        for d in range(len(doors)):
+            runs.append(runs_of(hidden[d] & ~extra) if d in hidden else np.zeros(0, np.int64))
+    start = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
+    return {"pvs_door_boxes": doors.copy(), "pvs_door_start": start,
+            "pvs_door_runs": (np.concatenate(runs) if runs else np.zeros(0)).astype(np.int32)}

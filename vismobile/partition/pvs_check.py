@@ -29,3 +29,31 @@ def check_pvs(x, triangles) -> None:
     if grow.shape != (1,) or not np.isfinite(grow).all() or grow[0] < 0:
         raise ValueError("pvs_grow must be one finite non-negative value")
     decode(x, len(cells), int(triangles))
+    check_door_sets(x, len(cells), triangles)
+
+
+def check_door_sets(x, cells, triangles) -> None:
+    """The optional door sets (pvs.door_sets): all three or none, offsets per (cell, door)."""
+    names = ("pvs_door_boxes", "pvs_door_start", "pvs_door_runs")
+    present = [n for n in names if n in x]
+    if not present:
+        return
+    if len(present) != len(names):
+        raise ValueError(f"pvs door extras missing: {', '.join(n for n in names if n not in x)}")
+    boxes, start, runs = (np.asarray(x[n]) for n in names)
+    if boxes.ndim != 3 or boxes.shape[1:] != (2, 3) or not np.isfinite(boxes).all() \
+            or np.any(boxes[:, 0] > boxes[:, 1]):
+        raise ValueError("pvs_door_boxes must be (D, 2, 3) finite boxes")
+    start = start.astype(np.int64)
+    if (start.shape != (cells * len(boxes) + 1,) or start[0] != 0 or start[-1] != len(runs)
+            or np.any(np.diff(start) < 0) or np.any(start % 2)):
+        raise ValueError("pvs_door_start must be even ascending offsets, one per cell and door")
+    runs = runs.astype(np.int64)
+    if runs.ndim != 1 or (len(runs) and (runs.min() < 0 or runs.max() > triangles)):
+        raise ValueError("pvs_door_runs must be triangle ids")
+    step = np.diff(runs)
+    inner = np.ones(len(step), dtype=bool)
+    cut = start[1:-1]
+    inner[cut[(cut > 0) & (cut < len(runs))] - 1] = False
+    if len(step) and np.any(step[inner] <= 0):
+        raise ValueError("pvs_door_runs must be ascending, non-touching runs per cell and door")

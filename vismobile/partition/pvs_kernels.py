@@ -275,7 +275,8 @@ def _crack_candidate(portal_quads, p, src, grow, slope, planes, np_, tol, lo_i, 
 @njit(cache=True)
 def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
                    cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
-                   corners, grow, tol, budget, visible, cell_seen, crack, slope):
+                   corners, grow, tol, budget, visible, cell_seen, crack, slope, blocked,
+                   crossed):
     """Each portal crossing (portal, direction) keeps one box holding every
     point where a line from the source may cross it (the union over all sequences), so the walk
     is a fixed point instead of an enumeration. The eyes are the box [src_lo, src_hi] (grown
@@ -291,6 +292,8 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     pixel open) are crossed by every line passing within their width (grow + slope x the
     distance from the source): their crossing box is the clipped segment grown by that width,
     cut to the two cells' common face or line, and a line may pass any number of them.
+    Portals with blocked[p] (a shut door's, pvs.py's door sets) are never crossed; crossed[p]
+    is set for every portal some line from the source may cross.
     Returns the crossings walked, or -1 past `budget` (the caller keeps every connected cell).
     """
     states = 2 * len(portal_cells)
@@ -331,7 +334,7 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             cell_seen[cell] = True
         for q in range(cell_portal_start[cell], cell_portal_start[cell + 1]):
             p = cell_portals[q]
-            if p == came:
+            if p == came or blocked[p]:
                 continue
             forward = portal_cells[p, 0] == cell
             m = portal_cells[p, 1] if forward else portal_cells[p, 0]
@@ -361,6 +364,7 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
                 if hi > box[d, 1, a]:
                     box[d, 1, a] = hi
                     grew = True
+            crossed[p] = True
             if grew and not queued[d]:
                 queued[d] = True
                 queue[(head + size) % states] = d
