@@ -443,9 +443,9 @@ class TerrainScene:
         if self.culler is not None:
             _, lam = pixel_scale(camera, resolution)
             self.objects.ground.sink = error_px / lam  # terrain/ground.py
-            if self.heightmap.valid is not None:
-                self.objects.ground.cut = self.lod.cut_boxes(selected)
             start = time.perf_counter()
+            if self.heightmap.valid is not None:  # culling work: in cull_ms
+                self.objects.ground.cut = self.lod.cut_boxes(selected)
             culled = self.culled = self.culler.cull(camera)
             cull_ms = (time.perf_counter() - start) * 1000.0
             stats = dict(culled.stats)

@@ -121,49 +121,78 @@ def cut_table(boxes, cells) -> tuple:
     return table, block
 
 
+@njit(cache=True, inline="always")
+def _piece(eye, forward, right, t0, t1, z0, z1, spacing, cells):
+    """Cells (i0, i1, j0, j1) under the piece of the band [t0, t1] between depths z0 and z1,
+    widened by a cell and clipped to the map (i0 > i1 when off it)."""
+    xmin, xmax, wmin, wmax = np.inf, -np.inf, np.inf, -np.inf
+    for z in (z0, z1):
+        for t in (t0, t1):
+            x = eye[0] + forward[0] * z + right[0] * t * z
+            w = eye[2] + forward[2] * z + right[2] * t * z
+            xmin, xmax = min(xmin, x), max(xmax, x)
+            wmin, wmax = min(wmin, w), max(wmax, w)
+    return (max(int(np.floor(wmin / spacing)) - 1, 0),
+            min(int(np.floor(wmax / spacing)) + 1, cells - 1),
+            max(int(np.floor(xmin / spacing)) - 1, 0),
+            min(int(np.floor(xmax / spacing)) + 1, cells - 1))
+
+
+@njit(cache=True, inline="always")
+def _meets_cut(table, block, i0, i1, j0, j1):
+    """Whether the cells i0..i1 x j0..j1 (on the map) meet a marked block."""
+    a0, a1, c0, c1 = i0 // block, i1 // block + 1, j0 // block, j1 // block + 1
+    return table[a1, c1] - table[a0, c1] - table[a1, c0] + table[a0, c0] > 0
+
+
+GROUP = 16  # slices whose joint piece is looked up first: most of a map has no cut
+
+
 @njit(cache=True)
 def _stops(values, eye, forward, right, tans, depths, zclip, table, block, spacing,
            high_flat, offsets, sizes, lower, c, span2, slack):
     """Per band the first slice k whose piece (beyond zclip, widened by a cell) meets a cut
     block and whose highest drawn ground slope g(h) is not below values[b, k - 1] by the slack
-    (-1: none). values (B, S) float64 slopes (-inf: nothing), non-decreasing along a band."""
+    (-1: none). values (B, S) float64 slopes (-inf: nothing), non-decreasing along a band.
+    GROUP slices at a time are skipped when their joint piece (the band between the group's
+    depths, a convex quadrilateral holding each slice's piece) meets no cut."""
     bands, slices = values.shape
     cells = sizes[0]
     out = np.full(bands, -1, np.int64)
     for b in range(bands):
         final = values[b, slices - 1]
-        prev = -np.inf
-        for k in range(slices):
-            if k > 0:
-                prev = values[b, k - 1]
-            if prev >= final:
+        t0, t1 = tans[b], tans[b + 1]
+        k = 0
+        while k < slices and out[b] < 0:
+            if k > 0 and values[b, k - 1] >= final:
                 break  # the band no longer rises: stopping it changes nothing
-            z0, z1 = depths[k], depths[k + 1]
-            if z0 < zclip:
-                continue  # the ceiling keeps hidden rays above this piece
-            xmin, xmax, wmin, wmax = np.inf, -np.inf, np.inf, -np.inf
-            for z in (z0, z1):
-                for t in (tans[b], tans[b + 1]):
-                    x = eye[0] + forward[0] * z + right[0] * t * z
-                    w = eye[2] + forward[2] * z + right[2] * t * z
-                    xmin, xmax = min(xmin, x), max(xmax, x)
-                    wmin, wmax = min(wmin, w), max(wmax, w)
-            j0 = max(int(np.floor(xmin / spacing)) - 1, 0)
-            j1 = min(int(np.floor(xmax / spacing)) + 1, cells - 1)
-            i0 = max(int(np.floor(wmin / spacing)) - 1, 0)
-            i1 = min(int(np.floor(wmax / spacing)) + 1, cells - 1)
-            if i0 > i1 or j0 > j1:
-                continue  # off the map: no ground, nothing cast
-            a0, a1, c0, c1 = i0 // block, i1 // block + 1, j0 // block, j1 // block + 1
-            if table[a1, c1] - table[a0, c1] - table[a1, c0] + table[a0, c0] == 0:
+            end = min(k + GROUP, slices)
+            if depths[end] < zclip:
+                k = end  # the ceiling keeps hidden rays above these pieces
                 continue
-            rise = _highest_in(high_flat, offsets, sizes, i0, i1, j0, j1, -np.inf) + lower \
-                - eye[1]
-            h = rise / z0 if rise > 0 else rise / z1
-            g = h + c * np.sqrt(span2 + h * h) + slack * (1.0 + abs(h))
-            if not prev - slack * (1.0 + abs(prev)) > g:
-                out[b] = k
-                break
+            i0, i1, j0, j1 = _piece(eye, forward, right, t0, t1, depths[k], depths[end],
+                                    spacing, cells)
+            if i0 > i1 or j0 > j1 or not _meets_cut(table, block, i0, i1, j0, j1):
+                k = end
+                continue
+            for q in range(k, end):
+                prev = values[b, q - 1] if q > 0 else -np.inf
+                if prev >= final:
+                    break
+                z0, z1 = depths[q], depths[q + 1]
+                if z0 < zclip:
+                    continue
+                i0, i1, j0, j1 = _piece(eye, forward, right, t0, t1, z0, z1, spacing, cells)
+                if i0 > i1 or j0 > j1 or not _meets_cut(table, block, i0, i1, j0, j1):
+                    continue  # off the map (no ground, nothing cast) or no cut
+                rise = _highest_in(high_flat, offsets, sizes, i0, i1, j0, j1, -np.inf) \
+                    + lower - eye[1]
+                h = rise / z0 if rise > 0 else rise / z1
+                g = h + c * np.sqrt(span2 + h * h) + slack * (1.0 + abs(h))
+                if not prev - slack * (1.0 + abs(prev)) > g:
+                    out[b] = q
+                    break
+            k = end
     return out
 
 

@@ -271,9 +271,11 @@ def drop_hidden(pyramid: TilePyramid, selection: TileSelection, horizon) -> Tile
     """The selection without tiles whose box the horizon hides (seed 001 as a terrain occluder).
 
     Conservative for the drawn surface when the horizon was cast with lower >= the largest
-    error of the selected tiles (the drawn ground may sink that far below the samples).
+    error of the selected tiles (the drawn ground may sink that far below the samples). A
+    terrain with no-data samples keeps every tile: a horizon cast over its samples knows no
+    holes (terrain/ground.py stops the bands at the drawn cuts; this one cannot).
     """
-    if not len(selection.level):
+    if not len(selection.level) or pyramid.heightmap.valid is not None:
         return selection
     boxes = np.concatenate([pyramid.tile_boxes(int(l), selection.ti[selection.level == l],
                                                selection.tj[selection.level == l])
