@@ -53,14 +53,18 @@ def run_terrain(args, script) -> int:
     from ..viewer.terrain_session import TerrainSession
     from ..viewer.window import run as run_window
 
-    stages = parse_stages(args.cull if args.cull is not None else "vfc+horizon")
+    from ..progress import Status
     from ..scenes.thesis import default_cache_dir
 
-    session = TerrainSession.open_terrain(args.world, args.terrain_method, args.lod, stages,
-                                          args.structure, args.profile, args.trajectory,
-                                          object_lod=not args.no_object_lod,
-                                          cache_dir=default_cache_dir(),
-                                          record_path=args.record_to)
+    stages = parse_stages(args.cull if args.cull is not None else "vfc+horizon")
+    with Status(f"view {args.world}") as status:
+        status("loading the terrain, its LOD method and its objects' LOD chains (built once, "
+               "then cached)")
+        session = TerrainSession.open_terrain(args.world, args.terrain_method, args.lod, stages,
+                                              args.structure, args.profile, args.trajectory,
+                                              object_lod=not args.no_object_lod,
+                                              cache_dir=default_cache_dir(),
+                                              record_path=args.record_to)
     from ..render.context import release_current
 
     release_current()  # the scene built its buffers in the headless context: free the thread
