@@ -3,7 +3,8 @@ terrain? (issue 30: `play t.vmt`'s objects, culled over the heightmap sunk by th
 
 Random low cameras (eyes 1 cm to 5 m above the ground, log-uniform; near 1e-3 to 1,
 log-uniform; any heading; pitch -30..20) over a steep and a noisy map with placed models, for
-each LOD method at tau 1 px and each arithmetic (a float32 and a 16.16 profile). Each camera
+each LOD method at tau 1 px and each arithmetic (desktop in float32, the iPaq's screen in
+16.16: `--profiles NAME:VERTEX_FORMAT`, the registered profiles being float32). Each camera
 runs the TerrainScene frame (LOD, vfc+horizon over an octree), then draws the drawn LOD ground
 and every object into the item buffer: an object triangle that shows must have been kept.
 Prints per map, method and profile the cameras, the cameras with a drop, the dropped
@@ -25,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from vismobile.app.terrain_scene import METHODS, TerrainScene
+from vismobile.device.profile import get_profile
 from vismobile.render.terrain import TerrainRenderer
 from vismobile.terrain import sources, store
 from vismobile.terrain.placement import place_objects
@@ -76,7 +78,9 @@ def main(argv=None) -> int:
     parser.add_argument("--holes", action="store_true",
                         help="the maps with no-data holes (lakes, single samples, a gap)")
     parser.add_argument("--methods", default=",".join(METHODS))
-    parser.add_argument("--profiles", default="desktop,ipaq-hx2490b")
+    parser.add_argument("--profiles", default="desktop,ipaq-hx2490b:fixed16.16",
+                        help="NAME or NAME:VERTEX_FORMAT (the Culler's arithmetic is the "
+                             "profile's vertex format; the registered profiles are float32)")
     args = parser.parse_args(argv)
     failed = False
     with tempfile.TemporaryDirectory() as folder:
@@ -84,7 +88,9 @@ def main(argv=None) -> int:
             path = Path(folder) / f"{name}.vmt"
             store.save(path, hm, place_objects(hm, args.objects, seed=3, height=4.0))
             views = cameras(hm, args.cameras, seed=len(name))
-            for profile in args.profiles.split(","):
+            for label in args.profiles.split(","):
+                name_, _, vertex_format = label.partition(":")
+                profile = get_profile(name_, vertex_format or None)
                 for method in args.methods.split(","):
                     start = time.perf_counter()
                     scene = TerrainScene(path, method, 1.0, ("vfc", "horizon"), "octree:3",
@@ -98,7 +104,7 @@ def main(argv=None) -> int:
                         dropped += lost
                         removed += f.triangles_hidden
                     failed |= bad > 0
-                    print(f"{name:>6} {method:>9} {profile:>13}: {len(views)} cameras, "
+                    print(f"{name:>6} {method:>9} {label:>24}: {len(views)} cameras, "
                           f"{bad} with a drop, {dropped} visible triangles dropped, "
                           f"{removed:,} object triangles removed by the horizon "
                           f"({time.perf_counter() - start:.0f} s)", flush=True)
