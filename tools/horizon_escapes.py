@@ -5,6 +5,9 @@ into the reasons a horizon cannot or does not hide it.
     .venv/bin/python tools/horizon_escapes.py [--world w6] [--structure octree:5]
         [--trajectory trajectories/outdoor.csv] [--frames 120] [--screen]
 
+--world terrain: tools/horizon_objects.py's terrain world with 60 models on its valley path
+(--frames 40, as bench_cull.py runs it).
+
 Per frame (means), by the triangle's object (an occluder the stage found: ground or building,
 or a model by its name without digits) and reason:
 - "no centre": its projected box holds no pixel centre of the profile's screen (sub-pixel);
@@ -121,10 +124,20 @@ def main(argv=None) -> int:
                     help="cull with the profile's screen too (device_options)")
     args = ap.parse_args(argv)
     profile = get_profile(args.profile)
-    world = build_world(args.world)
-    traj = Trajectory.load(args.trajectory)
-    frames = np.unique(np.linspace(0, len(traj) - 1, args.frames).astype(int))
-    cameras = [traj.camera(int(f), profile.aspect) for f in frames]
+    if args.world == "terrain":  # horizon_objects.py's terrain world on its valley path
+        from horizon_objects import terrain_objects_world
+
+        from vismobile.terrain.paths import path_cameras
+
+        world, hm = terrain_objects_world()
+        cameras = path_cameras(hm, "valley", "fast", frames=args.frames, eye_height=2.0,
+                               aspect=profile.aspect, every=max(1, 240 // args.frames))
+        args.trajectory = "valley"
+    else:
+        world = build_world(args.world)
+        traj = Trajectory.load(args.trajectory)
+        frames = np.unique(np.linspace(0, len(traj) - 1, args.frames).astype(int))
+        cameras = [traj.camera(int(f), profile.aspect) for f in frames]
     kind, params = parse_spec(args.structure)
     part = partition(world, kind, **params)
     plain, sent, shown, counts = escapes(world, cameras, part, profile, args.screen)
@@ -134,6 +147,12 @@ def main(argv=None) -> int:
           f"{sent:.1f} ({sent / max(plain, 1):.3f}x), {shown:.1f} shown, {sent - shown:.1f} "
           f"unseen a frame\n\n| object | reason | unseen sent a frame |\n| --- | --- | ---: |")
     for (obj, reason), count in sorted(counts.items(), key=lambda kv: -kv[1]):
+        print(f"| {obj} | {reason} | {count / n:.1f} |")
+    kinds = collections.Counter()  # occluders against models, by reason
+    for (obj, reason), count in counts.items():
+        kinds[("occluder" if obj == "occluder" else "model", reason)] += count
+    print("\n| occluder or model | reason | unseen sent a frame |\n| --- | --- | ---: |")
+    for (obj, reason), count in sorted(kinds.items(), key=lambda kv: -kv[1]):
         print(f"| {obj} | {reason} | {count / n:.1f} |")
     return 0
 
