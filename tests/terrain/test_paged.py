@@ -22,6 +22,21 @@ def tiled(tmp_path_factory):
     return hm, pyramid, path
 
 
+def _same_frame(paged, pyramid, arena, plain, camera, profile):
+    """Select and draw camera's tiles paged and in memory; assert the same selection and images
+    within 40 dB (int8 normals only). Returns the paged selection and image."""
+    a = select_tiles(paged.pyramid, camera, profile.resolution, 1.0)
+    b = select_tiles(pyramid, camera, profile.resolution, 1.0)
+    assert all(np.array_equal(getattr(a, n), getattr(b, n))
+               for n in ("level", "ti", "tj", "sides"))
+    arena.draw(a, camera)
+    image = arena.read_rgb().astype(np.float64)
+    plain.draw(b, camera)
+    mse = ((image - plain.read_rgb()) ** 2).mean()
+    assert mse == 0 or 10 * np.log10(255 ** 2 / mse) > 40
+    return a, image
+
+
 def test_paged_frames_match_the_in_memory_method_within_the_budget(tiled):
     hm, pyramid, path = tiled
     profile = get_profile("ipaq-hx2490b")
@@ -33,15 +48,7 @@ def test_paged_frames_match_the_in_memory_method_within_the_budget(tiled):
     assert np.allclose(paged.height_at(*points), hm.height_at(*points), atol=1e-4)
     try:
         for camera in path_cameras(hm, "circle", "fast", frames=8, every=25):
-            a = select_tiles(paged.pyramid, camera, profile.resolution, 1.0)
-            b = select_tiles(pyramid, camera, profile.resolution, 1.0)
-            assert all(np.array_equal(getattr(a, k), getattr(b, k))
-                       for k in ("level", "ti", "tj", "sides"))
-            arena.draw(a, camera)
-            image = arena.read_rgb().astype(np.float64)
-            plain.draw(b, camera)
-            mse = ((image - plain.read_rgb()) ** 2).mean()
-            assert mse == 0 or 10 * np.log10(255 ** 2 / mse) > 40  # int8 normals only
+            a, _ = _same_frame(paged, pyramid, arena, plain, camera, profile)
             assert len(paged.cache) <= max(paged.capacity, len(paged.current))
             misses += paged.misses
             paged.read_ahead(a, camera, profile.resolution, 1.0)
@@ -106,15 +113,7 @@ def test_a_terrain_with_holes_pages_and_draws_them_cut(tmp_path):
                       near=0.5, far=400)] + path_cameras(hm, "circle", "fast", frames=3, every=40)
     try:
         for k, camera in enumerate(cameras):
-            a = select_tiles(paged.pyramid, camera, profile.resolution, 1.0)
-            b = select_tiles(pyramid, camera, profile.resolution, 1.0)
-            assert all(np.array_equal(getattr(a, n), getattr(b, n))
-                       for n in ("level", "ti", "tj", "sides"))
-            arena.draw(a, camera)
-            image = arena.read_rgb().astype(np.float64)
-            plain.draw(b, camera)
-            mse = ((image - plain.read_rgb()) ** 2).mean()
-            assert mse == 0 or 10 * np.log10(255 ** 2 / mse) > 40
+            _, image = _same_frame(paged, pyramid, arena, plain, camera, profile)
             if k == 0:  # from above: the lake's centre shows the clear colour
                 assert np.abs(image[160, 120] - np.rint(np.array(CLEAR_RGB) * 255)).max() <= 1
     finally:
