@@ -209,21 +209,28 @@ def transform_rows(rest, start, matrices, tracks, out):
                 out[v, r] = m[r, 0] * x + m[r, 1] * y + m[r, 2] * z + m[r, 3]
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _move_box(box, m, pad, out):
+    """out (2, 3) = the box (2, 3) under the affine m (4, 4): per row the extreme corners (min
+    and max of each term), grown by pad times the row's largest magnitude."""
+    for r in range(3):
+        lo, hi, mag = m[r, 3], m[r, 3], abs(m[r, 3])
+        for c in range(3):
+            a, b = m[r, c] * box[0, c], m[r, c] * box[1, c]
+            lo += min(a, b)
+            hi += max(a, b)
+            mag += max(abs(a), abs(b))
+        out[0, r] = lo - pad * mag
+        out[1, r] = hi + pad * mag
+
+
 @njit(cache=True, nogil=True)
 def _moved_boxes(boxes, matrices, pad, out):
     """out (M, 2, 3) = moved_boxes; returns the largest |coordinate| of out."""
     most = 0.0
     for k in range(len(boxes)):
-        m = matrices[k]
+        _move_box(boxes[k], matrices[k], pad, out[k])
         for r in range(3):
-            lo, hi, mag = m[r, 3], m[r, 3], abs(m[r, 3])
-            for c in range(3):  # the extreme corners per row: min and max of each term
-                a, b = m[r, c] * boxes[k, 0, c], m[r, c] * boxes[k, 1, c]
-                lo += min(a, b)
-                hi += max(a, b)
-                mag += max(abs(a), abs(b))
-            out[k, 0, r] = lo - pad * mag
-            out[k, 1, r] = hi + pad * mag
             most = max(most, abs(out[k, 0, r]), abs(out[k, 1, r]))
     return most
 
@@ -234,16 +241,7 @@ def _moved_rows(boxes, matrices, rows, pad, out):
     rows."""
     for i in range(len(rows)):
         k = rows[i]
-        m = matrices[k]
-        for r in range(3):
-            lo, hi, mag = m[r, 3], m[r, 3], abs(m[r, 3])
-            for c in range(3):
-                a, b = m[r, c] * boxes[k, 0, c], m[r, c] * boxes[k, 1, c]
-                lo += min(a, b)
-                hi += max(a, b)
-                mag += max(abs(a), abs(b))
-            out[k, 0, r] = lo - pad * mag
-            out[k, 1, r] = hi + pad * mag
+        _move_box(boxes[k], matrices[k], pad, out[k])
 
 
 def moved_boxes(boxes, matrices) -> np.ndarray:

@@ -296,6 +296,19 @@ def _sample(times, values, start, local, step, quaternion, neutral, out):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def key_bracket(times, lo, hi, t):
+    """(lo, lo + 1): the keys around t by binary search, given times[lo] <= t < times[hi]
+    (sorted times): times[lo] <= t < times[lo + 1]."""
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if times[mid] <= t:
+            lo = mid
+        else:
+            hi = mid
+    return lo, hi
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _segment(times, a, b, t, step):
     """(lo, hi, u) of keys times[a:b] (a < b) at t: the value is v[lo] + u (v[hi] - v[lo])
     (u = 0: v[lo] held, before the first key, past the last, or a step)."""
@@ -303,13 +316,7 @@ def _segment(times, a, b, t, step):
         return a, a, 0.0
     if t >= times[b - 1]:
         return b - 1, b - 1, 0.0
-    lo, hi = a, b - 1  # times[lo] < t < times[hi]
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if times[mid] <= t:
-            lo = mid
-        else:
-            hi = mid
+    lo, hi = key_bracket(times, a, b - 1, t)
     if step:
         return lo, lo, 0.0
     return lo, hi, (t - times[lo]) / (times[hi] - times[lo])

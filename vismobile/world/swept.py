@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .motion import rotation_scale
+from .motion import key_bracket, rotation_scale
 
 SWEEP_PAD = 2.0 ** -30
 # Intervals are cut to windows of this many seconds (in each track's own time, staggered by a
@@ -40,13 +40,7 @@ def _span(times, a, b, t, step):
         return a, a, -np.inf, times[a]
     if t >= times[b - 1]:
         return b - 1, b - 1, times[b - 1], np.inf
-    lo, hi = a, b - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if times[mid] <= t:
-            lo = mid
-        else:
-            hi = mid
+    lo, hi = key_bracket(times, a, b - 1, t)
     if step:
         return lo, lo, times[lo], times[hi]
     return lo, hi, times[lo], times[hi]
