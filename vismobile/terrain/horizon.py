@@ -48,7 +48,7 @@ from numba import njit
 
 from .horizon_mips import (_highest_in, _lowest_in, cell_gradients,  # noqa: F401
                            max_mip, max_mip_cells, min_mip, pack)
-from .horizon_bands import level_bands, no_stops, stops_raw  # noqa: F401
+from .horizon_bands import bands_hide, level_bands, no_stops, stops_raw  # noqa: F401
 from .horizon_fixed import (ONE, SLOPE_LIMIT, _fdiv_ceil, _fdiv_floor, _fmul,  # noqa: F401
                             _hidden_fixed, hidden_one_fixed)
 
@@ -220,7 +220,6 @@ def _hidden(points, eye, forward, right, tans, depths, values, ceiling, bases, c
 def hidden_one(points, origin, eye, forward, right, tans, depths, values, ceiling, bases,
                clamp, grow):
     """_hidden for one hull of points (C, 3), taken relative to origin (3,) first."""
-    bands = tans.shape[0] - 1
     dz = grow * (abs(forward[0]) + abs(forward[2]))
     dl = grow * (abs(right[0]) + abs(right[2]))
     zmin, tmin, tmax, mmin, mmax = np.inf, np.inf, -np.inf, np.inf, -np.inf
@@ -239,20 +238,7 @@ def hidden_one(points, origin, eye, forward, right, tans, depths, values, ceilin
         tmax = max(tmax, l_hi / (z_lo if l_hi >= 0 else z_hi))
         mmin = min(mmin, y_lo / (z_hi if y_lo >= 0 else z_lo))
         mmax = max(mmax, y_hi / (z_lo if y_hi >= 0 else z_hi))
-    if zmin <= depths[0] or tmax < tans[0] or tmin > tans[bands] \
-            or (not clamp and (tmin < tans[0] or tmax > tans[bands])):
-        return False
-    # Last slice that ends before the box's nearest depth.
-    k = np.searchsorted(depths, zmin, side="right") - 2
-    if k < 0:
-        return False
-    b0 = np.searchsorted(tans, tmin, side="right") - 1
-    b1 = np.searchsorted(tans, tmax, side="left") - 1
-    for b in range(max(b0, 0), min(b1, bands - 1) + 1):
-        if not (values[b, k] > mmax and mmin > ceiling[b]) \
-                or (bases.shape[0] > 0 and not mmin > bases[b, k]):
-            return False
-    return True
+    return bands_hide(zmin, tmin, tmax, mmax, mmin, tans, depths, values, ceiling, bases, clamp)
 
 
 @njit(cache=True)

@@ -1,6 +1,6 @@
 """The level camera's bands for the horizon casts (terrain/horizon.py, horizon_cells.py): its
 axes, the band edges across the frustum, and per band the frustum's slope range, which lets a
-band's cast stop early."""
+band's cast stop early; and bands_hide, the last step of every horizon test."""
 from __future__ import annotations
 
 import numpy as np
@@ -170,3 +170,27 @@ def stops_raw(highs, lows) -> tuple:
         return np.where(finite, rounding(scaled), infinite).astype(np.int64)
 
     return raw(highs, np.ceil, NO_STOP_RAW), raw(lows, np.floor, -NO_STOP_RAW)
+
+
+@njit(cache=True, inline="always")
+def bands_hide(zmin, tmin, tmax, top, bottom, tans, depths, values, ceiling, bases, clamp):
+    """True when a hull whose nearest depth is zmin, lateral slopes tmin..tmax and height slopes
+    at most top and at least bottom lies behind the horizon: within the bands' fan (or clamp),
+    and in every band it spans, at the last slice ending before zmin, the horizon is above top,
+    the ceiling below bottom and (with bases) the base below bottom. The float and 16.16
+    tests share it (in raw integers, top and bottom already rounded outward)."""
+    bands = tans.shape[0] - 1
+    if zmin <= depths[0] or tmax < tans[0] or tmin > tans[bands] \
+            or (not clamp and (tmin < tans[0] or tmax > tans[bands])):
+        return False
+    # Last slice that ends before the hull's nearest depth.
+    k = np.searchsorted(depths, zmin, side="right") - 2
+    if k < 0:
+        return False
+    b0 = np.searchsorted(tans, tmin, side="right") - 1
+    b1 = np.searchsorted(tans, tmax, side="left") - 1
+    for b in range(max(b0, 0), min(b1, bands - 1) + 1):
+        if not (values[b, k] > top and bottom > ceiling[b]) \
+                or (bases.shape[0] > 0 and not bottom > bases[b, k]):
+            return False
+    return True

@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .horizon_bands import bands_hide
+
 ONE = 1 << 16
 SLOPE_LIMIT = (1 << 31) - 1  # int32: slopes clamp into +-this (raw)
 
@@ -54,24 +56,11 @@ def _fixed_start(acc):
 def _fixed_verdict(acc, tans, depths, values, ceiling, bases, clamp):
     """True when the hull folded into acc (_fixed_point) lies behind the 16.16 horizon."""
     zmin, tmin, tmax, mmin, mmax = acc[0], acc[1], acc[2], acc[3], acc[4]
-    bands = tans.shape[0] - 1
     if mmax >= SLOPE_LIMIT or mmin <= -SLOPE_LIMIT:
         return False
-    if zmin <= depths[0] or tmax < tans[0] or tmin > tans[bands] \
-            or (not clamp and (tmin < tans[0] or tmax > tans[bands])):
-        return False
-    k = np.searchsorted(depths, zmin, side="right") - 2
-    if k < 0:
-        return False
-    b0 = np.searchsorted(tans, tmin, side="right") - 1
-    b1 = np.searchsorted(tans, tmax, side="left") - 1
-    need = mmax + ((ONE + abs(mmax)) >> 14) + 1
+    need = mmax + ((ONE + abs(mmax)) >> 14) + 1  # the slopes rounded outward
     above = mmin - ((ONE + abs(mmin)) >> 14) - 1
-    for b in range(max(b0, 0), min(b1, bands - 1) + 1):
-        if not (values[b, k] > need and above > ceiling[b]) \
-                or (bases.shape[0] > 0 and not above > bases[b, k]):
-            return False
-    return True
+    return bands_hide(zmin, tmin, tmax, need, above, tans, depths, values, ceiling, bases, clamp)
 
 
 @njit(cache=True)
