@@ -51,6 +51,20 @@ def _geometry(r, c, n, g):
     return h, a == b
 
 
+@njit(cache=True, inline="always")
+def _children_worst(g, error, N, worst):
+    """max(worst, the error of each child of the diamond g (_geometry): the midpoint of an
+    apex (on the map) and a hypotenuse end), so that errors nest."""
+    for k in range(2):
+        if g[k, 0] < 0:
+            continue
+        for e in range(2, 4):
+            mr = (g[k, 0] + g[e, 0]) // 2
+            mc = (g[k, 1] + g[e, 1]) // 2
+            worst = max(worst, error[mr * N + mc])
+    return worst
+
+
 @njit(cache=True)
 def wedgies(heights, n):
     """(N*N,) float64 nested wedgie thickness per split vertex (0 at the four corners)."""
@@ -70,13 +84,7 @@ def wedgies(heights, n):
                                                         + heights[g[3, 0], g[3, 1]]))
                     worst = 0.0
                     if sq or hh > 1:
-                        for k in range(2):
-                            if g[k, 0] < 0:
-                                continue
-                            for e in range(2, 4):
-                                mr = (g[k, 0] + g[e, 0]) // 2
-                                mc = (g[k, 1] + g[e, 1]) // 2
-                                worst = max(worst, error[mr * N + mc])
+                        worst = _children_worst(g, error, N, worst)
                     error[r * N + c] = local + worst
     return error
 
@@ -108,13 +116,7 @@ def horizontal_wedgies(valid, n, spacing):
                         local = half
                     worst = local
                     if sq or hh > 1:
-                        for k in range(2):
-                            if g[k, 0] < 0:
-                                continue
-                            for e in range(2, 4):
-                                mr = (g[k, 0] + g[e, 0]) // 2
-                                mc = (g[k, 1] + g[e, 1]) // 2
-                                worst = max(worst, error[mr * N + mc])
+                        worst = _children_worst(g, error, N, worst)
                     error[r * N + c] = worst
     return error
 
