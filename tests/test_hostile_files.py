@@ -206,22 +206,41 @@ def test_animated_inputs_load_or_are_refused_in_one_error(tmp_path, target):
     """Issue 25's inputs (a GLB with node animations, a JSON motion file, one as play --motion
     takes it, --fps values, play --regional choices) fuzzed: each seed loads and poses, and each seeded mutation loads
     or is refused with a VisMobileError (any other exception fails the test)."""
-    import random
+    fuzz = _fuzz_module()
+    _seeds_load_and_mutations_refuse(fuzz, target, fuzz.animated_seeds(tmp_path)[target],
+                                     tmp_path)
+
+
+def test_page_budgets_parse_or_are_refused_in_one_error(tmp_path):
+    """play --page-budget values (MB, (0, 2^20]) fuzzed as issue 25's --fps: every seed parses
+    within its range, each mutation parses or is refused with a VisMobileError."""
+    fuzz = _fuzz_module()
+    _seeds_load_and_mutations_refuse(fuzz, "budget", fuzz.BUDGET_TEXTS, tmp_path)
+
+
+def _fuzz_module():
     import sys
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
     import fuzz
 
-    seeds = fuzz.animated_seeds(tmp_path)[target]
+    return fuzz
+
+
+def _seeds_load_and_mutations_refuse(fuzz, target, seeds, folder):
+    """Each seed runs clean; 40 seeded byte mutations each run clean or are refused with a
+    VisMobileError (any other exception fails), and some are refused."""
+    import random
+
     outcomes = {"ok": 0, "error": 0}
     for seed in seeds:
-        assert fuzz.run_case(target, seed, tmp_path) == "ok"
+        assert fuzz.run_case(target, seed, folder) == "ok"
     for case in range(40):
         pick = random.Random(f"{target}:{case}").randrange
         data = seeds[pick(len(seeds))]
         for _ in range(1 + pick(3)):
             data = fuzz.mutate_bytes(data, pick)
-        outcomes[fuzz.run_case(target, data, tmp_path)] += 1
+        outcomes[fuzz.run_case(target, data, folder)] += 1
     assert outcomes["error"] > 0
 
 

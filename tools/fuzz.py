@@ -5,8 +5,8 @@ address of compare and partition (issue 29); PLY, STL, OFF, GLB, gzip-compressed
 heightmaps (issue 28); GeoTIFF heightmaps and .vmt terrains as `play` runs them (vmtplay: LOD, objects culled, a frame;
 issue 30); GLB node animations and JSON motion files (animglb, motion: issue 25), a motion file
 as play --motion takes it, --fps values and play --regional choices (playmotion, fps,
-regional: issue 25). Every input must load or end in a VisMobileError (one clean line from
-the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
+regional: issue 25), play --page-budget values (budget: issue 30). Every input must load or
+end in a VisMobileError (one clean line from the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
 Three modes:
 - mutate: seeded mutation of real files (a shared model, .vmp files of every structure built
@@ -22,7 +22,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps,regional]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps,regional,budget]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
@@ -174,7 +174,7 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
             "npy": arrays, "tif": tifs,
             "vmtiles": [vmtiles_seed(heightmap, folder),
                         vmtiles_seed(quantize(holed, 1.0, "holes"), folder, "holes")],
-            **animated_seeds(folder)}
+            "budget": BUDGET_TEXTS, **animated_seeds(folder)}
 
 
 from fuzz_motion import (animated_seeds, load_animated, load_fps, load_motion,  # noqa: E402
@@ -436,6 +436,26 @@ def load_vmtiles(path):
         paged.close()
 
 
+# play --page-budget values in MB (commands/options.py RANGES: (0, 2^20]).
+BUDGET_TEXTS = [b"16", b"0.5", b"4", b"1048576"]
+
+
+def load_page_budget(path):
+    """--page-budget text through play's parser and its RANGES check."""
+    from vismobile.app.cli import build_parser
+    from vismobile.commands import options
+    from vismobile.errors import VisMobileError
+
+    text = path.read_bytes()[:256].decode("utf-8", errors="replace")
+    try:
+        args = build_parser().parse_args(["play", "t.vmtiles", "-o", str(path) + ".out",
+                                          "--page-budget", text])
+    except SystemExit:  # argparse's own refusal (exit 2, one usage line)
+        raise VisMobileError(f"--page-budget {text!r}: not a number") from None
+    options.check(args)
+    assert 0.0 < args.page_budget <= 1 << 20
+
+
 def load_heightmap(path):
     from vismobile.terrain.sources import load_file
 
@@ -454,7 +474,7 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "vmtiles": (load_vmtiles, ".vmtiles"), "objmtl": (load_textured_obj, ".obj"),
          "animglb": (load_animated, ".glb"), "motion": (load_motion, ".json"),
          "playmotion": (load_play_motion, ".json"), "fps": (load_fps, ".txt"),
-         "regional": (load_regional, ".txt")}
+         "regional": (load_regional, ".txt"), "budget": (load_page_budget, ".txt")}
 
 
 def run_case(target, data, folder):
