@@ -134,6 +134,10 @@ def test_the_default_object_height_must_fit_the_terrain(capsys, files):
     ["compare", "--worlds", "w1", "--trajectory", "{d}/t.csv", "-o", "{d}/c",
      "--report", "{d}/t.csv"],
     ["view", "{d}/m.obj", "--trajectory", "{d}/t.csv", "--record-to", "{d}/t.csv"],
+    ["view", "{d}/m.obj", "--motion", "{d}/mo.json", "--record-to", "{d}/mo.json"],
+    ["play", "{d}/m.obj", "--trajectory", "{d}/t.csv", "--motion", "{d}/r/summary.json",
+     "-o", "{d}/r"],
+    ["terrain", "tile", "{d}/h.vmt", "-o", "{d}/h.vmt"],
 ])
 def test_no_command_writes_over_its_input(capsys, files, argv):
     import numpy as np
@@ -145,6 +149,8 @@ def test_no_command_writes_over_its_input(capsys, files, argv):
         (files / folder).mkdir()
     (files / "r" / "frames.csv").write_text(TRIANGLE)
     (files / "c" / "runs.csv").write_text(TRIANGLE)
+    for name in ("mo.json", "r/summary.json", "h.vmt"):
+        (files / name).write_text("{}")
     before = {p: p.read_bytes() for p in files.rglob("*") if p.is_file()}
     refuse(capsys, [a.format(d=files) for a in argv], "input" if "x.vmt" not in argv[-1]
            else "twice")

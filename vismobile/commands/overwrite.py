@@ -14,12 +14,13 @@ COMPARE_FILES = ("runs.csv", "runs.json", "report.html", "agreement.json", "terr
                  "terrain.json", "runs", "fixed")
 IO = {
     "partition": (("world",), ("out",), {}),
-    "play": (("world", "trajectory"), (), {"out": PLAY_FILES}),
+    "play": (("world", "trajectory", "motion"), (), {"out": PLAY_FILES}),
     "compare": (("worlds", "trajectory", "terrain"), ("report",), {"out": COMPARE_FILES}),
     "tune": (("world", "trajectory"), ("out",), {}),
     "trajectory generate": (("world",), ("out",), {}),
     "terrain build": (("source",), ("out", "obj"), {}),
-    "view": (("world", "trajectory"), ("record_to",), {}),
+    "terrain tile": (("terrain",), ("out",), {}),
+    "view": (("world", "trajectory", "motion"), ("record_to",), {}),
     "info": (("world",), ("out",), {}),
 }
 
