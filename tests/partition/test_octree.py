@@ -62,3 +62,48 @@ def test_layout_levels_and_ranges(cow):
         last = p.first_child[inner] + p.child_count[inner] - 1
         assert np.array_equal(p.ref_start[inner], p.ref_start[p.first_child[inner]])
         assert np.array_equal(p.ref_end[inner], p.ref_end[last])
+
+
+def _numpy_subdivide(world, depth):
+    """The octree's decisions written with whole-array numpy (the build before numba): per
+    level, the octants each triangle's box meets, the exact test where it meets several."""
+    from vismobile.geometry.triangle_box import triangles_overlap_boxes
+
+    boxes = world.extent[None].astype(np.float64)
+    node = np.zeros(world.triangle_count, dtype=np.int64)
+    tri = np.arange(world.triangle_count, dtype=np.int64)
+    levels = []
+    for _ in range(depth):
+        centre = boxes.mean(axis=1)[node]
+        tb = world.bounds[tri]
+        low_ok = tb[:, 0] <= centre
+        high_ok = (tb[:, 1] >= centre) & (boxes[node, 1] > boxes[node, 0])
+        cand = np.where(octree.OCTANT_BITS[None], high_ok[:, None], low_ok[:, None]).all(axis=2)
+        keep = cand & (cand.sum(axis=1) == 1)[:, None]
+        pair, octant = np.nonzero(cand & (cand.sum(axis=1) > 1)[:, None])
+        bits = octree.OCTANT_BITS[octant]
+        lo = np.where(bits, centre[pair], boxes[node[pair], 0])
+        hi = np.where(bits, boxes[node[pair], 1], centre[pair])
+        keep[pair, octant] = triangles_overlap_boxes(world.corners[tri[pair]], lo, hi)
+        pair, octant = np.nonzero(keep)
+        key, tri = node[pair] * 8 + octant, tri[pair]
+        order = np.lexsort((tri, key))
+        child_key, node = np.unique(key[order], return_inverse=True)
+        tri = tri[order]
+        boxes = octree.child_boxes(boxes, child_key // 8, (child_key % 8).astype(np.int8))
+        levels.append((boxes, child_key // 8))
+    return levels, node, tri
+
+
+@pytest.mark.parametrize("name, depth", [("cow", 6), ("suzanne", 5)])
+def test_compiled_levels_match_the_numpy_formulation(request, name, depth):
+    world = request.getfixturevalue(name)
+    want, node, tri = _numpy_subdivide(world, depth)
+    tris = np.arange(world.triangle_count, dtype=np.int64)
+    got, (got_node, got_tri) = octree.subdivide(world, world.extent[None].astype(np.float64),
+                                                np.zeros_like(tris), tris, depth)
+    assert len(got) == depth
+    for (boxes, parent, _), (want_boxes, want_parent) in zip(got, want):
+        assert np.array_equal(boxes, want_boxes) and np.array_equal(parent, want_parent)
+    assert np.array_equal(got_node, node) and np.array_equal(got_tri, tri)
+    assert len(tri) > world.triangle_count  # some triangles straddle cells: the test ran

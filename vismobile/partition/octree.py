@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.triangle_box import triangles_overlap_boxes
 from .layout import check_references, make_partition
+from .octree_split import split_level
 
 DEFAULT_DEPTH = 5
 MAX_DEPTH = 8
@@ -30,41 +30,13 @@ def subdivide(world, boxes, pair_node, pair_tri, levels, progress=None):
                 octant (Mk,) int8), one per new level, and the last level's (pair_node, pair_tri)
     """
     out = []
-    tri_bounds = world.bounds
     for level in range(levels):
-        centre = boxes.mean(axis=1)  # child_boxes halves at the same centre
-        tb = tri_bounds[pair_tri]
-        c = centre[pair_node]
-        low_ok = tb[:, 0] <= c  # (P, 3) may reach the low half on each axis
-        # A box of zero extent on an axis (a flat world) is not split there: both of its
-        # halves would be the same box, doubling every reference per level.
-        high_ok = (tb[:, 1] >= c) & (boxes[pair_node, 1] > boxes[pair_node, 0])
-        cand = np.where(OCTANT_BITS[None], high_ok[:, None, :], low_ok[:, None, :]).all(axis=2)
-        # Candidates bound the SAT work and the kept references of this level.
-        check_references(int(cand.sum()), f"octree level {level + 1}", candidates=True)
-        single = cand.sum(axis=1) == 1
-        # A triangle whose box meets one child only overlaps that child: no SAT needed.
-        keep = cand & single[:, None]
-        multi_pair, multi_oct = np.nonzero(cand & ~single[:, None])
-        if len(multi_pair):
-            bits = OCTANT_BITS[multi_oct]
-            node = pair_node[multi_pair]
-            lo = np.where(bits, centre[node], boxes[node, 0])
-            hi = np.where(bits, boxes[node, 1], centre[node])
-            corners = world.vertices[world.triangles[pair_tri[multi_pair]]]
-            keep[multi_pair, multi_oct] = triangles_overlap_boxes(corners, lo, hi)
-        kept_pair, kept_oct = np.nonzero(keep)
-        check_references(len(kept_pair), f"octree level {level + 1}")
-        key = pair_node[kept_pair] * 8 + kept_oct
-        tri = pair_tri[kept_pair]
-        order = np.lexsort((tri, key))
-        key, tri = key[order], tri[order]
-        child_key, pair_node = np.unique(key, return_inverse=True)
-        pair_node = pair_node.astype(np.int64)
+        child_key, pair_node, pair_tri = split_level(boxes, pair_node, pair_tri, world.vertices,
+                                                     world.triangles, check_references,
+                                                     level + 1)
         parent = child_key // 8
         octant = (child_key % 8).astype(np.int8)
         boxes = child_boxes(boxes, parent, octant)
-        pair_tri = tri
         out.append((boxes, parent, octant))
         if progress is not None:
             progress(level + 1, levels)
