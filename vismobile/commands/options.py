@@ -82,6 +82,8 @@ RANGES = {
         "--object-height": _positive(),
         "--obj-stride": Range(1, MAX_TERRAIN_SIZE - 1, rule="power of two"),
     },
+    "terrain tile": {"--memory": Range(1.0, 1 << 20, float), "--spacing": _positive(),
+                     "--vertical": _positive()},
     "trajectory generate": {
         "--seed": Range(0, SEED_MAX),
         "--length": Range(2, MAX_FRAMES),

@@ -35,9 +35,22 @@ def add_parser(sub):
                        help="sample stride of the exported mesh (power of two; default 1)")
     tile = actions.add_parser(
         "tile", help="write a .vmtiles file: the terrain's tile pyramid, paged in by tiles under "
-                     "a memory budget when played (play t.vmtiles --page-budget MB)")
-    tile.add_argument("terrain", type=Path, help="a .vmt terrain (without no-data samples)")
+                     "a memory budget when played (play t.vmtiles --page-budget MB); from a "
+                     "GeoTIFF it is built out of core, strip by strip within --memory")
+    tile.add_argument("terrain", type=Path,
+                      help="a .vmt terrain, or a GeoTIFF DEM (.tif/.tiff) of any size up to "
+                           "8193 samples a side, padded onto the next 2^n+1 grid")
     tile.add_argument("-o", "--out", type=Path, required=True, help="output .vmtiles file")
+    tile.add_argument("--memory", type=float, default=256.0, metavar="MB",
+                      help="a GeoTIFF's build: memory for its strips, bands of rows and the "
+                           "tiles' statistics (default 256; refused below what the grid needs)")
+    tile.add_argument("--nodata", type=float, default=None, metavar="VALUE",
+                      help="a GeoTIFF's no-data value (default: its GDAL_NODATA tag)")
+    tile.add_argument("--spacing", type=float, default=None,
+                      help="a GeoTIFF's world units between samples (default: its pixel scale, "
+                           "else 1)")
+    tile.add_argument("--vertical", type=float, default=1.0,
+                      help="a GeoTIFF's value to world units (default 1)")
     info = actions.add_parser("info", help="print a .vmt terrain's size, scale and objects")
     info.add_argument("terrain", type=Path)
     return parser
@@ -140,13 +153,30 @@ def _info(args) -> int:
 
 
 def _tile(args) -> int:
+    from ..errors import VisMobileError
     from ..files.atomic import check_destination
     from ..progress import Status
+
+    check_destination(args.out)
+    if args.terrain.suffix.lower() in (".tif", ".tiff"):
+        from ..terrain.outofcore import build_tiles
+
+        with Status(f"terrain tile {args.terrain}") as status:
+            info = build_tiles(args.terrain, args.out, args.nodata, args.spacing, args.vertical,
+                               budget_bytes=int(args.memory * (1 << 20)), status=status)
+        print(f"wrote {args.out}: {args.out.stat().st_size / (1 << 20):,.1f} MB of tiles of "
+              f"{info['size']}^2 samples, built out of core in {info['seconds']:.1f} s "
+              f"(bands of {info['band_rows']} rows)")
+        return 0
+    given = [o for o, v in (("--nodata", args.nodata), ("--spacing", args.spacing),
+                            ("--vertical", None if args.vertical == 1.0 else 1)) if v is not None]
+    if given:
+        raise VisMobileError(f"{', '.join(given)}: for a GeoTIFF source only ({args.terrain} "
+                             "is a .vmt terrain, which holds its own scale)")
     from ..terrain import store
     from ..terrain.paged import write_tiles
     from ..terrain.tiles import TilePyramid
 
-    check_destination(args.out)
     heightmap, _ = store.load(args.terrain)
     with Status(f"terrain tile {args.terrain}") as status:
         status("the tile pyramid's statistics and records")

@@ -137,6 +137,28 @@ def atomic_write_bytes(path, data: bytes) -> None:
 
 
 @contextlib.contextmanager
+def atomic_writer(path):
+    """Yield a binary handle on path's temporary sibling; on success it is synced and renamed
+    onto path (a file too large to hold as bytes, written as it is made). On an exception,
+    or when writing fails (OutputError naming path), no temporary file is left behind."""
+    path = check_destination(path)
+    make_dirs(path.parent)
+    sweep_stale(path.parent)
+    tmp = temp_path(path)
+    try:
+        with open(tmp, "wb") as handle:
+            yield handle
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except OSError as error:
+        raise OutputError(path, f"cannot write: {error.strerror or error}") from None
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+
+
+@contextlib.contextmanager
 def staged_directory(out, marker="summary.json"):
     """Write a run folder consistently: yields a staging folder to fill; on success its files
     move into `out`, the marker file last, so a folder with the marker holds one whole run.

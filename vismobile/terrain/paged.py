@@ -45,14 +45,32 @@ def sample_normals(heightmap, rows, cols) -> np.ndarray:
     """(..., 3) unit normals at samples from the full-resolution central differences
     (one-sided at the border), as render/terrain.terrain_vertices computes them."""
     h = heightmap.heights
-    n = heightmap.size - 1
+    return grid_normals(lambda r, c: h[r, c], heightmap.size, heightmap.spacing, rows, cols)
+
+
+def grid_normals(at, size: int, spacing: float, rows, cols) -> np.ndarray:
+    """sample_normals with the float32 heights read through at(rows, cols) (a whole grid or
+    some of its rows: terrain/outofcore.py)."""
+    n = size - 1
     r, c = rows, cols
-    dx = (h[r, np.minimum(c + 1, n)] - h[r, np.maximum(c - 1, 0)]) / \
-        ((np.minimum(c + 1, n) - np.maximum(c - 1, 0)) * heightmap.spacing)
-    dz = (h[np.minimum(r + 1, n), c] - h[np.maximum(r - 1, 0), c]) / \
-        ((np.minimum(r + 1, n) - np.maximum(r - 1, 0)) * heightmap.spacing)
+    dx = (at(r, np.minimum(c + 1, n)) - at(r, np.maximum(c - 1, 0))) / \
+        ((np.minimum(c + 1, n) - np.maximum(c - 1, 0)) * spacing)
+    dz = (at(np.minimum(r + 1, n), c) - at(np.maximum(r - 1, 0), c)) / \
+        ((np.minimum(r + 1, n) - np.maximum(r - 1, 0)) * spacing)
     normal = np.stack([-dx, np.ones_like(dx), -dz], axis=-1)
     return normal / np.linalg.norm(normal, axis=-1, keepdims=True)
+
+
+def pack_records(samples, normals, valid=None) -> np.ndarray:
+    """(K, V, 4) uint8 records of samples (K, V) uint16, normals (K, V, 3) and validity
+    (K, V) bool or None (no-data vertices get the normal bytes NO_DATA)."""
+    out = np.zeros(samples.shape + (4,), np.uint8)
+    out[..., :2] = samples.astype("<u2").view(np.uint8).reshape(samples.shape + (2,))
+    out[..., 2] = np.clip(np.rint(normals[..., 0] * 127), -127, 127).astype(np.int8).view(np.uint8)
+    out[..., 3] = np.clip(np.rint(normals[..., 2] * 127), -127, 127).astype(np.int8).view(np.uint8)
+    if valid is not None:
+        out[~valid, 2:] = NO_DATA
+    return out
 
 
 def tile_records(pyramid, level: int, ti, tj) -> np.ndarray:
@@ -64,15 +82,8 @@ def tile_records(pyramid, level: int, ti, tj) -> np.ndarray:
     rows, cols, _ = selection_mesh(pyramid, TileSelection(level_arr, ti, tj, level_arr * 0,
                                                           0, 0, 0))
     hm = pyramid.heightmap
-    normals = sample_normals(hm, rows, cols)
-    out = np.zeros((len(ti), rows.shape[1], 4), np.uint8)
-    samples = hm.samples[rows, cols].astype("<u2")
-    out[..., :2] = samples.view(np.uint8).reshape(len(ti), -1, 2)
-    out[..., 2] = np.clip(np.rint(normals[..., 0] * 127), -127, 127).astype(np.int8).view(np.uint8)
-    out[..., 3] = np.clip(np.rint(normals[..., 2] * 127), -127, 127).astype(np.int8).view(np.uint8)
-    if hm.valid is not None:
-        out[~hm.valid[rows, cols], 2:] = NO_DATA
-    return out
+    return pack_records(hm.samples[rows, cols], sample_normals(hm, rows, cols),
+                        None if hm.valid is None else hm.valid[rows, cols])
 
 
 def write_tiles(pyramid, path) -> None:

@@ -157,3 +157,112 @@ def triangle_heights(heights, triangles) -> np.ndarray:
     out = np.full(heights.shape, np.nan)
     _triangle_heights(heights, np.ascontiguousarray(triangles, dtype=np.int64), out)
     return out
+
+
+@njit(cache=True, inline="always")
+def _band_height(band, b0, n, r, c):
+    """_grid_height over a band of rows [b0, b0 + len): NaN when a row it needs is outside
+    (the row below is not needed where r is a whole row: its weight is 0)."""
+    i = min(int(np.floor(r)), n - 2)
+    j = min(int(np.floor(c)), n - 2)
+    fr, fc = r - i, c - j
+    if i < b0 or i - b0 >= band.shape[0]:
+        return np.nan
+    h00, h01 = band[i - b0, j], band[i - b0, j + 1]
+    if i + 1 - b0 < band.shape[0]:
+        h10, h11 = band[i + 1 - b0, j], band[i + 1 - b0, j + 1]
+    elif fr == 0.0:
+        h10, h11 = h00, h01  # weighted by fr = 0 below: any finite value gives the same sum
+    else:
+        return np.nan
+    if fc >= fr:
+        return h00 + fc * (h01 - h00) + fr * (h11 - h01)
+    return h00 + fr * (h10 - h00) + fc * (h11 - h10)
+
+
+@njit(cache=True)
+def band_statistics(band, b0, corners, corner_r0, stride, patch, local, ti_lo, ti_hi,
+                    error, hmin, hmax):
+    """tile_statistics of tile rows ti_lo..ti_hi of one level over a band of full-resolution
+    rows (terrain/outofcore.py), accumulated into error, hmin, hmax ((m, m) float64, set to
+    0, +inf, -inf before the first band): bands that overlap by one row and together cover
+    each tile row give exactly tile_statistics' values (the same arithmetic at every sample
+    and edge crossing; a crossing between rows i and i+1 is taken in the band holding both).
+
+    band    : (B, N) float64 heights of rows b0 .. b0 + B - 1
+    corners : float64 heights at rows corner_r0 + k * stride and columns j * stride (every
+              template corner of the tile rows)
+    """
+    n = band.shape[1]
+    b1 = b0 + band.shape[0] - 1
+    span = patch * stride
+    m = error.shape[1]
+    rr = np.empty(3, np.int64)
+    cc = np.empty(3, np.int64)
+    hh = np.empty(3)
+    for ti in range(ti_lo, ti_hi + 1):
+        r_org = ti * span
+        lo_row, hi_row = max(r_org, b0), min(r_org + span, b1)
+        if lo_row > hi_row:
+            continue
+        for tj in range(m):
+            c_org = tj * span
+            lo, hi = hmin[ti, tj], hmax[ti, tj]
+            for r in range(lo_row, hi_row + 1):
+                for c in range(c_org, c_org + span + 1):
+                    v = band[r - b0, c]
+                    lo = min(lo, v)
+                    hi = max(hi, v)
+            hmin[ti, tj], hmax[ti, tj] = lo, hi
+            worst = error[ti, tj]
+            for k in range(local.shape[0]):
+                for v in range(3):
+                    rr[v] = r_org + local[k, v, 0] * stride
+                    cc[v] = c_org + local[k, v, 1] * stride
+                    hh[v] = corners[(rr[v] - corner_r0) // stride, cc[v] // stride]
+                worst = max(worst, _scan_band(band, b0, lo_row, hi_row, rr, cc, hh))
+                for v in range(3):
+                    w = (v + 1) % 3
+                    worst = max(worst, _edge_band(band, b0, n, rr[v], cc[v], rr[w], cc[w],
+                                                  hh[v], hh[w]))
+            error[ti, tj] = worst
+
+
+@njit(cache=True)
+def _scan_band(band, b0, lo_row, hi_row, rr, cc, hh):
+    """_scan's mode 0 over the rows lo_row..hi_row of a band."""
+    r0, r1, r2 = rr[0], rr[1], rr[2]
+    c0, c1, c2 = cc[0], cc[1], cc[2]
+    area = (r1 - r0) * (c2 - c0) - (c1 - c0) * (r2 - r0)
+    if area == 0:
+        return 0.0
+    worst = 0.0
+    for r in range(max(min(r0, r1, r2), lo_row), min(max(r0, r1, r2), hi_row) + 1):
+        for c in range(min(c0, c1, c2), max(c0, c1, c2) + 1):
+            w0 = (r2 - r1) * (c - c1) - (c2 - c1) * (r - r1)
+            w1 = (r0 - r2) * (c - c2) - (c0 - c2) * (r - r2)
+            w2 = (r1 - r0) * (c - c0) - (c1 - c0) * (r - r0)
+            if area > 0:
+                if w0 < 0 or w1 < 0 or w2 < 0:
+                    continue
+            elif w0 > 0 or w1 > 0 or w2 > 0:
+                continue
+            value = (w0 * hh[0] + w1 * hh[1] + w2 * hh[2]) / area
+            e = abs(band[r - b0, c] - value)
+            if e > worst:
+                worst = e
+    return worst
+
+
+@njit(cache=True)
+def _edge_band(band, b0, n, r0, c0, r1, c1, h0, h1):
+    """_edge_error over a band: the crossings whose rows the band holds."""
+    dr, dc = r1 - r0, c1 - c0
+    worst = 0.0
+    for span in (abs(dr), abs(dc), abs(dc - dr)):
+        for k in range(1, span):
+            t = k / span
+            g = _band_height(band, b0, n, r0 + t * dr, c0 + t * dc)
+            if g == g:  # not NaN: the band holds it
+                worst = max(worst, abs(g - (h0 + t * (h1 - h0))))
+    return worst

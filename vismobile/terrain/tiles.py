@@ -59,12 +59,19 @@ def horizontal_error(valid, patch: int, stride: int, spacing: float) -> np.ndarr
     if stride < 2:
         return np.zeros((m, m))
     half = stride // 2
-    hsize = half * spacing
+    # the midpoints' grid: even entries are the stride's samples
+    return horizontal_from_grid(valid[::half, ::half], patch, half * spacing)
+
+
+def horizontal_from_grid(g, patch: int, hsize: float) -> np.ndarray:
+    """horizontal_error over g, the validity at half the stride ((2 m_r P + 1, 2 m_c P + 1)
+    bool: a whole map or one row of tiles), hsize = half the stride in world units: the
+    (m_r, m_c) tiles' errors."""
+    m_rows, m_cols = (g.shape[0] - 1) // (2 * patch), (g.shape[1] - 1) // (2 * patch)
 
     def value(a, c, b, scale):
         return np.where(a != b, 0.5 * scale, np.where(a != c, scale, 0.0))
 
-    g = valid[::half, ::half]  # the midpoints' grid: even entries are the stride's samples
     rows = value(g[::2, :-2:2], g[::2, 1::2], g[::2, 2::2], hsize)  # (G+1, G)
     cols = value(g[:-2:2, ::2], g[1::2, ::2], g[2::2, ::2], hsize)  # (G, G+1)
     diag = value(g[:-2:2, :-2:2], g[1::2, 1::2], g[2::2, 2::2], np.sqrt(2.0) * hsize)
@@ -72,7 +79,7 @@ def horizontal_error(valid, patch: int, stride: int, spacing: float) -> np.ndarr
     def pool(a, rows_extra, cols_extra):
         view = np.lib.stride_tricks.sliding_window_view(a, (patch + rows_extra,
                                                             patch + cols_extra))
-        return view[::patch, ::patch].max(axis=(-1, -2))[:m, :m]
+        return view[::patch, ::patch].max(axis=(-1, -2))[:m_rows, :m_cols]
 
     return np.maximum(np.maximum(pool(rows, 1, 0), pool(cols, 0, 1)), pool(diag, 0, 0))
 
