@@ -252,7 +252,11 @@ def test_the_compiled_frame_decides_as_the_python_path(kit):
             assert one.stats == two.stats, (arithmetic, f)
             assert np.array_equal(compiled.stages[1].frame_occluders,
                                   python.stages[1].frame_occluders)
+            # the chain (gather, tbfc, triangle test, observe in one call) ranks the same
+            # history as observe does after the Python filters
+            assert np.array_equal(compiled.stages[1].history, python.stages[1].history)
         ran += len(calls)
+        assert compiled.stages[1].chain is compiled.stages[2]  # tbfc's test is chained
     assert ran == 36  # the compiled path ran on every frame
     # top_scored: the best positive scores first, ties in the ids' order, count kept.
     ids = np.array([10, 11, 12, 13, 14, 15], dtype=np.int64)

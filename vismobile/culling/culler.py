@@ -113,6 +113,7 @@ class Culler:
                                  f"of map_partition") from None
         self._fuse()
         self._cover()
+        self._chain()
         for stage in self.stages:  # pvs leaves out back faces only when they are culled
             if stage.name == "pvs":
                 stage.back_culled = bool(set(self.names) & set(BACKFACE_STAGES))
@@ -157,6 +158,19 @@ class Culler:
         if vfc is not None and occlusion is not None and not others \
                 and getattr(occlusion, "fuse", False):
             vfc.deferred = True
+
+    def _chain(self) -> None:
+        """When vfc (deferred to occlusion), occlusion and tbfc are the stages (bfc, a render
+        flag, may join) on a static partition, occlusion's compiled frame runs the gather, tbfc's
+        test, its own triangle test and its observe in one more compiled call
+        (occlusion_chain): the same triangles and counters, without the Python between."""
+        by_name = {stage.name: stage for stage in self.stages}
+        occlusion, tbfc = by_name.get("occlusion"), by_name.get("tbfc")
+        if occlusion is None or not hasattr(occlusion, "chain"):
+            return
+        chained = (self.animated is None and set(self.names) <= {"vfc", "occlusion", "tbfc", "bfc"}
+                   and tbfc is not None and getattr(by_name.get("vfc"), "deferred", False))
+        occlusion.chain = tbfc if chained else None
 
     @property
     def cull_back(self) -> bool:
