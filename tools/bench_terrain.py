@@ -253,7 +253,8 @@ def circle_cameras(hm, step, frames, eye_height=1.0):
 
 
 def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0), walk_above=None) -> list:
-    """ROAM's frame time against speed: the walking ROAM and the incremental one, each
+    """ROAM's frame time against speed: the default ROAM, the walking one and the incremental
+    one that never walks (and the hybrid with walk_above), each
     coherent along the circle at each speed (3 warm-up frames), updated alternately on the
     same cameras; medians of wall time and of the thread's CPU time (immune to the shared
     machine's descheduling)."""
@@ -262,9 +263,12 @@ def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0), walk_above=Non
     rows = []
     for step in steps:
         cameras = circle_cameras(hm, step, frames + 3)
-        roams = {False: Roam(hm), True: Roam(hm, incremental=True)}
+        # the default (incremental, walking the frames whose due wake-ups exceed a share
+        # of the mesh), the walking ROAM, the incremental one that never walks
+        roams = {"default": Roam(hm), "walking": Roam(hm, incremental=False),
+                 "incremental": Roam(hm, walk_above=np.inf)}
         if walk_above is not None:  # the hybrid: incremental, walking frames above a speed
-            roams["hybrid"] = Roam(hm, incremental=True, walk_above=walk_above)
+            roams["hybrid"] = Roam(hm, walk_above=walk_above)
         record = {key: {"ms": [], "cpu": [], "ops": [], "tris": []} for key in roams}
         for k, camera in enumerate(cameras):
             keys = list(roams)
@@ -280,7 +284,7 @@ def roam_speeds(hm, frames, tau, profile, steps=(0.1, 1.0, 10.0), walk_above=Non
                     r["tris"].append(len(frame.triangles))
         for key in roams:
             r = record[key]
-            rows.append({"step": step, "incremental": key,
+            rows.append({"step": step, "roam": key, "walked": roams[key].fast_frames,
                          "ms_median": float(np.median(r["ms"])),
                          "cpu_ms_median": float(np.median(r["cpu"])),
                          "ops_median": float(np.median(r["ops"])),
@@ -325,17 +329,16 @@ def main(argv=None) -> int:
         record["roam_speeds"] = rows
         lines += [f"## ROAM frame time against speed, {args.size}^2, tau = {args.tau} px, "
                   f"circle, {args.frames} frames a speed, medians", "",
-                  "| units / frame | ROAM | frame ms | CPU ms | splits + merges | triangles |",
-                  "|---:|---|---:|---:|---:|---:|"]
+                  "| units / frame | ROAM | frame ms | CPU ms | splits + merges | triangles "
+                  "| frames walked for speed |", "|---:|---|---:|---:|---:|---:|---:|"]
         for r in rows:
-            kind = {False: "walking", True: "incremental"}.get(r["incremental"], "hybrid")
-            lines.append(f"| {r['step']:g} | {kind} "
+            lines.append(f"| {r['step']:g} | {r['roam']} "
                          f"| {r['ms_median']:.2f} | {r['cpu_ms_median']:.2f} | "
-                         f"{r['ops_median']:.0f} | {r['triangles_median']:,.0f} |")
-        for inc in dict.fromkeys(r["incremental"] for r in rows):
-            t = {r["step"]: r["ms_median"] for r in rows if r["incremental"] == inc}
-            c = {r["step"]: r["cpu_ms_median"] for r in rows if r["incremental"] == inc}
-            name = {False: "walking", True: "incremental"}.get(inc, "hybrid")
+                         f"{r['ops_median']:.0f} | {r['triangles_median']:,.0f} | "
+                         f"{r['walked']} |")
+        for name in dict.fromkeys(r["roam"] for r in rows):
+            t = {r["step"]: r["ms_median"] for r in rows if r["roam"] == name}
+            c = {r["step"]: r["cpu_ms_median"] for r in rows if r["roam"] == name}
             lines.append(f"\n{name}: 0.1 / 10 units a frame = "
                          f"{t[0.1] / t[10.0]:.2f} (CPU {c[0.1] / c[10.0]:.2f})")
         print("\n".join(lines), flush=True)

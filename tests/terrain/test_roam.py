@@ -198,7 +198,8 @@ def test_deferred_priorities_change_nothing_but_the_work(fractal257):
     every frame keeps the exact error within tau."""
     from vismobile.terrain.paths import path_cameras
 
-    lazy, eager = Roam(fractal257), Roam(fractal257, defer=False)
+    lazy = Roam(fractal257, incremental=False)  # the walking ROAM's deferral
+    eager = Roam(fractal257, incremental=False, defer=False)
     deferred = 0
     for camera in path_cameras(fractal257, "circle", "slow", frames=12, every=3):
         a, b = lazy.update(camera, RESOLUTION, 1.0), eager.update(camera, RESOLUTION, 1.0)

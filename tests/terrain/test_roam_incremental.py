@@ -15,8 +15,9 @@ def test_incremental_frames_stay_within_tau_and_crack_free(fractal257):
     and after each path the whole incremental mesh (cull off) is a crack-free cover."""
     truth = reference(fractal257, 4, alternating=True)
     for speed, every in (("slow", 40), ("fast", 3)):
-        lazy, eager = Roam(fractal257, incremental=True), Roam(fractal257)
-        whole = Roam(fractal257, incremental=True)
+        lazy = Roam(fractal257, walk_above=np.inf)  # never walks for its speed
+        eager = Roam(fractal257, incremental=False)  # the walking ROAM
+        whole = Roam(fractal257, walk_above=np.inf)
         for camera in path_cameras(fractal257, "circle", speed, frames=6, every=every):
             a = lazy.update(camera, RESOLUTION, 1.0)
             b = eager.update(camera, RESOLUTION, 1.0)
@@ -32,7 +33,7 @@ def test_incremental_frames_stay_within_tau_and_crack_free(fractal257):
 def test_a_still_or_slow_camera_rescores_little(fractal257):
     """A camera that does not move re-scores nothing and re-emits no block; at 0.1 units a
     frame the work is a small share of a fresh walk's."""
-    roam = Roam(fractal257, incremental=True)
+    roam = Roam(fractal257, walk_above=np.inf)
     camera = path_cameras(fractal257, "circle", "slow", frames=1)[0]
     first = roam.update(camera, RESOLUTION, 1.0)
     again = roam.update(camera, RESOLUTION, 1.0)
@@ -52,8 +53,8 @@ def test_the_hybrid_walks_fast_frames_and_queues_slow_ones_within_tau(fractal257
     # 2 units a frame (fast circle: 0.25 a frame here), then 0.3 and 0.025 (slow: 0.025)
     fast = path_cameras(fractal257, "circle", "fast", frames=4, every=8)
     slow = path_cameras(fractal257, "circle", "slow", frames=4, start=252, every=1)
-    roam = Roam(fractal257, incremental=True, walk_above=1.0)
-    whole = Roam(fractal257, incremental=True, walk_above=1.0)
+    roam = Roam(fractal257, walk_above=1.0)
+    whole = Roam(fractal257, walk_above=1.0)
     for camera in fast + slow:
         frame = roam.update(camera, RESOLUTION, 1.0)
         errors = screen_errors(fractal257, rasterise(fractal257, frame.triangles, 4), truth,
@@ -61,4 +62,47 @@ def test_the_hybrid_walks_fast_frames_and_queues_slow_ones_within_tau(fractal257
         assert errors.max() <= 1.0 and frame.bound_px <= 1.0
         last = whole.update(camera, RESOLUTION, 1.0, cull=False)
     assert roam.fast_frames == 3  # the three fast steps; the slow frames queue
+    _check_mesh(last.triangles, fractal257.size)
+
+
+def _within_tau(hm, frame, camera, truth, tau=1.0):
+    errors = screen_errors(hm, rasterise(hm, frame.triangles, 4), truth, camera, RESOLUTION, 4)
+    assert len(errors) > 1000 and errors.max() <= tau and frame.bound_px <= tau
+
+
+def test_turning_in_place_unparks_what_comes_into_view(fractal257):
+    """Split candidates that were <= tau only because they were outside the frustum are
+    parked (tested against the frustum each frame, not re-scored); a camera that only turns
+    (no travel: no wake-up is ever due) brings them into view, and every frame stays within
+    tau on the dense lattice, as a fresh refinement of the same view does."""
+    truth = reference(fractal257, 4, alternating=True)
+    base = path_cameras(fractal257, "circle", "slow", frames=1)[0]
+    roam = Roam(fractal257, walk_above=np.inf)
+    parked = 0
+    for k in range(10):
+        camera = base.with_(yaw=base.yaw + 37.0 * k)
+        frame = roam.update(camera, RESOLUTION, 1.0)
+        parked = max(parked, int(roam.pcount[0]))
+        _within_tau(fractal257, frame, camera, truth)
+        if k:
+            assert frame.splits > 0  # the newly seen ground refined without any wake-up
+    assert parked > 100
+
+
+def test_the_default_walks_when_many_wake_ups_are_due(fractal257):
+    """The default ROAM is incremental and walks the frames whose due wake-ups exceed a
+    share of the split diamonds (walk_share): none on a slow path, some on a fast one; every
+    frame within tau on the dense lattice, crack-free at the end."""
+    truth = reference(fractal257, 4, alternating=True)
+    slow = path_cameras(fractal257, "circle", "slow", frames=5, every=4)
+    fast = path_cameras(fractal257, "circle", "fast", frames=5, start=40, every=24)
+    roam, whole = Roam(fractal257), Roam(fractal257)
+    assert roam.incremental and roam.walk_above is None
+    for camera in slow:
+        _within_tau(fractal257, roam.update(camera, RESOLUTION, 1.0), camera, truth)
+    assert roam.fast_frames == 0
+    for camera in fast:
+        _within_tau(fractal257, roam.update(camera, RESOLUTION, 1.0), camera, truth)
+        last = whole.update(camera, RESOLUTION, 1.0, cull=False)
+    assert roam.fast_frames > 0
     _check_mesh(last.triangles, fractal257.size)

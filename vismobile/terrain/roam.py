@@ -40,10 +40,13 @@ first merges cheaper diamonds (ROAM's max(Qs) > min(Qm) exchange), within a boun
 operations. Without a budget, a split candidate scored <= tau is not re-scored until the eye
 has travelled d - lambda_b e / tau (the seed's deferred wait-lists, from distance alone).
 
-Incremental (`incremental=True`, no budget; issue 30): no walk of the whole mesh; candidates
+Incremental (the default without a budget; issue 30): no walk of the whole mesh; candidates
 on the safe side of tau wait on a heap keyed by the eye travel at which their priority may
-cross tau (roam_frame._rewake), and triangles come from cached blocks re-emitted only where
-diamonds changed (roam_emit.py), so a frame's work follows the motion.
+cross tau (roam_frame._rewake), split candidates kept <= tau only by the frustum are parked
+and tested against it each frame, and triangles come from cached blocks re-emitted only
+where diamonds changed (roam_emit.py), so a frame's work follows the motion. A frame whose
+due wake-ups exceed walk_share of the split diamonds (a fast eye) walks the mesh instead,
+and the next slow frame reseeds the queues; `incremental=False` always walks.
 
 Geomorphing: a vertex created by a split moves from the midpoint of its hypotenuse to its
 height over `geomorph` frames (h_t = (1 - t) (h(v0) + h(v1)) / 2 + t h(v)). On each of its
@@ -66,6 +69,7 @@ from .bintree import _geometry, horizontal_wedgies, wedgie_ranges, wedgies
 from .heightmap import Heightmap
 from .roam_emit import BlockEmitter
 from .roam_frame import _emit, _frame, _rewake
+from .roam_heap import _due
 from .tiles import pixel_scale
 
 
@@ -115,15 +119,19 @@ class Roam:
     geomorph: frames over which a new vertex rises from its hypotenuse midpoint to its height
     (0: pop at once). defer: skip re-scoring candidates that the eye's travel since they were
     scored cannot have brought above tau (no budget only; the mesh is the same either way).
-    incremental: wake-up queues and block emission (module doc): frames within tau as well,
-    with the merges of diamonds that left the view deferred and whole blocks drawn.
-    walk_above: with incremental, a frame whose eye moved more than this many world units
-    since the last one walks the mesh and emits per triangle instead (the queues are reseeded
-    on the next slow frame): at speeds where most candidates wake anyway, walking is cheaper.
+    incremental (default): wake-up queues and block emission (module doc): frames within
+    tau as well, with the merges of diamonds that left the view deferred and whole blocks
+    drawn; False: every frame walks the whole mesh (the seed's frame).
+    walk_share: with incremental, a frame whose due wake-ups are at least this share of the
+    split diamonds walks the mesh and emits per triangle instead (the queues are reseeded on
+    the next slow frame): at speeds where most candidates wake anyway, walking is cheaper.
+    walk_above: instead of walk_share, walk the frames whose eye moved more than this many
+    world units since the last one (np.inf: never walk for speed).
     """
 
     def __init__(self, heightmap: Heightmap, geomorph: int = 0, defer: bool = True,
-                 incremental: bool = False, walk_above: float | None = None):
+                 incremental: bool = True, walk_above: float | None = None,
+                 walk_share: float = 0.15):
         self.heightmap = heightmap
         self.n = heightmap.exponent
         N = heightmap.size
@@ -170,6 +178,9 @@ class Roam:
         self.hv = np.empty(1 << 12, np.int64)
         self.hsize = np.zeros(1, np.int64)
         self.wake_at = np.full(N * N if incremental else 1, -1.0)
+        self.parked = np.zeros(min(N * N, 1 << 20) if incremental else 1, np.int64)
+        self.pcount = np.zeros(1, np.int64)
+        self.parked_at = np.zeros(N * N if incremental else 1, np.uint8)
         self.touched = np.zeros(min(N * N, 1 << 22) if incremental else 1, np.int64)
         self.tcount = np.zeros(4, np.int64)
         self.changed = np.zeros(min(N * N, 1 << 20) if incremental else 1, np.int64)
@@ -177,7 +188,8 @@ class Roam:
             if incremental else None
         self.need_walk = True
         self.walk_above = None if walk_above is None else float(walk_above)
-        self.fast_frames = 0  # frames walked for their speed (walk_above)
+        self.walk_share = float(walk_share)
+        self.fast_frames = 0  # frames walked for their speed (walk_share, walk_above)
 
     def reset(self):
         """Back to the two root triangles (the next frame refines from scratch)."""
@@ -217,7 +229,12 @@ class Roam:
             self.knob = (lam, float(tau))
             self.need_walk = True
         lazy = self.incremental and budget is None
-        fast = lazy and self.walk_above is not None and step > self.walk_above
+        if self.walk_above is not None:
+            fast = lazy and step > self.walk_above
+        else:  # walk when more wake-ups are due than a share of the split diamonds
+            cap = int(self.walk_share * self.alive_count) + 1
+            fast = (lazy and not self.need_walk and self.alive_count > 0
+                    and _due(self.hk, int(self.hsize[0]), self.travel, cap) >= cap)
         if fast:  # walk this frame; the queues are reseeded on the next slow one
             lazy = False
             self.need_walk = True
@@ -226,6 +243,8 @@ class Roam:
         if lazy and walk:  # (re)seed the wake-up heap from a full walk
             self.hsize[0] = 0
             self.wake_at[:] = -1.0
+            self.pcount[0] = 0
+            self.parked_at[:] = 0
             self.until[:] = 0.0
         limit = -1 if budget is None else int(budget)
         if budget is not None and budget < 2:
@@ -239,7 +258,7 @@ class Roam:
                 camera.eye, planes, lam, float(tau), limit, self.leaves, cull, born, stats,
                 self.until, self.travel, walk, self.hk, self.hv, self.hsize, self.wake_at,
                 self.touched, self.tcount, self.changed, self.dying, self.clock,
-                self.geomorph)
+                self.geomorph, self.parked, self.pcount, self.parked_at)
             born_all.append(born[:born_count])
             if self.emitter is not None and not fast:
                 if walk or self.tcount[3]:
@@ -255,6 +274,8 @@ class Roam:
             if lazy:
                 self.hsize[0] = 0
                 self.wake_at[:] = -1.0
+                self.pcount[0] = 0
+                self.parked_at[:] = 0
             # The split list filled up: grow it and carry on (same mesh, new stamps).
             grown = np.zeros(min(N * N + 64 * (self.n + 2), 4 * len(self.alive)), np.int64)
             grown[:self.alive_count] = self.alive[:self.alive_count]
@@ -295,7 +316,8 @@ class Roam:
             self.hk[:len(keys)], self.hv[:len(keys)] = keys[order], vals[order]
             self.hsize[0] = len(keys)
         _rewake(self.wedge, self.heightmap.spacing, self.n, self.split, self.touched, count,
-                eye, lam, tau, self.travel, self.hk, self.hv, self.hsize, self.wake_at)
+                eye, lam, tau, self.travel, self.hk, self.hv, self.hsize, self.wake_at,
+                self.parked, self.pcount, self.parked_at)
 
     def _morph(self, born) -> tuple:
         """Drawn heights of vertices still rising (ids, heights); empty without geomorph."""

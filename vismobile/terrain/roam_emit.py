@@ -115,6 +115,7 @@ class BlockEmitter:
         self.per_side = S // self.block
         count = self.per_side ** 2
         self.tris = [np.zeros((0, 3), np.int64)] * count
+        self.counts = np.zeros(count, np.int64)
         self.boxes = np.zeros((count, 2, 3))
         self.flags = np.ones(count, np.bool_)
         self.spacing = spacing
@@ -140,13 +141,14 @@ class BlockEmitter:
             if total >= 0:
                 break
             self.out = np.zeros((2 * len(self.out), 3), np.int64)
-        for k, b in enumerate(dirty):
+        for k, b in enumerate(dirty.tolist()):
             self.tris[b] = self.out[offsets[k]:offsets[k + 1]].copy()
+        self.counts[dirty] = np.diff(offsets)
         self.boxes[dirty] = boxes.reshape(-1, 2, 3)
         self.flags[:] = False
         self.rebuilt = len(dirty)
-        live = np.flatnonzero([len(t) > 0 for t in self.tris])
+        live = np.flatnonzero(self.counts)
         if cull and len(live):
             live = live[~classify_boxes(self.boxes[live], planes)[0]]
-        parts = [self.tris[b] for b in live]
+        parts = [self.tris[b] for b in live.tolist()]
         return np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)

@@ -8,6 +8,7 @@ from numba import njit
 
 from .bintree import _box, _candidate, _geometry, _mergeable, _triangles_of
 from .quadtree import box_visible
+from .roam_heap import _pop, _push, _reserve
 
 OUT, PARTIAL, IN = 0, 1, 2
 
@@ -58,54 +59,6 @@ def _slack(wedge, spacing, v, N, eye, lam, tau):
     dy = max(y0 - eye[1], 0.0, eye[1] - y1)
     dz = max(z0 * spacing - eye[2], 0.0, eye[2] - z1 * spacing)
     return np.sqrt(dx * dx + dy * dy + dz * dz) - lam * wedge[v, 2] / tau
-
-
-# Binary min-heaps on parallel arrays (keys float64, values int64); _reserve grows them.
-@njit(cache=True)
-def _reserve(keys, vals, size, extra):
-    if size + extra <= keys.shape[0]:
-        return keys, vals
-    nk = np.empty(2 * (size + extra), np.float64)
-    nv = np.empty(2 * (size + extra), np.int64)
-    nk[:size] = keys[:size]
-    nv[:size] = vals[:size]
-    return nk, nv
-
-
-@njit(cache=True, inline="always")
-def _push(keys, vals, size, key, val):
-    i = size
-    keys[i], vals[i] = key, val
-    while i > 0:
-        p = (i - 1) >> 1
-        if keys[p] < keys[i] or (keys[p] == keys[i] and vals[p] <= vals[i]):
-            break
-        keys[p], keys[i] = keys[i], keys[p]
-        vals[p], vals[i] = vals[i], vals[p]
-        i = p
-    return size + 1
-
-
-@njit(cache=True)
-def _pop(keys, vals, size):
-    size -= 1
-    keys[0], vals[0] = keys[size], vals[size]
-    i = 0
-    while True:
-        lft = 2 * i + 1
-        if lft >= size:
-            break
-        m = lft
-        rgt = lft + 1
-        if rgt < size and (keys[rgt] < keys[lft]
-                           or (keys[rgt] == keys[lft] and vals[rgt] < vals[lft])):
-            m = rgt
-        if keys[i] < keys[m] or (keys[i] == keys[m] and vals[i] <= vals[m]):
-            break
-        keys[m], keys[i] = keys[i], keys[m]
-        vals[m], vals[i] = vals[i], vals[m]
-        i = m
-    return size
 
 
 @njit(cache=True)
@@ -211,7 +164,8 @@ def _merge(wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, t
 @njit(cache=True)
 def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
            eye, planes, lam, tau, budget, leaves, cull, born, stats, until, travel,
-           walk, hk, hv, hsize, wake_at, touched, tcount, changed, dying, clock, morph):
+           walk, hk, hv, hsize, wake_at, touched, tcount, changed, dying, clock, morph,
+           parked, pcount, parked_at):
     """One ROAM frame from last frame's mesh. Returns (alive_count, leaves, born_count).
 
     budget < 0: no budget (queues then hold only diamonds that can move: split candidates
@@ -261,6 +215,34 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
     tcount[2] = 0  # changed (split or merged) diamonds, for the block emitter
     tcount[3] = 0
     if not walk:
+        # Parked candidates (_rewake): still outside the frustum stay parked; the others
+        # are scored as if due.
+        kept = 0
+        for i in range(pcount[0]):
+            v = parked[i]
+            if parked_at[v] == 0:
+                continue
+            if not _candidate(split, v, n, N, g):
+                parked_at[v] = 0
+                continue
+            x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
+            if cull and _flag(planes, x0 * spacing, y0, z0 * spacing, x1 * spacing, y1,
+                              z1 * spacing) == OUT:
+                parked[kept] = v
+                kept += 1
+                continue
+            parked_at[v] = 0
+            if qs[v] == stamp:
+                continue
+            qs[v] = stamp
+            q = _score(wedge, spacing, v, N, eye, planes, lam, cull)
+            if q > tau:
+                sk, sv = _reserve(sk, sv, ns, 1)
+                ns = _push(sk, sv, ns, -q, v)
+            else:
+                low = max(low, q)
+                _touch(touched, tcount, v)
+        pcount[0] = kept
         while hsize[0] > 0 and hk[0] <= travel:
             key, v = hk[0], hv[0]
             hsize[0] = _pop(hk, hv, hsize[0])
@@ -525,13 +507,17 @@ def _emit(wedge, spacing, n, split, alive, alive_count, planes, cull, out):
 
 @njit(cache=True)
 def _rewake(wedge, spacing, n, split, touched, count, eye, lam, tau, travel, hk, hv, hsize,
-            wake_at):
+            wake_at, parked, pcount, parked_at):
     """Push each recorded candidate with the travel at which its priority may first cross
     tau (wedgie box distance d, priority lam e / d changes only as d does, and d by at most
     the eye's travel): a split candidate at travel + d - lam e / tau, a merge candidate at
     travel + lam e / tau - d. Culling can lower a priority to 0 at once (turning): merges of
     diamonds that left the frustum wait for their wake-up, splits never do (the bound is the
-    unculled priority). hk/hv must have room for count more entries."""
+    unculled priority). A split candidate whose unculled priority is above tau (it was
+    <= tau only because its box was outside the frustum) would be due at once, every frame:
+    it is parked instead (parked[:pcount[0]], parked_at[v] = 1), and _frame only tests its
+    box against the frustum each frame (no heap traffic, no scoring) until it comes into
+    view. hk/hv must have room for count more entries."""
     N = int(np.sqrt(wedge.shape[0]))
     g = np.empty((4, 2), np.int64)
     for i in range(count):
@@ -544,6 +530,14 @@ def _rewake(wedge, spacing, n, split, touched, count, eye, lam, tau, travel, hk,
         reach = lam * wedge[v, 2] / tau
         if _candidate(split, v, n, N, g):
             wake = travel + d - reach
+            if wake <= travel:  # <= tau only because culled: parked, checked each frame
+                if parked_at[v] == 0 and pcount[0] < parked.shape[0]:
+                    parked_at[v] = 1
+                    parked[pcount[0]] = v
+                    pcount[0] += 1
+                if parked_at[v]:
+                    wake_at[v] = -1.0
+                    continue
         elif _mergeable(split, v, n, N, g):
             if wedge[v, 2] <= 0.0:
                 continue
