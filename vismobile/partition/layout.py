@@ -87,15 +87,17 @@ def flatten(parent, ref_node, ref_tri) -> dict:
         raise ValueError("references must sit on leaves")
     keys = pre[ref_node]
     ref_order = np.argsort(keys, kind="stable")
-    keys = keys[ref_order]
+    # Subtree ranges from counts per preorder number: no search of each node in the keys.
+    below = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(keys, minlength=n), out=below[1:])
     return {
         "order": order,
         "new_of_old": new_of_old,
         "parent": new_parent,
         "first_child": first_child.astype(np.int32),
         "child_count": child_count.astype(np.int32),
-        "ref_start": np.searchsorted(keys, pre, side="left").astype(np.int64),
-        "ref_end": np.searchsorted(keys, pre + size, side="left").astype(np.int64),
+        "ref_start": below[pre],
+        "ref_end": below[pre + size],
         "level_start": level_start,
         "tri_refs": np.asarray(ref_tri, dtype=np.int32)[ref_order],
     }
