@@ -225,39 +225,58 @@ def test_fused_walk_sends_what_the_two_passes_send_and_visits_fewer_nodes(kit):
     assert visited[True] < visited[False]
 
 
-def test_the_compiled_frame_decides_as_the_python_path(kit):
+def test_the_compiled_frame_decides_as_the_python_path(kit, monkeypatch):
     # hiz.frame.occlusion_frame runs the usual frame in one call; the Python path it mirrors
-    # (compiled False) must send the same triangles with the same counters, in every mode.
+    # (compiled False) must send the same triangles with the same counters, in every mode; so
+    # must the whole frame chained in one call (occlusion_chain.cull_chained: the frame, gather,
+    # tbfc, the triangle test and observe's ranking), the Culler's default for these stages.
     from pathlib import Path
 
+    from vismobile.culling import culler as culler_module
     from vismobile.culling.hiz.frame import top_scored
     from vismobile.world.trajectory import Trajectory
 
     world = kit.world("w2")
     part = partition(world, "octree", depth=5)
     traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
-    ran = 0
+    ran, chained = 0, []
+    monkeypatch.setattr(culler_module, "cull_chained", lambda *a, run=culler_module.cull_chained:
+                        chained.append(run(*a)) or chained[-1])
     for arithmetic, options in (("float32", {"screen": (240, 320)}), ("fixed16.16", {}),
                                 ("float64", {"rounds": 3})):
+        whole = Culler(part, "vfc,occlusion,tbfc", arithmetic, occlusion=options)
         compiled = Culler(part, "vfc,occlusion,tbfc", arithmetic, occlusion=options)
         python = Culler(part, "vfc,occlusion,tbfc", arithmetic, occlusion=options)
+        assert whole._chained is not None
+        compiled._chained = python._chained = None  # stage by stage
         python.stages[1].compiled = False
         calls = []
         compiled.stages[1]._apply_compiled = (
             lambda state, run=compiled.stages[1]._apply_compiled: calls.append(run(state)))
         for f in range(300, 324, 2):  # consecutive frames: last frame's candidates carry over
             cam = traj.camera(f, kit.ASPECT)
-            one, two = compiled.cull(cam), python.cull(cam)
-            assert np.array_equal(one.triangles, two.triangles), (arithmetic, f)
-            assert one.stats == two.stats, (arithmetic, f)
-            assert np.array_equal(compiled.stages[1].frame_occluders,
-                                  python.stages[1].frame_occluders)
-            # the chain (gather, tbfc, triangle test, observe in one call) ranks the same
-            # history as observe does after the Python filters
-            assert np.array_equal(compiled.stages[1].history, python.stages[1].history)
+            one, two, three = compiled.cull(cam), python.cull(cam), whole.cull(cam)
+            for result, culler in ((one, compiled), (three, whole)):
+                assert np.array_equal(result.triangles, two.triangles), (arithmetic, f)
+                assert np.array_equal(result.nodes, two.nodes), (arithmetic, f)
+                assert result.stats == two.stats, (arithmetic, f)
+                assert np.array_equal(culler.stages[1].frame_occluders,
+                                      python.stages[1].frame_occluders)
+                assert np.array_equal(culler.stages[1].history, python.stages[1].history)
         ran += len(calls)
-        assert compiled.stages[1].chain is compiled.stages[2]  # tbfc's test is chained
+        regular = len(chained)
+        # Frames the chained call leaves to the stages: nothing to rasterise (looking up from
+        # above the world), a near plane the device cannot order depths at (float32).
+        for cam in (traj.camera(300, kit.ASPECT).with_(position=(0.0, 400.0, 0.0), pitch=89.0),
+                    traj.camera(310, kit.ASPECT).with_(near=1e-6)):
+            one, two, three = compiled.cull(cam), python.cull(cam), whole.cull(cam)
+            for result in (one, three):
+                assert np.array_equal(result.triangles, two.triangles), arithmetic
+                assert result.stats == two.stats, arithmetic
+            assert np.array_equal(whole.stages[1].history, python.stages[1].history)
+        assert all(r is None for r in chained[regular:])  # both went stage by stage
     assert ran == 36  # the compiled path ran on every frame
+    assert len(chained) == 36 + 6 and sum(r is not None for r in chained) == 36
     # top_scored: the best positive scores first, ties in the ids' order, count kept.
     ids = np.array([10, 11, 12, 13, 14, 15], dtype=np.int64)
     score = np.array([0.5, 0.0, 2.0, 0.5, -1.0, 0.5])

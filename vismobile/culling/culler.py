@@ -14,6 +14,7 @@ from .horizon import HorizonStage
 from .doors import attach_doors
 from .moving import MovingObjects
 from .occlusion import DepthBufferOcclusion
+from .occlusion_chain import cull_chained
 from .occlusion_thesis import ThesisOcclusion
 from .portals import PortalStage
 from .pvs import PVSStage
@@ -161,16 +162,15 @@ class Culler:
 
     def _chain(self) -> None:
         """When vfc (deferred to occlusion), occlusion and tbfc are the stages (bfc, a render
-        flag, may join) on a static partition, occlusion's compiled frame runs the gather, tbfc's
-        test, its own triangle test and its observe in one more compiled call
-        (occlusion_chain): the same triangles and counters, without the Python between."""
+        flag, may join) on a static partition, a frame runs in one compiled call
+        (occlusion_chain.cull_chained: occlusion's frame, the gather, tbfc's and occlusion's
+        triangle tests, observe): the same triangles and counters, without the Python between."""
         by_name = {stage.name: stage for stage in self.stages}
         occlusion, tbfc = by_name.get("occlusion"), by_name.get("tbfc")
-        if occlusion is None or not hasattr(occlusion, "chain"):
-            return
         chained = (self.animated is None and set(self.names) <= {"vfc", "occlusion", "tbfc", "bfc"}
-                   and tbfc is not None and getattr(by_name.get("vfc"), "deferred", False))
-        occlusion.chain = tbfc if chained else None
+                   and isinstance(occlusion, DepthBufferOcclusion) and tbfc is not None
+                   and getattr(by_name.get("vfc"), "deferred", False))
+        self._chained = (occlusion, tbfc) if chained else None
 
     @property
     def cull_back(self) -> bool:
@@ -194,6 +194,10 @@ class Culler:
                 for stage in self._doors[0]:
                     stage.door_matrices = self.moving.matrices[self._doors[1]]
         planes = conservative_planes(camera.frustum_planes(), self.arithmetic, scale)
+        if self._chained is not None:  # the whole frame in one compiled call
+            result = cull_chained(*self._chained, camera, planes, self.cull_back)
+            if result is not None:
+                return result
         state = CullState(self.tree, camera, planes, np.zeros(1, dtype=np.int64),
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})
         try:

@@ -74,7 +74,6 @@ from .hiz import (DEPTH_SLACK, GUARD_PX, build_tiles, cull_nodes, frustum_cull_n
 from .hiz.frame import FRAME_SLOTS, occlusion_frame
 from .occluder_choice import GRAZING, SHELL_GROWTH, OccluderChoice
 from .occluder_mesh import world_tables
-from .occlusion_chain import CHAIN_SLOTS, FRONT, GATHERED, HIDDEN, RUNS, SUBPIXEL, chain_finish
 from .occluder_rows import occluder_mesh_of
 from .precision import depth_order, device_move, world_scale
 from .shared import per_object
@@ -183,10 +182,6 @@ class DepthBufferOcclusion(OccluderChoice):
         self.frame_occluders = np.zeros(0, dtype=np.int64)  # this frame's rasterised ids
         self._frame = 0
         self._view_of = self._view_now = None
-        # The tbfc stage whose test the compiled frame runs too, with the gather and observe
-        # (occlusion_chain; set by Culler._chain when vfc, occlusion, tbfc are the stages).
-        self.chain = None
-        self._observed = False  # this frame's history was ranked by the chain
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -261,9 +256,6 @@ class DepthBufferOcclusion(OccluderChoice):
     def observe(self, result: CullResult) -> None:
         """Keeps the best `occluders` of the frame's sent triangles (ranked from this frame's
         eye) as next frame's extra candidates: cost follows what was sent."""
-        if self._observed:  # the compiled chain ranked them from this result already
-            self._observed = False
-            return
         camera = getattr(self, "_camera", None)
         if camera is None or not len(result.triangles):
             self.history = np.zeros(0, dtype=np.int64)
@@ -439,36 +431,7 @@ class DepthBufferOcclusion(OccluderChoice):
         self.frame_occluders = chosen
         written = stats[1]
         state.nodes = frustum_refine(tree, state, "vfc") if kept < 0 else self._out[:kept].copy()
-        if kept >= 0 and self.chain is not None and self.triangles and not self.self_occluders:
-            self._finish_chain(state, eye, move, margin, recede)
-            return
         self._triangle_filter(state, written, move, margin, recede)
-
-    def _finish_chain(self, state, eye, move, margin, recede) -> None:
-        """The frame's gather, tbfc's test, the triangle test and observe's ranking in one
-        compiled call (occlusion_chain.chain_finish): state.sent, the same counters as
-        CullState.finish with tbfc's and this stage's filters."""
-        tree, camera, tbfc = self.tree, state.camera, self.chain
-        rotation, tx, ty = self._view(camera)[1:4]
-        groups, bitmap = tree.groups, tree._bitmap
-        counts = np.zeros(CHAIN_SLOTS, dtype=np.int64)
-        sent, self.history = chain_finish(
-            state.nodes, groups.words, groups.masks, groups.span, bitmap.bits, bitmap.summary,
-            bitmap.tops, bitmap.node_ranges(len(state.nodes)), self.vertices, self.triangles_,
-            eye, tbfc.delta(eye), GAMMA_8, rotation, camera.near, tx, ty, self.width,
-            self.height, move, self.shift(camera, move), margin, recede, self.depth,
-            self.tile_max, self.tile_shift, *self.tile, *self.samples(camera, move),
-            self.normals, self.v0, self.centroids, self.radius, self.areas, self._planes,
-            GRAZING, self.occluders, counts)
-        self._observed = True
-        gathered, front = int(counts[GATHERED]), int(counts[FRONT])
-        state.count("triangles_tested", gathered + front)
-        state.count(tbfc._tested_key, gathered)
-        state.count(tbfc._culled_key, gathered - front)
-        state.count(f"{self.name}.triangles_tested", front)
-        state.count(f"{self.name}.subpixel_culled", counts[SUBPIXEL])
-        state.count(f"{self.name}.triangles_culled", counts[HIDDEN])
-        state.sent = (sent, int(counts[RUNS]))
 
     def _unordered(self, state, fused) -> None:
         """The frame without a buffer (depth_order is inf): the deferred frustum walk, and with

@@ -42,9 +42,6 @@ class CullState:
               walks frustum and buffer in one pass: Culler._fuse); that stage clears it
     late_filters : filters applied after `filters`: costly tests (occlusion's triangle test)
               that should see only the survivors of the cheap ones (tbfc); same result
-    sent    : None, or (ids (S,) int64 sorted distinct, draw batches): the frame's gather and
-              filters already run in one compiled call (occlusion_chain, Culler._chain); finish
-              then sends them, and no filter may be left
     """
 
     tree: Tree
@@ -56,7 +53,6 @@ class CullState:
     cull_back: bool = False
     frustum_pending: bool = False
     late_filters: list = field(default_factory=list)
-    sent: tuple | None = None
 
     def count(self, key: str, amount) -> None:
         self.stats[key] = self.stats.get(key, 0) + int(amount)
@@ -69,14 +65,9 @@ class CullState:
         holding them is a reference cycle that keeps the whole Culler (tree, scratch, buffers)
         alive until the cyclic collector runs (issue 28: 1.7 MB a Culler).
         """
+        ids, runs = self.tree.gather(self.nodes)  # leaves share triangles: each once
         filters, self.filters = self.filters + self.late_filters, []
         self.late_filters = []
-        if self.sent is not None:  # gathered and filtered by the compiled chain
-            if filters:  # a stage the chain does not know filtered too: a wiring error
-                raise RuntimeError("a filter was left after the compiled chain sent the frame")
-            ids, runs = self.sent
-        else:
-            ids, runs = self.tree.gather(self.nodes)  # leaves share triangles: each once
         for keep_of in filters:
             kept = keep_of(ids)
             ids = ids[kept] if kept.dtype == np.bool_ else kept

@@ -116,8 +116,6 @@ class TriangleBackface:
         return self.relative * scale + absolute
 
     def apply(self, state: CullState) -> None:
-        if state.sent is not None:  # occlusion's compiled chain ran this test (Culler._chain)
-            return
         eye = np.asarray(state.camera.eye, dtype=np.float64)
         delta = self.delta(eye)
 
