@@ -218,14 +218,15 @@ def test_page_budgets_parse_or_are_refused_in_one_error(tmp_path):
     _seeds_load_and_mutations_refuse(fuzz, "budget", fuzz.BUDGET_TEXTS, tmp_path)
 
 
-@pytest.mark.parametrize("target", ["tifstream", "memory"])
-def test_streamed_geotiffs_and_memory_values_build_or_are_refused(tmp_path, target):
-    """Issue 30's out-of-core build: GeoTIFFs (strips, tiles, BigTIFF; tools/fuzz_tiled.py)
-    streamed into a .vmtiles, and terrain tile --memory values, fuzzed: each seed builds (or
-    parses), each mutation builds or is refused with a VisMobileError, leaving no scratch."""
+@pytest.mark.parametrize("target", ["tifstream", "memory", "vmrpages"])
+def test_streamed_geotiffs_memory_values_and_pages_load_or_are_refused(tmp_path, target):
+    """Issue 30's out-of-core build and paged Röttger: GeoTIFFs (strips, tiles, BigTIFF;
+    tools/fuzz_tiled.py) streamed into a .vmtiles, terrain tile --memory values and .vmrpages
+    files fuzzed: each seed builds, parses or pages a frame, each mutation does or is refused
+    with a VisMobileError (a build leaving no scratch)."""
     fuzz = _fuzz_module()
-    _seeds_load_and_mutations_refuse(fuzz, target, fuzz.tiled_seeds(tmp_path)[target],
-                                     tmp_path)
+    seeds = {**fuzz.fuzz_tiled.tiled_seeds(tmp_path), **fuzz.fuzz_tiled.pages_seeds(tmp_path)}
+    _seeds_load_and_mutations_refuse(fuzz, target, seeds[target], tmp_path)
 
 
 def _fuzz_module():

@@ -71,7 +71,8 @@ def main(argv=None):
             source, folder / "ooc.vmtiles", budget_bytes=int(args.memory * (1 << 20))))
         print(f"out of core  {info['size']}^2 grid: {seconds:7.2f} s, peak "
               f"{peak / (1 << 20):7.2f} MB (--memory {args.memory:g}; bands of "
-              f"{info['band_rows']} rows), file {(folder / 'ooc.vmtiles').stat().st_size / (1 << 20):.1f} MB")
+              f"{info['band_rows']} rows), file "
+              f"{(folder / 'ooc.vmtiles').stat().st_size / (1 << 20):.1f} MB")
         if args.skip_memory_path:
             return 0
 

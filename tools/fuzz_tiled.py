@@ -64,3 +64,47 @@ def load_memory(path):
         raise VisMobileError(f"--memory {text!r}: not a number") from None
     options.check(args)
     assert 1.0 <= args.memory <= 1 << 20
+
+
+def pages_seeds(folder: Path) -> dict:
+    """Seeds of .vmrpages files (terrain tile t.vmt -o t.vmrpages): a 65^2 fractal (4 pages)
+    and one with no-data samples (the holes flag, the no-data normal bytes)."""
+    import numpy as np
+
+    from vismobile.terrain import sources
+    from vismobile.terrain.heightmap import quantize
+    from vismobile.terrain.paged_roettger import write_pages
+    from vismobile.terrain.roettger import Roettger
+
+    base = sources.diamond_square(65, seed=1)
+    holed = base.heights.astype(np.float64)
+    holed[20:30, 5:40] = np.nan
+    out = []
+    for k, heightmap in enumerate((base, quantize(holed, 1.0, "holes"))):
+        write_pages(Roettger(heightmap), folder / f"seed{k}.vmrpages")
+        out.append((folder / f"seed{k}.vmrpages").read_bytes())
+    return {"vmrpages": out}
+
+
+def load_pages(path):
+    """A .vmrpages terrain (issue 30's paged Röttger): opened, every page read, a frame refined
+    (pages wanted read at once) and its fans' vertices gathered from the pages."""
+    from vismobile.device.profile import get_profile
+    from vismobile.terrain.paged_roettger import PagedRoettger
+    from vismobile.world.camera import Camera
+
+    paged = PagedRoettger(path, budget_bytes=1 << 16, thread=False)
+    try:
+        for page in range(paged.pages):
+            paged._read(page)
+        hm = paged.heightmap
+        camera = Camera((hm.extent / 2, hm.high + hm.extent / 4, hm.extent / 2), 0.0, -40.0,
+                        fov=60, far=10 * hm.extent + 10, near=0.01 * hm.extent + 1e-3)
+        paged.select(camera, get_profile("ipaq-hx2490b").resolution, 1.0)
+        paged.vertex_records(paged.triangles().ravel())
+    finally:
+        paged.close()
+
+
+ENTRY = {"tifstream": (load_tif_stream, ".tif"), "memory": (load_memory, ".txt"),
+         "vmrpages": (load_pages, ".vmrpages")}

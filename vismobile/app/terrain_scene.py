@@ -330,7 +330,63 @@ class PagedLod(TilesLod):
         return selection
 
 
+class PagedRoettgerLod:
+    """Röttger's CLOD of a .vmrpages terrain paged in under a memory budget: refinement on the
+    coarse blocks in memory and the held pages, wanted pages read at once, the loader thread
+    reading ahead (terrain/paged_roettger.py); the fans gathered each frame."""
+
+    name = "roettger"
+
+    def __init__(self, path, profile, budget_bytes):
+        from ..render.tile_arena import PagedRenderer
+        from ..terrain.paged_roettger import PagedRoettger
+
+        self.paged = PagedRoettger(path, budget_bytes)
+        self.renderer = PagedRenderer(self.paged, profile)
+
+    def select(self, camera, resolution, tau):
+        self.paged.select(camera, resolution, tau)
+        return self.paged.triangles()
+
+    def errors(self, triangles, camera, resolution) -> tuple:
+        """RoettgerLod.errors over the drawn leaves (d * d2 bounds each block's error)."""
+        from ..terrain.tiles import pixel_scale
+
+        p = self.paged
+        if not p.leaf_count:
+            return 0.0, 0.0
+        e, low_y, high_y = p.leaf_errors()
+        level, bi, bj = p.leaf_rows[:p.leaf_count, :3].T
+        size = ((p.size - 1) >> level) * p.heightmap.spacing
+        low = np.stack([bj * size, low_y, bi * size], 1)
+        high = np.stack([(bj + 1) * size, high_y, (bi + 1) * size], 1)
+        _, lam = pixel_scale(camera, resolution)
+        return bound_px(lam, e, box_distance(camera.eye, low, high)), float(e.max())
+
+    def cut_boxes(self, triangles) -> np.ndarray:
+        return np.zeros((0, 4), np.int64)  # a paged terrain carries no objects to cull
+
+    def triangles(self, triangles) -> int:
+        return len(triangles)
+
+    def calls(self, triangles) -> int:
+        """One glDrawElements per batch of 21,845 triangles (65,535 uint16 vertices)."""
+        return -(-len(triangles) // 21845)
+
+    def drawn_heights(self, triangles) -> np.ndarray:
+        raise VisMobileError("--measure-error needs the whole heightmap; a paged terrain "
+                             "does not hold it")
+
+    def reset(self) -> None:
+        """Nothing kept from frame to frame but held pages (a cache)."""
+
+    def draw(self, triangles, camera):
+        return self.renderer.draw_samples(triangles, camera,
+                                          kind="shaded")
+
+
 LODS = {"tiles": TilesLod, "roettger": RoettgerLod, "roam": RoamLod}
+PAGED = {".vmtiles": ("tiles", PagedLod), ".vmrpages": ("roettger", PagedRoettgerLod)}
 
 
 class TerrainScene:
@@ -346,6 +402,9 @@ class TerrainScene:
         from ..terrain import store
         from ..terrain.placement import Placement
 
+        suffix = "." + str(path).lower().rsplit(".", 1)[-1]
+        if method is None:
+            method = PAGED[suffix][0] if suffix in PAGED else "tiles"
         if method not in LODS:
             raise VisMobileError(f"--terrain-method {method!r}: one of {', '.join(METHODS)}")
         tau = float(tau)
@@ -357,11 +416,12 @@ class TerrainScene:
         self.tau = tau
         self.method = method
         self.stages = tuple(stages)
-        if self.path.lower().endswith(".vmtiles"):  # paged in by tiles (terrain/paged.py)
-            if method != "tiles":
-                raise VisMobileError(f"{path}: a tiled terrain is drawn by the tiles method, "
-                                     f"not {method}")
-            lod = PagedLod(path, self.profile, page_budget)
+        if suffix in PAGED:  # paged in (terrain/paged.py, terrain/paged_roettger.py)
+            own, kind = PAGED[suffix]
+            if method != own:
+                raise VisMobileError(f"{path}: a {suffix} terrain is drawn by the {own} "
+                                     f"method, not {method}")
+            lod = kind(path, self.profile, page_budget)
             self.heightmap, self.placement = lod.paged.heightmap, Placement.empty()
             self.lods = {method: lod}
         else:
@@ -414,9 +474,9 @@ class TerrainScene:
         if method not in LODS:
             raise VisMobileError(f"terrain method {method!r}: one of {', '.join(METHODS)}")
         if method not in self.lods:
-            if isinstance(self.lod, PagedLod):
-                raise VisMobileError(f"{self.path}: a tiled terrain is drawn by the tiles "
-                                     "method only")
+            if isinstance(self.lod, (PagedLod, PagedRoettgerLod)):
+                raise VisMobileError(f"{self.path}: a paged terrain is drawn by the "
+                                     f"{self.lod.name} method only")
             self.lods[method] = LODS[method](self.heightmap, self.profile)
         self.method, self.lod = method, self.lods[method]
 

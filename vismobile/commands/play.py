@@ -51,10 +51,11 @@ def add_parser(sub):
                              "needs --structure or a .vmp (its LOD chains are built when it "
                              "has none: partition --lod stores them)")
     parser.add_argument("--terrain-method", choices=("tiles", "roettger", "roam"),
-                        default="tiles",
+                        default=None,
                         help="a .vmt terrain's LOD method: tiles (seed 002's tile quadtree), "
                              "roettger (Röttger's quadtree with Pires's cached chunks), roam "
-                             "(split and merge queues); default tiles")
+                             "(split and merge queues); default tiles (a paged .vmtiles or "
+                             ".vmrpages terrain: its own method)")
     parser.add_argument("--regional", default=None, metavar="CHOICES",
                         help="pick per portal cell of the eye the cheapest of these stage "
                              "combinations (separated by ;, e.g. "
@@ -71,8 +72,8 @@ def add_parser(sub):
                              "coarsest LOD level within the same --lod pixels; chains built "
                              "once, then cached beside the built worlds)")
     parser.add_argument("--page-budget", type=float, default=16.0, metavar="MB",
-                        help="a .vmtiles terrain (terrain tile) is paged in by tiles: the "
-                             "memory its tile records may hold (default 16 MB)")
+                        help="a .vmtiles or .vmrpages terrain (terrain tile) is paged in: the "
+                             "memory its tile records or Röttger pages may hold (default 16 MB)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
@@ -83,7 +84,7 @@ def run(args) -> int:
     # One llvmpipe thread, as every compare and tune run measures (study/tasks.py): on a
     # loaded machine the render threads' contention made the median swing several-fold.
     os.environ.setdefault("LP_NUM_THREADS", "1")
-    if str(args.world).lower().endswith((".vmt", ".vmtiles")):
+    if str(args.world).lower().endswith((".vmt", ".vmtiles", ".vmrpages")):
         return run_terrain(args)
     args.cull = default_cull(args.cull, args.structure)
     from ..app.playback import load_scene, parse_stages, play

@@ -40,7 +40,9 @@ def add_parser(sub):
     tile.add_argument("terrain", type=Path,
                       help="a .vmt terrain, or a GeoTIFF DEM (.tif/.tiff) of any size up to "
                            "8193 samples a side, padded onto the next 2^n+1 grid")
-    tile.add_argument("-o", "--out", type=Path, required=True, help="output .vmtiles file")
+    tile.add_argument("-o", "--out", type=Path, required=True,
+                      help="output .vmtiles file (tiles), or .vmrpages (Röttger's blocks in "
+                           "pages, paged by play t.vmrpages; from a .vmt only)")
     tile.add_argument("--memory", type=float, default=256.0, metavar="MB",
                       help="a GeoTIFF's build: memory for its strips, bands of rows and the "
                            "tiles' statistics (default 256; refused below what the grid needs)")
@@ -158,6 +160,10 @@ def _tile(args) -> int:
     from ..progress import Status
 
     check_destination(args.out)
+    pages = args.out.suffix.lower() == ".vmrpages"
+    if pages and args.terrain.suffix.lower() != ".vmt":
+        raise VisMobileError(f"{args.out}: Röttger pages are built from a .vmt terrain (the "
+                             "out-of-core build writes .vmtiles only)")
     if args.terrain.suffix.lower() in (".tif", ".tiff"):
         from ..terrain.outofcore import build_tiles
 
@@ -179,6 +185,15 @@ def _tile(args) -> int:
 
     heightmap, _ = store.load(args.terrain)
     with Status(f"terrain tile {args.terrain}") as status:
+        if pages:
+            from ..terrain.paged_roettger import write_pages
+            from ..terrain.roettger import Roettger
+
+            status("Röttger's block statistics and pages")
+            write_pages(Roettger(heightmap), args.out)
+            print(f"wrote {args.out}: {args.out.stat().st_size / (1 << 20):,.1f} MB of Röttger "
+                  f"pages of {heightmap.size}^2 samples (the objects stay in {args.terrain})")
+            return 0
         status("the tile pyramid's statistics and records")
         write_tiles(TilePyramid.build(heightmap, 16), args.out)
     print(f"wrote {args.out}: {args.out.stat().st_size / (1 << 20):,.1f} MB of tiles of "

@@ -193,7 +193,7 @@ class TerrainRenderer:
         ctx.depth_func = "<"
         ctx.front_face = "ccw"
         ctx.enable_only(ctx.DEPTH_TEST)
-        cut = self.heightmap.valid is not None
+        cut = shaded_kind(self.heightmap) == "cut"
         prog = program(shaded_kind(self.heightmap), "float32") if kind == "shaded" \
             else _item_program(cut)
         prog["u_mvp"].write(camera.view_projection().T.astype(np.float32).tobytes())
@@ -201,7 +201,7 @@ class TerrainRenderer:
             _set_lights(prog)
         count, drawn, first_id = 0, 0, 0
         for rows, cols, indices in batches():
-            records = terrain_vertices(self.heightmap, rows, cols, heights)
+            records = self.vertices(rows, cols, heights)
             indices = indices.astype(np.uint16)
             vbo = ctx.buffer(records.tobytes())
             ibo = ctx.buffer(indices.tobytes())
@@ -223,6 +223,11 @@ class TerrainRenderer:
             ibo.release()
         ctx.finish()
         return DrawStats((time.perf_counter() - start) * 1000.0, count, drawn)
+
+    def vertices(self, rows, cols, heights=None) -> np.ndarray:
+        """Vertex records of samples rows/cols (terrain_vertices; a paged terrain's renderer
+        reads them from its pages instead)."""
+        return terrain_vertices(self.heightmap, rows, cols, heights)
 
     def read_rgb(self) -> np.ndarray:
         """(H, W, 3) uint8 image of the last shaded draw, row 0 = top."""

@@ -142,33 +142,51 @@ class PagedArena(TileArena):
         super().__init__(paged.pyramid, profile, budget_bytes)
 
     def _records(self, tiles, rows, cols) -> np.ndarray:
-        from .terrain import height_colors
-
-        stand = self.paged.heightmap
-        raw = np.stack(self.paged.records(tiles))  # (K, V, 4) uint8
-        samples = raw[..., :2].copy().view("<u2")[..., 0].astype(np.float64)
-        from ..terrain.paged import NO_DATA
-
-        missing = (raw[..., 2] == NO_DATA) & (raw[..., 3] == NO_DATA)  # no data: alpha 0
-        nx = np.where(missing, 0.0, raw[..., 2].view(np.int8) / 127.0)
-        nz = np.where(missing, 0.0, raw[..., 3].view(np.int8) / 127.0)
-        ny = np.sqrt(np.maximum(1.0 - nx * nx - nz * nz, 0.0))
-        normal = np.stack([nx, ny, nz], -1)
-        normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-        dtype = np.dtype([("position", np.float32, 3), ("normal", np.float32, 3),
-                          ("color", np.uint8, 4)])
-        records = np.empty(rows.shape, dtype=dtype)
-        y = (stand.z_offset + stand.z_scale * samples).astype(np.float32)
-        records["position"] = np.stack([cols * stand.spacing, y, rows * stand.spacing], -1)
-        records["normal"] = normal
-        records["color"] = height_colors(y, stand.low, stand.high)
-        records["color"][..., 3] = np.where(missing, 0, 255)
-        return records
+        return paged_vertices(self.paged.heightmap, np.stack(self.paged.records(tiles)), rows,
+                              cols)
 
     def draw(self, selection, camera) -> DrawStats:
         """As TileArena.draw; tiles new to the arena are read through the page cache."""
         self.paged.current = set()
         return super().draw(selection, camera)
+
+
+def paged_vertices(stand, raw, rows, cols) -> np.ndarray:
+    """Vertex records (position, normal, colour) of samples rows/cols from their paged records
+    raw (..., 4) uint8 (uint16 sample, int8 normal x and z; no data: alpha 0)."""
+    from ..terrain.paged import NO_DATA
+    from .terrain import height_colors
+
+    samples = raw[..., :2].copy().view("<u2")[..., 0].astype(np.float64)
+    missing = (raw[..., 2] == NO_DATA) & (raw[..., 3] == NO_DATA)  # no data: alpha 0
+    nx = np.where(missing, 0.0, raw[..., 2].view(np.int8) / 127.0)
+    nz = np.where(missing, 0.0, raw[..., 3].view(np.int8) / 127.0)
+    ny = np.sqrt(np.maximum(1.0 - nx * nx - nz * nz, 0.0))
+    normal = np.stack([nx, ny, nz], -1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    dtype = np.dtype([("position", np.float32, 3), ("normal", np.float32, 3),
+                      ("color", np.uint8, 4)])
+    records = np.empty(rows.shape, dtype=dtype)
+    y = (stand.z_offset + stand.z_scale * samples).astype(np.float32)
+    records["position"] = np.stack([cols * stand.spacing, y, rows * stand.spacing], -1)
+    records["normal"] = normal
+    records["color"] = height_colors(y, stand.low, stand.high)
+    records["color"][..., 3] = np.where(missing, 0, 255)
+    return records
+
+
+class PagedRenderer(TerrainRenderer):
+    """Draws sample-id triangles of a paged Röttger terrain (terrain/paged_roettger.py), the
+    vertices read from its coarse grid and held pages (gathered each frame)."""
+
+    def __init__(self, paged, profile):
+        super().__init__(paged.heightmap, profile)
+        self.paged = paged
+
+    def vertices(self, rows, cols, heights=None) -> np.ndarray:
+        ids = np.asarray(rows, np.int64) * self.paged.size + np.asarray(cols, np.int64)
+        return paged_vertices(self.heightmap, self.paged.vertex_records(ids.ravel()),
+                              rows.ravel(), cols.ravel())
 
 
 BLOCK_CELLS = 32  # cells per block side (33^2 vertices: uint16-indexable)

@@ -22,8 +22,9 @@ without ever holding the raster or the grid. Five streaming steps:
 Memory: the statistics (48 bytes a tile while nesting; 24 are kept at run time anyway) plus
 each step's band of rows (or group of records) sized from what is left of `budget_bytes`
 (the *_BYTES constants); a budget below one tile row's band (minimum_budget) is refused.
-tracemalloc's peak stays within the budget (tests/terrain/test_outofcore.py). Time: the statistics scan every
-sample as often as the in-memory build does; every level rereads the scratch once.
+tracemalloc's peak stays within the budget (tests/terrain/test_outofcore.py). Time: the
+statistics scan every sample as often as the in-memory build does; every level rereads the
+scratch once.
 """
 from __future__ import annotations
 
