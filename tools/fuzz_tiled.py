@@ -35,19 +35,22 @@ def tiled_seeds(folder: Path) -> dict:
 
 
 def load_tif_stream(path):
-    """A GeoTIFF through the out-of-core build into a .vmtiles beside it (4 MB budget), then
-    opened paged; a refusal leaves neither the output nor a scratch file."""
+    """A GeoTIFF through the out-of-core builds into a .vmtiles and a .vmrpages beside it
+    (8 MB budget), each then opened paged; a refusal leaves neither the output nor a scratch
+    file."""
     from vismobile.terrain.outofcore import build_tiles
     from vismobile.terrain.paged import PagedTiles
+    from vismobile.terrain.paged_roettger import PagedRoettger
 
-    out = path.with_suffix(".vmtiles")
-    out.unlink(missing_ok=True)
-    try:
-        build_tiles(path, out, budget_bytes=4 << 20)
-    finally:
-        left = [p.name for p in path.parent.glob(f".{out.name}.*")]
-        assert not left, f"scratch files left: {left}"
-    PagedTiles(out, thread=False).close()
+    for suffix, opener in ((".vmtiles", PagedTiles), (".vmrpages", PagedRoettger)):
+        out = path.with_suffix(suffix)
+        out.unlink(missing_ok=True)
+        try:
+            build_tiles(path, out, budget_bytes=8 << 20)
+        finally:
+            left = [p.name for p in path.parent.glob(f".{out.name}.*")]
+            assert not left, f"scratch files left: {left}"
+        opener(out, thread=False).close()
 
 
 def load_memory(path):

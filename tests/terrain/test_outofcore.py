@@ -133,3 +133,41 @@ def test_malformed_directories_are_refused_naming_the_file(tmp_path):
     with pytest.raises(VisMobileError, match="--memory"):
         build_tiles(source, tmp_path / "o.vmtiles", budget_bytes=1 << 16)
     assert not (tmp_path / "o.vmtiles").exists()
+
+
+def test_roettger_pages_built_out_of_core_are_the_in_memory_file_within_the_cap(tmp_path):
+    """terrain tile dem.tif -o dem.vmrpages: Röttger's pages from the scratch grid (finer
+    blocks page row by page row over bands, coarse blocks over bands of rows) are byte for byte
+    paged_roettger.write_pages(Roettger(load_file(...))), within a cap below the raster's
+    size (tracemalloc's peak)."""
+    from vismobile.terrain.outofcore_pages import pages_minimum
+    from vismobile.terrain.paged_roettger import PagedRoettger
+    from vismobile.terrain.paged_roettger import write_pages as write_roettger_pages
+    from vismobile.terrain.roettger import Roettger
+
+    height, width = 1000, 1025  # float64: 8.2 MB of raster, a 1025^2 grid
+    source = tmp_path / "dem.tif"
+    write_tiff(source, (height, width), dem_rows(height, width), dtype="<f8", predictor=3,
+               rows_per_strip=4, nodata=-9999.0, spacing=3.0)
+    write_tiff(tmp_path / "warm.tif", (60, 50), dem_rows(60, 50), nodata=-9999.0)
+    build_tiles(tmp_path / "warm.tif", tmp_path / "warm.vmrpages")  # numba's first load
+    cap = int(6.6 * (1 << 20))
+    assert pages_minimum(1025) <= cap < height * width * 8
+    tracemalloc.start()
+    try:
+        build_tiles(source, tmp_path / "ooc.vmrpages", budget_bytes=cap)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak <= cap
+    (tmp_path / "npy").mkdir()  # Pillow reads no float64 TIFF: the same samples as .npy
+    np.save(tmp_path / "npy" / "dem.npy", dem_rows(height, width)(0, height).astype("<f8"))
+    heightmap = sources.load_file(tmp_path / "npy" / "dem.npy", None, 3.0, nodata=-9999.0)
+    store.save(tmp_path / "dem.vmt", heightmap)
+    heightmap, _ = store.load(tmp_path / "dem.vmt")
+    write_roettger_pages(Roettger(heightmap), tmp_path / "mem.vmrpages")
+    assert (tmp_path / "ooc.vmrpages").read_bytes() == (tmp_path / "mem.vmrpages").read_bytes()
+    PagedRoettger(tmp_path / "ooc.vmrpages", thread=False).close()
+    assert not list(tmp_path.glob(".*tmp"))
+    with pytest.raises(VisMobileError, match="--memory"):  # below the pages build's need
+        build_tiles(source, tmp_path / "low.vmrpages", budget_bytes=4 << 20)

@@ -121,6 +121,7 @@ def test_terrain_tile_then_play_pages_roettger(paged_map, tmp_path, capsys):
     assert main(["play", str(out), "--terrain-method", "tiles", "-o",
                  str(tmp_path / "bad")]) == 2
     assert "roettger method" in capsys.readouterr().err
-    assert main(["terrain", "tile", str(tmp_path / "x.tif"), "-o",
-                 str(tmp_path / "x.vmrpages")]) == 2
-    assert "from a .vmt" in capsys.readouterr().err
+    (tmp_path / "bad.vmrpages").write_bytes(out.read_bytes()[:100])
+    assert main(["play", str(tmp_path / "bad.vmrpages"), "-o", str(tmp_path / "bad2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "bad.vmrpages" in err[0]

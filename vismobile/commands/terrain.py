@@ -42,7 +42,7 @@ def add_parser(sub):
                            "8193 samples a side, padded onto the next 2^n+1 grid")
     tile.add_argument("-o", "--out", type=Path, required=True,
                       help="output .vmtiles file (tiles), or .vmrpages (Röttger's blocks in "
-                           "pages, paged by play t.vmrpages; from a .vmt only)")
+                           "pages, paged by play t.vmrpages)")
     tile.add_argument("--memory", type=float, default=256.0, metavar="MB",
                       help="a GeoTIFF's build: memory for its strips, bands of rows and the "
                            "tiles' statistics (default 256; refused below what the grid needs)")
@@ -161,16 +161,14 @@ def _tile(args) -> int:
 
     check_destination(args.out)
     pages = args.out.suffix.lower() == ".vmrpages"
-    if pages and args.terrain.suffix.lower() != ".vmt":
-        raise VisMobileError(f"{args.out}: Röttger pages are built from a .vmt terrain (the "
-                             "out-of-core build writes .vmtiles only)")
     if args.terrain.suffix.lower() in (".tif", ".tiff"):
         from ..terrain.outofcore import build_tiles
 
         with Status(f"terrain tile {args.terrain}") as status:
             info = build_tiles(args.terrain, args.out, args.nodata, args.spacing, args.vertical,
                                budget_bytes=int(args.memory * (1 << 20)), status=status)
-        print(f"wrote {args.out}: {args.out.stat().st_size / (1 << 20):,.1f} MB of tiles of "
+        what = "Röttger pages" if pages else "tiles"
+        print(f"wrote {args.out}: {args.out.stat().st_size / (1 << 20):,.1f} MB of {what} of "
               f"{info['size']}^2 samples, built out of core in {info['seconds']:.1f} s "
               f"(bands of {info['band_rows']} rows)")
         return 0

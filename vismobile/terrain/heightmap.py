@@ -145,6 +145,12 @@ class Heightmap:
         return h.digest()
 
 
+def sample_heights(samples, z_scale: float, z_offset: float) -> np.ndarray:
+    """Heightmap.heights of some samples (a few rows of a grid not held whole): float32
+    (z_offset + z_scale * sample), the same arithmetic."""
+    return (z_offset + z_scale * samples.astype(np.float64)).astype(np.float32)
+
+
 def fill_holes(heights, valid) -> np.ndarray:
     """(N, N) float64 heights with every invalid sample set to the nearer valid sample along
     its row (ties: the earlier), then along its column for rows without one; what is left

@@ -40,6 +40,7 @@ import numpy as np
 from ..errors import WorldError
 from ..files.atomic import atomic_writer, check_destination, temp_path
 from .heightmap import MAX_LEVEL, fill_holes
+from .heightmap import sample_heights as _heights
 from .paged import MAGIC, pack_records, grid_normals
 from .quadtree import level_offsets
 from .raster import band_statistics
@@ -115,11 +116,6 @@ class _Scratch:
         self.fds = []
 
 
-def _heights(samples, z_scale, z_offset) -> np.ndarray:
-    """Heightmap.heights of some samples: float32 (z_offset + z_scale * sample)."""
-    return (z_offset + z_scale * samples.astype(np.float64)).astype(np.float32)
-
-
 def build_tiles(source, out, nodata=None, spacing=None, vertical: float = 1.0,
                 patch: int = 16, budget_bytes: int = 256 << 20, status=None) -> dict:
     """Write out (.vmtiles) from the GeoTIFF source in bounded memory (module doc).
@@ -143,6 +139,10 @@ def build_tiles(source, out, nodata=None, spacing=None, vertical: float = 1.0,
         if size - 1 < patch:
             raise WorldError(source, f"{height}x{width} samples: fewer than a {patch}-cell tile")
         need = minimum_budget(size, patch)
+        if out.suffix.lower() == ".vmrpages":
+            from .outofcore_pages import pages_minimum
+
+            need = max(need, pages_minimum(size))
         if budget_bytes < need:
             raise VisMobileError(f"--memory {budget_bytes / (1 << 20):g} MB is below the "
                                  f"{need / (1 << 20):.1f} MB a {size}^2 grid needs")
@@ -183,6 +183,16 @@ def build_tiles(source, out, nodata=None, spacing=None, vertical: float = 1.0,
             smin, smax = _quantise(prepared, scratch, size, height, width, nonempty, low, scale,
                                    max(1, rest // (QUANTISE_BYTES * size)))
             band = max(3 * (patch + 2), rest // (size * BAND_BYTES))
+            if out.suffix.lower() == ".vmrpages":  # Röttger's pages (terrain/outofcore_pages.py)
+                from .outofcore_pages import write_pages_streamed
+
+                band = max(17, rest // (72 * size))  # the coarse blocks' bands (72 B a sample)
+                write_pages_streamed(scratch, out, {
+                    "size": size, "spacing": spacing, "z_scale": scale, "z_offset": low,
+                    "name": source.stem, "low": low + scale * float(smin),
+                    "high": low + scale * float(smax), "holes": holes}, say, band_rows=band)
+                return {"size": size, "seconds": time.perf_counter() - start,
+                        "band_rows": int(band)}
             say("the tiles' statistics")
             stats = _statistics(scratch, size, patch, spacing, scale, low, band)
             levels = ((size - 1) // patch).bit_length() - 1

@@ -59,15 +59,14 @@ def fan_errors(heights, s):
     """(m, m) float64 per block of s cells: the largest |h - fan| over the block's samples,
     for the fan with all four edge midpoints and for the fan with none, whichever is larger
     (the largest error of any of its fans: each quarter is one of the two)."""
-    n = heights.shape[0]
-    m = (n - 1) // s
+    mr, mc = (heights.shape[0] - 1) // s, (heights.shape[1] - 1) // s  # a band of rows too
     half = s // 2
-    out = np.zeros((m, m))
+    out = np.zeros((mr, mc))
     ring_r = np.empty(9, np.int64)
     ring_c = np.empty(9, np.int64)
     dummy = np.zeros((1, 1))
-    for bi in range(m):
-        for bj in range(m):
+    for bi in range(mr):
+        for bj in range(mc):
             r0, c0 = bi * s, bj * s
             rc, cc = r0 + half, c0 + half
             k = 0
@@ -120,42 +119,50 @@ def roughness(heightmap: Heightmap, C: float) -> tuple:
     h = heightmap.heights.astype(np.float64)
     cells = heightmap.size - 1
     levels = cells.bit_length() - 2  # finest blocks are 2 cells wide
-    K = C / (2.0 * (C - 1.0))
     offsets = level_offsets(levels)
     d2 = np.zeros(offsets[-1])
     hmin = np.zeros(offsets[-1])
     hmax = np.zeros(offsets[-1])
     centres = np.zeros(offsets[-1])
-    below = None
-    lo_fine = hi_fine = None
-    nested = None
+    state = None
     for level in range(levels, -1, -1):
         s = cells >> level
-        half = s // 2
-        m = 1 << level
-        centre = h[half::s, half::s]
-        exact = fan_errors(h, s)
-        if heightmap.valid is not None:  # seed 002's holes: E = length(E_h, E_v)
-            exact = np.hypot(exact, block_horizontal(heightmap.valid, s, heightmap.spacing))
-        if nested is not None:
-            exact = np.maximum(exact, nested.reshape(m, 2, m, 2).max(axis=(1, 3)))
-        nested = exact
-        local = exact / (s * heightmap.spacing)
-        if below is not None:
-            padded = np.pad(below, 1)
-            window = np.lib.stride_tricks.sliding_window_view(padded, (4, 4))[::2, ::2]
-            local = np.maximum(local, K * window.max(axis=(-1, -2)))
-            lo = lo_fine.reshape(m, 2, m, 2).min(axis=(1, 3))
-            hi = hi_fine.reshape(m, 2, m, 2).max(axis=(1, 3))
-        else:
-            windows = np.lib.stride_tricks.sliding_window_view(h, (s + 1, s + 1))[::s, ::s]
-            lo, hi = windows.min(axis=(-1, -2)), windows.max(axis=(-1, -2))
+        state = roughness_level(h, heightmap.valid, heightmap.spacing, C, s,
+                                fan_errors(h, s), state)
+        _, local, lo, hi, centre = state
         d2[offsets[level]:offsets[level + 1]] = local.ravel()
         hmin[offsets[level]:offsets[level + 1]] = lo.ravel()
         hmax[offsets[level]:offsets[level + 1]] = hi.ravel()
         centres[offsets[level]:offsets[level + 1]] = centre.ravel()
-        below, lo_fine, hi_fine = local, lo, hi
     return d2, hmin, hmax, centres, levels
+
+
+def roughness_level(h, valid, spacing, C, s, exact, finer=None) -> tuple:
+    """One level of roughness: (nested E, d2, hmin, hmax, centre heights), each (m_r, m_c) over
+    the blocks of s cells of h ((R, C) float64 heights whose first row starts a block; a band
+    of rows in terrain/outofcore.py), given exact = fan_errors(h, s) and finer = this function's
+    result one level finer (None at the finest level). The band's edge blocks see no
+    neighbour beyond it, as the map's border blocks do. h may be None above the finest level
+    (the centre heights then come back None)."""
+    K = C / (2.0 * (C - 1.0))
+    half = s // 2
+    if valid is not None:  # seed 002's holes: E = length(E_h, E_v)
+        exact = np.hypot(exact, block_horizontal(valid, s, spacing))
+    mr, mc = exact.shape
+    if finer is not None:
+        exact = np.maximum(exact, finer[0].reshape(mr, 2, mc, 2).max(axis=(1, 3)))
+    local = exact / (s * spacing)
+    if finer is not None:
+        padded = np.pad(finer[1], 1)
+        window = np.lib.stride_tricks.sliding_window_view(padded, (4, 4))[::2, ::2]
+        local = np.maximum(local, K * window.max(axis=(-1, -2)))
+        lo = finer[2].reshape(mr, 2, mc, 2).min(axis=(1, 3))
+        hi = finer[3].reshape(mr, 2, mc, 2).max(axis=(1, 3))
+    else:
+        windows = np.lib.stride_tricks.sliding_window_view(h, (s + 1, s + 1))[::s, ::s]
+        lo, hi = windows.min(axis=(-1, -2)), windows.max(axis=(-1, -2))
+    centre = None if h is None else h[half::s, half::s][:mr, :mc]  # None: the caller's
+    return exact, local, lo, hi, centre
 
 
 @njit(cache=True)
