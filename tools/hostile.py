@@ -547,8 +547,8 @@ if __name__ == "__main__":
 
 
 def _corrupt_tiff(path):
-    """A float32 deflate TIFF whose compressed strip is scrambled: libtiff's decoder fails and
-    prints to file descriptor 2 itself, which the one-line rule must keep quiet (issue 30)."""
+    """A float32 deflate TIFF whose compressed strip is scrambled: the decoder fails, and
+    nothing but the one error line may reach the terminal (issue 30)."""
     import io
 
     import numpy as np

@@ -1,21 +1,22 @@
-"""GeoTIFF DEMs through Pillow's libtiff: the GDAL_NODATA tag becomes holes, the pixel scale
-the spacing, float predictor 3 and deflate decode; a malformed file is one line, exit 2."""
+"""GeoTIFF DEMs written by Pillow's libtiff, read by terrain/geotiff (tifffile): the GDAL_NODATA
+tag becomes holes, the pixel scale the spacing, float predictor 3 and deflate decode; a
+malformed file is one line, exit 2."""
 import numpy as np
 import pytest
 from PIL import Image, TiffImagePlugin
 
 from vismobile.errors import WorldError
-from vismobile.terrain import sources
+from vismobile.terrain import geotiff, sources
 
 
-def geotiff(path, heights, nodata="-9999", scale=(30.0, 30.0, 0.0), predictor=3):
+def write_geotiff(path, heights, nodata="-9999", scale=(30.0, 30.0, 0.0), predictor=3):
     info = TiffImagePlugin.ImageFileDirectory_v2()
     if nodata is not None:
-        info[sources.GDAL_NODATA] = nodata
-        info.tagtype[sources.GDAL_NODATA] = 2  # ASCII
+        info[geotiff.GDAL_NODATA] = nodata
+        info.tagtype[geotiff.GDAL_NODATA] = 2  # ASCII
     if scale is not None:
-        info[sources.MODEL_PIXEL_SCALE] = scale
-        info.tagtype[sources.MODEL_PIXEL_SCALE] = 12  # DOUBLE
+        info[geotiff.MODEL_PIXEL_SCALE] = scale
+        info.tagtype[geotiff.MODEL_PIXEL_SCALE] = 12  # DOUBLE
     info[317] = predictor
     Image.fromarray(heights).save(path, compression="tiff_adobe_deflate", tiffinfo=info)
 
@@ -28,7 +29,7 @@ def dem():
 
 
 def test_nodata_and_pixel_scale_come_from_the_tags(dem, tmp_path):
-    geotiff(tmp_path / "d.tif", dem)
+    write_geotiff(tmp_path / "d.tif", dem)
     hm = sources.load_file(tmp_path / "d.tif", spacing=None)
     assert hm.size == 129 and hm.spacing == 30.0  # padded: 70 columns -> 2^7 + 1
     assert (~hm.valid[:40, :70]).sum() == 40 and hm.valid[:40, :70].sum() == 40 * 70 - 40
@@ -41,13 +42,13 @@ def test_nodata_and_pixel_scale_come_from_the_tags(dem, tmp_path):
 def test_malformed_geotiffs_name_the_file(dem, tmp_path, capsys):
     from vismobile.app.cli import main
 
-    geotiff(tmp_path / "text.tif", dem, nodata="none at all")
+    write_geotiff(tmp_path / "text.tif", dem, nodata="none at all")
     with pytest.raises(WorldError, match="text.tif.*GDAL_NODATA"):
         sources.load_file(tmp_path / "text.tif")
-    geotiff(tmp_path / "oblong.tif", dem, scale=(30.0, 10.0, 0.0))
+    write_geotiff(tmp_path / "oblong.tif", dem, scale=(30.0, 10.0, 0.0))
     with pytest.raises(WorldError, match="oblong.tif.*square"):
         sources.load_file(tmp_path / "oblong.tif", spacing=None)
-    geotiff(tmp_path / "cut.tif", dem)
+    write_geotiff(tmp_path / "cut.tif", dem)
     data = (tmp_path / "cut.tif").read_bytes()
     (tmp_path / "cut.tif").write_bytes(data[:len(data) // 2])
     assert main(["terrain", "build", str(tmp_path / "cut.tif"), "-o",
@@ -56,8 +57,8 @@ def test_malformed_geotiffs_name_the_file(dem, tmp_path, capsys):
     assert len(err) == 1 and "cut.tif" in err[0] and not (tmp_path / "cut.vmt").exists()
 
 
-def test_libtiff_messages_stay_off_the_terminal(tmp_path):
-    """libtiff prints decoder errors to file descriptor 2 itself; the CLI still says one line."""
+def test_decoder_messages_stay_off_the_terminal(tmp_path):
+    """A corrupt strip (tifffile and its codecs log what they skip): the CLI says one line."""
     import os
     import subprocess
     import sys

@@ -139,64 +139,12 @@ def diamond_square(size: int, seed: int = 0, roughness: float = 0.55,
     return quantize(h, spacing, f"{SYNTHETIC}-{size}-s{seed}")
 
 
-def _quiet_c_stderr():
-    """Context: file descriptor 2 sent to /dev/null, for libtiff's own messages
-    ("ZIPDecode: Decoding error ...") that would add lines to the CLI's one-line error; the
-    error itself still reaches the caller as an exception."""
-    import contextlib
-    import os
-    import sys
-
-    @contextlib.contextmanager
-    def quiet():
-        sys.stderr.flush()
-        saved = os.dup(2)
-        try:
-            null = os.open(os.devnull, os.O_WRONLY)
-            os.dup2(null, 2)
-            os.close(null)
-            yield
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-
-    return quiet()
-
-
-GDAL_NODATA = 42113  # GDAL's TIFF tag: the no-data value as ASCII
-MODEL_PIXEL_SCALE = 33550  # GeoTIFF's ModelPixelScaleTag: (sx, sy, sz) per pixel
-
-
-def geotiff_tags(path, tags) -> tuple:
-    """(nodata or None, spacing or None) of a TIFF's tags (PIL's tag_v2): GDAL_NODATA and the
-    GeoTIFF pixel scale (square pixels only; WorldError naming the file otherwise)."""
-    nodata = spacing = None
-    text = tags.get(GDAL_NODATA)
-    if text is not None:
-        try:
-            nodata = float(str(text).strip().strip("\x00"))
-        except ValueError:
-            raise WorldError(path, f"GDAL_NODATA tag {str(text)[:40]!r} is not a number") from None
-    scale = tags.get(MODEL_PIXEL_SCALE)
-    if scale is not None:
-        try:
-            sx, sy = float(scale[0]), float(scale[1])
-        except (TypeError, ValueError, IndexError):
-            raise WorldError(path, "ModelPixelScaleTag is not (sx, sy, sz)") from None
-        if not (np.isfinite([sx, sy]).all() and sx > 0 and sy > 0):
-            raise WorldError(path, f"ModelPixelScaleTag ({sx:g}, {sy:g}) must be finite and > 0")
-        if not np.isclose(sx, sy, rtol=1e-9):
-            raise WorldError(path, f"pixels are not square ({sx:g} x {sy:g}); pass --spacing")
-        spacing = sx
-    return nodata, spacing
-
-
 def load_file(path, size: int | None = None, spacing: float | None = 1.0,
               vertical: float = 1.0, fit: str = "pad", nodata: float | None = None) -> Heightmap:
     """A user heightmap: .npy (2-D numbers), 16-bit or 8-bit greyscale PNG, or TIFF (GeoTIFF:
     its GDAL_NODATA tag is the no-data value unless nodata is given, its pixel scale the
-    spacing when spacing is None; read by Pillow's libtiff, so strips or tiles, deflate, LZW or
-    packbits, predictors 2 and 3).
+    spacing when spacing is None; read by geotiff.TiffRaster, so strips or tiles, deflate, LZW
+    or packbits, predictors 2 and 3; PNG by Pillow).
 
     vertical scales sample values to world units; samples equal to nodata (or NaN) are no
     data, holes (Heightmap.valid); fit: "pad" (default: onto the next 2^n+1 grid, every sample
@@ -215,19 +163,23 @@ def load_file(path, size: int | None = None, spacing: float | None = 1.0,
                 raise WorldError(path, f"heightmap values must be numbers, got dtype "
                                        f"{heights.dtype}")
             heights = np.array(heights)
-        elif suffix in (".png", ".tif", ".tiff"):
+        elif suffix in (".tif", ".tiff"):
+            from .geotiff import TiffRaster
+
+            with TiffRaster(path, 16 * MAX_FILE_SAMPLES) as raster:  # one strip of the largest
+                _check_shape(path, raster.shape, size)
+                nodata = raster.nodata if nodata is None else nodata
+                spacing = raster.spacing if spacing is None else spacing
+                heights = raster.rows(0, raster.shape[0])
+        elif suffix == ".png":
             import warnings
 
             from PIL import Image
 
-            with warnings.catch_warnings(), _quiet_c_stderr():
+            with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # PIL's bomb warning: the shape check decides
                 with Image.open(path) as image:
                     _check_shape(path, image.size[::-1], size)
-                    if suffix != ".png":
-                        found, scale = geotiff_tags(path, getattr(image, "tag_v2", {}))
-                        nodata = found if nodata is None else nodata
-                        spacing = scale if spacing is None else spacing
                     if image.mode not in ("I;16", "I;16B", "I;16L", "I", "L", "F"):
                         image = (image.convert("L") if image.mode in ("RGB", "RGBA", "P", "LA")
                                  else image)
