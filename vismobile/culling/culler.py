@@ -1,6 +1,8 @@
 """The Culler: runs any combination of culling stages on a Partition, cheapest first."""
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..geometry.arithmetic import MODES
@@ -125,6 +127,10 @@ class Culler:
                                    world_scale(self.animated.animated.rest_vertices))
             self.moving = MovingObjects(self.animated,
                                         {stage.name: stage for stage in self.stages}, arithmetic)
+            for stage in self.stages:  # moving objects occlude, posed at the frame's time
+                if stage.name == "occlusion":
+                    # weakly: the moving half holds the stages (no cycle: issue 28)
+                    stage.extra_occluders = weakref.WeakMethod(self.moving.occluders)
             self._doors = attach_doors(self.stages, self.animated.animated)
             if self._doors is not None:  # their matrices every frame (pose computes them)
                 self.moving.always = np.asarray(self._doors[1], dtype=np.int64)

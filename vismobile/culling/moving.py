@@ -18,8 +18,9 @@ posed (matrices, exact boxes: animated.moved_boxes). Then per stage:
 - `occlusion`: the object box, then each of its triangles at t, against this frame's depth
   buffer (hiz walks and hidden_triangles, the same tests and margins as static nodes and
   triangles; tested points move by the device's rounding at the moved boxes' scale). Moving
-  objects do not occlude: the buffer holds this frame's static occluders only, so nothing is
-  hidden behind last frame's pose, or behind any pose;
+  objects occlude too: the largest in the frustum offer their triangles posed at this frame's
+  time (moving_occluders.py, `occluders`), rasterised after the static occluders, so nothing
+  is hidden behind last frame's pose;
 - `tbfc`: each triangle at t, the exact test with tbfc's bound (facing.not_backfacing);
 - `cbfc`, `cbfc_thesis`, `cone`, `horizon`, `occlusion_thesis`: moving objects are not culled
   by them (conservative: their tables hold rest-pose normals and boxes).
@@ -39,6 +40,7 @@ from ..world.swept import expired, swept_boxes
 from .facing import not_backfacing
 from .hiz import cull_nodes, hidden_triangles
 from .kernels import _box_planes
+from .moving_occluders import moving_occluders
 from .occlusion import ZBUFFER_MARGIN
 from .precision import device_move
 from .triangle_backface import GAMMA_8
@@ -236,6 +238,7 @@ class MovingObjects:
         self._expired = np.empty(m, dtype=np.int64)
         self.always = np.zeros(0, dtype=np.int64)  # rows whose matrices every pose computes
         self.time, self.magnitude, self._rest = None, 0.0, False
+        self._frame_objects = None
         self._all = np.arange(m, dtype=np.int64)
 
     def pose(self, time) -> float:
@@ -245,6 +248,7 @@ class MovingObjects:
         (they hold every exact box: the Culler's planes are inflated for it)."""
         a, motion = self.animated, self.animated.motion
         self.time, self.expired, self.rebuilt = time, 0, False
+        self._frame_objects = None  # this frame's in_frustum (frame_objects)
         if time is None:
             if not self._rest:  # the rest boxes, exact: valid for no time
                 self.swept[:] = a.rest_boxes
@@ -272,6 +276,26 @@ class MovingObjects:
         if len(self.always):
             motion.matrices(t, self.matrices, self.always)
         return self.magnitude
+
+    def frame_objects(self, state) -> tuple:
+        """in_frustum for the frame's planes, computed once a frame (occlusion's moving
+        occluders ask first, cull after)."""
+        if self._frame_objects is None or self._frame_objects[0] is not state:
+            self._frame_objects = (state, *self.in_frustum(np.ascontiguousarray(state.planes),
+                                                            self._tol(state)))
+        return self._frame_objects[1:]
+
+    def occluders(self, state, stage):
+        """`occlusion`'s extra_occluders: the rasteriser's tables of this frame's moving
+        occluders, posed at the frame's time (moving_occluders.py), or None."""
+        if not self.frustum:
+            return None
+        objects = self.frame_objects(state)[0]
+        if not len(objects):
+            return None
+        return moving_occluders(self.animated, self.matrices, self._posed, objects, self.boxes,
+                                state.camera.eye, state.planes, stage._view(state.camera)[6],
+                                stage.occluders)
 
     def _exact(self, rows) -> None:
         """Matrices and exact boxes (animated.moved_boxes) of rows at the posed time."""
@@ -311,8 +335,7 @@ class MovingObjects:
         state.count("moving.rebuilds", int(self.rebuilt))
         state.count("moving.swept", self.expired)
         if self.frustum:
-            objects, visited, candidates, tests = self.in_frustum(
-                np.ascontiguousarray(state.planes), self._tol(state))
+            objects, visited, candidates, tests = self.frame_objects(state)
             state.count("moving.nodes_visited", visited)
             state.count("moving.candidates", candidates)
             state.count("plane_tests", tests)

@@ -35,6 +35,10 @@ Each frame:
    only the buffer pixels near the screen's centres under the rectangle, within the local
    shift of the occluders over it (per tile, from their nearest depth there: hiz._centre_rect).
 
+Over an animated partition the moving objects occlude too: after the node passes, the largest
+moving objects in the frustum offer their triangles posed at this frame's time
+(`extra_occluders`, culling/moving_occluders.py), rasterised, and the nodes are tested again.
+
 Device rounding (issue 17). The device draws rounded vertices from a rounded eye: relative to
 the eye every point moves by at most m = 2 device_move(arithmetic) per coordinate. A tested box
 or triangle is taken with all its moves (rectangle grown by the projection of m, nearest depth
@@ -182,6 +186,10 @@ class DepthBufferOcclusion(OccluderChoice):
         self.frame_occluders = np.zeros(0, dtype=np.int64)  # this frame's rasterised ids
         self._frame = 0
         self._view_of = self._view_now = None
+        # None, or a weak reference (weakref.WeakMethod) to a function (state, stage) ->
+        # rasteriser tables or None: a Culler over an animated partition sets it to offer this
+        # frame's posed moving objects as occluders (moving_occluders.py)
+        self.extra_occluders = None
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -324,9 +332,14 @@ class DepthBufferOcclusion(OccluderChoice):
     def rasterise(self, camera, chosen) -> int:
         """Adds world triangles `chosen` (K,) int64 (they must certainly face the eye) to the
         depth buffer and rebuilds the tiles; returns pixels newly covered."""
+        return self.rasterise_tables(camera, self.mesh(np.ascontiguousarray(chosen,
+                                                                           dtype=np.int64)))
+
+    def rasterise_tables(self, camera, tables) -> int:
+        """rasterise for the tables of mesh's form (any triangles certainly facing the eye:
+        world ids, or moving objects' posed triangles, culling/moving_occluders.py)."""
         eye, rotation, tx, ty, move, clip, _, order = self._view(camera)
         self._frame += 1
-        tables = self.mesh(np.ascontiguousarray(chosen, dtype=np.int64))
         nearest, written = rasterise(*tables, self._frame, eye, rotation, clip, tx, ty,
                                      self.width, self.height, self.depth, self.mask,
                                      self.centre, self.crease_far, DEPTH_SLACK + order)
@@ -392,7 +405,28 @@ class DepthBufferOcclusion(OccluderChoice):
                     break
                 self._node_pass(state, eye, rotation, tx, ty, move, margin, recede, False)
         self.frame_occluders = chosen  # read by tools (bench_peers' MOC rows); not a copy
+        written += self._moving_occluders(state)
         self._triangle_filter(state, written, move, margin, recede)
+
+    def _moving_occluders(self, state) -> int:
+        """The frame's moving occluders (`extra_occluders`, set by a Culler over an animated
+        partition: culling/moving_occluders.py, posed at this frame's time) into the buffer,
+        then the frame's nodes tested again against it; returns the pixels they covered."""
+        offer = None if self.extra_occluders is None else self.extra_occluders()
+        if offer is None:
+            return 0
+        tables = offer(state, self)
+        if tables is None:
+            return 0
+        camera = state.camera
+        state.count(f"{self.name}.moving_occluders", len(tables[0]))
+        written = self.rasterise_tables(camera, tables)
+        state.count(f"{self.name}.pixels_covered", written)
+        if written and len(state.nodes):
+            eye, rotation, tx, ty, move = self._view(camera)[:5]
+            self._node_pass(state, eye, rotation, tx, ty, move, ZBUFFER_MARGIN / camera.near,
+                            np.sqrt(3.0) * move, False)
+        return written
 
     def _triangle_filter(self, state, written, move, margin, recede) -> None:
         if self.triangles and (written or self.self_occluders or self.screen):
@@ -431,6 +465,7 @@ class DepthBufferOcclusion(OccluderChoice):
         self.frame_occluders = chosen
         written = stats[1]
         state.nodes = frustum_refine(tree, state, "vfc") if kept < 0 else self._out[:kept].copy()
+        written += self._moving_occluders(state)
         self._triangle_filter(state, written, move, margin, recede)
 
     def _unordered(self, state, fused) -> None:
