@@ -122,11 +122,14 @@ def rows(label, triangles, data) -> list:
 
 def steps(label, data) -> list:
     out = []
+    ours = float(np.median(data["rec"]["ours"]["t"]))
     for n, r in data["rec"].items():
         if n == "ours":
             continue
         parts = ", ".join(f"{s} {1e3 * np.median(r['steps'][s]):.3f}" for s in STEPS)
-        out.append(f"- {label}, {n}: median ms per C++ step: {parts}")
+        out.append(f"- {label}, {n}: median ms per C++ step: {parts}; ours' median / its "
+                   f"median: {ours / np.median(r['cpp']):.2f} (C++), "
+                   f"{ours / np.median(r['t']):.2f} (with driver)")
     return out
 
 
