@@ -542,9 +542,6 @@ def main(names=None) -> int:
     return 0 if clean == len(names) else 1
 
 
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
-
 
 def _corrupt_tiff(path):
     """A float32 deflate TIFF whose compressed strip is scrambled: the decoder fails, and
@@ -564,3 +561,53 @@ def _corrupt_tiff(path):
 
 
 CASES["tif_corrupt_strip"] = lambda folder: _heightmap(folder, "dem.tif", _corrupt_tiff)
+
+
+# Issue 30's out-of-core build and paged Röttger (terrain tile dem.tif, play t.vmrpages).
+def _tile(folder, name, write, out="out.vmtiles"):
+    path = folder / name
+    write(path)
+    return ["terrain", "tile", path, "-o", folder / out], path
+
+
+def _one_huge_strip(path):
+    """A TIFF header declaring 60,000 x 60,000 float32 pixels in a single strip: the streaming
+    reader refuses it before reading (a strip beyond the memory budget)."""
+    import struct
+
+    entries = [(256, 4, 60000), (257, 4, 60000), (258, 3, 32), (259, 3, 1), (273, 4, 200),
+               (277, 3, 1), (278, 4, 60000), (279, 4, 60000 * 60000 * 4 % (1 << 32)),
+               (339, 3, 3)]
+    ifd = struct.pack("<H", len(entries)) + b"".join(
+        struct.pack("<HHII", tag, kind, 1, value) if kind == 4 else
+        struct.pack("<HHIHH", tag, kind, 1, value, 0) for tag, kind, value in entries) + \
+        b"\0\0\0\0"
+    path.write_bytes(b"II" + struct.pack("<HI", 42, 8) + ifd + b"\0" * 64)
+
+
+def _truncated_pages(path):
+    from vismobile.terrain import sources
+    from vismobile.terrain.paged_roettger import write_pages
+    from vismobile.terrain.roettger import Roettger
+
+    write_pages(Roettger(sources.diamond_square(65, seed=1)), path)
+    path.write_bytes(path.read_bytes()[:-1000])
+
+
+CASES["tifstream_corrupt_strip"] = lambda folder: _tile(folder, "dem.tif", _corrupt_tiff)
+CASES["tifstream_one_huge_strip"] = lambda folder: _tile(folder, "dem.tif", _one_huge_strip)
+CASES["tifstream_pages_corrupt_strip"] = lambda folder: _tile(folder, "dem.tif", _corrupt_tiff,
+                                                              "out.vmrpages")
+
+
+def _play_pages(folder):
+    path = folder / "t.vmrpages"
+    _truncated_pages(path)
+    return ["play", path, "-o", folder / "run"], path
+
+
+CASES["vmrpages_truncated"] = _play_pages
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
