@@ -373,10 +373,10 @@ class PagedRoettger:
         return tested, count
 
     def _used(self) -> np.ndarray:
-        """Pages whose page level block is subdivided this frame."""
-        start = self.offsets[self.lg]
-        stamps = self.stamp[start:start + self.pages]
-        return np.flatnonzero(stamps == self.frame)
+        """Pages whose page level block is subdivided this frame (the level's list of the last
+        refinement: as many as there are, not a scan of every page)."""
+        start = self.list_offsets[self.lg]
+        return np.sort(self.lists[start:start + self.counts[self.lg]])
 
     def _queue_ahead(self, used, eye, c, planes) -> None:
         """Queue the pages not held whose page level block Röttger's criterion subdivides
@@ -388,28 +388,35 @@ class PagedRoettger:
         if room <= 0:
             return
         side, lg = 1 << self.lg, self.lg
-        first = self.offsets[lg]
+        if not len(used):
+            return
+        # candidates: the pages around those in use (not every page: no per-frame work in
+        # proportion to the map)
+        ui, uj = np.divmod(used, side)
+        rows = np.arange(max(0, ui.min() - 2), min(side, ui.max() + 3))
+        cols = np.arange(max(0, uj.min() - 2), min(side, uj.max() + 3))
+        bi, bj = (a.ravel() for a in np.meshgrid(rows, cols, indexing="ij"))
+        pages = bi * side + bj
+        first = self.offsets[lg] + pages
         d = (self.size - 1 >> lg) * self.heightmap.spacing
-        bi, bj = np.divmod(np.arange(self.pages), side)
-        centre = self.coarse_stats[3, first:first + self.pages]
+        centre = self.coarse_stats[3, first]
         l1 = np.abs(eye[0] - (bj + 0.5) * d) + np.abs(eye[1] - centre) + \
             np.abs(eye[2] - (bi + 0.5) * d)
-        low = self.coarse_stats[1, first:first + self.pages]
-        high = self.coarse_stats[2, first:first + self.pages]
+        low = self.coarse_stats[1, first]
+        high = self.coarse_stats[2, first]
         gap = np.stack([np.maximum(np.maximum(bj * d - eye[0], eye[0] - (bj + 1) * d), 0),
                         np.maximum(np.maximum(low - eye[1], eye[1] - high), 0),
                         np.maximum(np.maximum(bi * d - eye[2], eye[2] - (bi + 1) * d), 0)])
         dist = np.sqrt((gap * gap).sum(0))
-        d2 = self.coarse_stats[0, first:first + self.pages]
+        d2 = self.coarse_stats[0, first]
         ratio = np.minimum(l1 / (d * self.C), dist / np.maximum(d * self.C * c * d2, 1e-300))
         corner = [np.where(planes[:, k, None] >= 0, hi, lo) for k, (lo, hi) in
                   enumerate(((bj * d, (bj + 1) * d), (low, high), (bi * d, (bi + 1) * d)))]
         inside = ((planes[:, 0, None] * corner[0] + planes[:, 1, None] * corner[1]
                    + planes[:, 2, None] * corner[2] + planes[:, 3, None]) >= 0).all(0)
-        wanted = np.flatnonzero((ratio < 1.0) & inside &
-                                (self.table[SLOTS:SLOTS + self.pages] < 0))
+        wanted = np.flatnonzero((ratio < 1.0) & inside & (self.table[SLOTS + pages] < 0))
         if len(wanted):
-            self.queue.put([int(p) for p in wanted[np.argsort(ratio[wanted])[:room]]])
+            self.queue.put([int(p) for p in pages[wanted[np.argsort(ratio[wanted])[:room]]]])
 
     def _load_ahead(self):
         while True:
