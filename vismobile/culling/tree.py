@@ -6,6 +6,7 @@ import numpy as np
 
 from ..geometry.planes import slack
 from ..partition.base import Partition, gather_ranges
+from ..partition.tight import shrunk_bounds
 from .gather import Bitmap, Groups, count_marked, extract_marked, mark_nodes
 from .kernels import frustum_walk, inner_records, node_records
 
@@ -16,12 +17,16 @@ class Tree:
     leaf_order : (L,) int64 leaves sorted by ref_start (depth-first order of tri_refs)
     leaf_lo, leaf_hi : (N,) int64 each node's leaves are leaf_order[leaf_lo:leaf_hi]
     tol        : float distance slack for plane tests at this world's coordinate scale
+    node_bounds: (N, 2, 3) float64 the partition's boxes shrunk to their references
+                 (partition/tight.py)
     """
 
     def __init__(self, partition: Partition):
         self.partition = p = partition
         self.world = partition.world
-        self.node_bounds = np.asarray(p.node_bounds, dtype=np.float64)
+        # Boxes shrunk to what the nodes reference (octree and grid cells are regions, mostly
+        # empty in a large world): every walk tests and descends into less.
+        self.node_bounds = shrunk_bounds(p)
         self.first_child = np.asarray(p.first_child, dtype=np.int64)
         self.child_count = np.asarray(p.child_count, dtype=np.int64)
         self.ref_start = np.asarray(p.ref_start, dtype=np.int64)
