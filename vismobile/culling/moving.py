@@ -33,10 +33,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..partition.dynamic import DynamicBVH
+from ..partition.dynamic import DynamicBVH, _refit
 from ..world.animated import BOX_PAD, _moved_rows, moved_boxes, transform_rows
 from ..world.motion import _matrices
-from ..world.swept import expired, swept_boxes
+from ..world.swept import SPAN, expired, swept_boxes
 from .facing import not_backfacing
 from .hiz import cull_nodes, hidden_triangles
 from .kernels import _box_planes
@@ -50,9 +50,11 @@ FRUSTUM = ("vfc", "vfc_thesis", "portals", "pvs", "occlusion")
 
 @njit(cache=True, nogil=True)
 def bvh_frustum(lo, hi, first, start, count, order, n_nodes, boxes, planes, tol, out, stack,
-                masks):
+                masks, whole):
     """Objects (indices into boxes (M, 2, 3)) whose boxes are not outside the planes (P, 4),
-    written to out; returns (count, nodes visited, plane tests). Errs toward keeping by tol."""
+    written to out; returns (count, nodes visited, plane tests). Errs toward keeping by tol.
+    whole[k] (M,) bool is set for each object found: its box lies wholly inside every plane
+    (by tol), so any box inside it is kept too."""
     if n_nodes == 0:
         return 0, 0, 0
     full = (np.int64(1) << len(planes)) - 1
@@ -74,13 +76,15 @@ def bvh_frustum(lo, hi, first, start, count, order, n_nodes, boxes, planes, tol,
             continue
         for i in range(start[node], start[node] + count[node]):
             k = order[i]
+            across = straddle
             if straddle:
-                gone, _, n = _box_planes(boxes[k, 0, 0], boxes[k, 0, 1], boxes[k, 0, 2],
-                                         boxes[k, 1, 0], boxes[k, 1, 1], boxes[k, 1, 2], planes,
-                                         straddle, tol)
+                gone, across, n = _box_planes(boxes[k, 0, 0], boxes[k, 0, 1], boxes[k, 0, 2],
+                                              boxes[k, 1, 0], boxes[k, 1, 1], boxes[k, 1, 2],
+                                              planes, straddle, tol)
                 tests += n
                 if gone:
                     continue
+            whole[k] = across == 0
             out[found] = k
             found += 1
     return found, visited, tests
@@ -88,27 +92,64 @@ def bvh_frustum(lo, hi, first, start, count, order, n_nodes, boxes, planes, tol,
 
 @njit(cache=True, nogil=True)
 def frustum_pose(lo, hi, first, start, count, order, n_nodes, swept, planes, tol, out, stack,
-                 masks, t, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv, ss,
-                 pre, post, rest, pad, matrices, boxes):
+                 masks, whole, t, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st,
+                 sv, ss, pre, post, rest, pad, matrices, boxes):
     """One frame's frustum decision for the moving objects, in one compiled call: the swept
-    boxes through the BVH (bvh_frustum), the candidates sorted, posed at time t (motion's
-    _matrices into matrices, their exact boxes into boxes: animated._moved_boxes' arithmetic)
-    and their exact boxes tested (boxes_in_frustum). out[:count] = the objects kept; returns
-    (count, BVH nodes visited, candidates, plane tests)."""
+    boxes through the BVH (bvh_frustum), the candidates sorted; those whose swept box lies
+    wholly inside the planes are kept as they are (their exact box, inside it, would be: the
+    same decision) and left unposed (whole[k] stays True: MovingObjects.settle poses them when
+    a stage needs their matrices or boxes); the others posed at time t (motion's _matrices into
+    matrices, their exact boxes into boxes: animated._moved_boxes' arithmetic) and their exact
+    boxes tested (boxes_in_frustum). out[:count] = the objects kept, ascending; returns (count,
+    BVH nodes visited, candidates, plane tests)."""
     found, visited, tests = bvh_frustum(lo, hi, first, start, count, order, n_nodes, swept,
-                                        planes, tol, out, stack, masks)
+                                        planes, tol, out, stack, masks, whole)
     candidates = np.sort(out[:found])
-    _matrices(t, candidates, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv,
-              ss, pre, post, matrices)
-    _moved_rows(rest, matrices, candidates, pad, boxes)
-    keep = np.empty(found, dtype=np.bool_)
-    tests += boxes_in_frustum(boxes, candidates, planes, tol, keep)
-    kept = 0
+    posed = 0
     for i in range(found):
-        if keep[i]:
-            out[kept] = candidates[i]
+        if not whole[candidates[i]]:
+            out[posed] = candidates[i]
+            posed += 1
+    need = out[:posed].copy()
+    _matrices(t, need, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv,
+              ss, pre, post, matrices)
+    _moved_rows(rest, matrices, need, pad, boxes)
+    keep = np.empty(posed, dtype=np.bool_)
+    tests += boxes_in_frustum(boxes, need, planes, tol, keep)
+    kept, j = 0, 0
+    for i in range(found):
+        k = candidates[i]
+        if whole[k]:
+            out[kept] = k
             kept += 1
+        else:
+            if keep[j]:
+                out[kept] = k
+                kept += 1
+            j += 1
     return kept, visited, found, tests
+
+
+@njit(cache=True, nogil=True)
+def advance(t, valid_from, valid_until, rows, loop, duration, step, tt, tv, ts, rt, rv, rs, st,
+            sv, ss, pre, post, rest, swept, order, lo, hi, first, start, count, n_nodes, span):
+    """MovingObjects.pose's update in one compiled call: the tracks whose interval does not
+    hold t (swept.expired, into rows) swept anew (swept.swept_boxes), then, when any, the
+    largest |coordinate| of all swept boxes and the BVH refitted to them (dynamic._refit).
+    Returns (tracks swept, that largest |coordinate|, the refit's SAH cost); (0, -1, -1) when
+    nothing expired (nothing changed)."""
+    n = expired(t, valid_from, valid_until, rows)
+    if n == 0:
+        return 0, -1.0, -1.0
+    swept_boxes(t, rows[:n], loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre,
+                post, rest, swept, valid_from, valid_until, span)
+    most = 0.0
+    for k in range(len(swept)):
+        for i in range(2):
+            for j in range(3):
+                most = max(most, abs(swept[k, i, j]))
+    cost = _refit(swept, order, lo, hi, first, start, count, n_nodes) if n_nodes else 0.0
+    return n, most, cost
 
 
 @njit(cache=True, nogil=True)
@@ -225,6 +266,8 @@ class MovingObjects:
         self._masks = np.empty(2 * m + 64, dtype=np.int64)
         self._posed = np.empty_like(a.rest_vertices)
         self.frustum = any(name in stages for name in FRUSTUM)
+        # stages that read the kept objects' matrices or exact boxes (else ids straight)
+        self.exact = any(name in stages for name in ("portals", "occlusion", "tbfc"))
         # occlusion's box walk over the objects as a flat tree of leaves
         self._leaf = (np.full(m, -1, np.int64), np.zeros(m, np.int64), np.ones(m, np.bool_),
                       np.full(m, -1, np.int64), np.full(m, -1, np.int64),
@@ -239,6 +282,8 @@ class MovingObjects:
         self.always = np.zeros(0, dtype=np.int64)  # rows whose matrices every pose computes
         self.time, self.magnitude, self._rest = None, 0.0, False
         self._frame_objects = None
+        self.span = SPAN  # the swept boxes' windows (seconds: swept.SPAN)
+        self.whole = np.zeros(m, dtype=np.bool_)  # kept by in_frustum unposed (settle poses)
         self._all = np.arange(m, dtype=np.int64)
 
     def pose(self, time) -> float:
@@ -263,15 +308,15 @@ class MovingObjects:
         if not np.isfinite(t):
             raise ValueError(f"time must be finite, got {time}")
         self._rest = False
-        count = expired(t, self.valid_from, self.valid_until, self._expired)
+        c, b = motion.channels, self.bvh
+        count, most, cost = advance(
+            t, self.valid_from, self.valid_until, self._expired, motion.loop, motion.duration,
+            motion.step, *c["translation"], *c["rotation"], *c["scale"], motion.pre,
+            motion.post, a.rest_boxes, self.swept, b.order, b.lo, b.hi, b.first, b.start,
+            b.count, b.node_count, self.span)
         if count:
-            c = motion.channels
-            swept_boxes(t, self._expired[:count], motion.loop, motion.duration, motion.step,
-                        *c["translation"], *c["rotation"], *c["scale"], motion.pre,
-                        motion.post, a.rest_boxes, self.swept, self.valid_from,
-                        self.valid_until)
-            self.magnitude = float(np.abs(self.swept).max(initial=0.0))
-            self.rebuilt = self.bvh.update(self.swept)
+            self.magnitude = most
+            self.rebuilt = b.refitted(cost, self.swept)
             self.expired = count
         if len(self.always):
             motion.matrices(t, self.matrices, self.always)
@@ -293,6 +338,7 @@ class MovingObjects:
         objects = self.frame_objects(state)[0]
         if not len(objects):
             return None
+        self.settle(objects)
         return moving_occluders(self.animated, self.matrices, self._posed, objects, self.boxes,
                                 state.camera.eye, state.planes, stage._view(state.camera)[6],
                                 stage.occluders)
@@ -313,18 +359,27 @@ class MovingObjects:
         if self.time is None:  # the rest pose: identity matrices, the rest boxes
             found, visited, tests = bvh_frustum(b.lo, b.hi, b.first, b.start, b.count, b.order,
                                                 b.node_count, self.swept, planes, tol,
-                                                self._out, self._stack, self._masks)
+                                                self._out, self._stack, self._masks, self.whole)
             candidates = np.sort(self._out[:found])
             self._exact(candidates)
+            self.whole[candidates] = False
             return candidates, visited, len(candidates), tests
         motion, c = self.animated.motion, self.animated.motion.channels
         kept, visited, found, tests = frustum_pose(
             b.lo, b.hi, b.first, b.start, b.count, b.order, b.node_count, self.swept, planes,
-            tol, self._out, self._stack, self._masks, self.time, motion.loop, motion.duration,
-            motion.step, motion.simple, *c["translation"], *c["rotation"], motion.arc,
-            *c["scale"], motion.pre, motion.post, self.animated.rest_boxes, BOX_PAD,
+            tol, self._out, self._stack, self._masks, self.whole, self.time, motion.loop,
+            motion.duration, motion.step, motion.simple, *c["translation"], *c["rotation"],
+            motion.arc, *c["scale"], motion.pre, motion.post, self.animated.rest_boxes, BOX_PAD,
             self.matrices, self.boxes)
         return self._out[:kept].copy(), visited, found, tests
+
+    def settle(self, objects) -> None:
+        """Matrices and exact boxes at the posed time for those of objects (K,) int64 that
+        in_frustum kept unposed (their swept box wholly inside the frustum)."""
+        need = objects[self.whole[objects]]
+        if len(need):
+            self._exact(need)
+            self.whole[need] = False
 
     def cull(self, state, static) -> np.ndarray:
         """(S,) int64 sorted: static (the static half's world ids, sorted) with the moving
@@ -342,6 +397,8 @@ class MovingObjects:
         else:
             objects = self._all
             self._exact(objects)
+        if self.exact and len(objects):
+            self.settle(objects)
         boxes, matrices = self.boxes, self.matrices
         if not len(objects):
             state.count("moving.objects_sent", 0)

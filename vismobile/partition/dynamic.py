@@ -136,7 +136,12 @@ class DynamicBVH:
         """Refit to boxes (M, 2, 3) (the same objects, moved); rebuild when the SAH cost went
         above `rebuild` times its cost at the last build. Returns True when it rebuilt."""
         boxes = np.ascontiguousarray(boxes, dtype=np.float64)
-        self.cost = self._refit(boxes)
+        return self.refitted(self._refit(boxes), boxes)
+
+    def refitted(self, cost, boxes) -> bool:
+        """After a refit to boxes (M, 2, 3) done elsewhere (_refit on this tree's arrays, which
+        returned the SAH cost `cost`): rebuild when it degraded (update's rule); True if so."""
+        self.cost = float(cost)
         if self.cost > self.rebuild * self.built_cost:
             self._build(boxes)
             self.rebuilds += 1
