@@ -162,6 +162,9 @@ class PagedRoettger:
         self.queue = queue.Queue()
         self.leaf_rows = np.zeros((1 << 12, 4), np.int64)
         self.leaf_count = 0
+        self._out = np.zeros((1 << 12, 3), np.int64)  # triangles(): kept across frames
+        self._side = np.empty((size, 0), np.float32)
+        self._signature = np.zeros(1, np.uint64)
         if thread:
             self.loader = threading.Thread(target=self._load_ahead, daemon=True,
                                            name=f"pages {self.path.name}")
@@ -470,12 +473,12 @@ class PagedRoettger:
         """(T, 3) int64 sample ids of the last select's leaves' fans (Roettger's fans)."""
         from .roettger import _emit
 
-        out = np.zeros((max(16, 8 * self.leaf_count), 3), np.int64)
-        signatures = np.zeros(1, np.uint64)
+        if len(self._out) < 8 * self.leaf_count:  # a fan has at most 8 triangles
+            self._out = np.zeros((8 * self.leaf_count, 3), np.int64)
         # _emit reads only the map's side from its first argument; chunk level 0: one chunk
-        count = _emit(np.empty((self.size, 0), np.float32), self.leaf_rows, self.leaf_count,
-                      self.offsets, 0, out, signatures)
-        return out[:count]
+        count = _emit(self._side, self.leaf_rows, self.leaf_count, self.offsets, 0, self._out,
+                      self._signature)
+        return self._out[:count].copy()
 
     def leaf_errors(self) -> tuple:
         """(e, hmin, hmax) per drawn leaf: d * d2 (0 for a finest leaf with no skip) and its
