@@ -125,3 +125,20 @@ def test_terrain_tile_then_play_pages_roettger(paged_map, tmp_path, capsys):
     assert main(["play", str(tmp_path / "bad.vmrpages"), "-o", str(tmp_path / "bad2")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad.vmrpages" in err[0]
+
+
+def test_a_budget_below_one_frame_grows_the_slots_and_says_so(paged_map):
+    """A frame needing more pages than the budget holds still gets the in-memory leaves: the
+    slots grow (counted in grown) and memory_bytes reports what is held."""
+    hm, roettger, path = paged_map
+    profile = get_profile("ipaq-hx2490b")
+    paged = PagedRoettger(path, budget_bytes=1, thread=False)
+    try:
+        camera = path_cameras(hm, "circle", "fast", frames=1)[0]
+        _, count = paged.select(camera, profile.resolution, 2.0)
+        _, expected = roettger.select(camera, profile.resolution, 2.0)
+        assert np.array_equal(paged.leaf_rows[:count], roettger.leaf_rows[:expected])
+        assert paged.grown > 0 and paged.slots >= len(paged._used()) > 1
+        assert paged.memory_bytes() >= paged.slots * paged.slot_bytes
+    finally:
+        paged.close()
