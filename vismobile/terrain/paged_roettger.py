@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import WorldError
 from ..files.atomic import atomic_writer
-from .paged import NO_DATA, pack_records, sample_normals
+from .paged import pack_records, sample_normals
 from .quadtree import ROETTGER, level_offsets
 from .quadtree_paged import (BASE, PAGE_LEVEL, PER_PAGE, SLOTS, WANTED, balance_paged,
                              leaves_paged, refine_paged, unreduce_finest_paged)
@@ -45,7 +45,6 @@ from .tiles import pixel_scale
 
 MAGIC = b"VMRP"
 MAX_HEADER = 1 << 16
-PAGE_CELLS = 32
 AHEAD = 2.0  # frames of motion ahead the loader thread reads for
 
 
@@ -504,7 +503,3 @@ def _index(offsets, table, l, bi, bj) -> int:
     return int(table[BASE] + slot * table[PER_PAGE] + ((1 << (2 * k)) - 4) // 3
                + (bi & (mk - 1)) * mk + (bj & (mk - 1)))
 
-
-def no_data(records) -> np.ndarray:
-    """(K,) bool: records whose normal bytes mark no data."""
-    return (records[..., 2] == NO_DATA) & (records[..., 3] == NO_DATA)
