@@ -81,8 +81,8 @@ def outcode_frustum(vertices, triangles, planes):
     return (corner[:, 0] & corner[:, 1] & corner[:, 2]) == 0
 
 
-def median_ms(fn, cameras, repeat=3):
-    """Median over cameras of the best of `repeat` runs, in ms."""
+def frame_ms(fn, cameras, repeat=3) -> np.ndarray:
+    """(F,) per camera the best of `repeat` runs, in ms."""
     times = []
     for cam in cameras:
         best = np.inf
@@ -91,7 +91,12 @@ def median_ms(fn, cameras, repeat=3):
             fn(cam)
             best = min(best, time.perf_counter() - t)
         times.append(best * 1e3)
-    return float(np.median(times))
+    return np.array(times)
+
+
+def median_ms(fn, cameras, repeat=3):
+    """Median over cameras of the best of `repeat` runs, in ms."""
+    return float(np.median(frame_ms(fn, cameras, repeat)))
 
 
 def exact_routes(world, profile, cameras, truth, octree) -> list:
@@ -152,8 +157,8 @@ TILED_COMBOS = ("vfc", "vfc,occlusion,tbfc", "vfc,occlusion,tbfc@screen")
 
 def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None,
                combos=TILED_COMBOS) -> list:
-    """Rows (world, triangles, depth, stages, median ms, mean sent, mean visible, sent / visible,
-    dropped, mean nodes visited) on W2 tiled n x n, the trajectory on the centre tile. saved:
+    """Rows (world, triangles, depth, build s, prepare s, stages, median ms, worst ms, mean sent,
+    mean visible, sent / visible, dropped, mean nodes visited) on W2 tiled n x n, the trajectory on the centre tile. saved:
     None, or a .vmp path pattern with {n} and {depth}: the octree is loaded from it when the
     file exists (build s is then the load), else built in memory and saved there. combos:
     the stage combos run on each (--combos when given)."""
@@ -201,8 +206,9 @@ def tiled_rows(sizes, base, traj, frames, profile, depth_of, saved=None,
                 shown.append(len(seen))
                 dropped += len(np.setdiff1d(seen, result.triangles))
                 visited.append(result.stats.get("nodes_visited", 0))
+            times = frame_ms(culler.cull, cameras)  # the worst frame too: the tail counts
             rows.append((world.name, world.triangle_count, depth, build_s, prepare_s, combo,
-                         median_ms(culler.cull, cameras), float(np.mean(sent)),
+                         float(np.median(times)), float(times.max()), float(np.mean(sent)),
                          float(np.mean(shown)), float(np.mean(sent) / max(np.mean(shown), 1)),
                          dropped, float(np.mean(visited))))
         del renderer, world, tree
@@ -492,13 +498,15 @@ def main(argv=None) -> int:
                 "octree depth 5 + ceil(log2 n); visible = item buffer, back-face culled for "
                 "tbfc):", "",
                 "| world | triangles | depth | build s | prepare s | stages | median ms | "
-                "mean sent | mean visible | sent / visible | dropped | nodes visited |",
-                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-        for name, tris, depth, build_s, prep_s, stages, ms, sent, shown, ratio, dropped, \
-                visited in tiles:
+                "worst ms | worst / median | mean sent | mean visible | sent / visible | "
+                "dropped | nodes visited |",
+                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
+                "| --- |"]
+        for name, tris, depth, build_s, prep_s, stages, ms, worst, sent, shown, ratio, \
+                dropped, visited in tiles:
             out.append(f"| {name} | {tris:,} | {depth} | {build_s:.1f} | {prep_s:.1f} | "
-                       f"{stages} | {ms:.3f} | {sent:.0f} | {shown:.0f} | {ratio:.2f} | "
-                       f"{dropped} | {visited:.0f} |")
+                       f"{stages} | {ms:.3f} | {worst:.3f} | {worst / ms:.2f} | {sent:.0f} | "
+                       f"{shown:.0f} | {ratio:.2f} | {dropped} | {visited:.0f} |")
     out += ["", "Mean per-frame counters:", "", "| structure | stages | counters |",
             "| --- | --- | --- |"]
     for kind, combo, *_, mean in rows:
