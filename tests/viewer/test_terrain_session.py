@@ -46,3 +46,23 @@ def test_keys_switch_tau_method_and_stages_and_frames_match_the_scene(terrain, t
     assert np.array_equal(scene.read_rgb(), session.render().image)
     assert again.ground_triangles == session.last_frame.info["ground_triangles"]
     assert coarser.info["tau"] == 2.0
+
+
+@pytest.mark.parametrize("suffix, method", [(".vmtiles", "tiles"), (".vmrpages", "roettger")])
+def test_a_paged_terrain_flies_through_with_its_own_method(tmp_path, suffix, method):
+    """view t.vmtiles / t.vmrpages: the paged terrain's own method at tau (the god view's ground
+    from its coarse samples); M says the method stays; T still cycles tau."""
+    from vismobile.app.cli import main
+
+    store.save(tmp_path / "t.vmt", sources.diamond_square(129, seed=3))
+    path = tmp_path / f"t{suffix}"
+    assert main(["terrain", "tile", str(tmp_path / "t.vmt"), "-o", str(path)]) == 0
+    session = TerrainSession.open_terrain(path, None, 1.0, (), "none",
+                                          record_path=tmp_path / "r.csv")
+    first = session.render()
+    assert first.info["method"] == method and first.info["ground_triangles"] > 0
+    assert session.world.triangle_count > 0  # the stand-in ground
+    session.key_down("M")
+    assert session.terrain.method == method and "method only" in session.message
+    session.key_down("T")
+    assert session.render().info["tau"] == 2.0

@@ -83,3 +83,20 @@ def test_window_flies_through_a_terrain(tmp_path):
     assert result.returncode == 0, result.stderr
     hud = json.loads(shot.with_suffix(".json").read_text())["hud"]
     assert hud[0].startswith("tiles at tau 2 px")  # M: roam -> tiles; T: 1 -> 2 px
+
+
+@needs_xvfb
+def test_window_flies_through_a_paged_terrain(tmp_path):
+    """view t.vmrpages (Röttger paged in by pages): its own method; M keeps it."""
+    from vismobile.app.cli import main
+    from vismobile.terrain import sources, store
+
+    store.save(tmp_path / "t.vmt", sources.diamond_square(65, seed=2))
+    assert main(["terrain", "tile", str(tmp_path / "t.vmt"), "-o",
+                 str(tmp_path / "t.vmrpages")]) == 0
+    shot = tmp_path / "shot.png"
+    result = view(["t.vmrpages", "--script", "UP*4,T,M,UP*2", "--screenshot", str(shot)],
+                  tmp_path)
+    assert result.returncode == 0, result.stderr
+    hud = json.loads(shot.with_suffix(".json").read_text())["hud"]
+    assert hud[0].startswith("roettger at tau 2 px")

@@ -32,8 +32,9 @@ def add_parser(sub):
                         help="a .vmt terrain's tau at start, pixels (default 1; T cycles "
                              "0.5, 1, 2, 4, 8)")
     parser.add_argument("--terrain-method", choices=("tiles", "roettger", "roam"),
-                        default="tiles",
-                        help="a .vmt terrain's LOD method at start (default tiles; M cycles)")
+                        default=None,
+                        help="a .vmt terrain's LOD method at start (default tiles; M cycles; "
+                             "a paged .vmtiles or .vmrpages terrain: its own)")
     parser.add_argument("--no-object-lod", action="store_true",
                         help="a .vmt terrain's objects at full detail (default: at their "
                              "coarsest LOD level within the terrain's tau, which T cycles; "
@@ -96,7 +97,7 @@ def run(args) -> int:
         raise VisMobileError("--screenshot needs --script")
     from . import THESIS_WORLDS, default_trajectory
 
-    if str(args.world).lower().endswith(".vmt"):
+    if str(args.world).lower().endswith((".vmt", ".vmtiles", ".vmrpages")):
         return run_terrain(args, script)
     trajectory = args.trajectory
     if trajectory is None and str(args.world).lower() in THESIS_WORLDS:

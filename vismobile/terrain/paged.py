@@ -257,6 +257,18 @@ class PagedTiles:
         a, b = np.where(upper, fu, fv), np.where(upper, fv, fu)
         return (h00 + (a - b) * (side - h00) + b * (h11 - h00)).reshape(x.shape)
 
+    def coarse_heightmap(self):
+        """A Heightmap of the level 0 tile's (P+1)^2 samples (read, not kept): the viewer's
+        stand-in of the ground."""
+        from .heightmap import Heightmap
+
+        record = self._read(0)
+        n, hm = self.pyramid.patch + 1, self.heightmap
+        samples = record[:, :2].copy().view("<u2")[:, 0].reshape(n, n)
+        valid = ~((record[:, 2] == NO_DATA) & (record[:, 3] == NO_DATA)).reshape(n, n)
+        return Heightmap(samples, hm.extent / (n - 1), hm.z_scale, hm.z_offset, hm.name,
+                         valid if valid.any() else None)
+
     def memory_bytes(self) -> int:
         """Bytes of tile records held (at most the budget) plus the statistics."""
         return len(self.cache) * self.record + 24 * int(self.offsets[-1])

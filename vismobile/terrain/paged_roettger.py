@@ -279,6 +279,17 @@ class PagedRoettger:
         a, b = np.where(upper, fu, fv), np.where(upper, fv, fu)
         return (h00 + (a - b) * (side_h - h00) + b * (h11 - h00)).reshape(x.shape)
 
+    def coarse_heightmap(self):
+        """A Heightmap of every 16th sample (the coarse grid held in memory): the viewer's
+        stand-in of the ground."""
+        from .heightmap import Heightmap
+
+        samples = self.grid[..., :2].copy().view("<u2")[..., 0]
+        valid = ~((self.grid[..., 2] == 0x80) & (self.grid[..., 3] == 0x80))
+        hm = self.heightmap
+        return Heightmap(samples, hm.spacing * self.h, hm.z_scale, hm.z_offset, hm.name,
+                         valid if valid.any() else None)
+
     def memory_bytes(self) -> int:
         """Bytes of the coarse part and of the slots (allocated, held or not)."""
         return self.coarse * 48 + self.grid.nbytes + self.slots * self.slot_bytes
@@ -502,4 +513,3 @@ def _index(offsets, table, l, bi, bj) -> int:
     mk = 1 << k
     return int(table[BASE] + slot * table[PER_PAGE] + ((1 << (2 * k)) - 4) // 3
                + (bi & (mk - 1)) * mk + (bj & (mk - 1)))
-

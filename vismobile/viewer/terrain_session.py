@@ -40,7 +40,9 @@ class TerrainSession(Session):
         from ..app.terrain_play import terrain_camera_options
 
         self.terrain = terrain
-        world = stand_in(terrain.heightmap, terrain.placement)
+        paged = getattr(terrain.lod, "paged", None)  # a .vmtiles or .vmrpages terrain
+        world = stand_in(terrain.heightmap if paged is None else paged.coarse_heightmap(),
+                         terrain.placement)
         super().__init__(Scene(world, None, "none"), (), terrain.profile, trajectory,
                          record_path, structures=("none",), start="overview", **options)
         self.structure = terrain.structure
@@ -54,7 +56,7 @@ class TerrainSession(Session):
             self.pose = np.array([*first.position, first.yaw, first.pitch])
 
     @classmethod
-    def open_terrain(cls, path, method="tiles", tau=1.0, stages=("vfc", "horizon"),
+    def open_terrain(cls, path, method=None, tau=1.0, stages=("vfc", "horizon"),
                      structure="octree:4", profile="ipaq-hx2490b", trajectory=None,
                      object_lod: bool = False, cache_dir=None, **options) -> "TerrainSession":
         """object_lod: the objects at their coarsest level of detail within the terrain's tau
@@ -84,7 +86,11 @@ class TerrainSession(Session):
             self.message = f"terrain tau {terrain.tau:g} px"
         elif action == "terrain_method":
             method = METHODS[(METHODS.index(terrain.method) + 1) % len(METHODS)]
-            terrain.set_method(method)
+            try:
+                terrain.set_method(method)
+            except VisMobileError as error:  # a paged terrain has one method
+                self.message = str(error)
+                return
             self.message = f"terrain method {method}"
         elif action.startswith("toggle:"):
             stage = action.split(":", 1)[1]
