@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..partition.dynamic import DynamicBVH, _refit
+from ..partition.dynamic import DynamicBVH, refit_rows
 from ..world.animated import BOX_PAD, _moved_rows, moved_boxes, transform_rows
 from ..world.motion import _matrices
 from ..world.swept import SPAN, expired, swept_boxes
@@ -132,24 +132,24 @@ def frustum_pose(lo, hi, first, start, count, order, n_nodes, swept, planes, tol
 
 @njit(cache=True, nogil=True)
 def advance(t, valid_from, valid_until, rows, loop, duration, step, tt, tv, ts, rt, rv, rs, st,
-            sv, ss, pre, post, rest, swept, order, lo, hi, first, start, count, n_nodes, span):
+            sv, ss, pre, post, rest, swept, order, lo, hi, first, start, count, parent,
+            leaf_of, dirty, n_nodes, area_sum, span):
     """MovingObjects.pose's update in one compiled call: the tracks whose interval does not
-    hold t (swept.expired, into rows) swept anew (swept.swept_boxes), then, when any, the
-    largest |coordinate| of all swept boxes and the BVH refitted to them (dynamic._refit).
-    Returns (tracks swept, that largest |coordinate|, the refit's SAH cost); (0, -1, -1) when
-    nothing expired (nothing changed)."""
+    hold t (swept.expired, into rows) swept anew (swept.swept_boxes), then, when any, the BVH
+    nodes above them refitted (dynamic.refit_rows) and the largest |coordinate| of all swept
+    boxes read off the root's box (it is their exact bound). Returns (tracks swept, that largest
+    |coordinate|, the SAH cost, its numerator); (0, -1, -1, area_sum) when nothing expired."""
     n = expired(t, valid_from, valid_until, rows)
-    if n == 0:
-        return 0, -1.0, -1.0
+    if n == 0 or n_nodes == 0:
+        return n, (-1.0 if n == 0 else 0.0), (-1.0 if n == 0 else 0.0), area_sum
     swept_boxes(t, rows[:n], loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre,
                 post, rest, swept, valid_from, valid_until, span)
+    cost, area_sum = refit_rows(swept, rows[:n], order, lo, hi, first, start, count, parent,
+                                leaf_of, dirty, n_nodes, area_sum)
     most = 0.0
-    for k in range(len(swept)):
-        for i in range(2):
-            for j in range(3):
-                most = max(most, abs(swept[k, i, j]))
-    cost = _refit(swept, order, lo, hi, first, start, count, n_nodes) if n_nodes else 0.0
-    return n, most, cost
+    for j in range(3):
+        most = max(most, max(abs(lo[0, j]), abs(hi[0, j])))
+    return n, most, cost, area_sum
 
 
 @njit(cache=True, nogil=True)
@@ -309,14 +309,14 @@ class MovingObjects:
             raise ValueError(f"time must be finite, got {time}")
         self._rest = False
         c, b = motion.channels, self.bvh
-        count, most, cost = advance(
+        count, most, cost, area_sum = advance(
             t, self.valid_from, self.valid_until, self._expired, motion.loop, motion.duration,
             motion.step, *c["translation"], *c["rotation"], *c["scale"], motion.pre,
             motion.post, a.rest_boxes, self.swept, b.order, b.lo, b.hi, b.first, b.start,
-            b.count, b.node_count, self.span)
+            b.count, b.parent, b.leaf_of, b.dirty, b.node_count, b.area_sum, self.span)
         if count:
             self.magnitude = most
-            self.rebuilt = b.refitted(cost, self.swept)
+            self.rebuilt = b.refitted(cost, area_sum, self.swept)
             self.expired = count
         if len(self.always):
             motion.matrices(t, self.matrices, self.always)

@@ -89,6 +89,69 @@ def _refit(boxes, order, lo, hi, first, start, count, n_nodes):
     return cost
 
 
+@njit(cache=True, nogil=True)
+def _links(first, start, count, order, n_nodes, parent, leaf_of):
+    """parent (N,) of each node (-1 at the root) and leaf_of (M,) the leaf holding each object."""
+    parent[0] = -1
+    for node in range(n_nodes):
+        if first[node] >= 0:
+            parent[first[node]] = node
+            parent[first[node] + 1] = node
+        else:
+            for i in range(start[node], start[node] + count[node]):
+                leaf_of[order[i]] = node
+
+
+@njit(cache=True, nogil=True)
+def _area_sum(lo, hi, first, count, n_nodes):
+    """The SAH cost's numerator: sum over nodes of box area x (1 inner, objects at a leaf)."""
+    total = 0.0
+    for node in range(n_nodes):
+        total += _area(lo, hi, node) * (1.0 if first[node] >= 0 else count[node])
+    return total
+
+
+@njit(cache=True, nogil=True)
+def refit_rows(boxes, rows, order, lo, hi, first, start, count, parent, leaf_of, dirty,
+               n_nodes, area_sum):
+    """Refit only the nodes above the objects rows (K,) (their boxes changed), bottom-up: the
+    same node boxes as _refit over all (min / max are exact). Returns (SAH cost, its numerator
+    kept up to date from area_sum: O(changed nodes), rounding aside the value _refit sums)."""
+    for i in range(len(rows)):
+        node = leaf_of[rows[i]]
+        while node >= 0 and not dirty[node]:
+            dirty[node] = True
+            node = parent[node]
+    total = area_sum
+    weight_sum = 0.0
+    for node in range(n_nodes - 1, -1, -1):  # children after parents: bottom-up
+        if first[node] < 0:
+            weight_sum += count[node]
+        else:
+            weight_sum += 1.0
+        if not dirty[node]:
+            continue
+        dirty[node] = False
+        weight = 1.0 if first[node] >= 0 else float(count[node])
+        total -= _area(lo, hi, node) * weight
+        for j in range(3):
+            lo[node, j], hi[node, j] = np.inf, -np.inf
+        if first[node] < 0:
+            for i in range(start[node], start[node] + count[node]):
+                k = order[i]
+                for j in range(3):
+                    lo[node, j] = min(lo[node, j], boxes[k, 0, j])
+                    hi[node, j] = max(hi[node, j], boxes[k, 1, j])
+        else:
+            for c in range(first[node], first[node] + 2):
+                for j in range(3):
+                    lo[node, j] = min(lo[node, j], lo[c, j])
+                    hi[node, j] = max(hi[node, j], hi[c, j])
+        total += _area(lo, hi, node) * weight
+    root = _area(lo, hi, 0) if n_nodes else 0.0
+    return (total / root if root > 0 else weight_sum), total
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _area(lo, hi, node):
     dx = max(hi[node, 0] - lo[node, 0], 0.0)
@@ -115,6 +178,9 @@ class DynamicBVH:
         self.count = np.zeros(size, dtype=np.int64)
         self.order = np.arange(m, dtype=np.int64)
         self._stacks = tuple(np.zeros(size + 64, dtype=np.int64) for _ in range(3))
+        self.parent = np.full(size, -1, dtype=np.int64)
+        self.leaf_of = np.zeros(m, dtype=np.int64)
+        self.dirty = np.zeros(size, dtype=np.bool_)  # refit_rows' marks (cleared as it goes)
         self.rebuilds = 0
         self.node_count = 0
         self._build(boxes)
@@ -124,24 +190,34 @@ class DynamicBVH:
         self.order[:] = np.arange(len(boxes))
         self.node_count = _build(centres, self.order, self.lo, self.hi, self.first, self.start,
                                  self.count, *self._stacks, self.leaf) if len(boxes) else 0
+        if self.node_count:
+            _links(self.first, self.start, self.count, self.order, self.node_count, self.parent,
+                   self.leaf_of)
         self.cost = self.built_cost = self._refit(boxes)
 
     def _refit(self, boxes) -> float:
+        """Every node refitted; returns the SAH cost (and keeps area_sum, its numerator)."""
         if not self.node_count:
+            self.area_sum = 0.0
             return 0.0
-        return float(_refit(boxes, self.order, self.lo, self.hi, self.first, self.start,
+        cost = float(_refit(boxes, self.order, self.lo, self.hi, self.first, self.start,
                             self.count, self.node_count))
+        self.area_sum = float(_area_sum(self.lo, self.hi, self.first, self.count,
+                                        self.node_count))
+        return cost
 
     def update(self, boxes) -> bool:
         """Refit to boxes (M, 2, 3) (the same objects, moved); rebuild when the SAH cost went
         above `rebuild` times its cost at the last build. Returns True when it rebuilt."""
         boxes = np.ascontiguousarray(boxes, dtype=np.float64)
-        return self.refitted(self._refit(boxes), boxes)
+        cost = self._refit(boxes)
+        return self.refitted(cost, self.area_sum, boxes)
 
-    def refitted(self, cost, boxes) -> bool:
-        """After a refit to boxes (M, 2, 3) done elsewhere (_refit on this tree's arrays, which
-        returned the SAH cost `cost`): rebuild when it degraded (update's rule); True if so."""
-        self.cost = float(cost)
+    def refitted(self, cost, area_sum, boxes) -> bool:
+        """After a refit to boxes (M, 2, 3) done elsewhere (refit_rows on this tree's arrays,
+        which returned the SAH cost `cost` and its numerator `area_sum`): rebuild when it
+        degraded (update's rule); True if so."""
+        self.cost, self.area_sum = float(cost), float(area_sum)
         if self.cost > self.rebuild * self.built_cost:
             self._build(boxes)
             self.rebuilds += 1
