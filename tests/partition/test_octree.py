@@ -107,3 +107,14 @@ def test_compiled_levels_match_the_numpy_formulation(request, name, depth):
         assert np.array_equal(boxes, want_boxes) and np.array_equal(parent, want_parent)
     assert np.array_equal(got_node, node) and np.array_equal(got_tri, tri)
     assert len(tri) > world.triangle_count  # some triangles straddle cells: the test ran
+
+
+def test_a_level_refuses_unsorted_references(suzanne):
+    from vismobile.partition.layout import check_references
+    from vismobile.partition.octree_split import split_level
+
+    boxes = np.repeat(suzanne.extent[None].astype(np.float64), 2, axis=0)
+    node = np.array([1, 0], dtype=np.int64)  # box 1's reference before box 0's
+    tri = np.array([0, 1], dtype=np.int64)
+    with pytest.raises(ValueError, match="sorted by box"):
+        split_level(boxes, node, tri, suzanne.vertices, suzanne.triangles, check_references, 1)

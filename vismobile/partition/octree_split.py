@@ -108,6 +108,8 @@ def children_refs(pair_node, pair_tri, masks, total, popcount):
     children = 0
     s = 0
     while s < count:
+        if s > 0 and pair_node[s] < pair_node[s - 1]:
+            raise ValueError("octree references must be sorted by box")
         e, union = s, 0
         while e < count and pair_node[e] == pair_node[s]:
             union |= masks[e]
