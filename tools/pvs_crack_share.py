@@ -8,7 +8,8 @@ them open (as shipped), and with each crack portal open alone.
 Per source cell: its set (a share of the world's triangles) without cracks and with all of them;
 then, for every crack portal (or --cracks of them drawn at random), the triangles its walk adds
 to the crack-free set when that crack alone is open: how many cracks add anything, more than 1%
-and more than 10% of the world, and the five that add most (segment, the two cells). --split
+and more than 10% of the world, and the five that add most (number among the cracks, as
+tools/pvs_anchored.py --crack takes it; segment; the two cells). --split
 bakes over the sealed cells (pvs_refine: thin cells split at their reveals, as tools/pvs_slack.py
 does); --slope scales the crack's width per unit of distance (pvs_cracks.CRACK_SLOPE), to see
 whether narrower cracks would let less through. Diagnostics only: a walk with cracks closed is
@@ -95,7 +96,8 @@ def run(name, sources, split, sample, slope_scale):
         for i in np.argsort(-added)[:5]:
             p = ids[i]
             a, b = g["portal_cells"][p]
-            print(f"    +{100 * share[i]:.1f}%: crack {quads[p, 0].round(2).tolist()} - "
+            print(f"    +{100 * share[i]:.1f}%: crack {int(np.searchsorted(np.flatnonzero(crack), p))}"
+                  f" {quads[p, 0].round(2).tolist()} - "
                   f"{quads[p, 1].round(2).tolist()} between cells {a} {bounds[a].round(1).tolist()}"
                   f" and {b} {bounds[b].round(1).tolist()}", flush=True)
 
