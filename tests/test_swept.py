@@ -2,18 +2,19 @@
 its interval (random tracks: linear and step, looping or clamped, pivots, scales, pre/post
 matrices), and the interval is where its channels stay within one key segment."""
 import numpy as np
+import pytest
 
 from vismobile.world.animated import moved_boxes
 from vismobile.world.motion import Motion, Track
 from vismobile.world.swept import expired, swept_boxes
 
 
-def random_motion(rng, count=40):
+def random_motion(rng, count=40, scale=0.8):
     tracks = []
     for i in range(count):
         channels = {}
         for name, width in (("translation", 3), ("rotation", 4), ("scale", 3)):
-            if rng.random() < 0.8:
+            if rng.random() < (scale if name == "scale" else 0.8):
                 k = int(rng.integers(1, 5))
                 times = np.sort(rng.choice(np.arange(0.0, 8.0, 0.25), k, replace=False))
                 values = rng.normal(size=(k, width)) * (5 if name == "translation" else 1)
@@ -34,9 +35,12 @@ def random_motion(rng, count=40):
     return Motion(tracks)
 
 
-def test_swept_boxes_hold_the_exact_box_over_their_interval():
-    rng = np.random.default_rng(7)
-    motion = random_motion(rng)
+@pytest.mark.parametrize("seed, scale", [(7, 0.8), (8, 0.0), (9, 0.0)])
+def test_swept_boxes_hold_the_exact_box_over_their_interval(seed, scale):
+    """scale 0: no scale channel, so every turning track takes the turn's axis bound
+    (swept._arc_box) rather than the ball."""
+    rng = np.random.default_rng(seed)
+    motion = random_motion(rng, scale=scale)
     m = len(motion)
     rest = np.sort(rng.normal(size=(m, 2, 3)), axis=1)
     c = motion.channels

@@ -10,7 +10,10 @@ box of its values at the interval's ends), scale linearly (its
 magnitude at most the larger key's largest |component|), rotation along the slerp arc (a turn:
 lengths kept). With q = pre v for a vertex v of the rest box B, the moved point post (T + R S q)
 lies in post(hull(T_a, T_b) + R S pre(B)) when rotation and scale stay fixed over the interval
-(steps, equal keys: the exact moved box), else in post(hull(T_a, T_b) + ball(0, s_max max|q|)).
+(steps, equal keys: the exact moved box); when only the rotation turns, in post(hull(T_a, T_b)
++ the box of the circles that the corners of R_a S pre(B) run on about the turn's axis)
+(_arc_box: a walker turning about +y keeps its height); else in post(hull(T_a, T_b) +
+ball(0, s_max max|q|)).
 Boxes are padded outward by SWEEP_PAD relative to their terms' magnitudes (the per-frame matrices
 round differently). Contract: for every t in [valid_from, valid_until) the object's exact box
 at t (animated.moved_boxes) lies inside its swept box.
@@ -26,10 +29,11 @@ SWEEP_PAD = 2.0 ** -30
 # Intervals are cut to windows of this many seconds (in each track's own time, staggered by a
 # per-track phase so that the sweeps spread over the frames), and translation is bounded over
 # the window only: tighter boxes (W2's walkers, 1,000 instances: 198 -> 180 candidates a frame
-# at 0.5 s) for one sweep per object every SPAN seconds. 1 s against 0.5 s (W2 + 1,000 walkers,
-# 120 path frames, thread time beside the static vfc, load 8-10): sweeps 97.8 -> 65.5 a frame,
-# candidates 178 -> 184, the update 70.5 -> 59.2 and 76.1 -> 66.6 us; 1.5 s and 2 s no better.
-SPAN = 1.0
+# at 0.5 s) for one sweep per object every SPAN seconds. With the turn's axis bound
+# (_arc_box; W2 + 1,000 walkers, 120 path frames, thread time beside the static vfc, load 7):
+# 1 s / 2 s / 4 s windows: sweeps 65.5 / 49.4 / 41.4 a frame, candidates 158 / 170 / 177, the
+# update 60.9 / 53.1 / 50.3 us (0.5 s before the axis bound: 97.8 sweeps, 178 candidates).
+SPAN = 2.0
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -46,6 +50,52 @@ def _span(times, a, b, t, step):
     if step:
         return lo, lo, times[lo], times[hi]
     return lo, hi, times[lo], times[hi]
+
+
+@njit(cache=True, nogil=True)
+def _arc_box(rv, r0, r1, sv, s0, q, m, box):
+    """The box of R S q over the rotation's slerp from key r0 to key r1 (scale fixed: key s0,
+    none when s0 < 0), q the box q (2, 3): writes box (2, 3), returns False (box untouched)
+    when the turn's axis is undefined (a turn of ~0). The slerp is R(u) = Rot(a, u angle) R0
+    with a the axis of q1' q0^-1 (q1' = q1 on the shortest arc; the nearly-equal lerp keeps to
+    the same great circle): each corner p = R0 S c runs on a circle about a, whose coordinate j
+    stays within (p . a) a_j +- |p - (p . a) a| sqrt(1 - a_j^2); the object, a convex
+    combination of its box's corners, stays in the box of the corners' circles."""
+    x0, y0, z0, w0 = rv[r0, 0], rv[r0, 1], rv[r0, 2], rv[r0, 3]
+    x1, y1, z1, w1 = rv[r1, 0], rv[r1, 1], rv[r1, 2], rv[r1, 3]
+    if x0 * x1 + y0 * y1 + z0 * z1 + w0 * w1 < 0:
+        x1, y1, z1, w1 = -x1, -y1, -z1, -w1
+    # vector part of q1 q0^-1: w0 v1 - w1 v0 - v1 x v0
+    ax = w0 * x1 - w1 * x0 - (y1 * z0 - z1 * y0)
+    ay = w0 * y1 - w1 * y0 - (z1 * x0 - x1 * z0)
+    az = w0 * z1 - w1 * z0 - (x1 * y0 - y1 * x0)
+    length = np.sqrt(ax * ax + ay * ay + az * az)
+    if not length > 1e-9:
+        return False
+    ax, ay, az = ax / length, ay / length, az / length
+    sx = sy = sz = 1.0
+    if s0 >= 0:
+        sx, sy, sz = sv[s0, 0], sv[s0, 1], sv[s0, 2]
+    rotation_scale(x0, y0, z0, w0, sx, sy, sz, m)
+    spread = np.empty(3)
+    spread[0] = np.sqrt(max(1.0 - ax * ax, 0.0))
+    spread[1] = np.sqrt(max(1.0 - ay * ay, 0.0))
+    spread[2] = np.sqrt(max(1.0 - az * az, 0.0))
+    for r in range(3):
+        box[0, r], box[1, r] = np.inf, -np.inf
+    for corner in range(8):
+        cx, cy, cz = q[corner & 1, 0], q[(corner >> 1) & 1, 1], q[(corner >> 2) & 1, 2]
+        px = m[0, 0] * cx + m[0, 1] * cy + m[0, 2] * cz
+        py = m[1, 0] * cx + m[1, 1] * cy + m[1, 2] * cz
+        pz = m[2, 0] * cx + m[2, 1] * cy + m[2, 2] * cz
+        along = px * ax + py * ay + pz * az
+        ex, ey, ez = px - along * ax, py - along * ay, pz - along * az
+        radius = np.sqrt(ex * ex + ey * ey + ez * ez)
+        for r, a in ((0, ax), (1, ay), (2, az)):
+            centre = along * a
+            box[0, r] = min(box[0, r], centre - radius * spread[r])
+            box[1, r] = max(box[1, r], centre + radius * spread[r])
+    return True
 
 
 @njit(cache=True, nogil=True)
@@ -103,6 +153,13 @@ def swept_boxes(t, rows, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, s
                 same = same and rv[r0, c] == rv[r1, c]
                 flip = flip and rv[r0, c] == -rv[r1, c]
             fixed = fixed and (same or flip)
+        turning = False
+        if not fixed and r0 >= 0 and r0 != r1:  # only the rotation may change
+            turning = True
+            for c in range(3):
+                turning = turning and (s0 < 0 or sv[s0, c] == sv[s1, c])
+        if turning:
+            turning = _arc_box(rv, r0, r1, sv, s0, q, m, box)
         if fixed:
             x, y, z, w = 0.0, 0.0, 0.0, 1.0
             if r0 >= 0:
@@ -118,7 +175,7 @@ def swept_boxes(t, rows, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, s
                     lo += min(a, b)
                     hi += max(a, b)
                 box[0, r], box[1, r] = lo, hi
-        else:
+        elif not turning:
             for r in range(3):
                 box[0, r], box[1, r] = -smax * reach, smax * reach
         if t0 >= 0:  # plus the translation's hull over [start, until] (linear in between)
