@@ -119,21 +119,8 @@ def atomic_write_bytes(path, data: bytes) -> None:
     Raises OutputError naming path when it is not a regular file's place, or when writing
     fails (read-only or full file system); no temporary file is left behind.
     """
-    path = check_destination(path)
-    make_dirs(path.parent)
-    sweep_stale(path.parent)
-    tmp = temp_path(path)
-    try:
-        with open(tmp, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except OSError as error:
-        raise OutputError(path, f"cannot write: {error.strerror or error}") from None
-    finally:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+    with atomic_writer(path) as handle:
+        handle.write(data)
 
 
 @contextlib.contextmanager
