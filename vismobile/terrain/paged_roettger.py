@@ -13,7 +13,7 @@ blocks, then the coarse vertex grid's records, CRC'd in the header), then one fi
 record per page in row-major order: its statistics as 5 x per_page float64, its vertex
 records, and a CRC32 of both.
 
-`PagedRoettger(path, budget_bytes)` refines with terrain/quadtree_paged.py's kernels: a page
+`PagedRoettger(path, budget_bytes)` refines with terrain/quadtree.py's *_paged kernels: a page
 level block whose page is not held is not subdivided and the page is wanted; wanted pages are
 read at once (misses, counted) and the frame is refined again, until nothing is wanted, so
 every frame's leaves are the in-memory method's exactly (tests/terrain/test_paged_roettger.py).
@@ -38,9 +38,9 @@ import numpy as np
 from ..errors import WorldError
 from ..files.atomic import atomic_writer
 from .paged import pack_records, sample_normals
-from .quadtree import ROETTGER, level_offsets
-from .quadtree_paged import (BASE, PAGE_LEVEL, PER_PAGE, SLOTS, WANTED, balance_paged,
-                             leaves_paged, refine_paged, unreduce_finest_paged)
+from .quadtree import (ROETTGER, balance_paged, leaves_paged, level_offsets, refine_paged,
+                       unreduce_finest_paged)
+from .quadtree_paged import BASE, PAGE_LEVEL, PER_PAGE, SLOTS, WANTED
 from .tiles import pixel_scale
 
 MAGIC = b"VMRP"

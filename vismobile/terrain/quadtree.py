@@ -5,11 +5,19 @@ Nodes are squares of a (2^n+1)^2 heightmap: node (l, bi, bj) spans s = cells >> 
 arrays. Frame state is a stamp per node: subdivided in frame F when stamp == F, so nothing is
 cleared between frames. After refinement, balancing makes every subdivided node's four edge
 neighbours exist, so neighbouring leaves differ by at most one level.
+
+Each kernel also runs over a paged tree (quadtree_paged.py's page table, the *_paged names):
+one body, specialised by numba on the table's type, so the in-memory kernels (table None) keep
+their own code: the storage index, the may-split test and the split are overloads that fold to
+the flat arithmetic when there is no table.
 """
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
+
+from .quadtree_paged import may_split, node_index, table_locals, want
 
 ROETTGER, BOUND = 0, 1  # refinement criteria
 
@@ -31,6 +39,86 @@ def box_visible(planes, x0, y0, z0, x1, y1, z1):
     return True
 
 
+def _flat(table):
+    return table is None or isinstance(table, types.NoneType)
+
+
+def _view(table):
+    """(pg, slots): the page table's locals (quadtree_paged.table_locals), or (None, None)."""
+
+
+def _index(offsets, pg, slots, l, bi, bj):
+    """Storage index of node (l, bi, bj) (quadtree_paged.node_index: -1 when not resident)."""
+
+
+def _may_split(pg, slots, table, l, bi, bj):
+    """quadtree_paged.may_split; always True in memory."""
+
+
+def _split(offsets, pg, slots, table, stamp, frame, lists, counts, list_offsets, l, bi, bj,
+           node, index):
+    """Subdivide node (l, bi, bj) (its id node within the level, its storage index) unless it
+    is already, or has no storage, or is a page level node of a page not resident (then
+    wanted). Returns 1 when it was subdivided now."""
+
+
+@overload(_view)
+def _view_impl(table):
+    def flat(table):
+        return None, None
+
+    def paged(table):
+        return table_locals(table)
+    return flat if _flat(table) else paged
+
+
+@overload(_index)
+def _index_impl(offsets, pg, slots, l, bi, bj):
+    def flat(offsets, pg, slots, l, bi, bj):
+        return offsets[l] + bi * (1 << l) + bj
+
+    def paged(offsets, pg, slots, l, bi, bj):
+        return node_index(offsets, pg, slots, l, bi, bj)
+    return flat if _flat(pg) else paged
+
+
+@overload(_may_split)
+def _may_split_impl(pg, slots, table, l, bi, bj):
+    def flat(pg, slots, table, l, bi, bj):
+        return True
+
+    def paged(pg, slots, table, l, bi, bj):
+        return may_split(pg, slots, table, l, bi, bj)
+    return flat if _flat(pg) else paged
+
+
+@overload(_split)
+def _split_impl(offsets, pg, slots, table, stamp, frame, lists, counts, list_offsets, l, bi, bj,
+                node, index):
+    def paged(offsets, pg, slots, table, stamp, frame, lists, counts, list_offsets, l, bi, bj,
+              node, index):
+        if index < 0:
+            lg = pg[0]
+            want(table, lg, (bi >> (l - lg)) * (1 << lg) + (bj >> (l - lg)))
+            return 0
+        if stamp[index] == frame or not may_split(pg, slots, table, l, bi, bj):
+            return 0
+        stamp[index] = frame
+        lists[list_offsets[l] + counts[l]] = node
+        counts[l] += 1
+        return 1
+
+    def flat(offsets, pg, slots, table, stamp, frame, lists, counts, list_offsets, l, bi,
+                   bj, node, index):
+        if stamp[index] == frame:
+            return 0
+        stamp[index] = frame
+        lists[list_offsets[l] + counts[l]] = node
+        counts[l] += 1
+        return 1
+    return flat if _flat(pg) else paged
+
+
 @njit(cache=True)
 def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, stamp, frame,
            eye, planes, mode, a, b, cull, lists, counts):
@@ -44,6 +132,23 @@ def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, s
     Nodes outside the frustum are not refined when cull. lists gets level l's subdivided nodes
     at lists[offsets[l]:offsets[l] + counts[l]]. Returns the nodes whose criterion ran.
     """
+    return _refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, stamp,
+                   frame, eye, planes, mode, a, b, cull, lists, counts, None, offsets)
+
+
+@njit(cache=True)
+def refine_paged(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, stamp,
+                 frame, eye, planes, mode, a, b, cull, lists, counts, table, list_offsets):
+    """refine over a paged tree: lists at list_offsets; a page level node whose page is not
+    resident is not subdivided (the page wanted)."""
+    return _refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, stamp,
+                   frame, eye, planes, mode, a, b, cull, lists, counts, table, list_offsets)
+
+
+@njit(cache=True)
+def _refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, stamp, frame,
+            eye, planes, mode, a, b, cull, lists, counts, table, list_offsets):
+    pg, slots = _view(table)
     for l in range(levels + 1):
         counts[l] = 0
     stack = np.empty((4 * (levels + 2), 3), np.int64)
@@ -56,7 +161,9 @@ def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, s
         if l == levels:
             continue
         m = 1 << l
-        index = offsets[l] + bi * m + bj
+        index = _index(offsets, pg, slots, l, bi, bj)
+        if index < 0:
+            continue
         s = cells >> l
         x0, z0 = bj * s * spacing, bi * s * spacing
         x1, z1 = x0 + s * spacing, z0 + s * spacing
@@ -74,16 +181,16 @@ def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, s
             split = l1 < d * a or dist < d * a * b * error[index]
         else:
             split = a * error[index] > b * dist
-        if split:
+        if split and _may_split(pg, slots, table, l, bi, bj):
             stamp[index] = frame
-            lists[offsets[l] + counts[l]] = bi * m + bj
+            lists[list_offsets[l] + counts[l]] = bi * m + bj
             counts[l] += 1
             for k in range(4):
                 stack[top, 0] = l + 1
                 stack[top, 1] = 2 * bi + (k >> 1)
                 stack[top, 2] = 2 * bj + (k & 1)
                 top += 1
-    balance(offsets, levels, stamp, frame, lists, counts)
+    _balance(offsets, levels, stamp, frame, lists, counts, table, list_offsets)
     return tested
 
 
@@ -91,12 +198,24 @@ def refine(cells, spacing, centre_heights, error, hmin, hmax, offsets, levels, s
 def balance(offsets, levels, stamp, frame, lists, counts):
     """Fine to coarse: a subdivided node's edge neighbours must exist (their parents
     subdivided). Splitting at level l-1 only adds leaves at level l, so one pass."""
+    _balance(offsets, levels, stamp, frame, lists, counts, None, offsets)
+
+
+@njit(cache=True)
+def balance_paged(offsets, levels, stamp, frame, lists, counts, table, list_offsets):
+    """balance over a paged tree."""
+    _balance(offsets, levels, stamp, frame, lists, counts, table, list_offsets)
+
+
+@njit(cache=True)
+def _balance(offsets, levels, stamp, frame, lists, counts, table, list_offsets):
+    pg, slots = _view(table)
     for l in range(levels - 1, 0, -1):
         m = 1 << l
         pm = m >> 1
         k = 0
         while k < counts[l]:
-            node = lists[offsets[l] + k]
+            node = lists[list_offsets[l] + k]
             bi, bj = node // m, node % m
             k += 1
             for q in range(5):
@@ -111,36 +230,37 @@ def balance(offsets, levels, stamp, frame, lists, counts):
                     nj -= 1
                 if ni < 0 or nj < 0 or ni >= m or nj >= m:
                     continue
-                parent = (ni >> 1) * pm + (nj >> 1)
-                if stamp[offsets[l - 1] + parent] != frame:
-                    stamp[offsets[l - 1] + parent] = frame
-                    lists[offsets[l - 1] + counts[l - 1]] = parent
-                    counts[l - 1] += 1
+                index = _index(offsets, pg, slots, l - 1, ni >> 1, nj >> 1)
+                if index >= 0 and stamp[index] == frame:
+                    continue
+                _split(offsets, pg, slots, table, stamp, frame, lists, counts, list_offsets,
+                       l - 1, ni >> 1, nj >> 1, (ni >> 1) * pm + (nj >> 1), index)
 
 
 @njit(cache=True, inline="always")
-def present(stamp, offsets, frame, l, bi, bj):
-    """Node (l, bi, bj) exists this frame: the root, or its parent is subdivided."""
-    if l == 0:
-        return True
-    pm = 1 << (l - 1)
-    return stamp[offsets[l - 1] + (bi >> 1) * pm + (bj >> 1)] == frame
-
-
-@njit(cache=True, inline="always")
-def coarser_sides(stamp, offsets, frame, l, bi, bj):
+def coarser_sides(stamp, offsets, frame, l, bi, bj, pg, slots):
     """Bits of the sides whose same-level neighbour does not exist (a coarser leaf is there):
-    1 row-0 side, 2 last-column side, 4 last-row side, 8 column-0 side; never the border."""
+    1 row-0 side, 2 last-column side, 4 last-row side, 8 column-0 side; never the border.
+    pg, slots: _view(table)."""
     m = 1 << l
     sides = 0
-    if bi > 0 and not present(stamp, offsets, frame, l, bi - 1, bj):
-        sides |= 1
-    if bj < m - 1 and not present(stamp, offsets, frame, l, bi, bj + 1):
-        sides |= 2
-    if bi < m - 1 and not present(stamp, offsets, frame, l, bi + 1, bj):
-        sides |= 4
-    if bj > 0 and not present(stamp, offsets, frame, l, bi, bj - 1):
-        sides |= 8
+    if l == 0:
+        return 0
+    for bit in range(4):
+        ni, nj = bi, bj
+        if bit == 0:
+            ni -= 1
+        elif bit == 1:
+            nj += 1
+        elif bit == 2:
+            ni += 1
+        else:
+            nj -= 1
+        if ni < 0 or nj < 0 or ni >= m or nj >= m:
+            continue
+        index = _index(offsets, pg, slots, l - 1, ni >> 1, nj >> 1)
+        if index < 0 or stamp[index] != frame:
+            sides |= 1 << bit
     return sides
 
 
@@ -148,6 +268,21 @@ def coarser_sides(stamp, offsets, frame, l, bi, bj):
 def leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull, out):
     """Visible leaves as rows (level, bi, bj, sides) of out, in depth-first order; returns
     (count, leaves in the tree), count -1 when out has too few rows (4^levels always suffice)."""
+    return _leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull, out,
+                   None)
+
+
+@njit(cache=True)
+def leaves_paged(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull, out,
+                 table):
+    """leaves over a paged tree."""
+    return _leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull, out,
+                   table)
+
+
+@njit(cache=True)
+def _leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cull, out, table):
+    pg, slots = _view(table)
     stack = np.empty((4 * (levels + 2), 3), np.int64)
     stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, 0
     top = 1
@@ -156,8 +291,7 @@ def leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cu
     while top > 0:
         top -= 1
         l, bi, bj = stack[top, 0], stack[top, 1], stack[top, 2]
-        m = 1 << l
-        index = offsets[l] + bi * m + bj
+        index = _index(offsets, pg, slots, l, bi, bj)
         if l < levels and stamp[index] == frame:
             for k in range(4):
                 stack[top, 0] = l + 1
@@ -174,7 +308,7 @@ def leaves(cells, spacing, hmin, hmax, offsets, levels, stamp, frame, planes, cu
         if count == out.shape[0]:
             return -1, total
         out[count, 0], out[count, 1], out[count, 2] = l, bi, bj
-        out[count, 3] = coarser_sides(stamp, offsets, frame, l, bi, bj)
+        out[count, 3] = coarser_sides(stamp, offsets, frame, l, bi, bj, pg, slots)
         count += 1
     return count, total
 
@@ -188,6 +322,25 @@ def unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, counts
     entries read), is over tau from its box (lam * E > tau * dist), subdivide every coarser
     neighbour so the side keeps its vertices. Children of newly subdivided nodes are checked in
     the same loop. Returns the nodes subdivided (balance again afterwards)."""
+    return _unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, counts,
+                            skip_error, hmin, hmax, eye, planes, lam, tau, cull, None, offsets)
+
+
+@njit(cache=True)
+def unreduce_finest_paged(cells, spacing, levels, offsets, stamp, frame, lists, counts,
+                          skip_error, hmin, hmax, eye, planes, lam, tau, cull, table,
+                          list_offsets):
+    """unreduce_finest over a paged tree (a neighbour of a page not resident: the page
+    wanted)."""
+    return _unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, counts,
+                            skip_error, hmin, hmax, eye, planes, lam, tau, cull, table,
+                            list_offsets)
+
+
+@njit(cache=True)
+def _unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, counts, skip_error,
+                     hmin, hmax, eye, planes, lam, tau, cull, table, list_offsets):
+    pg, slots = _view(table)
     L = levels
     m = 1 << L
     pm = m >> 1
@@ -195,12 +348,12 @@ def unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, counts
     added = 0
     k = 0
     while k < counts[L - 1]:
-        node = lists[offsets[L - 1] + k]
+        node = lists[list_offsets[L - 1] + k]
         k += 1
         pi, pj = node // pm, node % pm
         for q in range(4):
             bi, bj = 2 * pi + (q >> 1), 2 * pj + (q & 1)
-            index = offsets[L] + bi * m + bj
+            index = _index(offsets, pg, slots, L, bi, bj)
             x0, z0 = bj * s * spacing, bi * s * spacing
             x1, z1 = x0 + s * spacing, z0 + s * spacing
             if cull and not box_visible(planes, x0, hmin[index], z0, x1, hmax[index], z1):
@@ -210,7 +363,7 @@ def unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, counts
             dz = max(z0 - eye[2], 0.0, eye[2] - z1)
             if not lam * skip_error[index] > tau * np.sqrt(dx * dx + dy * dy + dz * dz):
                 continue
-            sides = coarser_sides(stamp, offsets, frame, L, bi, bj)
+            sides = coarser_sides(stamp, offsets, frame, L, bi, bj, pg, slots)
             for bit in range(4):
                 if not sides & (1 << bit):
                     continue
@@ -223,10 +376,7 @@ def unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, counts
                     ni += 1
                 else:
                     nj -= 1
-                parent = (ni >> 1) * pm + (nj >> 1)
-                if stamp[offsets[L - 1] + parent] != frame:
-                    stamp[offsets[L - 1] + parent] = frame
-                    lists[offsets[L - 1] + counts[L - 1]] = parent
-                    counts[L - 1] += 1
-                    added += 1
+                added += _split(offsets, pg, slots, table, stamp, frame, lists, counts,
+                                list_offsets, L - 1, ni >> 1, nj >> 1, (ni >> 1) * pm + (nj >> 1),
+                                _index(offsets, pg, slots, L - 1, ni >> 1, nj >> 1))
     return added
