@@ -126,7 +126,64 @@ class _Stand:
         return np.array([[0.0, self.low, 0.0], [self.extent, self.high, self.extent]])
 
 
-class PagedTiles:
+def read_header(fd, path, magic: bytes, limit: int, name: str, kind: str) -> bytes:
+    """The JSON text of a paged file's header: magic (4 bytes), its length and CRC32 (<II),
+    then the text at byte 12. WorldError naming path: 'not a vismobile {name} (bad magic)',
+    '{kind} header is too long' (over limit bytes), '... is truncated or corrupt'."""
+    head = os.pread(fd, 12, 0)
+    if len(head) != 12 or head[:4] != magic:
+        raise WorldError(path, f"not a vismobile {name} (bad magic)")
+    length, crc = struct.unpack("<II", head[4:])
+    if length > limit:
+        raise WorldError(path, f"{kind} header is too long")
+    text = os.pread(fd, length, 12)
+    if len(text) != length or zlib.crc32(text) != crc:
+        raise WorldError(path, f"{kind} header is truncated or corrupt")
+    return text
+
+
+def grid_cells(x, z, spacing: float, size: int) -> tuple:
+    """(shape of x and z broadcast, i, j, fu, fv): the grid cell (row i, column j, (n,) int64)
+    holding each world point (x, z), clamped to the size^2 grid, and its place in it."""
+    x, z = np.broadcast_arrays(np.asarray(x, np.float64), np.asarray(z, np.float64))
+    u = np.clip(x / spacing, 0, size - 1).ravel()
+    v = np.clip(z / spacing, 0, size - 1).ravel()
+    j = np.minimum(np.floor(u).astype(np.int64), size - 2)
+    i = np.minimum(np.floor(v).astype(np.int64), size - 2)
+    return x.shape, i, j, u - j, v - i
+
+
+def grid_surface(corners, fu, fv) -> np.ndarray:
+    """(n,) heights of the cells' two triangles (split on the diagonal, Heightmap.height_at)
+    at (fu, fv), from their corners (n, 4): h00, h01, h10, h11."""
+    h00, h01, h10, h11 = corners.T
+    upper = fu >= fv
+    side = np.where(upper, h01, h10)
+    a, b = np.where(upper, fu, fv), np.where(upper, fv, fu)
+    return h00 + (a - b) * (side - h00) + b * (h11 - h00)
+
+
+class PagedFile:
+    """close() and its call on collection, shared by the paged terrains (a loader thread fed
+    by self.queue, a file descriptor self.fd)."""
+
+    def close(self) -> None:
+        if self.loader is not None:
+            self.queue.put(None)
+            self.loader.join(timeout=5)
+            self.loader = None
+        if getattr(self, "fd", -1) >= 0:
+            os.close(self.fd)
+            self.fd = -1
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+class PagedTiles(PagedFile):
     """A .vmtiles terrain's statistics in memory and its tiles' records in an LRU (module doc).
 
     pyramid : a TilePyramid over the statistics (select_tiles runs on it unchanged)
@@ -150,15 +207,9 @@ class PagedTiles:
         except OSError as error:
             raise WorldError(path, f"cannot read ({error.strerror or error})") from None
         try:
-            head = os.pread(self.fd, 12, 0)
-            if len(head) != 12 or head[:4] != MAGIC:
-                raise WorldError(path, "not a vismobile tiled terrain (bad magic)")
-            length, crc = struct.unpack("<II", head[4:])
-            if length > MAX_HEADER:
-                raise WorldError(path, "tiled terrain header is too long")
-            text = os.pread(self.fd, length, 12)
-            if len(text) != length or zlib.crc32(text) != crc:
-                raise WorldError(path, "tiled terrain header is truncated or corrupt")
+            text = read_header(self.fd, path, MAGIC, MAX_HEADER, "tiled terrain",
+                               "tiled terrain")
+            length = len(text)
             try:
                 header = json.loads(text)
                 size, patch, levels = int(header["size"]), int(header["patch"]), \
@@ -214,33 +265,13 @@ class PagedTiles:
                                            name=f"tiles {self.path.name}")
             self.loader.start()
 
-    def close(self) -> None:
-        if self.loader is not None:
-            self.queue.put(None)
-            self.loader.join(timeout=5)
-            self.loader = None
-        if self.fd >= 0:
-            os.close(self.fd)
-            self.fd = -1
-
-    def __del__(self):
-        try:
-            self.close()
-        except Exception:
-            pass
-
     def height_at(self, x, z, alternating: bool = False) -> np.ndarray:
         """Heights of the full-resolution grid surface at world (x, z) (Heightmap.height_at,
         the grid's diagonal), read from the finest tiles (not kept: a path's few points)."""
         hm, p = self.heightmap, self.pyramid
-        x, z = np.broadcast_arrays(np.asarray(x, np.float64), np.asarray(z, np.float64))
-        u = np.clip(x / hm.spacing, 0, hm.size - 1).ravel()
-        v = np.clip(z / hm.spacing, 0, hm.size - 1).ravel()
-        j = np.minimum(np.floor(u).astype(np.int64), hm.size - 2)
-        i = np.minimum(np.floor(v).astype(np.int64), hm.size - 2)
-        fu, fv = u - j, v - i
+        shape, i, j, fu, fv = grid_cells(x, z, hm.spacing, hm.size)
         n, m = p.patch + 1, 1 << p.levels
-        corners = np.empty((len(u), 4))
+        corners = np.empty((len(i), 4))
         for k, (di, dj) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
             r, c = i + di, j + dj
             ti, tj = np.minimum(r // p.patch, m - 1), np.minimum(c // p.patch, m - 1)
@@ -251,11 +282,7 @@ class PagedTiles:
                 local = (r[sel] - (t - p.offsets[p.levels]) // m * p.patch) * n + \
                     (c[sel] - (t - p.offsets[p.levels]) % m * p.patch)
                 corners[sel, k] = hm.z_offset + hm.z_scale * rec[local].astype(np.float64)
-        h00, h01, h10, h11 = corners.T
-        upper = fu >= fv
-        side = np.where(upper, h01, h10)
-        a, b = np.where(upper, fu, fv), np.where(upper, fv, fu)
-        return (h00 + (a - b) * (side - h00) + b * (h11 - h00)).reshape(x.shape)
+        return grid_surface(corners, fu, fv).reshape(shape)
 
     def coarse_heightmap(self):
         """A Heightmap of the level 0 tile's (P+1)^2 samples (read, not kept): the viewer's

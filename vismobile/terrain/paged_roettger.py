@@ -37,7 +37,8 @@ import numpy as np
 
 from ..errors import WorldError
 from ..files.atomic import atomic_writer
-from .paged import pack_records, sample_normals
+from .paged import (PagedFile, grid_cells, grid_surface, pack_records, read_header,
+                    sample_normals)
 from .quadtree import (ROETTGER, balance_paged, leaves_paged, level_offsets, refine_paged,
                        unreduce_finest_paged)
 from .quadtree_paged import BASE, PAGE_LEVEL, PER_PAGE, SLOTS, WANTED
@@ -106,7 +107,7 @@ def _vertex_records(hm, rows, cols) -> np.ndarray:
                         None if hm.valid is None else hm.valid[rows, cols])
 
 
-class PagedRoettger:
+class PagedRoettger(PagedFile):
     """A .vmrpages terrain's coarse blocks in memory and its pages in slots (module doc).
 
     heightmap : a stand-in (size, spacing, z_scale, z_offset, bounds, holes)
@@ -171,15 +172,9 @@ class PagedRoettger:
 
     def _open(self) -> tuple:
         path = self.path
-        head = os.pread(self.fd, 12, 0)
-        if len(head) != 12 or head[:4] != MAGIC:
-            raise WorldError(path, "not a vismobile paged Röttger terrain (bad magic)")
-        length, crc = struct.unpack("<II", head[4:])
-        if length > MAX_HEADER:
-            raise WorldError(path, "paged terrain header is too long")
-        text = os.pread(self.fd, length, 12)
-        if len(text) != length or zlib.crc32(text) != crc:
-            raise WorldError(path, "paged terrain header is truncated or corrupt")
+        text = read_header(self.fd, path, MAGIC, MAX_HEADER, "paged Röttger terrain",
+                           "paged terrain")
+        length = len(text)
         try:
             header = json.loads(text)
             size, levels, lg = int(header["size"]), int(header["levels"]), \
@@ -239,33 +234,13 @@ class PagedRoettger:
         self.free = list(range(old, slots)) + list(getattr(self, "free", []))
         self.slots = slots
 
-    def close(self) -> None:
-        if self.loader is not None:
-            self.queue.put(None)
-            self.loader.join(timeout=5)
-            self.loader = None
-        if getattr(self, "fd", -1) >= 0:
-            os.close(self.fd)
-            self.fd = -1
-
-    def __del__(self):
-        try:
-            self.close()
-        except Exception:
-            pass
-
     def height_at(self, x, z, alternating: bool = False) -> np.ndarray:
         """Heights of the full-resolution grid surface at world (x, z) (Heightmap.height_at),
         the cells' corners read from their pages (not kept: a path's few points)."""
         hm, q, side = self.heightmap, self.q, 1 << self.lg
-        x, z = np.broadcast_arrays(np.asarray(x, np.float64), np.asarray(z, np.float64))
-        u = np.clip(x / hm.spacing, 0, self.size - 1).ravel()
-        v = np.clip(z / hm.spacing, 0, self.size - 1).ravel()
-        j = np.minimum(np.floor(u).astype(np.int64), self.size - 2)
-        i = np.minimum(np.floor(v).astype(np.int64), self.size - 2)
-        fu, fv = u - j, v - i
+        shape, i, j, fu, fv = grid_cells(x, z, hm.spacing, self.size)
         page = np.minimum(i // q, side - 1) * side + np.minimum(j // q, side - 1)
-        corners = np.empty((len(u), 4))
+        corners = np.empty((len(i), 4))
         for p in np.unique(page):
             sel = page == p
             vertices = self._read(int(p))[1][:, :2].copy().view("<u2")[:, 0]
@@ -273,11 +248,7 @@ class PagedRoettger:
             for k, (di, dj) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
                 local = (i[sel] + di - pi * q) * (q + 1) + j[sel] + dj - pj * q
                 corners[sel, k] = hm.z_offset + hm.z_scale * vertices[local].astype(np.float64)
-        h00, h01, h10, h11 = corners.T
-        upper = fu >= fv
-        side_h = np.where(upper, h01, h10)
-        a, b = np.where(upper, fu, fv), np.where(upper, fv, fu)
-        return (h00 + (a - b) * (side_h - h00) + b * (h11 - h00)).reshape(x.shape)
+        return grid_surface(corners, fu, fv).reshape(shape)
 
     def coarse_heightmap(self):
         """A Heightmap of every 16th sample (the coarse grid held in memory): the viewer's
