@@ -29,7 +29,7 @@ from vismobile.partition import pvs, pvs_cracks  # noqa: E402
 from vismobile.partition.pvs_cells import view_grid  # noqa: E402
 from vismobile.partition.pvs_kernels import (MAX_PLANES, MAX_VERTS, _crack_candidate,  # noqa: E402
                                              _flat_rectangle, _grown_quad, _mark, box_vertices,
-                                             clip_polygon, separators)
+                                             common_face, exit_candidate, grow_box, separators)
 from vismobile.scenes import build_world  # noqa: E402
 
 
@@ -37,11 +37,8 @@ from vismobile.scenes import build_world  # noqa: E402
 def _static(portal_quads, p, is_crack, src, grow, slope, tol, cell_bounds, portal_cells, out):
     """out[:n] <- a convex set holding every point where a line from src may cross portal p."""
     if is_crack:
-        a, b = portal_cells[p, 0], portal_cells[p, 1]
         common = np.empty((2, 3))
-        for k in range(3):
-            common[0, k] = max(cell_bounds[a, 0, k], cell_bounds[b, 0, k])
-            common[1, k] = min(cell_bounds[a, 1, k], cell_bounds[b, 1, k])
+        common_face(cell_bounds, portal_cells, p, common)
         planes = np.empty((1, 4))
         n = _crack_candidate(portal_quads, p, src, grow, slope, planes, 0, tol, common[0],
                              common[1], out)
@@ -113,16 +110,8 @@ def flow_anchored(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quad
             m = portal_cells[p, 1] if forward else portal_cells[p, 0]
             if m == source:
                 continue
-            if crack[p]:
-                a, b = portal_cells[p, 0], portal_cells[p, 1]
-                for k in range(3):
-                    common[0, k] = max(cell_bounds[a, 0, k], cell_bounds[b, 0, k])
-                    common[1, k] = min(cell_bounds[a, 1, k], cell_bounds[b, 1, k])
-                n = _crack_candidate(portal_quads, p, src, grow, slope, planes, count, tol,
-                                     common[0], common[1], cand)
-            else:
-                _grown_quad(portal_quads, p, grow, cand)
-                n = clip_polygon(cand, 4, planes, count, tol, scratch)
+            n = exit_candidate(portal_quads, p, crack[p], cell_bounds, portal_cells, src, grow,
+                               slope, planes, count, tol, common, scratch, cand)
             if n == 0:
                 continue
             new_anchor = came if (came >= 0 and (crack[came] or anchor < 0)) else anchor
@@ -154,18 +143,7 @@ def flow_anchored(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quad
                 for a in range(3):
                     box[s, 0, a] = np.inf
                     box[s, 1, a] = -np.inf
-            grew = False
-            for a in range(3):
-                lo, hi = np.inf, -np.inf
-                for i in range(n):
-                    lo, hi = min(lo, cand[i, a]), max(hi, cand[i, a])
-                if lo < box[s, 0, a]:
-                    box[s, 0, a] = lo
-                    grew = True
-                if hi > box[s, 1, a]:
-                    box[s, 1, a] = hi
-                    grew = True
-            if grew and not queued[s]:
+            if grow_box(box, s, cand, n) and not queued[s]:
                 queued[s] = True
                 queue[(head + size) % cap] = s
                 size += 1

@@ -272,6 +272,46 @@ def _crack_candidate(portal_quads, p, src, grow, slope, planes, np_, tol, lo_i, 
     return 4
 
 
+@njit(cache=True, inline="always")
+def common_face(cell_bounds, portal_cells, p, common):
+    """common (2, 3) <- the box shared by portal p's two cells (their common face or line)."""
+    a, b = portal_cells[p, 0], portal_cells[p, 1]
+    for k in range(3):
+        common[0, k] = max(cell_bounds[a, 0, k], cell_bounds[b, 0, k])
+        common[1, k] = min(cell_bounds[a, 1, k], cell_bounds[b, 1, k])
+
+
+@njit(cache=True, inline="always")
+def exit_candidate(portal_quads, p, is_crack, cell_bounds, portal_cells, src, grow, slope,
+                   planes, count, tol, common, scratch, cand):
+    """cand[:n] <- the part of portal p a line from src may cross through planes[:count]: a
+    crack's crossing box (_crack_candidate, cut to the two cells' common face or line), else
+    the grown quad clipped. Returns n (0: none)."""
+    if is_crack:
+        common_face(cell_bounds, portal_cells, p, common)
+        return _crack_candidate(portal_quads, p, src, grow, slope, planes, count, tol,
+                                common[0], common[1], cand)
+    _grown_quad(portal_quads, p, grow, cand)
+    return clip_polygon(cand, 4, planes, count, tol, scratch)
+
+
+@njit(cache=True, inline="always")
+def grow_box(box, d, cand, n):
+    """Grow box[d] (2, 3) to hold cand[:n]; returns whether it grew."""
+    grew = False
+    for a in range(3):
+        lo, hi = np.inf, -np.inf
+        for i in range(n):
+            lo, hi = min(lo, cand[i, a]), max(hi, cand[i, a])
+        if lo < box[d, 0, a]:
+            box[d, 0, a] = lo
+            grew = True
+        if hi > box[d, 1, a]:
+            box[d, 1, a] = hi
+            grew = True
+    return grew
+
+
 @njit(cache=True)
 def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
                    cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
@@ -340,30 +380,12 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             m = portal_cells[p, 1] if forward else portal_cells[p, 0]
             if m == source:
                 continue
-            if crack[p]:
-                a, b = portal_cells[p, 0], portal_cells[p, 1]
-                for k in range(3):  # the two cells' common face or line
-                    common[0, k] = max(cell_bounds[a, 0, k], cell_bounds[b, 0, k])
-                    common[1, k] = min(cell_bounds[a, 1, k], cell_bounds[b, 1, k])
-                n = _crack_candidate(portal_quads, p, src, grow, slope, planes, count, tol,
-                                     common[0], common[1], cand)
-            else:
-                _grown_quad(portal_quads, p, grow, cand)
-                n = clip_polygon(cand, 4, planes, count, tol, scratch)
+            n = exit_candidate(portal_quads, p, crack[p], cell_bounds, portal_cells, src, grow,
+                               slope, planes, count, tol, common, scratch, cand)
             if n == 0:
                 continue
             d = 2 * p + (0 if forward else 1)
-            grew = False
-            for a in range(3):
-                lo, hi = np.inf, -np.inf
-                for i in range(n):
-                    lo, hi = min(lo, cand[i, a]), max(hi, cand[i, a])
-                if lo < box[d, 0, a]:
-                    box[d, 0, a] = lo
-                    grew = True
-                if hi > box[d, 1, a]:
-                    box[d, 1, a] = hi
-                    grew = True
+            grew = grow_box(box, d, cand, n)
             crossed[p] = True
             if grew and not queued[d]:
                 queued[d] = True
