@@ -238,6 +238,18 @@ def _balance(offsets, levels, stamp, frame, lists, counts, table, list_offsets):
 
 
 @njit(cache=True, inline="always")
+def side_neighbour(bi, bj, bit):
+    """Node (bi, bj)'s same-level neighbour across side bit (coarser_sides' bits 0..3)."""
+    if bit == 0:
+        return bi - 1, bj
+    if bit == 1:
+        return bi, bj + 1
+    if bit == 2:
+        return bi + 1, bj
+    return bi, bj - 1
+
+
+@njit(cache=True, inline="always")
 def coarser_sides(stamp, offsets, frame, l, bi, bj, pg, slots):
     """Bits of the sides whose same-level neighbour does not exist (a coarser leaf is there):
     1 row-0 side, 2 last-column side, 4 last-row side, 8 column-0 side; never the border.
@@ -247,15 +259,7 @@ def coarser_sides(stamp, offsets, frame, l, bi, bj, pg, slots):
     if l == 0:
         return 0
     for bit in range(4):
-        ni, nj = bi, bj
-        if bit == 0:
-            ni -= 1
-        elif bit == 1:
-            nj += 1
-        elif bit == 2:
-            ni += 1
-        else:
-            nj -= 1
+        ni, nj = side_neighbour(bi, bj, bit)
         if ni < 0 or nj < 0 or ni >= m or nj >= m:
             continue
         index = _index(offsets, pg, slots, l - 1, ni >> 1, nj >> 1)
@@ -367,15 +371,7 @@ def _unreduce_finest(cells, spacing, levels, offsets, stamp, frame, lists, count
             for bit in range(4):
                 if not sides & (1 << bit):
                     continue
-                ni, nj = bi, bj
-                if bit == 0:
-                    ni -= 1
-                elif bit == 1:
-                    nj += 1
-                elif bit == 2:
-                    ni += 1
-                else:
-                    nj -= 1
+                ni, nj = side_neighbour(bi, bj, bit)
                 added += _split(offsets, pg, slots, table, stamp, frame, lists, counts,
                                 list_offsets, L - 1, ni >> 1, nj >> 1, (ni >> 1) * pm + (nj >> 1),
                                 _index(offsets, pg, slots, L - 1, ni >> 1, nj >> 1))
