@@ -540,3 +540,42 @@ def test_a_hidden_triangle_has_every_moved_point_behind_the_buffer():
             assert (points[on, 2] > depth[y[on], x[on]]).all()
             checked += 1
     assert checked > 50
+
+
+def test_a_sloping_triangle_is_tested_against_its_plane_depth_per_pixel():
+    # Its near corner (z 5) lies over buffer depth 4, its far side (z 30) over depth 12: hidden
+    # only because each pixel compares the plane's nearest depth there (1 / z affine in
+    # pixels), not the whole triangle's nearest corner. With the deep part of the buffer
+    # reaching pixels where the plane is nearer than 12, it is kept.
+    tri = camera_triangle([[2.0, 16.0], [22.0, 4.0], [22.0, 28.0]], 1.0, W, H)
+    tri *= np.array([5.0, 30.0, 30.0])[:, None]
+    for edge, hidden in ((17, True), (14, False)):
+        depth = np.full((H, W), 4.0)
+        depth[:, edge:] = 12.0
+        assert shape_test([tri], depth).tolist() == [hidden]
+        assert shape_test([tri], depth, move=0.01).tolist() == [hidden]
+
+
+def test_plane_depth_keeps_every_moved_point_behind_uneven_buffers():
+    # The contract of the per-pixel plane bound: over buffers of uneven depth, a triangle
+    # called hidden has every point of every moved copy on screen behind the depth bound of
+    # its pixel; and the plane bound hides some whose nearest corner is not behind them all.
+    rng = np.random.default_rng(33)
+    move, checked, by_plane = 0.02, 0, 0
+    for _ in range(60):
+        depth = np.repeat(np.repeat(rng.uniform(3.0, 9.0, size=(H // 4, W // 4)), 4, 0), 4, 1)
+        px = rng.uniform(-2.0, [W + 2.0, H + 2.0], size=(40, 3, 2))
+        tris = np.array([camera_triangle(p, 1.0, W, H) for p in px])
+        tris *= rng.uniform(4.0, 14.0, size=(40, 3, 1))
+        hidden = shape_test(tris, depth, move=move)
+        for t in tris[hidden]:
+            moved = t + rng.uniform(-move, move, size=(200, 3, 3))
+            w = rng.dirichlet(np.ones(3), size=(200, 50))
+            points = np.einsum("mkc,mcd->mkd", w, moved).reshape(-1, 3)
+            x = np.floor((points[:, 0] / points[:, 2] / TX + 1.0) * 0.5 * W).astype(int)
+            y = np.floor((points[:, 1] / points[:, 2] / TY + 1.0) * 0.5 * H).astype(int)
+            on = (x >= 0) & (x < W) & (y >= 0) & (y < H)
+            assert (points[on, 2] > depth[y[on], x[on]]).all()
+            by_plane += on.any() and points[:, 2].min() < depth[y[on], x[on]].max()
+            checked += 1
+    assert checked > 50 and by_plane > 0

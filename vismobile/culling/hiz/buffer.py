@@ -23,6 +23,9 @@ from numba import njit
 from .raster import DEPTH_SLACK, GUARD_PX, SLACK_PX, _to_camera
 
 SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
+# Relative to the corners' largest 1 / z: the plane's 1 / z fitted in float64 from a projection
+# no thinner than _triangle_edges allows (conditioning <= 1e6) errs far below this.
+PLANE_SLACK = 1e-6
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -252,8 +255,10 @@ def _behind(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, 
 @njit(cache=True, nogil=True, inline="always")
 def _triangle_edges(cam, tx, ty, width, height, edges):
     """The projected triangle cam (3, 3) (corners in front of the eye) in buffer pixels as three
-    inward edge functions: edges[e] = (a, b, c) with a x + b y + c >= 0 inside. Returns False
-    for a projection too thin to orient (|area| <= 1e-6 of its edges' product): no shape test."""
+    inward edge functions: edges[e] = (a, b, c) with a x + b y + c >= 0 inside, and edges[3] =
+    (a, b, c) with 1 / z = a x + b y + c over the triangle's plane (affine in pixels). Returns
+    False for a projection too thin to orient (|area| <= 1e-6 of its edges' product): no shape
+    test."""
     sx, sy = 0.5 * width / tx, 0.5 * height / ty
     px0, py0 = cam[0, 0] / cam[0, 2] * sx + 0.5 * width, cam[0, 1] / cam[0, 2] * sy + 0.5 * height
     px1, py1 = cam[1, 0] / cam[1, 2] * sx + 0.5 * width, cam[1, 1] / cam[1, 2] * sy + 0.5 * height
@@ -270,6 +275,10 @@ def _triangle_edges(cam, tx, ty, width, height, edges):
         # e(p) = r x (p - q), positive on the third corner's side when sign > 0
         edges[e, 0], edges[e, 1] = -sign * ry, sign * rx
         edges[e, 2] = sign * (ry * qx - rx * qy)
+    w0, w1, w2 = 1.0 / cam[0, 2], 1.0 / cam[1, 2], 1.0 / cam[2, 2]
+    a = ((w1 - w0) * by - (w2 - w0) * ay) / area
+    b = ((w2 - w0) * ax - (w1 - w0) * bx) / area
+    edges[3, 0], edges[3, 1], edges[3, 2] = a, b, w0 - a * px0 - b * py0
     return True
 
 
@@ -284,14 +293,30 @@ def _outside(x0, x1, y0, y1, edges):
     return False
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _plane_near(x0, x1, y0, y1, zmin, edges, reach, wmax):
+    """A lower bound of the depth of the triangle's points (each moved by up to reach) that
+    project into the pixel block [x0, x1] x [y0, y1]: the nearest depth of its plane there (1 / z
+    is affine in pixels, edges[3]: its largest over the block at a corner, taken PLANE_SLACK
+    wmax larger for rounding), less reach, pulled forward by DEPTH_SLACK; never below zmin (the
+    whole triangle's bound). Errs low."""
+    a, b, c = edges[3, 0], edges[3, 1], edges[3, 2]
+    w = max(a * x0, a * x1) + max(b * y0, b * y1) + c + PLANE_SLACK * wmax
+    if not w > 0:  # nan, or the plane is not in front over the block: the triangle's bound
+        return zmin
+    return max(zmin, (1.0 / w - reach) * (1.0 - DEPTH_SLACK))
+
+
 @njit(cache=True, nogil=True)
 def _behind_shape(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, recede,
-                  edges, gx, gy):
+                  edges, gx, gy, reach, wmax):
     """_behind for a triangle, reading only the pixels its shape may reach: a pixel (or tile)
     whose square grown by gx, gy pixels lies wholly outside an edge of the projected triangle
     (edges: _triangle_edges) holds no point the device draws there, nor one an occluder's
-    shift brings there (gx, gy: that shift and the points' move, plus SLACK_PX). Errs toward
-    False as _behind does."""
+    shift brings there (gx, gy: that shift and the points' move, plus SLACK_PX); a point drawn
+    there is no nearer than the triangle's plane over that grown square less `reach` (its
+    corners' move; _plane_near, wmax: the largest 1 / z of the corners), nor than zmin. Errs
+    toward False as _behind does."""
     for ty_ in range(y0 // th, y1 // th + 1):
         for tx_ in range(x0 // tw, x1 // tw + 1):
             d = tile_max[ty_ * cols + tx_]
@@ -301,11 +326,17 @@ def _behind_shape(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, ma
             c0, c1 = max(x0, tx_ * tw), min(x1, tx_ * tw + tw - 1)
             if _outside(c0 - gx, c1 + 1.0 + gx, r0 - gy, r1 + 1.0 + gy, edges):
                 continue
+            if _plane_near(c0 - gx, c1 + 1.0 + gx, r0 - gy, r1 + 1.0 + gy, zmin, edges, reach,
+                           wmax) > d + margin * d * d + recede:
+                continue
             for r in range(r0, r1 + 1):
                 for c in range(c0, c1 + 1):
                     d = depth[r * width + c]
-                    if not zmin > d + margin * d * d + recede \
-                            and not _outside(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, edges):
+                    if zmin > d + margin * d * d + recede \
+                            or _outside(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, edges):
+                        continue
+                    if not _plane_near(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, zmin, edges,
+                                       reach, wmax) > d + margin * d * d + recede:
                         return False
     return True
 
@@ -362,7 +393,7 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
     r = np.empty(12)
     px = np.empty(3)
     py = np.empty(3)
-    edges = np.empty((3, 3))
+    edges = np.empty((4, 3))
     reach = np.sqrt(3.0) * move
     lateral = 2.0 + 2.0 * max(tx, ty) + shift  # bounds 1 + |x / z| over the screen and shift
     for k in range(len(ids)):
@@ -386,10 +417,11 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
         # of it: the occluders' shift and its own move, |d(x / z)| <= reach (1 + |x / z|) / z.
         spread = shift + reach * lateral / r[4]
         shaped = use and spread < 0.5 and _triangle_edges(cam, tx, ty, width, height, edges)
+        wmax = 1.0 / min(cam[0, 2], cam[1, 2], cam[2, 2])
         gx = spread / tx * 0.5 * width + SLACK_PX
         gy = spread / ty * 0.5 * height + SLACK_PX
         if use and (_behind_shape(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th,
-                                  margin, recede, edges, gx, gy) if shaped else
+                                  margin, recede, edges, gx, gy, reach, wmax) if shaped else
                     _behind(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th, margin,
                             recede)):
             hidden[k] = True
@@ -402,7 +434,7 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
             a0, a1, b0, b1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
             if (a0 != x0 or a1 != x1 or b0 != y0 or b1 != y1) and (
                     _behind_shape(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th,
-                                  margin, recede, edges, gx, gy) if shaped else
+                                  margin, recede, edges, gx, gy, reach, wmax) if shaped else
                     _behind(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th, margin,
                             recede)):
                 hidden[k] = True
