@@ -10,15 +10,16 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
-def _scan(heights, r0, c0, r1, c1, r2, c2, h0, h1, h2, out, mode):
-    """Visit samples inside triangle (r_k, c_k): mode 0 returns max |heights - interp|,
-    mode 1 writes interp into out. Returns the max error (mode 0) or 0."""
+@njit(cache=True, inline="always")
+def _scan_rows(heights, b0, lo_row, hi_row, r0, c0, r1, c1, r2, c2, h0, h1, h2, out, mode):
+    """Visit samples inside triangle (r_k, c_k) on rows lo_row..hi_row, heights' row 0 being
+    sample row b0: mode 0 returns max |heights - interp|, mode 1 writes interp into out.
+    Returns the max error (mode 0) or 0."""
     area = (r1 - r0) * (c2 - c0) - (c1 - c0) * (r2 - r0)
     if area == 0:
         return 0.0
     worst = 0.0
-    for r in range(min(r0, r1, r2), max(r0, r1, r2) + 1):
+    for r in range(max(min(r0, r1, r2), lo_row), min(max(r0, r1, r2), hi_row) + 1):
         for c in range(min(c0, c1, c2), max(c0, c1, c2) + 1):
             w0 = (r2 - r1) * (c - c1) - (c2 - c1) * (r - r1)
             w1 = (r0 - r2) * (c - c2) - (c0 - c2) * (r - r2)
@@ -30,12 +31,20 @@ def _scan(heights, r0, c0, r1, c1, r2, c2, h0, h1, h2, out, mode):
                 continue
             value = (w0 * h0 + w1 * h1 + w2 * h2) / area
             if mode == 0:
-                e = abs(heights[r, c] - value)
+                e = abs(heights[r - b0, c] - value)
                 if e > worst:
                     worst = e
             else:
-                out[r, c] = value
+                out[r - b0, c] = value
     return worst
+
+
+@njit(cache=True)
+def _scan(heights, r0, c0, r1, c1, r2, c2, h0, h1, h2, out, mode):
+    """Visit samples inside triangle (r_k, c_k): mode 0 returns max |heights - interp|,
+    mode 1 writes interp into out. Returns the max error (mode 0) or 0."""
+    return _scan_rows(heights, 0, min(r0, r1, r2), max(r0, r1, r2), r0, c0, r1, c1, r2, c2,
+                      h0, h1, h2, out, mode)
 
 
 @njit(cache=True, inline="always")
@@ -231,27 +240,8 @@ def band_statistics(band, b0, corners, corner_r0, stride, patch, local, ti_lo, t
 @njit(cache=True)
 def _scan_band(band, b0, lo_row, hi_row, rr, cc, hh):
     """_scan's mode 0 over the rows lo_row..hi_row of a band."""
-    r0, r1, r2 = rr[0], rr[1], rr[2]
-    c0, c1, c2 = cc[0], cc[1], cc[2]
-    area = (r1 - r0) * (c2 - c0) - (c1 - c0) * (r2 - r0)
-    if area == 0:
-        return 0.0
-    worst = 0.0
-    for r in range(max(min(r0, r1, r2), lo_row), min(max(r0, r1, r2), hi_row) + 1):
-        for c in range(min(c0, c1, c2), max(c0, c1, c2) + 1):
-            w0 = (r2 - r1) * (c - c1) - (c2 - c1) * (r - r1)
-            w1 = (r0 - r2) * (c - c2) - (c0 - c2) * (r - r2)
-            w2 = (r1 - r0) * (c - c0) - (c1 - c0) * (r - r0)
-            if area > 0:
-                if w0 < 0 or w1 < 0 or w2 < 0:
-                    continue
-            elif w0 > 0 or w1 > 0 or w2 > 0:
-                continue
-            value = (w0 * hh[0] + w1 * hh[1] + w2 * hh[2]) / area
-            e = abs(band[r - b0, c] - value)
-            if e > worst:
-                worst = e
-    return worst
+    return _scan_rows(band, b0, lo_row, hi_row, rr[0], cc[0], rr[1], cc[1], rr[2], cc[2],
+                      hh[0], hh[1], hh[2], band, 0)
 
 
 @njit(cache=True)
