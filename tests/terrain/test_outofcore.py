@@ -34,6 +34,26 @@ def dem_rows(height, width, lake=True):
     return rows
 
 
+
+def build_traced(tmp_path, source, out, warm, cap):
+    """build_tiles(source, out) within cap, after numba's first load on a small warm-up DEM of
+    shape warm to the same kind of file; returns (its info, tracemalloc's peak)."""
+    write_tiff(tmp_path / "warm.tif", warm, dem_rows(*warm), nodata=-9999.0)
+    build_tiles(tmp_path / "warm.tif", tmp_path / f"warm{out.suffix}")
+    tracemalloc.start()
+    try:
+        info = build_tiles(source, out, budget_bytes=cap)
+        return info, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def stored(tmp_path, heightmap):
+    """heightmap saved as a .vmt and loaded back (the in-memory build's input)."""
+    store.save(tmp_path / "dem.vmt", heightmap)
+    return store.load(tmp_path / "dem.vmt")[0]
+
+
 @pytest.mark.parametrize("layout", LAYOUTS)
 def test_the_streaming_reader_and_pillow_agree_both_ways(tmp_path, layout):
     values = dem_rows(203, 157)(0, 203)
@@ -58,20 +78,11 @@ def test_a_dem_larger_than_the_cap_builds_the_in_memory_file_within_it(tmp_path)
     source = tmp_path / "dem.tif"
     write_tiff(source, (height, width), dem_rows(height, width), predictor=3,
                rows_per_strip=8, nodata=-9999.0, spacing=2.5)
-    write_tiff(tmp_path / "warm.tif", (40, 30), dem_rows(40, 30), nodata=-9999.0)
-    build_tiles(tmp_path / "warm.tif", tmp_path / "warm.vmtiles")  # numba's first load
     cap = int(2.2 * (1 << 20))
     assert minimum_budget(1025) <= cap < height * width * 4
-    tracemalloc.start()
-    try:
-        info = build_tiles(source, tmp_path / "ooc.vmtiles", budget_bytes=cap)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    info, peak = build_traced(tmp_path, source, tmp_path / "ooc.vmtiles", (40, 30), cap)
     assert peak <= cap and info["band_rows"] < 1025  # coarse levels went band by band
-    heightmap = sources.load_file(source, None, None)  # the in-memory path
-    store.save(tmp_path / "dem.vmt", heightmap)
-    heightmap, _ = store.load(tmp_path / "dem.vmt")
+    heightmap = stored(tmp_path, sources.load_file(source, None, None))  # the in-memory path
     write_tiles(TilePyramid.build(heightmap, 16), tmp_path / "mem.vmtiles")
     assert (tmp_path / "ooc.vmtiles").read_bytes() == (tmp_path / "mem.vmtiles").read_bytes()
     paged = PagedTiles(tmp_path / "ooc.vmtiles", thread=False)
@@ -149,22 +160,14 @@ def test_roettger_pages_built_out_of_core_are_the_in_memory_file_within_the_cap(
     source = tmp_path / "dem.tif"
     write_tiff(source, (height, width), dem_rows(height, width), dtype="<f8", predictor=3,
                rows_per_strip=4, nodata=-9999.0, spacing=3.0)
-    write_tiff(tmp_path / "warm.tif", (60, 50), dem_rows(60, 50), nodata=-9999.0)
-    build_tiles(tmp_path / "warm.tif", tmp_path / "warm.vmrpages")  # numba's first load
     cap = int(6.6 * (1 << 20))
     assert pages_minimum(1025) <= cap < height * width * 8
-    tracemalloc.start()
-    try:
-        build_tiles(source, tmp_path / "ooc.vmrpages", budget_bytes=cap)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    _, peak = build_traced(tmp_path, source, tmp_path / "ooc.vmrpages", (60, 50), cap)
     assert peak <= cap
     (tmp_path / "npy").mkdir()  # Pillow reads no float64 TIFF: the same samples as .npy
     np.save(tmp_path / "npy" / "dem.npy", dem_rows(height, width)(0, height).astype("<f8"))
-    heightmap = sources.load_file(tmp_path / "npy" / "dem.npy", None, 3.0, nodata=-9999.0)
-    store.save(tmp_path / "dem.vmt", heightmap)
-    heightmap, _ = store.load(tmp_path / "dem.vmt")
+    heightmap = stored(tmp_path, sources.load_file(tmp_path / "npy" / "dem.npy", None, 3.0,
+                                                   nodata=-9999.0))
     write_roettger_pages(Roettger(heightmap), tmp_path / "mem.vmrpages")
     assert (tmp_path / "ooc.vmrpages").read_bytes() == (tmp_path / "mem.vmrpages").read_bytes()
     PagedRoettger(tmp_path / "ooc.vmrpages", thread=False).close()
