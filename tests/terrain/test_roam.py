@@ -215,14 +215,16 @@ def test_merges_morph_down_within_tau_before_they_happen(fractal257):
     """With geomorphing, a diamond due to merge first lowers its vertex to its hypotenuse
     midpoint over the morph frames (monotonically), and merges after; while only such
     descents are in flight every sample in the frustum stays within tau (rising vertices of
-    splits may exceed it, as before). Without geomorphing the same move merges at once."""
+    splits may exceed it, as before). Without geomorphing the same move merges at once (with
+    it, only the diamonds outside the frustum do)."""
     from vismobile.study.terrain import RoamMethod
 
     near = overview_cameras(fractal257)[0]
     away = near.with_(position=np.add(near.position, (0.0, 0.3 * fractal257.extent, 0.0)))
     popping = Roam(fractal257)
     popping.update(near, RESOLUTION, 1.0)
-    assert popping.update(away, RESOLUTION, 1.0).merges > 0
+    at_once = popping.update(away, RESOLUTION, 1.0).merges
+    assert at_once > 0
     roam = Roam(fractal257, geomorph=3)
     method = RoamMethod(roam)
     for _ in range(4):  # let the split morphs end
@@ -232,7 +234,8 @@ def test_merges_morph_down_within_tau_before_they_happen(fractal257):
         frame = roam.update(away, RESOLUTION, 1.0)
         merged += frame.merges
         if step == 0:
-            assert frame.merges == 0 and len(frame.morph[0]) > frame.splits
+            # only diamonds out of view merge at once (nobody sees them pop)
+            assert frame.merges < at_once / 2 and len(frame.morph[0]) > frame.splits
         descending = np.setdiff1d(frame.morph[0], roam.morph_ids)
         truth = fractal257.heights.ravel()
         for v, h in zip(*frame.morph):

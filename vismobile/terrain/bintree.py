@@ -186,6 +186,28 @@ def _mergeable(split, v, n, N, g):
 
 
 @njit(cache=True, inline="always")
+def _half_mergeable(split, v, n, N, g):
+    """Split diamond with a triangle whose two children are leaves (Samec's merge unit: two
+    leaves into their parent); the diamond's other triangle may have split children, which
+    his forced merge merges first. Every mergeable diamond is half-mergeable."""
+    if split[v] == 0 or _is_corner(v // N, v % N, N - 1):
+        return False
+    h, sq = _geometry(v // N, v % N, n, g)
+    if not sq and h == 1:
+        return True
+    for k in range(2):
+        if g[k, 0] < 0:
+            continue
+        free = True
+        for e in range(2, 4):
+            if split[((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2]:
+                free = False
+        if free:
+            return True
+    return False
+
+
+@njit(cache=True, inline="always")
 def _candidate(split, v, n, N, g):
     """Unsplit diamond with at least one triangle in the mesh (a parent split)."""
     if split[v]:

@@ -48,6 +48,18 @@ where diamonds changed (roam_emit.py), so a frame's work follows the motion. A f
 due wake-ups exceed walk_share of the split diamonds (a fast eye) walks the mesh instead,
 and the next slow frame reseeds the queues; `incremental=False` always walks.
 
+Samec's forced merge (seed 003, Fig. 22; `forced_merge`, incremental frames, no budget): his
+merge unit is a triangle whose two children are leaves, and when its base neighbour is
+split deeper, merging forces that side down first, the inverse of the forced split. Here:
+a split diamond with one such triangle (half-mergeable) scored <= tau joins the merge queue,
+and popping it merges its split descendants, children first (post-order over the child
+DAG), then itself, only if every one of them scores <= tau this frame (else it is refused
+and waits; a child's box reaches into its other parent's half, so it can outrank a parent).
+A walking frame gains nothing from it (its merge phase re-queues a parent as soon as its
+last child merges, so every such set merges anyway) and would pay for refusals, so only
+incremental frames force-merge: there a parent that wakes takes its set along instead of
+waiting for each descendant's own wake-up.
+
 Geomorphing: a vertex created by a split moves from the midpoint of its hypotenuse to its
 height over `geomorph` frames (h_t = (1 - t) (h(v0) + h(v1)) / 2 + t h(v)). On each of its
 triangles the drawn surface is then a blend of the parent's plane and the children's, so its
@@ -56,7 +68,10 @@ diamond's priority p(v) (which was > tau when it split) instead of by tau. Merge
 (issue 30): a diamond due to merge lowers its vertex to the midpoint over `geomorph` frames
 first, with the same blend, so its error stays within p(v) <= tau while it descends; it
 stops (and pops back up) if its priority rises above tau or a child splits; a merge the
-budget forces does not wait.
+budget forces does not wait, nor one of a diamond outside the frustum. A forced merge's
+set descends as one (one start, one t): each vertex goes to the coarse surface, the
+midpoint of its hypotenuse ends' targets, so the drawn surface is (1 - t) fine + t coarse,
+both within tau.
 """
 from __future__ import annotations
 
@@ -99,6 +114,10 @@ class RoamFrame:
     deferred   : split candidates not re-scored (their priority is known to be <= tau)
     lod_ms     : queue rebuild + split/merge + emission wall time
     morph      : (ids (M,) int64, heights (M,) float64) drawn heights of morphing vertices
+    forced_merges : Samec's forced merges this frame (each merges a diamond with its split
+                 descendants; those diamonds are counted in merges too)
+    forced_merged : diamonds merged by them
+    forced_refused : forced merges refused because a split descendant was above tau
     """
 
     triangles: np.ndarray
@@ -111,6 +130,9 @@ class RoamFrame:
     deferred: int
     lod_ms: float
     morph: tuple
+    forced_merges: int = 0
+    forced_merged: int = 0
+    forced_refused: int = 0
 
 
 class Roam:
@@ -127,11 +149,13 @@ class Roam:
     the next slow frame): at speeds where most candidates wake anyway, walking is cheaper.
     walk_above: instead of walk_share, walk the frames whose eye moved more than this many
     world units since the last one (np.inf: never walk for speed).
+    forced_merge: without a budget, Samec's forced merge (module doc); False: a diamond
+    merges only once its children are leaves (the seed's Duchaineau merge).
     """
 
     def __init__(self, heightmap: Heightmap, geomorph: int = 0, defer: bool = True,
                  incremental: bool = True, walk_above: float | None = None,
-                 walk_share: float = 0.15):
+                 walk_share: float = 0.15, forced_merge: bool = True):
         self.heightmap = heightmap
         self.n = heightmap.exponent
         N = heightmap.size
@@ -189,6 +213,7 @@ class Roam:
         self.need_walk = True
         self.walk_above = None if walk_above is None else float(walk_above)
         self.walk_share = float(walk_share)
+        self.forced_merge = bool(forced_merge)
         self.fast_frames = 0  # frames walked for their speed (walk_share, walk_above)
 
     def reset(self):
@@ -216,7 +241,7 @@ class Roam:
         self.frame_number += 1
         self.clock += 1
         start = time.perf_counter()
-        stats = np.zeros(8)
+        stats = np.zeros(11)
         eye = camera.eye
         step = 0.0
         if self.last_eye is not None:
@@ -258,7 +283,7 @@ class Roam:
                 camera.eye, planes, lam, float(tau), limit, self.leaves, cull, born, stats,
                 self.until, self.travel, walk, self.hk, self.hv, self.hsize, self.wake_at,
                 self.touched, self.tcount, self.changed, self.dying, self.clock,
-                self.geomorph, self.parked, self.pcount, self.parked_at)
+                self.geomorph, self.parked, self.pcount, self.parked_at, self.forced_merge)
             born_all.append(born[:born_count])
             if self.emitter is not None and not fast:
                 if walk or self.tcount[3]:
@@ -299,7 +324,8 @@ class Roam:
         lod_ms = (time.perf_counter() - start) * 1000.0
         return RoamFrame(triangles, int(self.leaves), int(stats[0]),
                          int(stats[1]), int(stats[2]), float(stats[3]), bool(stats[5]),
-                         int(stats[7]), lod_ms, morph)
+                         int(stats[7]), lod_ms, morph, int(stats[8]), int(stats[9]),
+                         int(stats[10]))
 
     def _rewake(self, eye, lam, tau):
         """Push this frame's safe-side candidates on the wake-up heap (grown as needed;
@@ -317,7 +343,7 @@ class Roam:
             self.hsize[0] = len(keys)
         _rewake(self.wedge, self.heightmap.spacing, self.n, self.split, self.touched, count,
                 eye, lam, tau, self.travel, self.hk, self.hv, self.hsize, self.wake_at,
-                self.parked, self.pcount, self.parked_at)
+                self.parked, self.pcount, self.parked_at, self.forced_merge)
 
     def _morph(self, born) -> tuple:
         """Drawn heights of vertices still rising (ids, heights); empty without geomorph."""
@@ -339,15 +365,25 @@ class Roam:
             mid[k] = 0.5 * (self.heights[g[2, 0], g[2, 1]] + self.heights[g[3, 0], g[3, 1]])
         r, c = np.divmod(ids, N)
         rising = (1 - t) * mid + t * self.heights[r, c]
-        # Vertices of diamonds due to merge descend to their midpoints (merge phase, _frame).
+        # Vertices of diamonds due to merge descend to the coarse surface (merge phase,
+        # _frame): a lone merge's vertex to its hypotenuse midpoint; in a forced merge's set
+        # (one start clock, one t) each vertex to the midpoint of its hypotenuse ends' own
+        # targets, coarser ones first, so at t = 1 the fine mesh lies on the coarse one.
         down = np.flatnonzero(self.dying)
         down = down[(self.split[down] == 1) & ~np.isin(down, ids)]
         if not len(down):
             return ids, rising
-        t = (self.clock - self.dying[down] + 1) / (self.geomorph + 1)
+        r, c = np.divmod(down, N)
+        step = (r | c) & -(r | c)
+        square = (r & -r) == (c & -c)
+        order = np.lexsort((~square, -step))  # larger step first, a square before its edges
+        down, r, c = down[order], r[order], c[order]
+        t = np.minimum((self.clock - self.dying[down] + 1) / (self.geomorph + 1), 1.0)
+        target = {}
         low = np.empty(len(down))
+        flat = self.heights.ravel()
         for k, v in enumerate(down.tolist()):
             _geometry(v // N, v % N, self.n, g)
-            low[k] = 0.5 * (self.heights[g[2, 0], g[2, 1]] + self.heights[g[3, 0], g[3, 1]])
-        r, c = np.divmod(down, N)
+            a, b = int(g[2, 0] * N + g[2, 1]), int(g[3, 0] * N + g[3, 1])
+            low[k] = target[v] = 0.5 * (target.get(a, flat[a]) + target.get(b, flat[b]))
         return (np.r_[ids, down], np.r_[rising, (1 - t) * self.heights[r, c] + t * low])

@@ -6,60 +6,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .bintree import _box, _candidate, _geometry, _mergeable, _triangles_of
+from .bintree import _box, _candidate, _geometry, _half_mergeable, _mergeable, _triangles_of
 from .quadtree import box_visible
 from .roam_heap import _pop, _push, _reserve
-
-OUT, PARTIAL, IN = 0, 1, 2
-
-
-@njit(cache=True)
-def _flag(planes, x0, y0, z0, x1, y1, z1):
-    """OUT when the box is outside one plane, IN when inside all, else PARTIAL (exact for the
-    box, in float64; the box itself errs large)."""
-    inside = True
-    for p in range(planes.shape[0]):
-        a, b, c_, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
-        hi = (a * (x1 if a >= 0 else x0) + b * (y1 if b >= 0 else y0)
-              + c_ * (z1 if c_ >= 0 else z0) + d)
-        if hi < 0:
-            return OUT
-        lo = (a * (x0 if a >= 0 else x1) + b * (y0 if b >= 0 else y1)
-              + c_ * (z0 if c_ >= 0 else z1) + d)
-        if lo < 0:
-            inside = False
-    return IN if inside else PARTIAL
-
-
-@njit(cache=True, inline="always")
-def _score(wedge, spacing, v, N, eye, planes, lam, cull):
-    """Priority in pixels of diamond v (0 when its box is outside the frustum and cull)."""
-    x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
-    x0, x1, z0, z1 = x0 * spacing, x1 * spacing, z0 * spacing, z1 * spacing
-    if cull and _flag(planes, x0, y0, z0, x1, y1, z1) == OUT:
-        return 0.0
-    e = wedge[v, 2]
-    if e <= 0.0:
-        return 0.0
-    dx = max(x0 - eye[0], 0.0, eye[0] - x1)
-    dy = max(y0 - eye[1], 0.0, eye[1] - y1)
-    dz = max(z0 - eye[2], 0.0, eye[2] - z1)
-    d = np.sqrt(dx * dx + dy * dy + dz * dz)
-    if d <= 0.0:
-        return np.inf
-    return lam * e / d
-
-
-@njit(cache=True, inline="always")
-def _slack(wedge, spacing, v, N, eye, lam, tau):
-    """How far the eye may travel (any direction, any turn) before diamond v's priority can
-    exceed tau: d - lambda_b e / tau with d the distance to its wedgie box (errs short)."""
-    x0, x1, z0, z1, y0, y1 = _box(wedge, v, N)
-    dx = max(x0 * spacing - eye[0], 0.0, eye[0] - x1 * spacing)
-    dy = max(y0 - eye[1], 0.0, eye[1] - y1)
-    dz = max(z0 * spacing - eye[2], 0.0, eye[2] - z1 * spacing)
-    return np.sqrt(dx * dx + dy * dy + dz * dz) - lam * wedge[v, 2] / tau
-
+from .roam_ops import (IN, OUT, PARTIAL, _flag, _force_merge, _merge, _push_children, _score,
+                       _slack, _stop_descent, _touch)
 
 @njit(cache=True)
 def _compact(alive, count, split, head):
@@ -97,83 +48,24 @@ def _compact(alive, count, split, head):
     return m
 
 
-@njit(cache=True, inline="always")
-def _touch(touched, tcount, v):
-    """Record a candidate scored on the safe side of tau (it goes to the wake-up heap)."""
-    if tcount[0] < touched.shape[0]:
-        touched[tcount[0]] = v
-        tcount[0] += 1
-    else:
-        tcount[1] = 1  # overflow: the caller walks the whole mesh next frame
-
-
-@njit(cache=True)
-def _push_children(wedge, spacing, n, N, split, qs, stamp, x, eye, planes, lam, tau,
-                   cull, every, sk, sv, ns, low, g, touched, tcount):
-    """Queue x's unsplit children for splitting, each once per frame; only those above tau
-    unless every (budget mode). Returns the queue and the largest priority left out."""
-    h, sq = _geometry(x // N, x % N, n, g)
-    if sq or h > 1:
-        for k in range(2):
-            if g[k, 0] < 0:
-                continue
-            for e in range(2, 4):
-                m = ((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2
-                if split[m] == 0 and qs[m] != stamp:
-                    q = _score(wedge, spacing, m, N, eye, planes, lam, cull)
-                    qs[m] = stamp
-                    if every or q > tau:
-                        ns = _push(sk, sv, ns, -q, m)
-                    else:
-                        low = max(low, q)
-                        _touch(touched, tcount, m)
-    return ns, low
-
-
-@njit(cache=True)
-def _merge(wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau,
-           cull, every, sk, sv, ns, mk, mv, nm, low, g, g2, touched, tcount, changed):
-    """Merge diamond v (priority p): it rejoins the split queue, its parents may become
-    mergeable. Returns the queues, the largest left-out priority and the leaves removed."""
-    split[v] = 0
-    _touch(changed, tcount[2:], v)
-    if qs[v] != stamp:
-        qs[v] = stamp
-        if every or p > tau:
-            ns = _push(sk, sv, ns, -p, v)
-        else:
-            low = max(low, p)
-            _touch(touched, tcount, v)
-    _geometry(v // N, v % N, n, g)
-    removed = 0
-    for k in range(2):
-        if g[k, 0] < 0:
-            continue
-        removed += 1
-        a = g[k, 0] * N + g[k, 1]
-        if qm[a] != stamp and _mergeable(split, a, n, N, g2):
-            q = _score(wedge, spacing, a, N, eye, planes, lam, cull)
-            if every or q <= tau:
-                nm = _push(mk, mv, nm, q, a)
-                qm[a] = stamp
-            else:
-                _touch(touched, tcount, a)
-    return ns, nm, low, removed
-
-
 @njit(cache=True)
 def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
            eye, planes, lam, tau, budget, leaves, cull, born, stats, until, travel,
            walk, hk, hv, hsize, wake_at, touched, tcount, changed, dying, clock, morph,
-           parked, pcount, parked_at):
+           parked, pcount, parked_at, samec):
     """One ROAM frame from last frame's mesh. Returns (alive_count, leaves, born_count).
 
     budget < 0: no budget (queues then hold only diamonds that can move: split candidates
     above tau, merge candidates at or below it). stats (float64): [splits, merges, forced,
     largest split priority left (an upper bound), exchanges, stopped by the budget, alive
-    full, candidates deferred]. qs/qm/mark are stamps per sample; stamp is this call's number (> 0). When alive
-    fills up, returns early with stats[6] = 1 (the mesh is consistent; grow alive, call
-    again). Deferred priorities (no budget only): travel is the eye's path length so far and
+    full, candidates deferred, forced merges (Samec), diamonds they merged, forced merges
+    refused]. qs/qm/mark are
+    stamps per sample; stamp is this call's number (> 0). When alive fills up, returns early
+    with stats[6] = 1 (the mesh is consistent; grow alive, call again). Without a budget the
+    merge queue also holds half-mergeable diamonds (a triangle with two leaf children) at or
+    below tau, merged by Samec's forced merge (roam_ops._force_merge) when every split
+    descendant is within tau too (samec True; incremental frames only). Deferred priorities (no budget only): travel
+    is the eye's path length so far and
     until[v] the travel up to which candidate v is known to stay <= tau (float32 rounded
     down); such candidates are not re-scored (the seed's wait-lists, from distance alone,
     so turning the camera needs no re-scoring either).
@@ -187,7 +79,10 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
     morph > 0 (geomorphing): a diamond due to merge within tau first lowers its vertex to its
     hypotenuse midpoint over morph frames (dying[v] = the clock it started; the drawn heights
     come from Roam._morph) and merges after; a merge forced by the budget does not wait, and a
-    dying diamond scored above tau again, or given a split child, stops dying."""
+    dying diamond scored above tau again, or given a split child, stops dying. A diamond
+    <= tau only because it is outside the frustum merges at once: an incremental frame
+    re-scores it only at its (unculled) wake-up, so a turn could otherwise show it half
+    lowered while above tau."""
     N = int(np.sqrt(wedge.shape[0]))
     S = N - 1
     every = budget >= 0
@@ -202,11 +97,19 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
     ns = 0
     nm = 0
     low = 0.0
-    for i in range(8):
+    for i in range(11):
         stats[i] = 0.0
     centre = (S // 2) * N + S // 2
     head = alive_count  # alive[:head] is sorted (compacted at the end of the last call)
     deferred = 0
+    # Forced merges only in incremental frames: a walking frame already merges every
+    # diamond whose split descendants are all within tau, children first (the merge phase
+    # re-queues a parent when its last child merges), so there they only cost refusals
+    # (1025^2 circle: ~300 a frame, +30% CPU, the same meshes).
+    samec = samec and not walk
+    op = 0  # tokens (stamp << 32) + op for the per-sample marks
+    fm_order = np.empty(alive.shape[0] + 1, np.int64)  # forced merges' sets
+    fm_stack = np.empty(alive.shape[0] + 1, np.int64)
     # Queues from last frame's mesh with this frame's priorities.
     # (The children loop is written out here: a call per diamond costs as much again in
     # reference counting of its array arguments.)
@@ -260,7 +163,8 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                 else:
                     low = max(low, q)
                     _touch(touched, tcount, v)
-            elif _mergeable(split, v, n, N, g):
+            elif (_half_mergeable(split, v, n, N, g) if samec  # forced-merge candidates
+                  else _mergeable(split, v, n, N, g)):
                 if qm[v] == stamp:
                     continue
                 q = _score(wedge, spacing, v, N, eye, planes, lam, cull)
@@ -270,22 +174,27 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                     qm[v] = stamp
                 else:
                     _touch(touched, tcount, v)
-                    if morph > 0:
-                        dying[v] = 0
+                    if morph > 0 and dying[v] != 0:
+                        op += 1
+                        _stop_descent(split, v, n, N, g, mark, (stamp << 32) + op, fm_order,
+                                      fm_stack, dying)
     for i in range(alive_count if walk else 0):
         v = alive[i]
         h, sq = _geometry(v // N, v % N, n, g)
         virtual = (not sq) and h == 1
         mergeable = True
+        half = False  # a triangle with two leaf children: Samec's merge unit
         for k in range(2):
             if g[k, 0] < 0:
                 continue
+            free = True
             for e in range(2, 4):
                 if virtual:
                     continue
                 m = ((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2
                 if split[m]:
                     mergeable = False
+                    free = False
                 elif qs[m] != stamp:
                     qs[m] = stamp
                     if not every and travel < until[m]:
@@ -303,7 +212,8 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                         if f32 > far:
                             f32 = np.nextafter(f32, np.float32(-np.inf))
                         until[m] = f32
-        if mergeable:
+            half = half or free
+        if mergeable or (half and samec and not every):
             q = _score(wedge, spacing, v, N, eye, planes, lam, cull)
             if every or q <= tau:
                 mk, mv = _reserve(mk, mv, nm, 1)
@@ -311,14 +221,17 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
                 qm[v] = stamp
             else:
                 _touch(touched, tcount, v)
-                if morph > 0:
-                    dying[v] = 0
+                if morph > 0 and dying[v] != 0:
+                    op += 1
+                    _stop_descent(split, v, n, N, g, mark, (stamp << 32) + op, fm_order,
+                                  fm_stack, dying)
     if split[centre] == 0:
         q = _score(wedge, spacing, centre, N, eye, planes, lam, cull)
         sk, sv = _reserve(sk, sv, ns, 1)
         ns = _push(sk, sv, ns, -q, centre)
         qs[centre] = stamp
     splits = merges = forced = exchanges = 0
+    forced_merges = forced_merged = refused = 0
     blocked = 0
     # Merge phase: diamonds whose own priority meets tau, and any while over the budget.
     while nm > 0 and (mk[0] <= tau or leaves > budget):
@@ -326,8 +239,25 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
         nm = _pop(mk, mv, nm)
         qm[v] = 0
         if not _mergeable(split, v, n, N, g):
+            if every or not samec or p > tau or not _half_mergeable(split, v, n, N, g):
+                continue
+            op += 1
+            sk, sv, ns, mk, mv, nm, low, removed, count = _force_merge(
+                wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau,
+                cull, sk, sv, ns, mk, mv, nm, low, g, g2, touched, tcount, changed, mark,
+                (stamp << 32) + op, fm_order, fm_stack, dying, clock, morph)
+            if count < 0:
+                refused += 1
+            elif count:
+                leaves -= removed
+                merges += count
+                forced_merges += 1
+                forced_merged += count
             continue
-        if morph > 0 and p <= tau:
+        if morph > 0 and p <= tau and _score(wedge, spacing, v, N, eye, planes, lam,
+                                             False) > tau:
+            dying[v] = 0  # <= tau only because culled: out of view, it merges at once
+        elif morph > 0 and p <= tau:
             if dying[v] == 0:
                 dying[v] = clock
             if clock - dying[v] < morph:
@@ -339,14 +269,14 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
         mk, mv = _reserve(mk, mv, nm, 2)
         ns, nm, low, removed = _merge(
             wedge, spacing, n, N, split, qs, qm, stamp, v, p, eye, planes, lam, tau, cull,
-            every, sk, sv, ns, mk, mv, nm, low, g, g2, touched, tcount, changed)
+            every, sk, sv, ns, mk, mv, nm, low, g, g2, touched, tcount, changed,
+            samec and not every)
         leaves -= removed
         merges += 1
     # Split phase: the highest-priority leaf diamond, after its forced chain, while > tau.
     order = np.empty(64 * (n + 2), np.int64)
     stack = np.empty(64 * (n + 2), np.int64)
     born_count = 0
-    op = 0
     exchange_cap = 2 * alive_count + 4096
     while ns > 0 and -sk[0] > tau:
         p, v = -sk[0], sv[0]
@@ -449,6 +379,7 @@ def _frame(wedge, spacing, n, split, alive, alive_count, qs, qm, mark, stamp,
         remaining = max(remaining, tau)  # the deferred ones are known to be <= tau only
     stats[3], stats[4], stats[5] = remaining, exchanges, blocked
     stats[7] = deferred
+    stats[8], stats[9], stats[10] = forced_merges, forced_merged, refused
     return alive_count, leaves, born_count
 
 
@@ -507,7 +438,7 @@ def _emit(wedge, spacing, n, split, alive, alive_count, planes, cull, out):
 
 @njit(cache=True)
 def _rewake(wedge, spacing, n, split, touched, count, eye, lam, tau, travel, hk, hv, hsize,
-            wake_at, parked, pcount, parked_at):
+            wake_at, parked, pcount, parked_at, samec):
     """Push each recorded candidate with the travel at which its priority may first cross
     tau (wedgie box distance d, priority lam e / d changes only as d does, and d by at most
     the eye's travel): a split candidate at travel + d - lam e / tau, a merge candidate at
@@ -538,7 +469,8 @@ def _rewake(wedge, spacing, n, split, touched, count, eye, lam, tau, travel, hk,
                 if parked_at[v]:
                     wake_at[v] = -1.0
                     continue
-        elif _mergeable(split, v, n, N, g):
+        elif (_half_mergeable(split, v, n, N, g) if samec  # forced-merge candidates
+              else _mergeable(split, v, n, N, g)):
             if wedge[v, 2] <= 0.0:
                 continue
             wake = travel + reach - d
