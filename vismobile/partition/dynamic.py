@@ -64,23 +64,30 @@ def _build(centres, order, lo, hi, first, start, count, stack_a, stack_b, stack_
     return n_nodes
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _node_box(boxes, order, lo, hi, first, start, count, node):
+    """lo[node], hi[node]: the box of a leaf's object boxes (M, 2, 3), or of an inner node's
+    two children (already refitted)."""
+    for j in range(3):
+        lo[node, j], hi[node, j] = np.inf, -np.inf
+    if first[node] < 0:
+        for i in range(start[node], start[node] + count[node]):
+            k = order[i]
+            for j in range(3):
+                lo[node, j] = min(lo[node, j], boxes[k, 0, j])
+                hi[node, j] = max(hi[node, j], boxes[k, 1, j])
+    else:
+        for c in range(first[node], first[node] + 2):
+            for j in range(3):
+                lo[node, j] = min(lo[node, j], lo[c, j])
+                hi[node, j] = max(hi[node, j], hi[c, j])
+
+
 @njit(cache=True, nogil=True)
 def _refit(boxes, order, lo, hi, first, start, count, n_nodes):
     """Node boxes bottom-up from the object boxes (M, 2, 3); returns the SAH cost."""
     for node in range(n_nodes - 1, -1, -1):
-        for j in range(3):
-            lo[node, j], hi[node, j] = np.inf, -np.inf
-        if first[node] < 0:
-            for i in range(start[node], start[node] + count[node]):
-                k = order[i]
-                for j in range(3):
-                    lo[node, j] = min(lo[node, j], boxes[k, 0, j])
-                    hi[node, j] = max(hi[node, j], boxes[k, 1, j])
-        else:
-            for c in range(first[node], first[node] + 2):
-                for j in range(3):
-                    lo[node, j] = min(lo[node, j], lo[c, j])
-                    hi[node, j] = max(hi[node, j], hi[c, j])
+        _node_box(boxes, order, lo, hi, first, start, count, node)
     root = _area(lo, hi, 0)
     cost = 0.0
     for node in range(n_nodes):
@@ -134,19 +141,7 @@ def refit_rows(boxes, rows, order, lo, hi, first, start, count, parent, leaf_of,
         dirty[node] = False
         weight = 1.0 if first[node] >= 0 else float(count[node])
         total -= _area(lo, hi, node) * weight
-        for j in range(3):
-            lo[node, j], hi[node, j] = np.inf, -np.inf
-        if first[node] < 0:
-            for i in range(start[node], start[node] + count[node]):
-                k = order[i]
-                for j in range(3):
-                    lo[node, j] = min(lo[node, j], boxes[k, 0, j])
-                    hi[node, j] = max(hi[node, j], boxes[k, 1, j])
-        else:
-            for c in range(first[node], first[node] + 2):
-                for j in range(3):
-                    lo[node, j] = min(lo[node, j], lo[c, j])
-                    hi[node, j] = max(hi[node, j], hi[c, j])
+        _node_box(boxes, order, lo, hi, first, start, count, node)
         total += _area(lo, hi, node) * weight
     root = _area(lo, hi, 0) if n_nodes else 0.0
     return (total / root if root > 0 else weight_sum), total
