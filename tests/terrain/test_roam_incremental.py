@@ -91,8 +91,9 @@ def test_turning_in_place_unparks_what_comes_into_view(fractal257):
 
 def test_the_default_walks_when_many_wake_ups_are_due(fractal257):
     """The default ROAM is incremental and walks the frames whose due wake-ups exceed a
-    share of the split diamonds (walk_share): none on a slow path, some on a fast one; every
-    frame within tau on the dense lattice, crack-free at the end."""
+    share of the split diamonds (walk_share), and the next ones while the eye stays as fast:
+    none on a slow path, some on a fast one, and it stops on a slow one again; every frame
+    within tau on the dense lattice, crack-free after the fast path."""
     truth = reference(fractal257, 4, alternating=True)
     slow = path_cameras(fractal257, "circle", "slow", frames=5, every=4)
     fast = path_cameras(fractal257, "circle", "fast", frames=5, start=40, every=24)
@@ -106,3 +107,8 @@ def test_the_default_walks_when_many_wake_ups_are_due(fractal257):
         last = whole.update(camera, RESOLUTION, 1.0, cull=False)
     assert roam.fast_frames > 0
     _check_mesh(last.triangles, fractal257.size)
+    # back to a slow eye: the walking stops (the queues are reseeded), within tau again
+    walked = roam.fast_frames
+    for camera in path_cameras(fractal257, "circle", "slow", frames=3, start=900, every=4):
+        _within_tau(fractal257, roam.update(camera, RESOLUTION, 1.0), camera, truth)
+    assert roam.fast_step is None and roam.fast_frames <= walked + 1

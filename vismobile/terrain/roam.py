@@ -145,8 +145,9 @@ class Roam:
     tau as well, with the merges of diamonds that left the view deferred and whole blocks
     drawn; False: every frame walks the whole mesh (the seed's frame).
     walk_share: with incremental, a frame whose due wake-ups are at least this share of the
-    split diamonds walks the mesh and emits per triangle instead (the queues are reseeded on
-    the next slow frame): at speeds where most candidates wake anyway, walking is cheaper.
+    split diamonds walks the mesh and emits per triangle instead, and so do the next frames
+    while the eye's step stays above 0.8x that frame's (the queues are reseeded on the first
+    slower one): at speeds where most candidates wake anyway, walking is cheaper.
     walk_above: instead of walk_share, walk the frames whose eye moved more than this many
     world units since the last one (np.inf: never walk for speed).
     forced_merge: without a budget, Samec's forced merge (module doc); False: a diamond
@@ -213,6 +214,7 @@ class Roam:
         self.need_walk = True
         self.walk_above = None if walk_above is None else float(walk_above)
         self.walk_share = float(walk_share)
+        self.fast_step = None  # the step that sent the last frames walking (walk_share)
         self.forced_merge = bool(forced_merge)
         self.fast_frames = 0  # frames walked for their speed (walk_share, walk_above)
 
@@ -229,6 +231,7 @@ class Roam:
         self.dying[:] = 0
         self.knob = None
         self.need_walk = True
+        self.fast_step = None
 
     def update(self, camera, resolution, tau: float, cull: bool = True,
                budget: int | None = None) -> RoamFrame:
@@ -256,10 +259,18 @@ class Roam:
         lazy = self.incremental and budget is None
         if self.walk_above is not None:
             fast = lazy and step > self.walk_above
+        elif lazy and self.fast_step is not None and self.need_walk:
+            # after a walking frame the heap is stale: keep walking while the eye moves
+            # about as fast as when the due wake-ups sent it walking (else reseed)
+            fast = step >= 0.8 * self.fast_step
+            if not fast:
+                self.fast_step = None
         else:  # walk when more wake-ups are due than a share of the split diamonds
             cap = int(self.walk_share * self.alive_count) + 1
             fast = (lazy and not self.need_walk and self.alive_count > 0
                     and _due(self.hk, int(self.hsize[0]), self.travel, cap) >= cap)
+            if fast:
+                self.fast_step = step
         if fast:  # walk this frame; the queues are reseeded on the next slow one
             lazy = False
             self.need_walk = True
