@@ -28,6 +28,52 @@ import types
 from importlib import import_module
 
 __version__ = "0.1.0"
+
+
+def _kernel_cache_dir() -> None:
+    """Give numba's on-disk cache one folder per content of the package's sources.
+
+    numba checks a cached kernel against its own file's timestamp only, so a kernel that
+    inlines a callee from another file kept the old callee after that file changed (seen when
+    hiz/buffer.py changed under occlusion_chain's cached frame): after an edit or an upgrade a
+    stale, possibly no longer conservative, kernel would run. Hashing the sources (about 7 ms)
+    makes any change start a fresh folder; folders unused for a week are removed. Under the
+    user's NUMBA_CACHE_DIR when set, else ~/.cache/vismobile/numba; numba's defaults stay if
+    the folder cannot be made."""
+    import hashlib
+    import os
+    import shutil
+    import time
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent
+    digest = hashlib.sha1()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
+    base = Path(os.environ.get("NUMBA_CACHE_DIR")
+                or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+                / "vismobile" / "numba")
+    if base.name.startswith("vismobile-"):  # already chosen by this function (a child process)
+        base = base.parent
+    folder = base / f"vismobile-{digest.hexdigest()[:16]}"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        os.utime(folder)
+    except OSError:
+        return
+    os.environ["NUMBA_CACHE_DIR"] = str(folder)
+    if "numba" in sys.modules:  # numba read its configuration already
+        sys.modules["numba"].config.CACHE_DIR = str(folder)
+    week = time.time() - 7 * 86400
+    for old in base.glob("vismobile-*"):
+        try:
+            if old != folder and old.stat().st_mtime < week:
+                shutil.rmtree(old, ignore_errors=True)
+        except OSError:
+            pass
+
+
+_kernel_cache_dir()
 VERSION = __version__  # the old name, kept for scripts that read it
 
 # Public names, imported on first use so that `import vismobile` stays light.
