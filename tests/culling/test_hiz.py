@@ -515,6 +515,19 @@ def test_a_diagonal_triangle_is_tested_over_its_shape_not_its_rectangle():
     assert shape_test([half], near_edge, shift=5.5 * pixel).tolist() == [False]
 
 
+def moved_points_on_screen(tri, depth, move, rng):
+    """(points (N, 3), bound (N,)): random points of 200 copies of the camera-space triangle
+    tri (3, 3) with corners moved by up to move per coordinate, those landing on the screen
+    of depth (H, W), and the depth bound of the pixel each lands in."""
+    moved = tri + rng.uniform(-move, move, size=(200, 3, 3))
+    w = rng.dirichlet(np.ones(3), size=(200, 50))
+    points = np.einsum("mkc,mcd->mkd", w, moved).reshape(-1, 3)
+    x = np.floor((points[:, 0] / points[:, 2] / TX + 1.0) * 0.5 * W).astype(int)
+    y = np.floor((points[:, 1] / points[:, 2] / TY + 1.0) * 0.5 * H).astype(int)
+    on = (x >= 0) & (x < W) & (y >= 0) & (y < H)
+    return points[on], depth[y[on], x[on]]
+
+
 def test_a_hidden_triangle_has_every_moved_point_behind_the_buffer():
     # The contract with the shape test and device moves: a triangle called hidden has every
     # point of every moved copy (corners moved by up to `move` per coordinate) that lands on
@@ -531,13 +544,8 @@ def test_a_hidden_triangle_has_every_moved_point_behind_the_buffer():
         tris *= rng.uniform(6.0, 12.0, size=(40, 3, 1))  # corners at different depths
         hidden = shape_test(tris, depth, move=move)
         for t in tris[hidden]:
-            moved = t + rng.uniform(-move, move, size=(200, 3, 3))
-            w = rng.dirichlet(np.ones(3), size=(200, 50))
-            points = np.einsum("mkc,mcd->mkd", w, moved).reshape(-1, 3)
-            x = np.floor((points[:, 0] / points[:, 2] / TX + 1.0) * 0.5 * W).astype(int)
-            y = np.floor((points[:, 1] / points[:, 2] / TY + 1.0) * 0.5 * H).astype(int)
-            on = (x >= 0) & (x < W) & (y >= 0) & (y < H)
-            assert (points[on, 2] > depth[y[on], x[on]]).all()
+            points, bound = moved_points_on_screen(t, depth, move, rng)
+            assert (points[:, 2] > bound).all()
             checked += 1
     assert checked > 50
 
@@ -569,13 +577,8 @@ def test_plane_depth_keeps_every_moved_point_behind_uneven_buffers():
         tris *= rng.uniform(4.0, 14.0, size=(40, 3, 1))
         hidden = shape_test(tris, depth, move=move)
         for t in tris[hidden]:
-            moved = t + rng.uniform(-move, move, size=(200, 3, 3))
-            w = rng.dirichlet(np.ones(3), size=(200, 50))
-            points = np.einsum("mkc,mcd->mkd", w, moved).reshape(-1, 3)
-            x = np.floor((points[:, 0] / points[:, 2] / TX + 1.0) * 0.5 * W).astype(int)
-            y = np.floor((points[:, 1] / points[:, 2] / TY + 1.0) * 0.5 * H).astype(int)
-            on = (x >= 0) & (x < W) & (y >= 0) & (y < H)
-            assert (points[on, 2] > depth[y[on], x[on]]).all()
-            by_plane += on.any() and points[:, 2].min() < depth[y[on], x[on]].max()
+            points, bound = moved_points_on_screen(t, depth, move, rng)
+            assert (points[:, 2] > bound).all()
+            by_plane += len(points) > 0 and points[:, 2].min() < bound.max()
             checked += 1
     assert checked > 50 and by_plane > 0
