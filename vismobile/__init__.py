@@ -50,16 +50,16 @@ def _kernel_cache_dir() -> None:
     digest = hashlib.sha1()
     for path in sorted(root.rglob("*.py")):
         digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
-    base = Path(os.environ.get("NUMBA_CACHE_DIR")
-                or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-                / "vismobile" / "numba")
-    if base.name.startswith("vismobile-"):  # already chosen by this function (a child process)
-        base = base.parent
-    folder = base / f"vismobile-{digest.hexdigest()[:16]}"
-    try:
+    try:  # no home folder, or none writable: numba's defaults
+        base = Path(os.environ.get("NUMBA_CACHE_DIR")
+                    or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+                    / "vismobile" / "numba")
+        if base.name.startswith("vismobile-"):  # chosen by this function (a child process)
+            base = base.parent
+        folder = base / f"vismobile-{digest.hexdigest()[:16]}"
         folder.mkdir(parents=True, exist_ok=True)
         os.utime(folder)
-    except OSError:
+    except (OSError, RuntimeError):
         return
     os.environ["NUMBA_CACHE_DIR"] = str(folder)
     if "numba" in sys.modules:  # numba read its configuration already
