@@ -74,7 +74,7 @@ def test_the_paged_image_matches_the_in_memory_render(paged_map):
 def test_a_malformed_paged_terrain_is_refused(paged_map, tmp_path):
     _, _, path = paged_map
     data = path.read_bytes()
-    for name, bad in (("magic.vmrpages", b"XXXX" + data[4:]),
+    for name, bad in (("magic.vmrpages", b"VMTT" + data[4:]),  # a .vmtiles header, not ours
                       ("short.vmrpages", data[:len(data) - 10]),
                       ("coarse.vmrpages", data[:300] + bytes([data[300] ^ 1]) + data[301:])):
         (tmp_path / name).write_bytes(bad)
