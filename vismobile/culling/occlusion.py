@@ -437,14 +437,31 @@ class DepthBufferOcclusion(OccluderChoice):
     def _apply_compiled(self, state) -> None:
         """apply's path with vfc deferred on an in-memory World (shells, no first_reach) in one
         compiled call (hiz.frame.occlusion_frame: the same kernels, the same decisions)."""
-        tree, camera = self.tree, state.camera
+        arguments, move, margin, recede = self._frame_arguments(state.camera)
+        stats = np.zeros(FRAME_SLOTS, dtype=np.int64)
+        (kept, self._frame, self.nearest, self.reach, chosen, self._out, self._stack,
+         self._below, local) = occlusion_frame(*arguments, stats)
+        self._shift_written = local == 1
+        self._local = None if local < 0 else bool(local)
+        for name, value in zip(FRAME_COUNTERS[:4] if kept < 0 else FRAME_COUNTERS, stats):
+            state.count(name, value)
+        self.frame_occluders = chosen
+        written = stats[1]
+        state.nodes = (frustum_refine(self.tree, state, "vfc") if kept < 0
+                       else self._out[:kept].copy())
+        written += self._moving_occluders(state)
+        self._triangle_filter(state, written, move, margin, recede)
+
+    def _frame_arguments(self, camera) -> tuple:
+        """(arguments, move, margin, recede): hiz.frame.occlusion_frame's arguments for camera
+        up to and with the frame number (occlusion_chain.chained_frame takes the same first),
+        against self._planes; move, margin and recede as the triangle test takes them."""
+        tree = self.tree
         eye, rotation, tx, ty, move, clip, _, order = self._view(camera)
         eye = np.asarray(eye, dtype=np.float64)
         margin, recede = ZBUFFER_MARGIN / camera.near, np.sqrt(3.0) * move
         delta = DEVICE_RELATIVE * max(self.magnitude, *map(abs, eye)) + DEVICE_ABSOLUTE
-        stats = np.zeros(FRAME_SLOTS, dtype=np.int64)
-        (kept, self._frame, self.nearest, self.reach, chosen, self._out, self._stack,
-         self._below, local) = occlusion_frame(
+        arguments = (
             tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,
             tree.tol, self.vertices, self.triangles_, self.normals, self.v0, self.centroids,
             self.radius, self.areas, self.groups, self.tri_points, self.points, self.offsets,
@@ -457,16 +474,8 @@ class DepthBufferOcclusion(OccluderChoice):
             self.height, *self.tile, self.depth, self.mask, self.centre, self.crease_far,
             self.tile_max, self.tile_any, self.tile_min, self.tile_near, self.tile_shift,
             GUARD_PX if self.screen is None else LOCAL_SHIFT_PX, *self.samples(camera, move),
-            self._frame, stats)
-        self._shift_written = local == 1
-        self._local = None if local < 0 else bool(local)
-        for name, value in zip(FRAME_COUNTERS[:4] if kept < 0 else FRAME_COUNTERS, stats):
-            state.count(name, value)
-        self.frame_occluders = chosen
-        written = stats[1]
-        state.nodes = frustum_refine(tree, state, "vfc") if kept < 0 else self._out[:kept].copy()
-        written += self._moving_occluders(state)
-        self._triangle_filter(state, written, move, margin, recede)
+            self._frame)
+        return arguments, move, margin, recede
 
     def _unordered(self, state, fused) -> None:
         """The frame without a buffer (depth_order is inf): the deferred frustum walk, and with

@@ -23,11 +23,7 @@ from .hiz.buffer import hidden_triangles
 from .hiz.candidates import score_candidates
 from .hiz.frame import FRAME_SLOTS, occlusion_frame, occluder_shift, top_scored
 from .kernels import run_count
-from .hiz import GUARD_PX
-from .occluder_choice import GRAZING, SHELL_GROWTH
-from .occlusion import LOCAL_SHIFT_PX, ZBUFFER_MARGIN
 from .state import CullResult
-from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE, GAMMA_8
 
 # Slots of chain_finish's counts.
 GATHERED, FRONT, SUBPIXEL, HIDDEN, RUNS, CHAIN_SLOTS = range(6)
@@ -128,37 +124,20 @@ def cull_chained(stage, tbfc, camera, planes, cull_back: bool):
     if not (stage.compiled and stage.tables and stage.first_reach is None
             and stage.first_candidates > 0 and stage.triangles and not stage.self_occluders):
         return None
-    eye, rotation, tx, ty, move, clip, scale, order = stage._view(camera)
+    eye, *_, order = stage._view(camera)
     if not order < np.inf:
         return None
     tree = stage.tree
-    eye = np.asarray(eye, dtype=np.float64)
-    planes = np.ascontiguousarray(planes, dtype=np.float64)
-    stage._camera, stage._planes = camera, planes
-    margin, recede = ZBUFFER_MARGIN / camera.near, np.sqrt(3.0) * move
-    delta = DEVICE_RELATIVE * max(stage.magnitude, *map(abs, eye)) + DEVICE_ABSOLUTE
-    screen = stage.screen
-    sw, sh, sample_move = (0, 0, move) if screen is None else (
-        screen[0], screen[1], max(DEVICE_RELATIVE * scale + DEVICE_ABSOLUTE, move))
+    stage._camera, stage._planes = camera, np.ascontiguousarray(planes, dtype=np.float64)
+    arguments = stage._frame_arguments(camera)[0]
     stats = np.zeros(FRAME_SLOTS, dtype=np.int64)
     counts = np.zeros(CHAIN_SLOTS, dtype=np.int64)
     groups, bitmap = tree.groups, tree._bitmap
     (kept, stage._frame, stage.nearest, stage.reach, chosen, stage._out, stage._stack,
      stage._below, local, sent, history, bitmap.ranges) = chained_frame(
-        tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, stage.parent,
-        tree.tol, stage.vertices, stage.triangles_, stage.normals, stage.v0, stage.centroids,
-        stage.radius, stage.areas, stage.groups, stage.tri_points, stage.points, stage.offsets,
-        stage.piece_start, stage.piece_end, stage.piece_a, stage.piece_b, stage.partner,
-        stage.partner_any, stage.stamp, stage.lists, stage.history, stage.bits, stage._cands,
-        stage._stack, stage._later, stage._out, stage._masks, stage._below, stage._roots,
-        stage.up_mark, stage.draw_mark, planes, eye, rotation, camera.near, tx, ty, move, clip,
-        order, margin, recede, delta, GAMMA_8, GRAZING, stage.detail, stage.shell,
-        stage.first_candidates, SHELL_GROWTH, stage.occluders, stage.rounds, stage.width,
-        stage.height, *stage.tile, stage.depth, stage.mask, stage.centre, stage.crease_far,
-        stage.tile_max, stage.tile_any, stage.tile_min, stage.tile_near, stage.tile_shift,
-        LOCAL_SHIFT_PX if screen is not None else GUARD_PX, sw, sh, sample_move,
-        stage._frame, stats, stage._shift_written, groups.words, groups.masks, groups.span,
-        bitmap.bits, bitmap.summary, bitmap.tops, bitmap.ranges, tbfc.delta(eye), counts)
+        *arguments, stats, stage._shift_written, groups.words, groups.masks, groups.span,
+        bitmap.bits, bitmap.summary, bitmap.tops, bitmap.ranges,
+        tbfc.delta(np.asarray(eye, dtype=np.float64)), counts)
     stage._shift_written = local == 1
     stage._local = None if local < 0 else bool(local)
     stage.frame_occluders = chosen
