@@ -169,27 +169,10 @@ def _is_corner(r, c, S):
 
 
 @njit(cache=True, inline="always")
-def _mergeable(split, v, n, N, g):
-    """Split diamond none of whose children is split (its four triangles' children are leaves)."""
-    if split[v] == 0 or _is_corner(v // N, v % N, N - 1):
-        return False
-    h, sq = _geometry(v // N, v % N, n, g)
-    if not sq and h == 1:
-        return True
-    for k in range(2):
-        if g[k, 0] < 0:
-            continue
-        for e in range(2, 4):
-            if split[((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2]:
-                return False
-    return True
-
-
-@njit(cache=True, inline="always")
-def _half_mergeable(split, v, n, N, g):
-    """Split diamond with a triangle whose two children are leaves (Samec's merge unit: two
-    leaves into their parent); the diamond's other triangle may have split children, which
-    his forced merge merges first. Every mergeable diamond is half-mergeable."""
+def _leaf_children(split, v, n, N, g, every):
+    """Split diamond (not a corner) whose in-mesh triangles all have leaf children (every), or
+    one of whose triangles has two leaf children (not every); a virtual diamond (h == 1, not
+    square) has no children and is both."""
     if split[v] == 0 or _is_corner(v // N, v % N, N - 1):
         return False
     h, sq = _geometry(v // N, v % N, n, g)
@@ -202,9 +185,23 @@ def _half_mergeable(split, v, n, N, g):
         for e in range(2, 4):
             if split[((g[k, 0] + g[e, 0]) // 2) * N + (g[k, 1] + g[e, 1]) // 2]:
                 free = False
-        if free:
-            return True
-    return False
+        if free != every:  # every: a triangle with a split child; any: a free triangle
+            return free
+    return every
+
+
+@njit(cache=True, inline="always")
+def _mergeable(split, v, n, N, g):
+    """Split diamond none of whose children is split (its four triangles' children are leaves)."""
+    return _leaf_children(split, v, n, N, g, True)
+
+
+@njit(cache=True, inline="always")
+def _half_mergeable(split, v, n, N, g):
+    """Split diamond with a triangle whose two children are leaves (Samec's merge unit: two
+    leaves into their parent); the diamond's other triangle may have split children, which
+    his forced merge merges first. Every mergeable diamond is half-mergeable."""
+    return _leaf_children(split, v, n, N, g, False)
 
 
 @njit(cache=True, inline="always")
