@@ -91,6 +91,19 @@ def seeds(folder: Path) -> dict:
                       pvs_doors=True)
     save_partition(baked.static, folder / "seed-pvs-doors.vmp")
     vmps.append((folder / "seed-pvs-doors.vmp").read_bytes())
+    # A street-cell PVS (extras pvs_cover, partition/pvs_street.py): two blocks on a ground.
+    from vismobile.scenes.city import Building, building_mesh
+    from vismobile.scenes.surfaces import MeshCollector, tiled_rect
+
+    mesh = MeshCollector()
+    for k, x in enumerate((6.0, 14.0)):
+        v, t = building_mesh(Building((x, 10.0), (4.0, 4.0), 20.0 * k, 8.0))
+        mesh.add(f"b{k}", np.round(v, 5), t)
+    mesh.add("ground", *tiled_rect((0.0, 0.0, 0.0), (20.0, 0.0, 0.0), (0.0, 0.0, 20.0), 4, 4,
+                                   (0.0, 1.0, 0.0)))
+    street = partition(mesh.world("street"), "portal", depth=1, pvs="conservative")
+    save_partition(street, folder / "seed-pvs-street.vmp")
+    vmps.append((folder / "seed-pvs-street.vmp").read_bytes())
     # A partition carrying level-of-detail chains (extras lod_*, checked on load).
     from vismobile.lod.simplify import build_chains
 

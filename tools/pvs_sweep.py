@@ -9,11 +9,13 @@ quarter each uniform, on a face, on an edge, in a corner of the cell; yaw any, p
 judged against that mode's item buffer without back-face culling; and every --path-stride-th
 frame of the world's thesis path, likewise. Prints one line per world and structure: view
 cells, bake seconds, checks, cameras that fell back (eye outside every cell or within the
-device's move of the near plane), dropped triangles, and the wall time. With --out, appends
+device's move of the near plane; with street cells, partition/pvs_street.py, also a near plane
+nearer than the bake's NEAR_MIN, counted apart), dropped triangles, and the wall time. With --out, appends
 the lines' figures as JSON lines.
 
 Usage: .venv/bin/python tools/pvs_sweep.py [--worlds w1,w5] [--structures portal:2,bsp]
        [--cameras 2000] [--path-stride 10] [--seed 0] [--cache out/pvs_sweep] [--out F.jsonl]
+       [--jobs 1]
 Run one world per call to stay within a few minutes on a shared machine. Exit status 0 when
 nothing was dropped, 1 otherwise.
 """
@@ -34,6 +36,7 @@ sys.path.insert(0, str(ROOT))
 from vismobile.culling import Culler, device_options  # noqa: E402
 from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.partition import load_partition, partition, save_partition  # noqa: E402
+from vismobile.partition.pvs import bake  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
 from vismobile.world.camera import Camera  # noqa: E402
@@ -51,13 +54,16 @@ def bake_key(world, spec) -> str:
     return digest.hexdigest()[:16]
 
 
-def baked(world, spec, cache) -> tuple:
+def baked(world, spec, cache, jobs=1) -> tuple:
     """(partition with pvs=conservative, bake seconds or None when loaded from the cache)."""
     path = Path(cache) / f"{world.name}-{spec.replace(':', '')}-{bake_key(world, spec)}.vmp"
     if path.is_file():
         return load_partition(path), None
     start = time.perf_counter()
-    part = partition(world, spec, pvs="conservative")
+    part = partition(world, spec)
+    extras, _ = bake(part, "conservative", jobs=jobs)  # as partition(..., pvs=) does
+    part.extras.update(extras)
+    part.params["pvs"] = "conservative"
     seconds = time.perf_counter() - start
     path.parent.mkdir(parents=True, exist_ok=True)
     save_partition(part, path)
@@ -86,7 +92,8 @@ def check(world, part, cameras) -> dict:
         options = ({"arithmetic": "float64"} if mode == "float64"
                    else device_options(profiles[mode]))
         cullers[mode] = Culler(part, "pvs+vfc", **options)
-    out = {"checks": 0, "fallbacks": 0, "dropped": 0, "worst": None}
+    out = {"checks": 0, "fallbacks": 0, "near_fallbacks": 0, "dropped": 0, "worst": None}
+    cover = part.extras.get("pvs_cover")  # street cells: near planes from cover[1] only
     for cam in cameras:
         for mode in MODES:
             ids = np.unique(item_buffer(world, None, cam, profiles[mode], cull_back=False))
@@ -95,16 +102,18 @@ def check(world, part, cameras) -> dict:
             lost = np.setdiff1d(shown, result.triangles)
             out["checks"] += 1
             out["fallbacks"] += int("pvs.fallbacks" in result.stats)
+            out["near_fallbacks"] += int("pvs.fallbacks" in result.stats and cover is not None
+                                         and cam.near < float(cover[1]))
             out["dropped"] += len(lost)
             if len(lost) and out["worst"] is None:
                 out["worst"] = f"{mode} {cam}: {lost[:8].tolist()}"
     return out
 
 
-def sweep(name, spec, cameras, stride, seed, cache) -> dict:
+def sweep(name, spec, cameras, stride, seed, cache, jobs=1) -> dict:
     began = time.perf_counter()
     world = build_world(name)
-    part, seconds = baked(world, spec, cache)
+    part, seconds = baked(world, spec, cache, jobs)
     randoms = check(world, part, in_cell_cameras(part, cameras, seed))
     path = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
                                                     else "indoor.csv"))
@@ -115,7 +124,8 @@ def sweep(name, spec, cameras, stride, seed, cache) -> dict:
            "path_frames": len(frames), "seconds": time.perf_counter() - began}
     bake = "cached" if seconds is None else f"{seconds:.1f} s"
     print(f"{name} {spec}+pvs: {row['cells']} cells, bake {bake} | random {cameras} cameras x "
-          f"3 modes: {randoms['checks']} checks, {randoms['fallbacks']} fell back, dropped "
+          f"3 modes: {randoms['checks']} checks, {randoms['fallbacks']} fell back "
+          f"({randoms['near_fallbacks']} for a near plane nearer than the bake's), dropped "
           f"{randoms['dropped']} | path {len(frames)} frames x 3 modes: {along['fallbacks']} "
           f"fell back, dropped {along['dropped']} | {row['seconds']:.0f} s", flush=True)
     for worst in (randoms["worst"], along["worst"]):
@@ -133,14 +143,15 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=ROOT / "out" / "pvs_sweep")
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--jobs", type=int, default=1, help="bake processes")
     args = parser.parse_args(argv)
-    if args.cameras < 0 or args.path_stride < 1:
-        parser.error("--cameras >= 0 and --path-stride >= 1")
+    if args.cameras < 0 or args.path_stride < 1 or args.jobs < 1:
+        parser.error("--cameras >= 0, --path-stride >= 1 and --jobs >= 1")
     dropped = 0
     for name in filter(None, args.worlds.split(",")):
         for spec in filter(None, args.structures.split(",")):
             row = sweep(name.strip(), spec.strip(), args.cameras, args.path_stride, args.seed,
-                        args.cache)
+                        args.cache, args.jobs)
             dropped += row["random"]["dropped"] + row["path"]["dropped"]
             if args.out:
                 with open(args.out, "a") as handle:

@@ -1,6 +1,7 @@
 """tools/pvs_sweep.py's sampled subset (issue 29 target 1; the full sweep: 2,000 cameras per
-world, every path frame): W5 baked on the portal structure and on the BSP tree's leaves, random
-cameras in its view cells and path frames in float64, float32 and fixed16.16, 0 dropped."""
+world, every path frame): W5 baked on the portal structure (street cells) and on the BSP
+tree's leaves, random cameras in its view cells and path frames in float64, float32 and
+fixed16.16, 0 dropped."""
 import importlib.util
 import json
 from pathlib import Path
@@ -14,10 +15,15 @@ def test_the_sweep_drops_nothing_on_a_sample_of_w5(tmp_path):
     spec.loader.exec_module(sweep)
     out = tmp_path / "rows.jsonl"
     assert sweep.main(["--worlds", "w5", "--cameras", "16", "--path-stride", "250",
-                       "--cache", str(tmp_path / "cache"), "--out", str(out)]) == 0
+                       "--cache", str(tmp_path / "cache"), "--out", str(out), "--jobs", "2"]) == 0
     rows = [json.loads(line) for line in out.read_text().splitlines()]
     assert [r["structure"] for r in rows] == ["portal:2", "bsp"]
     for row in rows:
         assert row["random"]["checks"] == 3 * 16 and row["path"]["checks"] == 3 * 8
         assert row["random"]["dropped"] == row["path"]["dropped"] == 0
-        assert row["random"]["fallbacks"] == 0  # every camera inside a cell used its set
+        # every camera inside a cell used its set, but on the street cells (partition/
+        # pvs_street.py) for near planes (0.01) nearer than the bake assumed (NEAR_MIN), and
+        # on a cell's side facing a building's inside or the world's edge (its near plane may
+        # leave the cells)
+        others = row["random"]["fallbacks"] - row["random"]["near_fallbacks"]
+        assert others == 0 if row["structure"] == "bsp" else others <= row["random"]["checks"] // 8

@@ -14,7 +14,10 @@ put the inside of every solid near a cell in its set (partition/pvs.py).
 Hands on everything when the cells see the whole world (`pvs.everything`); falls back (hands
 on everything, counted in `pvs.fallbacks`) when the partition holds no PVS, the eye is in no
 view cell, its near plane is within the device's move, or the device's reach exceeds the
-bake's growth.
+bake's growth; and with street-level cells (partition/pvs_street.py, `pvs_cover`: they cover
+only where a camera walks), when the near plane is nearer than the bake assumed or reaches
+farther from the eye than it assumed, or may leave the cells (an eye near the top of the
+layer, above it, or by a building's inside: `covered`).
 
 The sets are stored whole; with a back-face stage in the combination (the Culler sets
 back_culled) and the eye within pvs_back of every cell taken, each cell's set loses what faces
@@ -71,6 +74,10 @@ class PVSStage:
         self.patterns, self.ids = decode(extras, len(self.cells), tree.world.triangle_count)
         self.terms = None  # triangle_terms for the back-face test, made on first use
         self.grow = float(np.asarray(extras["pvs_grow"])[0])
+        # street-level cells (partition/pvs_street.py) hold what lines from within cover of
+        # them see, for near planes from near_min: (cover, near_min), else None
+        self.cover = tuple(float(v) for v in np.asarray(extras["pvs_cover"])) \
+            if "pvs_cover" in extras else None
         # a sampled PVS (render/pvs_sampled.py) is aggressive: no growth to check against
         self.sampled = str(tree.partition.params.get("pvs", "")).startswith("sampled")
         self.magnitude = world_scale(tree.world.vertices)
@@ -187,8 +194,30 @@ class PVSStage:
         if not self.sampled and (grow > self.grow or camera.near <= grow / (2.0 * np.sqrt(3.0))):
             return None
         reach = near_reach(camera)
+        if self.cover is not None and (camera.near < self.cover[1] or
+                                       grow + reach > self.cover[0]):
+            return None  # a near plane the street cells' depth slack does not cover
         found = self.eye_cells(camera, grow + reach)
+        if self.cover is not None and len(found) and not self.covered(camera.eye, found,
+                                                                      grow + reach):
+            return None  # the near plane may leave the street cells (above, in a building)
         return (found, self.tree.tol + grow + reach) if len(found) else None
+
+    def covered(self, eye, found, reach) -> bool:
+        """The 8 corners of the box eye +- (reach + slack) each lie in one of the found cells
+        (grown by the slack, and by cover[0] up and down as the bake's regions were). The
+        street cells are quadtree squares at least MIN_CELL wide, and what they leave out (a
+        building's inside, beyond the world, above or below the layer) are boxes larger than
+        that eye box, so such a box meets it only at one of its corners: the corners inside
+        mean every near-plane point is in some cell's region."""
+        tol = self.tree.tol
+        signs = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)]) * 2.0 - 1.0
+        corners = np.asarray(eye, dtype=np.float64) + signs * (reach + tol)
+        grown = np.array([tol, self.cover[0], tol])  # the bake covered cover[0] above, below
+        boxes = self.cells[found]
+        inside = ((boxes[None, :, 0] - grown <= corners[:, None])
+                  & (corners[:, None] <= boxes[None, :, 1] + grown)).all(axis=2)
+        return bool(inside.any(axis=1).all())
 
 
 def near_reach(camera) -> float:

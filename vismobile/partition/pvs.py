@@ -203,6 +203,23 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         raise ValueError(f"unknown pvs mode {mode!r}; valid: {', '.join(MODES)}")
     began = time.perf_counter()
     world = partition.world
+    if partition.kind != "bsp" and doors is None and cells is None:
+        from .pvs_columns import find_columns
+        from .pvs_street import COVER, NEAR_MIN, bake_street, outdoor
+
+        columns = find_columns(world)
+        if outdoor(world, columns[3]):  # street-level cells and occluder shadows
+            grow = bake_grow(world)
+            tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
+            boxes, masks, stats = bake_street(world, grow, tol, progress, jobs, executor,
+                                              EXECUTOR_CHUNKS, columns)
+            masks = with_solids(world, boxes, masks, grow)
+            extras = {"pvs_cells": boxes.copy(), **encode(masks, len(boxes)),
+                      "pvs_grow": np.array([grow], dtype=np.float64),
+                      "pvs_back": np.array([back_reach(world)], dtype=np.float64),
+                      "pvs_cover": np.array([COVER, NEAR_MIN], dtype=np.float64)}
+            stats["seconds"] = time.perf_counter() - began
+            return extras, stats
     grow = bake_grow(world)
     g = view_grid(world, cells, grow=grow)
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow

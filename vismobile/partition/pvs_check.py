@@ -23,6 +23,10 @@ def check_pvs(x, triangles) -> None:
         back = np.asarray(x["pvs_back"])
         if back.shape != (1,) or not np.isfinite(back).all() or back[0] < 0:
             raise ValueError("pvs_back must be one finite non-negative value")
+    if "pvs_cover" in x:
+        cover = np.asarray(x["pvs_cover"])
+        if cover.shape != (2,) or not np.isfinite(cover).all() or (cover <= 0).any():
+            raise ValueError("pvs_cover must be two finite positive values (cover, near)")
     if cells.ndim != 3 or cells.shape[1:] != (2, 3) or not np.isfinite(cells).all() \
             or np.any(cells[:, 0] > cells[:, 1]):
         raise ValueError("pvs_cells must be (V, 2, 3) finite boxes")
