@@ -42,12 +42,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.boxes import boxes_contain_point
 from ..partition.pvs import back_delta, ids_of
 from ..partition.pvs_back import region_backfacing, triangle_terms
 from ..partition.pvs_codec import cell_mask, decode
 from .doors import closed_doors, shut
 from .precision import device_move, world_scale
+from .pvs_lookup import cell_index, find
 from .state import CullState
 from .tree import Tree
 
@@ -69,7 +69,9 @@ class PVSStage:
         self.cache = {}
         if not self.available:
             return
-        self.cells = np.asarray(extras["pvs_cells"], dtype=np.float64)
+        self.cells = np.ascontiguousarray(extras["pvs_cells"], dtype=np.float64)
+        self.index = cell_index(self.cells)  # x-z buckets: a frame tests the cells near the eye
+        self.tested = 0
         # inflated once, here (the load checked it): K pattern bitsets, a pattern per triangle
         self.patterns, self.ids = decode(extras, len(self.cells), tree.world.triangle_count)
         self.terms = None  # triangle_terms for the back-face test, made on first use
@@ -117,8 +119,11 @@ class PVSStage:
 
     def eye_cells(self, camera, grow: float) -> np.ndarray:
         """(K,) int64 view cells whose box grown by the tree's slack plus grow holds the eye
-        (a superset of the cells within grow of the eye: boxes grown, not rounded)."""
-        return np.flatnonzero(boxes_contain_point(self.cells, camera.eye, self.tree.tol + grow))
+        (a superset of the cells within grow of the eye: boxes grown, not rounded), from the
+        buckets around the eye (pvs_lookup.py; self.tested: the boxes tested)."""
+        found, self.tested = find(self.cells, *self.index, np.asarray(camera.eye, np.float64),
+                                  self.tree.tol + grow)
+        return found
 
     def visible(self, cells, drop_back=True, doors=()) -> tuple:
         """(keep (T,) bool, draw nodes (D,) int64, everything: bool) of the union of the
@@ -169,10 +174,10 @@ class PVSStage:
         state.count(f"{self.name}.cells", len(found))
         if doors:
             state.count(f"{self.name}.doors_shut", len(doors))
-        # what a device pays (device/costmodel.py): every view cell's box tested, a pattern id
+        # what a device pays (device/costmodel.py): the view cells' boxes tested, a pattern id
         # per triangle gathered when the cells' union was not cached, each gathered triangle
         # looked up
-        state.count(f"{self.name}.cells_tested", len(self.cells))
+        state.count(f"{self.name}.cells_tested", self.tested)
         state.count(f"{self.name}.ids_decoded", self.decoded)
         if everything:  # the cells see the whole world: nothing to hand on
             state.count(f"{self.name}.everything", 1)

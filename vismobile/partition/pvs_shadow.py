@@ -151,52 +151,83 @@ def _wrap(r):
     return r
 
 
-@njit(cache=True)
-def hidden_from_sample(sx, sy, sz, corners, alive, margin, steps, slopes, count):
-    """alive (T,) bool: clear the triangles (corners (T, 3, 3)) the sample's shadow steps
-    do not hide: over every direction bin the triangle's x-z shadow spans (widened by
-    ANGLE_SLACK), its highest corner is below sy + slope dmin - margin for a step starting within
+@njit(cache=True, inline="always")
+def _polygon_hidden(xs, zs, n, top, sy, steps, slopes, count):
+    """The convex x-z polygon (xs, zs)[:n] (relative to the sample, either winding), up to
+    height top, is hidden by the steps: the sample is outside it, and over every direction bin
+    its shadow spans (widened by ANGLE_SLACK) sy + slope dmin > top for a step starting within
     dmin, its least x-z distance from the sample."""
     width = 2.0 * np.pi / BINS
-    for t in range(len(alive)):
-        if not alive[t]:
-            continue
-        top = max(corners[t, 0, 1], max(corners[t, 1, 1], corners[t, 2, 1])) + margin
-        x0, z0 = corners[t, 0, 0] - sx, corners[t, 0, 2] - sz
-        x1, z1 = corners[t, 1, 0] - sx, corners[t, 1, 2] - sz
-        x2, z2 = corners[t, 2, 0] - sx, corners[t, 2, 2] - sz
-        # the origin (the sample) inside the x-z triangle, or on it: seen
-        c0 = x0 * z1 - z0 * x1
-        c1 = x1 * z2 - z1 * x2
-        c2 = x2 * z0 - z2 * x0
-        if (c0 >= 0.0 and c1 >= 0.0 and c2 >= 0.0) or (c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0):
-            alive[t] = False
-            continue
-        dmin = min(_edge_distance(x0, z0, x1, z1),
-                   min(_edge_distance(x1, z1, x2, z2), _edge_distance(x2, z2, x0, z0)))
-        if not dmin > 0.0:
-            alive[t] = False
-            continue
-        a0 = np.arctan2(z0, x0)
-        r1 = _wrap(np.arctan2(z1, x1) - a0)
-        r2 = _wrap(np.arctan2(z2, x2) - a0)
-        lo, hi = min(0.0, min(r1, r2)), max(0.0, max(r1, r2))
-        b0 = int(np.floor((a0 + lo - ANGLE_SLACK + np.pi) / width))
-        b1 = int(np.floor((a0 + hi + ANGLE_SLACK + np.pi) / width))
-        for bb in range(b0, b1 + 1):
-            b = bb % BINS
-            best = -np.inf
-            for i in range(count[b]):
-                if steps[b, i] <= dmin and slopes[b, i] > best:
-                    best = slopes[b, i]
-            if not (sy + best * dmin > top):
-                alive[t] = False
-                break
+    positive = True
+    negative = True
+    dmin = np.inf
+    for i in range(n):
+        j = (i + 1) % n
+        c = xs[i] * zs[j] - zs[i] * xs[j]
+        positive = positive and c >= 0.0
+        negative = negative and c <= 0.0
+        dmin = min(dmin, _edge_distance(xs[i], zs[i], xs[j], zs[j]))
+    if positive or negative or not dmin > 0.0:  # the sample inside or on it
+        return False
+    a0 = np.arctan2(zs[0], xs[0])
+    lo, hi = 0.0, 0.0
+    for i in range(1, n):
+        r = _wrap(np.arctan2(zs[i], xs[i]) - a0)
+        lo, hi = min(lo, r), max(hi, r)
+    b0 = int(np.floor((a0 + lo - ANGLE_SLACK + np.pi) / width))
+    b1 = int(np.floor((a0 + hi + ANGLE_SLACK + np.pi) / width))
+    for bb in range(b0, b1 + 1):
+        b = bb % BINS
+        best = -np.inf
+        for i in range(count[b]):
+            if steps[b, i] <= dmin and slopes[b, i] > best:
+                best = slopes[b, i]
+        if not (sy + best * dmin > top):
+            return False
+    return True
 
 
 @njit(cache=True)
-def cell_hidden(samples, polys, starts, tops, use, slack, extra, corners, margin, hidden):
-    """hidden (T,) bool, in place: True where it was and every sample's shadows hide it."""
+def hidden_from_sample(sx, sy, sz, corners, groups, order, boxes, alive, margin, steps, slopes,
+                       count):
+    """alive (T,) bool: clear the triangles (corners (T, 3, 3)) the sample's shadow steps do
+    not hide (_polygon_hidden of the x-z triangle up to its highest corner plus margin). The
+    triangles come in groups (order[groups[g]:groups[g + 1]]) within x-z boxes (G, 5) (x0,
+    z0, x1, z1, top): a group whose box is hidden keeps its triangles without testing them."""
+    xs = np.empty(4)
+    zs = np.empty(4)
+    for g in range(len(groups) - 1):
+        first, last = groups[g], groups[g + 1]
+        some = False
+        for k in range(first, last):
+            if alive[order[k]]:
+                some = True
+                break
+        if not some:
+            continue
+        if last - first > 1:
+            xs[0], zs[0] = boxes[g, 0] - sx, boxes[g, 1] - sz
+            xs[1], zs[1] = boxes[g, 2] - sx, boxes[g, 1] - sz
+            xs[2], zs[2] = boxes[g, 2] - sx, boxes[g, 3] - sz
+            xs[3], zs[3] = boxes[g, 0] - sx, boxes[g, 3] - sz
+            if _polygon_hidden(xs, zs, 4, boxes[g, 4] + margin, sy, steps, slopes, count):
+                continue
+        for k in range(first, last):
+            t = order[k]
+            if not alive[t]:
+                continue
+            top = max(corners[t, 0, 1], max(corners[t, 1, 1], corners[t, 2, 1])) + margin
+            for i in range(3):
+                xs[i], zs[i] = corners[t, i, 0] - sx, corners[t, i, 2] - sz
+            if not _polygon_hidden(xs, zs, 3, top, sy, steps, slopes, count):
+                alive[t] = False
+
+
+@njit(cache=True)
+def cell_hidden(samples, polys, starts, tops, use, slack, extra, corners, groups, order, boxes,
+                margin, hidden):
+    """hidden (T,) bool, in place: True where it was and every sample's shadows hide it
+    (triangle groups as hidden_from_sample's)."""
     steps = np.empty((BINS, PAIRS))
     slopes = np.empty((BINS, PAIRS))
     count = np.zeros(BINS, dtype=np.int64)
@@ -207,5 +238,27 @@ def cell_hidden(samples, polys, starts, tops, use, slack, extra, corners, margin
             return
         sample_steps(samples[s, 0], samples[s, 1], samples[s, 2], polys, starts, tops, use,
                      slack, extra, steps, slopes, count, cosines, sines)
-        hidden_from_sample(samples[s, 0], samples[s, 1], samples[s, 2], corners, hidden,
-                           margin, steps, slopes, count)
+        hidden_from_sample(samples[s, 0], samples[s, 1], samples[s, 2], corners, groups, order,
+                           boxes, hidden, margin, steps, slopes, count)
+
+
+def triangle_groups(world, tile) -> tuple:
+    """(groups (G + 1,) int64 offsets, order (T,) int64, boxes (G, 5) float64 x0, z0, x1, z1,
+    top): the triangles grouped by object and by the tile x tile x-z square of their centroid,
+    for hidden_from_sample."""
+    cells = np.floor(world.centroids[:, [0, 2]] / tile).astype(np.int64)
+    keys = np.column_stack([world.object_ids.astype(np.int64), cells])
+    _, label = np.unique(keys, axis=0, return_inverse=True)
+    label = label.reshape(-1)
+    order = np.argsort(label, kind="stable").astype(np.int64)
+    count = np.bincount(label)
+    groups = np.concatenate([[0], np.cumsum(count)]).astype(np.int64)
+    b = world.bounds
+    boxes = np.empty((len(count), 5))
+    low = np.full((len(count), 2), np.inf)
+    high = np.full((len(count), 3), -np.inf)
+    np.minimum.at(low, label, b[:, 0][:, [0, 2]])
+    np.maximum.at(high, label, b[:, 1])
+    boxes[:, 0], boxes[:, 1] = low[:, 0], low[:, 1]
+    boxes[:, 2], boxes[:, 3], boxes[:, 4] = high[:, 0], high[:, 2], high[:, 1]
+    return groups, order, boxes

@@ -40,7 +40,7 @@ import time
 import numpy as np
 
 from .pvs_columns import find_columns
-from .pvs_shadow import cell_hidden, erode
+from .pvs_shadow import cell_hidden, erode, triangle_groups
 
 CELL, MIN_CELL = 8.0, 4.0  # view cells' x-z size, and the least a split makes (world units)
 EYE_LOW, EYE_HIGH = 1.0, 3.0  # the cells' y above the floor (a walker's or a car's eye)
@@ -49,6 +49,7 @@ NEAR_MIN = 0.1  # cameras with a nearer near plane fall back (the depth slack as
 SPACING = 1.0  # sample points this far apart along the boundary of the region's top
 MAX_CELLS = 6000  # CELL grows until the grid's squares are at most this many
 OVERHEAD = 0.5  # outdoor: what lies above the layer, columns' roofs aside, covers less than this
+GROUP_TILE = 16.0  # triangles grouped by object and x-z square: a hidden group's box skips them
 ZBUFFER_MARGIN = 2.0 ** -18  # as culling/occlusion.py: 64x a 24-bit buffer's step, z^2 / near
 
 
@@ -164,7 +165,18 @@ def street_cells(world, footprints, pad) -> np.ndarray:
     hi = np.concatenate([k[1] for k in keep])
     boxes = np.stack([np.column_stack([lo[:, 0], np.full(len(lo), y0), lo[:, 1]]),
                       np.column_stack([hi[:, 0], np.full(len(lo), y1), hi[:, 1]])], axis=1)
-    return boxes[np.lexsort((boxes[:, 0, 0], boxes[:, 0, 2]))]  # rows of z: neighbours close
+    return boxes[np.argsort(morton(boxes[:, 0, [0, 2]], low[[0, 2]], MIN_CELL), kind="stable")]
+
+
+def morton(corners, low, step) -> np.ndarray:
+    """(V,) int64 Morton (Z-order) keys of x-z corners on a lattice of step from low: cells
+    close in the plane get close ranks, so a triangle's cell pattern has long runs (zlib: 17%
+    smaller on W5 than rows of z)."""
+    q = np.floor((np.asarray(corners) - low) / step + 0.5).astype(np.int64)
+    key = np.zeros(len(q), dtype=np.int64)
+    for b in range(20):
+        key |= ((q[:, 0] >> b) & 1) << (2 * b) | ((q[:, 1] >> b) & 1) << (2 * b + 1)
+    return key
 
 
 def boundary_samples(a, b) -> np.ndarray:
@@ -188,6 +200,7 @@ def bake_street_cells(world, boxes, polys, starts, valid, tops, footprints, grow
     r = reach()
     table = polygon_table(footprints)
     corners = np.ascontiguousarray(world.corners, dtype=np.float64)
+    groups, order, gboxes = triangle_groups(world, GROUP_TILE)
     out = []
     for box in boxes:
         a, b = box[0] - grow, box[1] + grow
@@ -198,7 +211,7 @@ def bake_street_cells(world, boxes, polys, starts, valid, tops, footprints, grow
         hidden = np.full(world.triangle_count, use.any(), dtype=np.bool_)
         if use.any():
             cell_hidden(boundary_samples(a, b), polys, starts, tops, use, slack,
-                        slack * 2.0 * (COVER + r), corners, tol, hidden)
+                        slack * 2.0 * (COVER + r), corners, groups, order, gboxes, tol, hidden)
         out.append(~hidden)
     return out
 
