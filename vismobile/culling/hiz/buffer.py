@@ -14,6 +14,9 @@ under the moved rectangle (_centre_rect): the largest shift over the tiles the w
 meets, from the nearest rasterised occluder depth over each tile (stamp_near, tile_shifts).
 No centre under it: nothing is drawn. Each pixel's D bounds its whole square, so reading fewer
 pixels stays conservative at that resolution (issue 10: w2x7 sent 249.5 -> 176.8 a frame).
+A triangle's shape test then reads each pixel only at those centres (_pixel_centres_behind):
+its fragments exist only there, so its plane's depth is bounded over each centre (grown by its
+own move) rather than over the pixel's square (issue 32: W2 sent 1.474x -> 1.444x visible).
 """
 from __future__ import annotations
 
@@ -309,14 +312,18 @@ def _plane_near(x0, x1, y0, y1, zmin, edges, reach, wmax):
 
 @njit(cache=True, nogil=True)
 def _behind_shape(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, recede,
-                  edges, gx, gy, reach, wmax):
+                  edges, gx, gy, reach, wmax, centres):
     """_behind for a triangle, reading only the pixels its shape may reach: a pixel (or tile)
     whose square grown by gx, gy pixels lies wholly outside an edge of the projected triangle
     (edges: _triangle_edges) holds no point the device draws there, nor one an occluder's
     shift brings there (gx, gy: that shift and the points' move, plus SLACK_PX); a point drawn
     there is no nearer than the triangle's plane over that grown square less `reach` (its
-    corners' move; _plane_near, wmax: the largest 1 / z of the corners), nor than zmin. Errs
-    toward False as _behind does."""
+    corners' move; _plane_near, wmax: the largest 1 / z of the corners), nor than zmin.
+    centres (8,) (sw, sh, height, gsx, gsy, gmx, gmy, reach): with a screen (sw > 0) a pixel is
+    read only at the screen's pixel centres the device may draw there (_pixel_centres_behind):
+    those within gsx, gsy buffer pixels of its square (the occluders' shift), each a box grown
+    by gmx, gmy (the points' own move and the GPU's snapping) for the shape and plane tests.
+    Errs toward False as _behind does."""
     for ty_ in range(y0 // th, y1 // th + 1):
         for tx_ in range(x0 // tw, x1 // tw + 1):
             d = tile_max[ty_ * cols + tx_]
@@ -335,9 +342,47 @@ def _behind_shape(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, ma
                     if zmin > d + margin * d * d + recede \
                             or _outside(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, edges):
                         continue
-                    if not _plane_near(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, zmin, edges,
-                                       reach, wmax) > d + margin * d * d + recede:
+                    if centres[0] > 0:
+                        if not _pixel_centres_behind(c, r, d + margin * d * d + recede, zmin,
+                                                     width, edges, wmax, centres):
+                            return False
+                    elif not _plane_near(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, zmin,
+                                         edges, reach, wmax) > d + margin * d * d + recede:
                         return False
+    return True
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _pixel_centres_behind(c, r, bound, zmin, width, edges, wmax, centres):
+    """True when every pixel centre of the sw x sh screen within gsx, gsy buffer pixels of
+    buffer pixel (c, r)'s square (the occluders' shift: the centres whose device occluder
+    fragment may come from this pixel) either lies, grown by gmx, gmy, wholly outside an edge
+    of the projected triangle (no fragment of the triangle there) or has the triangle's plane,
+    over that grown box less `reach`, beyond `bound` (_plane_near). centres: _behind_shape's.
+    The device draws and depth-tests at pixel centres only (no multisampling), so a triangle
+    fragment at a centre s is hidden when it lies beyond every buffer pixel within the shift of
+    s: the pairs (s, pixel) are those the whole-square test reads, minus the points of the
+    square no fragment lies on. Errs toward False (a pixel with no such centre is True)."""
+    sw, sh, height, gsx, gsy, gmx, gmy, reach = (centres[0], centres[1], centres[2],
+                                                 centres[3], centres[4], centres[5],
+                                                 centres[6], centres[7])
+    fx, fy = sw / width, sh / height  # screen pixels per buffer pixel
+    i0 = max(np.ceil((c - gsx) * fx - 0.5), 0.0)
+    i1 = min(np.floor((c + 1.0 + gsx) * fx - 0.5), sw - 1.0)
+    j0 = max(np.ceil((r - gsy) * fy - 0.5), 0.0)
+    j1 = min(np.floor((r + 1.0 + gsy) * fy - 0.5), sh - 1.0)
+    if not (i1 - i0 <= 64.0 and j1 - j0 <= 64.0):  # nan, or too many: the whole square
+        return _plane_near(c - gsx - gmx, c + 1.0 + gsx + gmx, r - gsy - gmy,
+                           r + 1.0 + gsy + gmy, zmin, edges, reach, wmax) > bound
+    for j in range(int(j0), int(j1) + 1):
+        yc = (j + 0.5) / fy
+        for i in range(int(i0), int(i1) + 1):
+            xc = (i + 0.5) / fx
+            if _outside(xc - gmx, xc + gmx, yc - gmy, yc + gmy, edges):
+                continue
+            if not _plane_near(xc - gmx, xc + gmx, yc - gmy, yc + gmy, zmin, edges, reach,
+                               wmax) > bound:
+                return False
     return True
 
 
@@ -394,6 +439,7 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
     px = np.empty(3)
     py = np.empty(3)
     edges = np.empty((4, 3))
+    centres = np.zeros(8)
     reach = np.sqrt(3.0) * move
     lateral = 2.0 + 2.0 * max(tx, ty) + shift  # bounds 1 + |x / z| over the screen and shift
     for k in range(len(ids)):
@@ -420,8 +466,24 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
         wmax = 1.0 / min(cam[0, 2], cam[1, 2], cam[2, 2])
         gx = spread / tx * 0.5 * width + SLACK_PX
         gy = spread / ty * 0.5 * height + SLACK_PX
+        if shaped and sw > 0:
+            # The centres' test: the occluders' shift picks the centres, the points' own move
+            # (the larger of the buffer's and the screen's) and the GPU's snapping grow each.
+            own = np.sqrt(3.0) * max(move, sample_move)
+            grow = own * lateral / r[4]
+            snap_x = max(SAMPLE_SLACK_PX * width / sw, SLACK_PX)
+            snap_y = max(SAMPLE_SLACK_PX * height / sh, SLACK_PX)
+            centres[0], centres[1], centres[2] = sw, sh, height
+            centres[3] = shift / tx * 0.5 * width + SLACK_PX
+            centres[4] = shift / ty * 0.5 * height + SLACK_PX
+            centres[5] = grow / tx * 0.5 * width + snap_x
+            centres[6] = grow / ty * 0.5 * height + snap_y
+            centres[7] = own
+        else:
+            centres[0] = 0.0
         if use and (_behind_shape(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th,
-                                  margin, recede, edges, gx, gy, reach, wmax) if shaped else
+                                  margin, recede, edges, gx, gy, reach, wmax, centres)
+                    if shaped else
                     _behind(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th, margin,
                             recede)):
             hidden[k] = True
@@ -434,7 +496,8 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
             a0, a1, b0, b1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
             if (a0 != x0 or a1 != x1 or b0 != y0 or b1 != y1) and (
                     _behind_shape(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th,
-                                  margin, recede, edges, gx, gy, reach, wmax) if shaped else
+                                  margin, recede, edges, gx, gy, reach, wmax, centres)
+                    if shaped else
                     _behind(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th, margin,
                             recede)):
                 hidden[k] = True
