@@ -13,14 +13,17 @@ from vismobile.scenes.hard_cameras import hard_cameras
 COMBOS = ("vfc", "vfc_thesis", "cbfc", "cone", "vfc,cbfc", "vfc,bfc,cbfc,cone", "occlusion",
           "vfc,occlusion", "vfc,occlusion_thesis", "portals", "portals,occlusion,cbfc,cone",
           "tbfc", "vfc,occlusion,tbfc", "portals,occlusion,cbfc,cone,tbfc", "pvs,vfc,tbfc",
-          "horizon", "vfc,horizon,tbfc")
+          "horizon", "vfc,horizon,tbfc", "vfc+occlusion+tbfc")
 # `pvs` here runs on partitions without a bake (its fallback hands on everything); baked sets
 # from cameras anywhere in their cells are checked in test_pvs.py.
 # Stage options checked too: occlusion with objects' near sides as occluders and the sample test
 # at the ground truth's own resolution (the profile's screen).
 SCREEN = (240, 320)
 EXTRAS = {"occlusion": {"self_occluders": 64, "screen": SCREEN}}
-OPTIONS = {"occlusion": EXTRAS, "vfc,occlusion,tbfc": EXTRAS}
+# "vfc+occlusion+tbfc" (the same stages) with the sample buffer (`samples`, the large worlds'
+# default) on the thesis worlds.
+OPTIONS = {"occlusion": EXTRAS, "vfc,occlusion,tbfc": EXTRAS,
+           "vfc+occlusion+tbfc": {"occlusion": {"screen": SCREEN, "samples": True}}}
 WORLDS = ("w1", "w2", "w3", "w4", "w5", "w6")
 KINDS = ("octree", "portal", "bsp", "grid", "kdtree")
 

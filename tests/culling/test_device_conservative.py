@@ -32,6 +32,9 @@ COMBOS = tuple(CONSERVATIVE) + ("vfc,occlusion,occlusion_thesis,cbfc,cone,tbfc",
                                  "portals,occlusion,occlusion_thesis,cbfc,cone,tbfc")
 
 
+SAMPLED = "vfc+occlusion+tbfc"  # vfc,occlusion,tbfc with occlusion's `samples` on
+
+
 def combos_for(kind):
     return [c for c in COMBOS if kind == "portal" or "portals" not in c]
 # Faces of the base world a near-wall camera sits next to: (axis, coordinate, low, high) with
@@ -105,6 +108,10 @@ def check_keeps(parts, profile, cameras, kit):
     options = device_options(profile)
     cullers = {(kind, combo): Culler(part, combo, **options)
                for kind, part in parts.items() for combo in combos_for(kind)}
+    # the sample buffer (`samples`: on by default for large worlds) on these small ones too
+    sampled = dict(options, occlusion=dict(options["occlusion"], samples=True))
+    cullers.update({(kind, SAMPLED): Culler(part, SAMPLED, **sampled)
+                    for kind, part in parts.items()})
     failures = []
     for label, cam in cameras:
         truth = {}

@@ -5,7 +5,8 @@ of an occluder nearer than the clip depth covers nothing."""
 import numpy as np
 import pytest
 
-from vismobile.culling.hiz import build_tiles, covers_no_sample, rasterise, screen_rect
+from vismobile.culling.hiz import (SAMPLE_HALF, build_tiles, covers_no_sample, rasterise,
+                                   screen_rect)
 from vismobile.culling.occluder_mesh import occluder_mesh
 
 W, H, TX, TY = 24, 32, 0.4, 0.5
@@ -20,9 +21,10 @@ def quad_at(z, u0, u1, v0, v1):
     return np.stack([c[[0, 2, 1]], c[[0, 3, 2]]])
 
 
-def raster(tris, clip=0.1):
+def raster(tris, clip=0.1, half=0.5):
     """(H, W) depth bound buffer, tile maxima (rows, cols) and tile coverage of camera-space
-    triangles (K, 3, 3) facing the eye at the origin (rotation: identity, forward +z)."""
+    triangles (K, 3, 3) facing the eye at the origin (rotation: identity, forward +z); half:
+    the pixels' squares' half-size (0.5 whole pixels, SAMPLE_HALF the samples')."""
     tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
     n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     n /= np.linalg.norm(n, axis=1)[:, None]
@@ -36,7 +38,7 @@ def raster(tris, clip=0.1):
     stamp = np.full(len(tris), -1, dtype=np.int64)
     rasterise(ids, groups, tri_points, points, normals, offsets, start, end, a, b, partner,
               anyp, stamp, 1, np.zeros(3), np.eye(3), clip, TX, TY, W, H, depth, mask, centre,
-              crease)
+              crease, 1e-9, half)
     assert not mask.any() and not centre.any() and not crease.any()  # scratch handed back
     rows, cols = (H + TILE[1] - 1) // TILE[1], (W + TILE[0] - 1) // TILE[0]
     tmax, tany = np.empty(rows * cols), np.empty(rows * cols, dtype=bool)
@@ -73,12 +75,13 @@ def nearest_hit(tris, u, v, clip):
     return best
 
 
-def check_contract(tris, clip=0.1, samples=7):
-    """Every covered pixel: every sample point over it (corners and inside) hits an occluder
-    at depth >= clip no farther than the pixel's bound; every tile bounds its pixels."""
-    depth, tmax, tany = raster(tris, clip)
+def check_contract(tris, clip=0.1, samples=7, half=0.5):
+    """Every covered pixel: every sample point over its square of half-size `half` about its
+    centre (corners and inside) hits an occluder at depth >= clip no farther than the pixel's
+    bound; every tile bounds its pixels."""
+    depth, tmax, tany = raster(tris, clip, half)
     rows, cols = np.nonzero(np.isfinite(depth))
-    s = np.linspace(0.0, 1.0, samples)
+    s = np.linspace(0.5 - half, 0.5 + half, samples)
     su, sv = np.meshgrid(s, s)
     for j, i in zip(rows, cols):
         u = -1 + 2 * (i + su.ravel()) / W
@@ -202,6 +205,57 @@ def test_random_occluders_keep_the_contract():
                 continue
             tris.append(t if n @ -t[0] > 0 else t[[0, 2, 1]])
         check_contract(np.array(tris), clip=0.3, samples=5)
+
+
+def test_sample_squares_keep_the_contract():
+    # occlusion `samples`: each pixel bounds only the SAMPLE_HALF square about its centre; the
+    # contract holds over that square on the scenes above (T-junctions, creases, slants, the
+    # clip, random occluders): it fails when a boundary is marked against a smaller square or
+    # the depth is taken at the centre only.
+    frame = [quad_at(4.0, -1, 1, -1, -0.3), quad_at(4.0, -1, 1, 0.3, 1),
+             quad_at(4.0, -1, -0.3, -0.3, 0.3), quad_at(4.0, 0.3, 1, -0.3, 0.3)]
+    wall = np.array([[[-9.0, -1, 6], [9, 9, 6], [9, -1, 6]],
+                     [[-9.0, -1, 6], [-9, 9, 6], [9, 9, 6]]])
+    floor = np.array([[[-9.0, -1, 0.5], [-9, -1, 6], [0, -1, 6]],
+                      [[-9.0, -1, 0.5], [0, -1, 6], [9, -1, 6]],
+                      [[-9.0, -1, 0.5], [9, -1, 6], [9, -1, 0.5]]])
+    slant = np.array([[[-3.0, -4, 2], [1.2, 4, 6], [1.2, -4, 6]],
+                      [[-3.0, -4, 2], [-3.0, 4, 2], [1.2, 4, 6]]])
+    depth = check_contract(np.concatenate(frame), half=SAMPLE_HALF)
+    on_t_line = np.broadcast_to((np.abs(np.abs(pixel_centres()[1]) - 0.3) < 0.5 / H)[:, None],
+                                (H, W))
+    assert not np.isfinite(depth[on_t_line]).any()  # T-junction lines stay open
+    check_contract(np.concatenate([wall, floor]), half=SAMPLE_HALF)
+    check_contract(np.concatenate([slant, quad_at(5.0, -0.6, 0.9, -0.8, 0.7)]), half=SAMPLE_HALF)
+    floor_cut = np.array([[[-2.0, -1, 0.2], [2.0, -1, 4.0], [2.0, -1, 0.2]],
+                          [[-2.0, -1, 0.2], [-2.0, -1, 4.0], [2.0, -1, 4.0]]])
+    check_contract(floor_cut, clip=2.0, half=SAMPLE_HALF)
+    rng = np.random.default_rng(12)
+    for _ in range(6):
+        tris = []
+        for _ in range(8):
+            z = rng.uniform(0.05, 6.0, 3)
+            uv = rng.uniform(-1.5, 1.5, (3, 2))
+            t = np.column_stack([uv[:, 0] * z * TX, uv[:, 1] * z * TY, z])
+            n = np.cross(t[1] - t[0], t[2] - t[0])
+            if abs(n @ -t[0]) < 1e-3:
+                continue
+            tris.append(t if n @ -t[0] > 0 else t[[0, 2, 1]])
+        check_contract(np.array(tris), clip=0.3, samples=5, half=SAMPLE_HALF)
+
+
+def test_sample_coverage_is_the_centres_neighbourhood():
+    # A quad with edges 0.2 px into pixels covers exactly the pixels whose sample squares lie
+    # inside it: a ring more than the whole pixels inside it.
+    u0, u1, v0, v1 = 6.2 / 12 - 1, 18.8 / 12 - 1, 8.2 / 16 - 1, 24.8 / 16 - 1
+    depth = check_contract(quad_at(2.0, u0, u1, v0, v1), half=SAMPLE_HALF)
+    us, vs = pixel_centres()
+    hu, hv = 2 * SAMPLE_HALF / W, 2 * SAMPLE_HALF / H
+    inside = ((us[None, :] - hu >= u0) & (us[None, :] + hu <= u1)
+              & (vs[:, None] - hv >= v0) & (vs[:, None] + hv <= v1))
+    assert np.array_equal(np.isfinite(depth), inside)
+    whole = np.isfinite(raster(quad_at(2.0, u0, u1, v0, v1))[0])
+    assert inside.sum() > whole.sum() and not (whole & ~inside).any()
 
 
 # ---- the sample test (`screen` option): no pixel centre covered ------------------------------

@@ -42,6 +42,9 @@ def test_occlusion_never_drops_visible_triangles_from_many_cameras(kit):
     rng = np.random.default_rng(5)
     cullers = [Culler(part, s) for s in ("occlusion", "vfc,occlusion", "vfc,occlusion_thesis")]
     cullers.append(Culler(part, "vfc,occlusion", occlusion={"first_reach": 2.0}))
+    # the sample buffer (`samples`) at the item buffer's own resolution
+    cullers.append(Culler(part, "vfc,occlusion", occlusion={
+        "screen": tuple(kit.PROFILE.resolution), "samples": True}))
     for _ in range(12):
         pos = rng.uniform([-4, -0.9, -4.9], [4, 3, 0.4])
         cam = Camera(pos, yaw=rng.uniform(-60, 60), pitch=rng.uniform(-30, 30),
@@ -186,7 +189,8 @@ def test_w2_indoor_frames_keep_everything_the_item_buffer_shows(kit):
     assert screen == (240, 320)
     cullers = [Culler(part, "vfc,occlusion,tbfc"),
                Culler(part, "vfc,occlusion,tbfc", occlusion={"screen": screen}),
-               Culler(part, "vfc,occlusion,tbfc", occlusion={"first_reach": 15.625})]
+               Culler(part, "vfc,occlusion,tbfc", occlusion={"first_reach": 15.625}),
+               Culler(part, "vfc,occlusion,tbfc", occlusion={"screen": screen, "samples": True})]
     culled = 0
     for f in frames:
         cam = traj.camera(int(f), kit.ASPECT)
@@ -483,3 +487,32 @@ def test_a_thin_far_triangle_along_a_buffer_row_is_dropped_only_with_the_screen(
     # rectangle meets it, its shape does not, so the triangle test drops it).
     assert np.isin(kit.visible_ids(world, cam, False), result.triangles).all()
     assert 1 in result.triangles
+
+
+def test_sample_buffer_is_on_for_large_worlds_with_a_screen_and_clips_shifting_occluders(
+        kit, monkeypatch):
+    # `samples` None: on from SAMPLES_FROM triangles with a screen (the screen's size), never
+    # without one; the occluders are clipped where their screen shift would leave a sample's
+    # square (sample_clip), deeper when the device moves points more.
+    import vismobile.culling.occlusion as occ
+
+    world = wall_scene(kit)
+    part = partition(world, "octree", depth=3)
+    screen = tuple(kit.PROFILE.resolution)
+    stage = Culler(part, "vfc,occlusion", occlusion={"screen": screen}).stages[-1]
+    assert not stage.sampled and (stage.width, stage.height) == (120, 160)
+    monkeypatch.setattr(occ, "SAMPLES_FROM", world.triangle_count)
+    stage = Culler(part, "vfc,occlusion", occlusion={"screen": screen}).stages[-1]
+    assert stage.sampled and (stage.width, stage.height) == screen
+    assert not Culler(part, "vfc,occlusion").stages[-1].sampled
+    with pytest.raises(ValueError):
+        Culler(part, "vfc,occlusion", occlusion={"samples": True})
+    tx, ty, w, h = 0.4, 0.3, 240, 320
+    px = 0.5 * max(w / tx, h / ty)
+    for move in (1e-7, 1e-5, 1e-3):
+        z = occ.sample_clip(1e-3, move, tx, ty, w, h, occ.SAMPLE_HALF)
+        assert occ.occluder_shift(z, move, tx, ty) * px <= occ.SAMPLE_HALF - occ.SLACK_PX
+        assert z == 1e-3 or occ.occluder_shift(0.999 * z, move, tx, ty) * px \
+            > occ.SAMPLE_HALF - occ.SLACK_PX
+    assert occ.sample_clip(1e-3, 1e-3, tx, ty, w, h, 0.25) > occ.sample_clip(
+        1e-3, 1e-5, tx, ty, w, h, 0.25) > 1e-3

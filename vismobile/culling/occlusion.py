@@ -73,9 +73,10 @@ from ..partition.occluders import candidate_lists
 from ..world.world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
-from .hiz import (DEPTH_SLACK, GUARD_PX, build_tiles, cull_nodes, frustum_cull_nodes,
-                  hidden_triangles, rasterise, shift_table_size, stamp_near, tile_shifts)
-from .hiz.frame import FRAME_SLOTS, occlusion_frame
+from .hiz import (DEPTH_SLACK, GUARD_PX, SAMPLE_HALF, SLACK_PX, build_tiles, cull_nodes,
+                  frustum_cull_nodes, hidden_triangles, rasterise, shift_table_size, stamp_near,
+                  tile_shifts)
+from .hiz.frame import FRAME_SLOTS, occluder_shift, occlusion_frame, sample_clip
 from .occluder_choice import GRAZING, SHELL_GROWTH, OccluderChoice
 from .occluder_mesh import world_tables
 from .occluder_rows import occluder_mesh_of
@@ -106,6 +107,10 @@ FRAME_COUNTERS = ("occlusion.occluders", "occlusion.pixels_covered", "occlusion.
 # the former 256 (= occluders), W2 150 frames: 0.94x the time, sent 143.9 -> 142.2; w2x3:
 # 0.78x, 215.3 -> 212.8; W1, W3-W6 0.91-1.0x, sent within +-0.5 (docs/culling-performance.md).
 FIRST_CANDIDATES = 96
+# `samples` is on by default (with a screen) from this many world triangles: tiled W2 at 923k
+# sends 210 -> 154 a frame (1.94x -> 1.42x the visible set), W2 (102k) 141 -> 119 but at 1.9x
+# the time there (docs/culling-performance.md, issue 32).
+SAMPLES_FROM = 1 << 19
 
 
 class DepthBufferOcclusion(OccluderChoice):
@@ -140,6 +145,15 @@ class DepthBufferOcclusion(OccluderChoice):
                     units (docs/culling-performance: faster and tighter on tiled W2)
     first_reach   : None, or a depth (world units) overriding first_candidates: the first
                     round takes its candidates only from nodes nearer than it
+    samples       : with `screen`, a buffer of the screen's size (width and height ignored)
+                    whose pixels bound the occluders over the SAMPLE_HALF neighbourhood of
+                    their centres only, not their whole squares (the GPU writes only at
+                    centres): coverage and depth close to a centre-sampled buffer's, within the
+                    occluders' screen shift. Occluders are clipped where their shift would
+                    exceed it (sample_clip), so every test stays conservative at that
+                    resolution. None (default): on with a screen for worlds of SAMPLES_FROM
+                    triangles or more, where far detail seen through openings is most of what
+                    is sent and the buffer's cost is small beside the node passes
     """
 
     name = "occlusion"
@@ -152,8 +166,16 @@ class DepthBufferOcclusion(OccluderChoice):
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
                  candidates: int = 8, detail: float = 0.125, rounds: int = 2,
                  triangles: bool = True, self_occluders: int = 0, screen=None,
-                 fuse: bool = True, first_reach=None, first_candidates=FIRST_CANDIDATES):
+                 fuse: bool = True, first_reach=None, first_candidates=FIRST_CANDIDATES,
+                 samples=None):
+        if samples not in (None, True, False):
+            raise ValueError(f"occlusion samples must be True, False or None, got {samples!r}")
+        if samples and screen is None:
+            raise ValueError("occlusion samples needs a screen")
+        self.samples_option = samples  # None: decided at prepare (SAMPLES_FROM)
+        self.sampled, self.half = False, 0.5
         self.width, self.height = int(width), int(height)
+        self._size = (self.width, self.height)  # the buffer's without samples
         self.tile = tuple(int(v) for v in tile)
         self.occluders, self.candidates = int(occluders), int(candidates)
         self.detail = float(detail)
@@ -195,6 +217,11 @@ class DepthBufferOcclusion(OccluderChoice):
         self.tree = tree
         world = tree.world
         count = world.triangle_count
+        self.sampled = self.screen is not None and (
+            count >= SAMPLES_FROM if self.samples_option is None else bool(self.samples_option))
+        self.half = SAMPLE_HALF if self.sampled else 0.5
+        # with samples the screen's pixels, each bounded near its centre
+        self.width, self.height = self.screen if self.sampled else self._size
         # Read per candidate from the world (float64 in memory, or a float32 mapped file).
         self.vertices, self.triangles_ = np.asarray(world.vertices), np.asarray(world.triangles)
         self.magnitude = world_scale(self.vertices)
@@ -306,6 +333,8 @@ class DepthBufferOcclusion(OccluderChoice):
         scale = max(self.magnitude, *map(abs, camera.position))
         move = 2.0 * device_move(self.arithmetic, scale)
         clip = camera.near * (1.0 + NEAR_RELATIVE) + max(DEVICE_RELATIVE * scale, 2.0 * move)
+        if self.half < 0.5:
+            clip = sample_clip(clip, move, tx, ty, self.width, self.height, self.half)
         self._view_of = camera
         self._view_now = (camera.eye, np.array(camera.axes()), tx, ty, move, clip, scale,
                           depth_order(move, camera.near))
@@ -342,7 +371,8 @@ class DepthBufferOcclusion(OccluderChoice):
         self._frame += 1
         nearest, written = rasterise(*tables, self._frame, eye, rotation, clip, tx, ty,
                                      self.width, self.height, self.depth, self.mask,
-                                     self.centre, self.crease_far, DEPTH_SLACK + order)
+                                     self.centre, self.crease_far, DEPTH_SLACK + order,
+                                     self.half)
         self.nearest = min(self.nearest, nearest)
         if self._local is None:  # the frame's first occluders: is a local shift worth it?
             pixels = self.shift(camera, move) * 0.5 * max(self.width / tx, self.height / ty)
@@ -469,12 +499,12 @@ class DepthBufferOcclusion(OccluderChoice):
             self.partner_any, self.stamp, self.lists, self.history, self.bits, self._cands,
             self._stack, self._later, self._out, self._masks, self._below, self._roots,
             self.up_mark, self.draw_mark, self._planes, eye, rotation, camera.near, tx, ty, move,
-            clip, order, margin, recede, delta, GAMMA_8, GRAZING, self.detail, self.shell,
-            self.first_candidates, SHELL_GROWTH, self.occluders, self.rounds, self.width,
-            self.height, *self.tile, self.depth, self.mask, self.centre, self.crease_far,
-            self.tile_max, self.tile_any, self.tile_min, self.tile_near, self.tile_shift,
-            GUARD_PX if self.screen is None else LOCAL_SHIFT_PX, *self.samples(camera, move),
-            self._frame)
+            clip, order, self.half, margin, recede, delta, GAMMA_8, GRAZING, self.detail,
+            self.shell, self.first_candidates, SHELL_GROWTH, self.occluders, self.rounds,
+            self.width, self.height, *self.tile, self.depth, self.mask, self.centre,
+            self.crease_far, self.tile_max, self.tile_any, self.tile_min, self.tile_near,
+            self.tile_shift, GUARD_PX if self.screen is None else LOCAL_SHIFT_PX,
+            *self.samples(camera, move), self._frame)
         return arguments, move, margin, recede
 
     def _unordered(self, state, fused) -> None:

@@ -76,7 +76,7 @@ def chained_frame(lo, hi, first_child, child_count, nonempty, parent, tol, verti
                   normals, v0, centroids, radius, areas, groups, tri_points, points, offsets,
                   piece_start, piece_end, piece_a, piece_b, partner, partner_any, stamp, lists,
                   history, bits, cands, stack, later, out, masks, below, roots, up_mark,
-                  draw_mark, planes, eye, rot, near, tx, ty, move, clip, order_slack, margin,
+                  draw_mark, planes, eye, rot, near, tx, ty, move, clip, order_slack, half, margin,
                   recede, delta, gamma8, grazing, detail, shell, limit, growth, count, rounds,
                   width, height, tw, th, depth, mask, centre, crease_far, tile_max, tile_any,
                   tile_min, tile_near, tile_shift, local_px, sw, sh, sample_move, frame, stats,
@@ -96,7 +96,7 @@ def chained_frame(lo, hi, first_child, child_count, nonempty, parent, tol, verti
         v0, centroids, radius, areas, groups, tri_points, points, offsets, piece_start,
         piece_end, piece_a, piece_b, partner, partner_any, stamp, lists, history, bits, cands,
         stack, later, out, masks, below, roots, up_mark, draw_mark, planes, eye, rot, near, tx,
-        ty, move, clip, order_slack, margin, recede, delta, gamma8, grazing, detail, shell,
+        ty, move, clip, order_slack, half, margin, recede, delta, gamma8, grazing, detail, shell,
         limit, growth, count, rounds, width, height, tw, th, depth, mask, centre, crease_far,
         tile_max, tile_any, tile_min, tile_near, tile_shift, local_px, sw, sh, sample_move,
         frame, stats)

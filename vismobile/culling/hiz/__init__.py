@@ -19,11 +19,11 @@ from .buffer import (SAMPLE_SLACK_PX, build_tiles, covers_no_sample, hidden_tria
                      screen_rect, shift_table_size, tile_shift_bound, tile_shifts)
 from .candidates import (facing_occluders, gather_candidates, gather_shell_candidates,
                          lod_ancestors, score_candidates)
-from .raster import DEPTH_SLACK, GUARD_PX, SLACK_PX, rasterise, stamp_near
+from .raster import DEPTH_SLACK, GUARD_PX, SAMPLE_HALF, SLACK_PX, rasterise, stamp_near
 from .walks import CENTRE_SPAN, cull_nodes, frustum_cull_nodes
 
-__all__ = ["CENTRE_SPAN", "DEPTH_SLACK", "GUARD_PX", "SAMPLE_SLACK_PX", "SLACK_PX", "build_tiles",
-           "covers_no_sample", "cull_nodes", "facing_occluders", "frustum_cull_nodes",
-           "gather_candidates", "gather_shell_candidates", "hidden_triangles", "lod_ancestors",
-           "rasterise", "score_candidates", "screen_rect", "shift_table_size", "stamp_near",
-           "tile_shift_bound", "tile_shifts"]
+__all__ = ["CENTRE_SPAN", "DEPTH_SLACK", "GUARD_PX", "SAMPLE_HALF", "SAMPLE_SLACK_PX", "SLACK_PX",
+           "build_tiles", "covers_no_sample", "cull_nodes", "facing_occluders",
+           "frustum_cull_nodes", "gather_candidates", "gather_shell_candidates",
+           "hidden_triangles", "lod_ancestors", "rasterise", "score_candidates", "screen_rect",
+           "shift_table_size", "stamp_near", "tile_shift_bound", "tile_shifts"]

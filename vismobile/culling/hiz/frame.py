@@ -13,7 +13,7 @@ from numba import njit
 from .buffer import build_tiles, tile_shifts
 from .candidates import (facing_occluders, gather_candidates, gather_shell_candidates,
                          lod_ancestors, score_candidates)
-from .raster import DEPTH_SLACK, rasterise, stamp_near
+from .raster import DEPTH_SLACK, SLACK_PX, rasterise, stamp_near
 from .walks import cull_nodes, frustum_cull_nodes
 
 # Slots of occlusion_frame's counters (occlusion.FRAME_COUNTERS names them).
@@ -59,6 +59,33 @@ def occluder_shift(nearest, move, tx, ty):
 
 
 @njit(cache=True, nogil=True)
+def sample_clip(clip, move, tx, ty, width, height, half):
+    """The least depth >= clip (to 2^-40 relative, erring deeper) beyond which every occluder
+    point's screen shift (occluder_shift) stays within half - SLACK_PX pixels of a width x
+    height buffer: clipped there, the occluders a pixel bounds over its centre's `half`
+    neighbourhood (occlusion `samples`) hold all the device may draw at that centre; inf when
+    no depth is."""
+    px = 0.5 * max(width / tx, height / ty)
+    limit = half - SLACK_PX
+    if occluder_shift(clip, move, tx, ty) * px <= limit:
+        return clip
+    low, high = clip, 2.0 * max(clip, 1e-300)
+    while not occluder_shift(high, move, tx, ty) * px <= limit:
+        if high == np.inf:
+            return np.inf
+        low, high = high, 2.0 * high
+    for _ in range(64):  # the shift falls with depth: bisect, high always fitting
+        mid = 0.5 * (low + high)
+        if not low < mid < high or high - low <= 2.0 ** -40 * high:
+            break
+        if occluder_shift(mid, move, tx, ty) * px <= limit:
+            high = mid
+        else:
+            low = mid
+    return high
+
+
+@njit(cache=True, nogil=True)
 def _choose(cands, found, normals, v0, centroids, radius, areas, planes, eye, grazing, count,
             vertices, triangles, delta, gamma8):
     """The best `count` candidates by solid angle that certainly face the eye (occlusion.best,
@@ -74,8 +101,8 @@ def _choose(cands, found, normals, v0, centroids, radius, areas, planes, eye, gr
 @njit(cache=True, nogil=True)
 def _draw(chosen, groups, tri_points, points, normals, offsets, piece_start, piece_end, piece_a,
           piece_b, partner, partner_any, stamp, frame, eye, rot, clip, tx, ty, width, height,
-          depth, mask, centre, crease_far, slack, local, move, tw, th, rows, cols, tile_near,
-          tile_shift, tile_max, tile_any, tile_min):
+          depth, mask, centre, crease_far, slack, half, local, move, tw, th, rows, cols,
+          tile_near, tile_shift, tile_max, tile_any, tile_min):
     """occlusion.rasterise after the frame's first call: chosen into the buffer (sorted by plane
     group, stable), the per-tile shift table when `local`, the tiles. Returns (nearest,
     pixels written)."""
@@ -83,7 +110,7 @@ def _draw(chosen, groups, tri_points, points, normals, offsets, piece_start, pie
     nearest, written = rasterise(order, groups, tri_points, points, normals, offsets,
                                  piece_start, piece_end, piece_a, piece_b, partner, partner_any,
                                  stamp, frame, eye, rot, clip, tx, ty, width, height, depth, mask,
-                                 centre, crease_far, slack)
+                                 centre, crease_far, slack, half)
     if local:
         stamp_near(order, tri_points, points, eye, rot, clip, tx, ty, width, height, tw, th,
                    tile_near)
@@ -103,11 +130,11 @@ def occlusion_frame(lo, hi, first_child, child_count, nonempty, parent, tol, ver
                     normals, v0, centroids, radius, areas, groups, tri_points, points, offsets,
                     piece_start, piece_end, piece_a, piece_b, partner, partner_any, stamp, lists,
                     history, bits, cands, stack, later, out, masks, below, roots, up_mark,
-                    draw_mark, planes, eye, rot, near, tx, ty, move, clip, order_slack, margin,
-                    recede, delta, gamma8, grazing, detail, shell, limit, growth, count, rounds,
-                    width, height, tw, th, depth, mask, centre, crease_far, tile_max, tile_any,
-                    tile_min, tile_near, tile_shift, local_px, sw, sh, sample_move, frame,
-                    stats):
+                    draw_mark, planes, eye, rot, near, tx, ty, move, clip, order_slack, half,
+                    margin, recede, delta, gamma8, grazing, detail, shell, limit, growth, count,
+                    rounds, width, height, tw, th, depth, mask, centre, crease_far, tile_max,
+                    tile_any, tile_min, tile_near, tile_shift, local_px, sw, sh, sample_move,
+                    frame, stats):
     """One frame of the occlusion stage from the root (module docstring): the buffer and tiles
     are left as the Python path leaves them, stats (FRAME_SLOTS,) int64 gets its counters added.
     Returns (kept draw nodes in out, or -1 when the first round wrote no pixel (the caller walks
@@ -137,7 +164,7 @@ def occlusion_frame(lo, hi, first_child, child_count, nonempty, parent, tol, ver
         nearest, written = rasterise(order, groups, tri_points, points, normals, offsets,
                                      piece_start, piece_end, piece_a, piece_b, partner,
                                      partner_any, stamp, frame, eye, rot, clip, tx, ty, width,
-                                     height, depth, mask, centre, crease_far, slack)
+                                     height, depth, mask, centre, crease_far, slack, half)
         pixels = occluder_shift(nearest, move, tx, ty) * 0.5 * max(width / tx, height / ty)
         local = pixels > local_px
         if local:
@@ -188,7 +215,8 @@ def occlusion_frame(lo, hi, first_child, child_count, nonempty, parent, tol, ver
         near_extra, more = _draw(extra, groups, tri_points, points, normals, offsets,
                                  piece_start, piece_end, piece_a, piece_b, partner, partner_any,
                                  stamp, frame, eye, rot, clip, tx, ty, width, height, depth, mask,
-                                 centre, crease_far, slack, local, move, tw, th, rows, cols,
+                                 centre, crease_far, slack, half, local, move, tw, th, rows,
+                                 cols,
                                  tile_near, tile_shift, tile_max, tile_any, tile_min)
         nearest = min(nearest, near_extra)
         stats[PIXELS] += more

@@ -28,6 +28,9 @@ DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulle
 # Buffer pixels: a border pixel is covered (and bounded) over its square taken this much wider
 # off screen, so a test may read it for occluder points up to this far off the screen.
 GUARD_PX = 1.0
+# Pixels: with the screen's centres only sampled (occlusion `samples`), a pixel's bound holds over
+# this half-size square about its centre (the occluders' shift is kept within it).
+SAMPLE_HALF = 0.25
 
 
 @njit(cache=True, nogil=True)
@@ -97,10 +100,11 @@ def _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut):
 
 
 @njit(cache=True, nogil=True)
-def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi):
-    """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of,
-    a border pixel's square taken GUARD_PX wider off screen (errs toward more pixels), and
-    widens each marked row's span [row_lo, row_hi] (height,) int64 to hold the pixels marked."""
+def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half=0.5):
+    """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of
+    the pixel's square of half-size `half` about its centre (0.5: the whole pixel), a border
+    pixel's square taken GUARD_PX wider off screen (errs toward more pixels), and widens each
+    marked row's span [row_lo, row_hi] (height,) int64 to hold the pixels marked."""
     steep = abs(by - ay) > abs(bx - ax)
     if steep:
         ax, ay, bx, by = ay, ax, by, bx
@@ -111,22 +115,35 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi):
         ax, ay, bx, by = bx, by, ax, ay
     if bx + SLACK_PX < -GUARD_PX or ax - SLACK_PX >= major + GUARD_PX:
         return
-    c0 = min(max(np.floor(ax - SLACK_PX), 0.0), major - 1.0)
-    c1 = min(max(np.floor(bx + SLACK_PX), 0.0), major - 1.0)
+    whole = half >= 0.5
+    if whole:
+        c0 = min(max(np.floor(ax - SLACK_PX), 0.0), major - 1.0)
+        c1 = min(max(np.floor(bx + SLACK_PX), 0.0), major - 1.0)
+    else:  # the columns whose squares the segment's span may meet
+        c0 = min(max(np.ceil(ax - SLACK_PX - 0.5 - half), 0.0), major - 1.0)
+        c1 = min(max(np.floor(bx + SLACK_PX - 0.5 + half), 0.0), major - 1.0)
     if not c0 <= c1:
         return
     dx = bx - ax
     slope = (by - ay) / dx if dx > 0 else 0.0
     for c in range(int(c0), int(c1) + 1):
-        lo = max(c - SLACK_PX - (GUARD_PX if c == 0 else 0.0), ax)
-        hi = min(c + 1 + SLACK_PX + (GUARD_PX if c == major - 1 else 0.0), bx)
+        # c + 0.5 -+ 0.5 is c and c + 1 exactly: the whole-pixel bounds are unchanged
+        lo = max(c + 0.5 - half - SLACK_PX - (GUARD_PX if c == 0 else 0.0), ax)
+        hi = min(c + 0.5 + half + SLACK_PX + (GUARD_PX if c == major - 1 else 0.0), bx)
+        if not whole and not lo <= hi:
+            continue
         ylo = ay + (lo - ax) * slope
         yhi = ay + (hi - ax) * slope
         y0, y1 = min(ylo, yhi) - SLACK_PX, max(ylo, yhi) + SLACK_PX
         if y1 < -GUARD_PX or y0 >= minor + GUARD_PX:
             continue
-        r0 = min(max(np.floor(y0), 0.0), minor - 1.0)
-        r1 = min(max(np.floor(y1), 0.0), minor - 1.0)
+        if whole:
+            r0 = min(max(np.floor(y0), 0.0), minor - 1.0)
+            r1 = min(max(np.floor(y1), 0.0), minor - 1.0)
+        else:  # rows whose squares [r + 0.5 - half, r + 0.5 + half] meet [y0, y1]; clamping
+            # to the border rows keeps their guard band
+            r0 = min(max(np.ceil(y0 - 0.5 - half), 0.0), minor - 1.0)
+            r1 = min(max(np.floor(y1 - 0.5 + half), 0.0), minor - 1.0)
         if not r0 <= r1:
             continue
         if steep:  # row c, columns r0..r1
@@ -142,10 +159,11 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _guarded_low(a, i, n):
-    """min of a x over pixel i's span [i, i + 1] of n, GUARD_PX wider at the borders."""
-    lo = i - GUARD_PX if i == 0 else float(i)
-    hi = i + 1 + GUARD_PX if i == n - 1 else i + 1.0
+def _guarded_low(a, i, n, half=0.5):
+    """min of a x over pixel i's span [i + 0.5 - half, i + 0.5 + half] of n (half 0.5: [i, i +
+    1]), GUARD_PX wider at the borders."""
+    lo = i + 0.5 - half - (GUARD_PX if i == 0 else 0.0)
+    hi = i + 0.5 + half + (GUARD_PX if i == n - 1 else 0.0)
     return min(a * lo, a * hi)
 
 
@@ -158,9 +176,11 @@ _CENTRE, _BOUNDARY, _CREASE = 1, 2, 4
 @njit(cache=True, nogil=True)
 def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, piece_end,
               piece_a, piece_b, partner, partner_any, stamp, frame, eye, rot, clip, tx, ty,
-              width, height, depth, mask, centre, crease_far, slack=DEPTH_SLACK):
+              width, height, depth, mask, centre, crease_far, slack=DEPTH_SLACK, half=0.5):
     """Rasterise occluder triangles `ids` (sorted by group) into depth (H * W,) float64 by the
     pointwise minimum; returns (nearest rasterised depth (inf if none), pixels written).
+    half: a pixel's square is [i + 0.5 - half, i + 0.5 + half] about its centre (0.5: the
+    whole pixel; less: a sample's neighbourhood, SAMPLE_HALF) for coverage and depth alike.
 
     Contract: errs toward "not covered" and "farther": a pixel is written only when wholly inside
     the union of the triangles clipped to depth >= clip, with a depth >= every point of that
@@ -291,7 +311,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                               pa[1] / pa[2] * sy + 0.5 * height,
                               pb[0] / pb[2] * sx + 0.5 * width,
                               pb[1] / pb[2] * sy + 0.5 * height, width, height, mask, bit,
-                              span_lo, span_hi)
+                              span_lo, span_hi, half)
             if not was_cut[k]:
                 continue  # no near-plane side to mark
             n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
@@ -302,7 +322,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                                   poly[c, 1] / clip * sy + 0.5 * height,
                                   poly[d, 0] / clip * sx + 0.5 * width,
                                   poly[d, 1] / clip * sy + 0.5 * height, width, height, mask,
-                                  _BOUNDARY, span_lo, span_hi)
+                                  _BOUNDARY, span_lo, span_hi, half)
         # 3. The group's plane, farthest over each pixel's corners: covered pixels take it,
         # crease pixels keep the largest over groups; scratch cleared.
         t = ids[start]
@@ -315,7 +335,9 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
             a = cn[0] * tx * 2.0 / width / dd
             b = cn[1] * ty * 2.0 / height / dd
             c0_ = (cn[2] - cn[0] * tx - cn[1] * ty) / dd
-            low = min(a, 0.0) + min(b, 0.0)
+            # the least of a x + b y over the pixel's square (whole: [i, i + 1] x [r, r + 1])
+            low = (min(a, 0.0) + min(b, 0.0) if half >= 0.5
+                   else 0.5 * (a + b) - half * (abs(a) + abs(b)))
         for rr in range(gy0, gy1 + 1):
             i0, i1 = span_lo[rr], span_hi[rr]  # the row's marked columns (none: i0 > i1)
             span_lo[rr], span_hi[rr] = width, -1
@@ -334,7 +356,8 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 if dd > 0:
                     inv = a * i + b * rr + c0_ + low
                     if i == 0 or rr == 0 or i == width - 1 or rr == height - 1:
-                        inv = _guarded_low(a, i, width) + _guarded_low(b, rr, height) + c0_
+                        inv = _guarded_low(a, i, width, half) + _guarded_low(b, rr, height,
+                                                                            half) + c0_
                     if inv > 0:
                         z = (1.0 + slack) / inv
                 if m & _CREASE:
