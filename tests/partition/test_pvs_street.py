@@ -187,6 +187,35 @@ def test_in_cell_cameras_drop_nothing_in_every_mode(baked):
     assert sizes.mean() < 0.9 * world.triangle_count
 
 
+def test_a_mesh_object_is_only_hidden_never_hides(cow):
+    """A cow (5,804 triangles, not 2.5D) standing between the buildings: no column, partly
+    hidden from some cells, and in-cell cameras in every mode lose none of it or anything."""
+    v = cow.vertices * 0.4
+    v = v - [v[:, 0].mean(), v[:, 1].min(), v[:, 2].mean()] + [15.0, 0.0, 15.0]
+    world = town([("cow", (v, cow.triangles))])
+    part = partition(world, "portal", depth=1, pvs="conservative")
+    _, _, _, column = find_columns(world)
+    herd = np.array(world.object_names)[world.object_ids] == "cow"
+    assert (column[herd] < 0).all()
+    boxes = part.extras["pvs_cells"]
+    patterns, ids = decode(part.extras, len(boxes), world.triangle_count)
+    bits = np.unpackbits(patterns, axis=1)[:, :len(boxes)][ids.astype(np.int64)]
+    assert (bits[herd] == 0).any()  # some cell's set leaves some of the cow out
+    cullers = {m: Culler(part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
+                                              else device_options(get_profile(PROFILE, m))))
+               for m in MODES}
+    used = 0
+    for i, cam in enumerate(in_cell_cameras(boxes, 60, np.random.default_rng(4))):
+        mode = MODES[i % 3]
+        profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
+        ids = np.unique(item_buffer(world, None, cam, profile, cull_back=False))
+        shown = ids[ids != SENTINEL].astype(np.int64)
+        r = cullers[mode].cull(cam)
+        assert not len(np.setdiff1d(shown, r.triangles)), (i, mode)
+        used += "pvs.fallbacks" not in r.stats
+    assert used > 45
+
+
 def test_cameras_off_the_street_layer_fall_back(baked):
     culler = Culler(baked, "pvs+vfc")
     boxes = baked.extras["pvs_cells"]
