@@ -1,0 +1,144 @@
+"""T-junction repair (world/tjunctions.py): planted junctions are split with the existing floats,
+area and winding are kept, no edge passes a vertex afterwards, and the real rasteriser no longer
+shows what lies behind a crease it showed before."""
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vismobile.device.profile import get_profile
+from vismobile.partition.pvs_cracks import unshared_edges
+from vismobile.render import item_buffer
+from vismobile.world.camera import Camera
+from vismobile.world.tjunctions import find_tjunctions, repair_tjunctions
+from vismobile.world.world import World
+
+MODES = ("float64", "float32", "fixed16.16")
+
+
+def planted(rng, base_count, splits):
+    """A soup of random triangles; against each, `splits` triangles on the far side of one of
+    its edges whose corners lie on that edge at random parameters (T-junctions), in the same
+    plane so the two surfaces meet in a crease."""
+    vertices, triangles, junctions = [], [], 0
+    for _ in range(base_count):
+        a, b, c = rng.uniform(-10, 10, (3, 3))
+        if np.linalg.norm(np.cross(b - a, c - a)) < 1.0:
+            continue
+        base = len(vertices)
+        vertices += [a, b, c]
+        triangles.append([base, base + 1, base + 2])
+        ts = np.sort(rng.choice(np.arange(1, 16), splits, replace=False)) / 16.0
+        apex = a + b - c  # beyond edge ab, in the triangle's plane
+        on_edge = [a] + [a + (b - a) * s for s in ts] + [b]
+        for p0, p1 in zip(on_edge[:-1], on_edge[1:]):
+            k = len(vertices)
+            vertices += [p0, p1, apex]
+            triangles.append([k + 1, k, k + 2])  # the neighbour runs the edge the other way
+        junctions += splits
+    return World(np.array(vertices), np.array(triangles)), junctions
+
+
+def vertex_on_edge_interior(world, tol):
+    """(edge, vertex) pairs where a vertex lies strictly inside some triangle's edge."""
+    points = np.unique(world.vertices, axis=0)
+    index = {tuple(p): i for i, p in enumerate(points)}
+    edges = np.array([[index[tuple(world.vertices[t[k]])], index[tuple(world.vertices[t[(k + 1) % 3]])]]
+                      for t in world.triangles for k in range(3)])
+    return find_tjunctions(points, np.unique(np.sort(edges, axis=1), axis=0), tol)[0]
+
+
+@settings(max_examples=25)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 6), st.integers(1, 4))
+def test_planted_junctions_are_split_with_the_same_floats(seed, count, splits):
+    world, planted_count = planted(np.random.default_rng(seed), count, splits)
+    if world.triangle_count == 0:
+        return
+    tol = 1e-9 * float(np.linalg.norm(np.ptp(world.extent, axis=0)))
+    before = vertex_on_edge_interior(world, tol)
+    assert len(before) >= planted_count  # the planted ones (random bases may add more)
+    fixed, repair = repair_tjunctions(world)
+    assert repair.junctions == len(before)
+    # area per parent kept, winding kept, object ids follow the parent
+    area = np.bincount(repair.parent, fixed.areas, world.triangle_count)
+    np.testing.assert_allclose(area, world.areas, rtol=1e-9, atol=1e-12)
+    assert ((fixed.normals * world.normals[repair.parent]).sum(axis=1) > 1 - 1e-9).all()
+    assert (fixed.object_ids == world.object_ids[repair.parent]).all()
+    assert (np.diff(repair.parent) >= 0).all()
+    # barycentric corners reproduce the new corners (within the junctions' 0 offset)
+    corners = np.einsum("tij,tjk->tik", repair.bary, world.corners[repair.parent])
+    np.testing.assert_allclose(corners, fixed.corners, atol=1e-9)
+    # no vertex inside an edge any more, and the planted creases are shared corner to corner:
+    # only the outer borders stay unshared (2 per base, 2 per fan of neighbours)
+    assert not len(vertex_on_edge_interior(fixed, tol))
+    bases = world.triangle_count // (splits + 2)
+    assert len(unshared_edges(fixed)) == 4 * bases
+    assert len(unshared_edges(world)) == (6 + splits) * bases  # + the base's ab, the strips'
+    # every vertex of the repaired world is one of the input's floats, or a centroid
+    known = {tuple(v) for v in world.vertices}
+    new = [tuple(v) for v in fixed.vertices[np.unique(fixed.triangles)] if tuple(v) not in known]
+    assert len(new) == repair.added
+
+
+def test_a_world_without_junctions_is_unchanged(literal):
+    world = literal.world([literal.rect(1, 0.0, (0, 4), (0, 4), 1),
+                           literal.rect(0, 0.0, (0, 3), (0, 4), 1)])
+    fixed, repair = repair_tjunctions(world)
+    assert repair.junctions == repair.split == repair.added == 0
+    assert (fixed.triangles == world.triangles).all() and fixed.digest() == world.digest()
+
+
+def test_textures_are_interpolated(literal):
+    world = literal.world([literal.rect(1, 0.0, (0, 2), (0, 2), 1),
+                           literal.rect(1, 0.0, (0, 1), (2, 3), 1),
+                           literal.rect(1, 0.0, (1, 2), (2, 3), 1)])
+    from vismobile.world.textures import Textures
+
+    # uv = (x, z) / 4 at every corner
+    world.textures = Textures((world.corners[:, :, [0, 2]] / 4).astype(np.float32),
+                              np.zeros(3, np.int32))
+    fixed, repair = repair_tjunctions(world)
+    assert repair.split == 1  # the big quad's triangle along z = 2 takes x = 1
+    np.testing.assert_allclose(fixed.textures.uv, fixed.corners[:, :, [0, 2]] / 4, atol=1e-6)
+
+
+def crease_cameras(profile, count):
+    """Eyes in the room looking down at random points of the crease (floor meets far wall)."""
+    rng = np.random.default_rng(0)
+    for _ in range(count):
+        eye = np.array([rng.uniform(0.5, 3.5), rng.uniform(0.5, 2.8), rng.uniform(0.5, 3.0)])
+        look = np.array([rng.uniform(0, 4), 0.2, 4.0]) - eye
+        yield Camera(eye, yaw=np.degrees(np.arctan2(look[0], -look[2])),
+                     pitch=np.degrees(np.arctan2(look[1], np.hypot(look[0], look[2]))),
+                     fov=rng.uniform(30, 100), near=0.1, aspect=profile.aspect)
+
+
+def crease_world(literal):
+    """tests/culling/test_pvs_cracks.py's room: its far wall stands on the floor's edge in 22
+    strips (T-junctions); the slab's bottom (last two triangles) lies below."""
+    rect = literal.rect
+    parts = [rect(1, 0.2, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
+             rect(0, 0.0, (0.2, 3), (0, 4), 1), rect(0, 4.0, (0.2, 3), (0, 4), -1),
+             rect(2, 0.0, (0, 4), (0.2, 3), 1)]
+    xs = np.concatenate([[0.0], np.sort(np.random.default_rng(5).uniform(0.1, 3.9, 22)), [4.0]])
+    parts += [rect(2, 4.0, (a, b), (0.2, 3.0), -1) for a, b in zip(xs[:-1], xs[1:])]
+    parts.append(rect(1, 0.0, (0, 5), (0, 4), 1))
+    return literal.world(parts, name="crease")
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_the_rasteriser_sees_nothing_through_a_repaired_crease(literal, mode):
+    profile = get_profile(get_profile("ipaq-hx2490b"), mode) if mode != "float64" \
+        else get_profile("ipaq-hx2490b")
+    world = crease_world(literal)
+    fixed, repair = repair_tjunctions(world)
+    assert repair.junctions >= 22 and len(unshared_edges(fixed)) < len(unshared_edges(world))
+    far = np.arange(world.triangle_count - 2, world.triangle_count)
+    far_fixed = np.flatnonzero(np.isin(repair.parent, far))
+    before = after = 0
+    for cam in crease_cameras(profile, 100):
+        before += np.isin(far, item_buffer(world, None, cam, profile, cull_back=False)).any()
+        after += np.isin(far_fixed, item_buffer(fixed, None, cam, profile,
+                                                cull_back=False)).any()
+    assert before >= 1  # the crack was open before (else this test checks nothing)
+    assert after == 0, f"{mode}: {after} of 100 cameras still see the slab through the crease"
