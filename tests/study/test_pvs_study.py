@@ -65,7 +65,8 @@ def test_the_device_model_prices_the_lookup_and_the_memory(world, baked, traject
     camera = trajectory.camera(3, profile.aspect)
     result = Culler(part, "pvs+vfc").cull(camera)
     stats = device_counters(result)
-    assert stats["pvs.cells_tested"] == len(part.extras["pvs_cells"])
+    # the boxes in the x-z buckets around the eye (culling/pvs_lookup.py), at most every cell
+    assert 0 < stats["pvs.cells_tested"] <= len(part.extras["pvs_cells"])
     model = DeviceModel(profile)
     without = {k: v for k, v in stats.items() if not k.startswith("pvs.")}
     assert model.cull_ms(stats) > model.cull_ms(without)

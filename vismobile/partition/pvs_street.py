@@ -10,10 +10,10 @@ whose near plane may leave the cells (above the layer, by a building's inside or
 edge) or is nearer than NEAR_MIN, or reaches farther than COVER, falls back (culling/pvs.py).
 
 A cell's region is its box grown by the bake's growth, and by COVER up and down (a near plane
-may reach over the layer). Its set: every triangle that the columns clear of the region by r
-(= SPACING / 2, the samples' reach), taller than it, shrunk by r plus the tolerance, do not
-hide from every sample point, SPACING apart along the boundary of the region's top. Anything
-not a column (objects, open or sloping surfaces, the ground) is only ever hidden.
+may reach over the layer). Its set: every triangle some sample point (SPACING apart along the
+boundary of the region's top) sees past the columns clear of the region by r (= SPACING / 2,
+the samples' reach) and taller than it, each shrunk by r plus the tolerance. Anything not a
+column (objects, open or sloping surfaces, the ground) is only ever hidden.
 
 Why that is conservative (for cameras the stage does not fall back on, every arithmetic mode,
 with or without back-face culling). A pixel shows q along a line from a near-plane point p in
