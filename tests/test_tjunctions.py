@@ -1,6 +1,8 @@
 """T-junction repair (world/tjunctions.py): planted junctions are split with the existing floats,
 area and winding are kept, no edge passes a vertex afterwards, and the real rasteriser no longer
 shows what lies behind a crease it showed before."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -14,6 +16,7 @@ from vismobile.world.tjunctions import find_tjunctions, repair_tjunctions
 from vismobile.world.world import World
 
 MODES = ("float64", "float32", "fixed16.16")
+TRAJECTORY = Path(__file__).resolve().parents[1] / "trajectories" / "indoor.csv"
 
 
 def planted(rng, base_count, splits):
@@ -142,3 +145,33 @@ def test_the_rasteriser_sees_nothing_through_a_repaired_crease(literal, mode):
                                                 cull_back=False)).any()
     assert before >= 1  # the crack was open before (else this test checks nothing)
     assert after == 0, f"{mode}: {after} of 100 cameras still see the slab through the crease"
+
+
+def test_a_partition_keeps_its_repair_and_refuses_the_other_world(tmp_path, literal, capsys):
+    """A .vmp baked on a repaired world carries it (header world.repair); loading it with the
+    unrepaired world, or playing an unrepaired one with --repair, is refused in one line."""
+    from vismobile.app.cli import main
+    from vismobile.errors import PartitionError
+    from vismobile.files.loader import load_world
+    from vismobile.partition import load_partition, partition, save_partition
+
+    path = tmp_path / "crease.obj"
+    crease_world(literal).to_obj(path)
+    plain, fixed = load_world(path), load_world(path, repair="tjunctions")
+    assert plain.repair is None and fixed.repair == "tjunctions"
+    assert fixed.triangle_count > plain.triangle_count
+    save_partition(partition(fixed, "grid"), tmp_path / "fixed.vmp")
+    loaded = load_partition(tmp_path / "fixed.vmp", world=fixed)
+    assert loaded.world.repair == "tjunctions" and loaded.world.digest() == fixed.digest()
+    with pytest.raises(PartitionError, match="--repair tjunctions, given with --repair none"):
+        load_partition(tmp_path / "fixed.vmp", world=plain)
+    assert main(["partition", str(path), "--structure", "grid", "-o",
+                 str(tmp_path / "plain.vmp")]) == 0
+    capsys.readouterr()
+    assert main(["play", str(tmp_path / "plain.vmp"), "--repair", "tjunctions", "--trajectory",
+                 str(TRAJECTORY), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "built without --repair tjunctions" in err[0], err
+    assert not (tmp_path / "out").exists()
+    assert main(["info", str(path), "--repair", "tjunctions"]) == 0
+    assert f"-> {fixed.triangle_count:,} triangles" in capsys.readouterr().out

@@ -6,7 +6,8 @@ heightmaps (issue 28); GeoTIFF heightmaps and .vmt terrains as `play` runs them 
 issue 30); GLB node animations and JSON motion files (animglb, motion: issue 25), a motion file
 as play --motion takes it, --fps values and play --regional choices (playmotion, fps,
 regional: issue 25), play --page-budget values (budget: issue 30), GeoTIFFs built out of core,
---memory values, paged Röttger files (tifstream, memory, vmrpages: issue 30, fuzz_tiled.py).
+--memory values, paged Röttger files (tifstream, memory, vmrpages: issue 30, fuzz_tiled.py),
+--repair values and OBJs repaired (repair, objrepair: issue 29, fuzz_repair.py).
 Every input must load or end in a VisMobileError (one clean line from the CLI); any other exception, a run over the time limit or memory over the cap is a failure.
 
 Three modes:
@@ -23,7 +24,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps,regional,budget,tifstream,memory,vmrpages]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps,regional,budget,tifstream,memory,vmrpages,repair,objrepair]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]
@@ -189,12 +190,14 @@ def format_seeds(world, folder: Path, glbs=()) -> dict:
             "vmtiles": [vmtiles_seed(heightmap, folder),
                         vmtiles_seed(quantize(holed, 1.0, "holes"), folder, "holes")],
             "budget": BUDGET_TEXTS, **animated_seeds(folder),
-            **fuzz_tiled.tiled_seeds(folder), **fuzz_tiled.pages_seeds(folder)}
+            **fuzz_tiled.tiled_seeds(folder), **fuzz_tiled.pages_seeds(folder),
+            **fuzz_repair.repair_seeds()}
 
 
 from fuzz_motion import (animated_seeds, load_animated, load_fps, load_motion,  # noqa: E402
                          load_play_motion, load_regional)
 import fuzz_tiled  # noqa: E402 - issue 30's out-of-core and paged Röttger targets
+import fuzz_repair  # noqa: E402 - issue 29's --repair tjunctions (repair, objrepair)
 
 
 # ---- mutations (driven by pick(n) -> int in [0, n), so random and atheris share them) -------
@@ -491,7 +494,7 @@ ENTRY = {"obj": (load_obj, ".obj"), "vmp": (load_and_cull, ".vmp"),
          "animglb": (load_animated, ".glb"), "motion": (load_motion, ".json"),
          "playmotion": (load_play_motion, ".json"), "fps": (load_fps, ".txt"),
          "regional": (load_regional, ".txt"), "budget": (load_page_budget, ".txt"),
-         **fuzz_tiled.ENTRY}
+         **fuzz_tiled.ENTRY, **fuzz_repair.ENTRY}
 
 
 def run_case(target, data, folder):

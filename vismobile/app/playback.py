@@ -100,11 +100,13 @@ def parse_structure(text) -> tuple:
 
 
 def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=None,
-               motion=None, fps=None) -> Scene:
+               motion=None, fps=None, repair=None) -> Scene:
     """World (a mesh file, or a thesis world name w1..w7) partitioned by structure, or a .vmp file.
 
     fix_winding : reverse triangles first (winding.fixed_world); meshes only, not .vmp files
     eyes        : the camera positions fix_winding tells rooms from solids by (optional)
+    repair      : None / "none" or "tjunctions" (files.loader.repaired); a .vmp keeps the world
+                  it was built from, and refuses a repair it was not built with
     motion      : a JSON motion file moving the world's objects (else W7's own motion, or a
                   .glb/.gltf file's animation: app/animation.open_animated); fps: frames per
                   second of the trajectory's time (default: the motion's, else 30)
@@ -123,16 +125,23 @@ def load_scene(path, structure="none", progress=False, fix_winding=False, eyes=N
             raise VisMobileError(f"{path_text}: --motion moves a world's objects; a partition "
                                  "file is static (give the mesh and --structure)")
         partition = load_partition(path_text)
+        if repair not in (None, "none", partition.world.repair):
+            raise VisMobileError(f"{path_text}: built without --repair {repair}; a partition "
+                                 f"file keeps its world (rebuild it with partition --repair "
+                                 f"{repair})")
         return Scene(partition.world, partition, _describe(partition.kind, partition.params))
     from ..files.loader import open_world
     from .animation import DEFAULT_FPS, check_fps, open_animated
 
-    world = open_world(path_text)
+    world = open_world(path_text, repair=repair)
     if fix_winding:
         from ..world.winding import fixed_world_said
 
         world = fixed_world_said(world, eyes)
     animated = open_animated(path_text, world, motion)
+    if animated is not None and repair not in (None, "none"):
+        raise VisMobileError(f"{path_text}: --repair applies to a static world, not to a "
+                             "moving one (its motion names the original triangles)")
     if animated is not None:
         world = animated.world
     # frames per second: --fps, else the motion's own (a motion file's "fps"), else 30

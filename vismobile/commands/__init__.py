@@ -28,6 +28,11 @@ FIX_WINDING_HELP = ("first reverse triangles so that triangles sharing an edge a
                     "rooms face their interior (closed solids face out); `vismobile info` "
                     "reports what it would change")
 
+REPAIR_HELP = ("repair the world's geometry first: tjunctions splits every triangle whose edge "
+               "passes another triangle's vertex, so creases are shared corner to corner and "
+               "the rasteriser leaves no crack (triangle ids change; a .vmp records it)")
+REPAIRS = ("none", "tjunctions")
+
 
 def fix_winding(world, enabled: bool, eyes=None):
     """world with its winding fixed (winding.fixed_world_said; eyes: the trajectory's camera

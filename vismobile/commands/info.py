@@ -1,7 +1,7 @@
 """`vismobile info WORLD`: triangles, objects, bounds, size and winding of a world or mesh."""
 from pathlib import Path
 
-from . import FIX_WINDING_HELP, WORLD_HELP
+from . import FIX_WINDING_HELP, REPAIR_HELP, REPAIRS, WORLD_HELP
 
 
 def add_parser(sub):
@@ -10,8 +10,9 @@ def add_parser(sub):
     parser.add_argument("world", help=WORLD_HELP)
     parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP
                         + "; prints the winding before and after")
+    parser.add_argument("--repair", choices=REPAIRS, default="none", help=REPAIR_HELP)
     parser.add_argument("-o", "--out", type=Path, default=None,
-                        help="write the world (after --fix-winding) as an OBJ file")
+                        help="write the world (after --repair and --fix-winding) as an OBJ file")
     return parser
 
 
@@ -28,6 +29,11 @@ def run(args) -> int:
         status("loading the world")
         path = world_file(args.world)
         world = load_world(path)
+        if args.repair != "none":
+            from ..files.loader import repaired
+
+            status("repairing the world")
+            source, world = world, repaired(world, args.repair, path)
         status("checking the winding")
         report = check_winding(world)
         if args.fix_winding:
@@ -38,6 +44,9 @@ def run(args) -> int:
     print(f"triangles  {world.triangle_count:,}")
     print(f"vertices   {len(world.vertices):,}")
     print(f"objects    {len(world.object_names)}")
+    if args.repair != "none":
+        print(f"repair     {args.repair}: {source.triangle_count:,} -> "
+              f"{world.triangle_count:,} triangles (ids change)")
     print(f"bounds     min ({low[0]:.4g}, {low[1]:.4g}, {low[2]:.4g})"
           f"  max ({high[0]:.4g}, {high[1]:.4g}, {high[2]:.4g})")
     print(f"file size  {path.stat().st_size / 1024:,.1f} KB")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from . import FIX_WINDING_HELP, STRUCTURE_HELP, WORLD_HELP, fix_winding
+from . import FIX_WINDING_HELP, REPAIR_HELP, REPAIRS, STRUCTURE_HELP, WORLD_HELP, fix_winding
 
 
 def add_parser(sub):
@@ -41,6 +41,8 @@ def add_parser(sub):
                              "tcp://host:8786")
     parser.add_argument("--fix-winding", action="store_true",
                         help=FIX_WINDING_HELP + "; the .vmp carries the fixed world")
+    parser.add_argument("--repair", choices=REPAIRS, default="none", help=REPAIR_HELP
+                        + "; the .vmp carries the repaired world")
     parser.add_argument("--lod", action="store_true",
                         help="also build each object's level-of-detail chain (meshoptimizer) "
                              "and store it in the .vmp (play --lod-tau uses it)")
@@ -81,7 +83,7 @@ def run(args) -> int:
     with Status(f"partition {args.world}") as status:
         status("loading the world")
         args.world = world_file(args.world)
-        world = fix_winding(load_world(args.world), args.fix_winding)
+        world = fix_winding(load_world(args.world, args.repair), args.fix_winding)
     try:
         kind, params = parse_spec(args.structure)
         if kind is None:
@@ -200,9 +202,9 @@ def run_out_of_core(args) -> int:
     from ..errors import PartitionError
     from ..world.mapped import MappedWorld
 
-    if args.fix_winding:
-        raise PartitionError(f"{args.world}: --fix-winding needs a mesh file, not a world "
-                             "directory")
+    if args.fix_winding or args.repair != "none":
+        raise PartitionError(f"{args.world}: --fix-winding and --repair need a mesh file, not "
+                             "a world directory")
     if args.scheduler is not None:
         raise PartitionError(f"{args.world}: --scheduler spreads a PVS bake; a world directory "
                              "is partitioned out of core over --jobs processes")

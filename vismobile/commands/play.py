@@ -2,7 +2,7 @@
 from pathlib import Path
 
 from . import (CULL_HELP, DEFAULT_CULL, default_cull, DEFAULT_STRUCTURE, FIX_WINDING_HELP, FRAMES_HELP,
-               FPS_HELP, MOTION_HELP, PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP,
+               REPAIR_HELP, REPAIRS, FPS_HELP, MOTION_HELP, PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP,
                default_trajectory, warn_winding)
 
 
@@ -29,6 +29,7 @@ def add_parser(sub):
     parser.add_argument("-o", "--out", type=Path, required=True, help="output folder")
     parser.add_argument("--frames", default="all", help=FRAMES_HELP + " (default all)")
     parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP)
+    parser.add_argument("--repair", choices=REPAIRS, default="none", help=REPAIR_HELP)
     parser.add_argument("--images", type=int, default=0, metavar="N",
                         help="save every Nth played frame as PNG under OUT/frames/ (default 0: "
                              "none)")
@@ -100,7 +101,7 @@ def run(args) -> int:
     with Status(f"play {args.world}", enabled=not args.quiet) as status:
         status("loading the world")
         scene = load_scene(args.world, args.structure, progress=not args.quiet,
-                           fix_winding=args.fix_winding, eyes=trajectory.poses[:, :3],
+                           fix_winding=args.fix_winding, eyes=trajectory.poses[:, :3], repair=args.repair,
                            motion=args.motion, fps=args.fps)
         status("checking the winding")
         warn_winding(scene.world, parse_stages(args.cull), args.world,
@@ -181,8 +182,9 @@ def run_terrain(args) -> int:
     from ..world.trajectory import Trajectory, select_frames
 
     check_folder(args.out)
-    if args.adaptive or args.fix_winding or args.gif or args.hud:
-        raise VisMobileError("--adaptive, --fix-winding, --gif and --hud apply to triangle "
+    if args.adaptive or args.fix_winding or args.gif or args.hud or args.repair != "none":
+        raise VisMobileError("--adaptive, --fix-winding, --repair, --gif and --hud apply to "
+                             "triangle "
                              "worlds, not to a .vmt terrain")
     stages = parse_stages(args.cull if args.cull is not None else "vfc+horizon")
     tau = 1.0 if args.lod_tau is None else args.lod_tau

@@ -183,7 +183,8 @@ def to_bytes(partition: Partition) -> bytes:
               "params": partition.params,
               "world": {"digest": w.digest().hex(), "triangles": w.triangle_count,
                         "vertices": len(w.vertices), "name": w.name,
-                        "object_names": list(w.object_names)},
+                        "object_names": list(w.object_names),
+                        "repair": getattr(w, "repair", None) or "none"},
               "fields": table, "sections": sections}
     text = json.dumps(header, sort_keys=True, separators=(",", ":")).encode("utf-8")
     head = PREFIX.pack(MAGIC, VERSION, len(text), zlib.crc32(text)) + text
@@ -419,7 +420,15 @@ def _parse(path, buffer, world):
                    fields["world.object_ids"], list(info["object_names"]), str(info["name"]))
     if loaded.digest().hex() != info["digest"]:
         raise PartitionError(f"{path}: corrupt partition file (world does not match its digest)")
+    loaded.repair = info.get("repair", "none")
+    if loaded.repair not in ("none", "tjunctions"):
+        raise PartitionError(f"{path}: unknown world repair {loaded.repair!r}")
     if world is not None and world.digest() != loaded.digest():
+        given = getattr(world, "repair", None) or "none"
+        if given != loaded.repair:
+            raise PartitionError(f"{path}: built from the world with --repair {loaded.repair}, "
+                                 f"given with --repair {given} (triangle ids differ); load "
+                                 f"the world with repair={loaded.repair!r} or rebuild")
         raise PartitionError(f"{path}: built from another world (digest differs from "
                              f"{world.name}); rebuild the partition")
     kind = header["kind"]

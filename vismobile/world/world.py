@@ -34,6 +34,8 @@ class World:
     object_ids: np.ndarray | None = None
     object_names: list = field(default_factory=list)
     name: str = "world"
+    # "tjunctions" after world/tjunctions.repair_tjunctions (a .vmp's header records it)
+    repair = None
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)

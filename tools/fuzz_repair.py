@@ -1,0 +1,58 @@
+"""tools/fuzz.py's targets for the world repair (issue 29, world/tjunctions.py): `repair`, the
+--repair option's text through `vismobile info`; `objrepair`, a mutated OBJ with T-junctions
+loaded with repair="tjunctions" and its contract checked (area per parent, winding, no
+vertex left inside an edge)."""
+from __future__ import annotations
+
+import numpy as np
+
+# a floor whose far edge (z = 2) runs past the foot of a wall standing on it in two quads
+TJUNCTION_OBJ = (b"v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\n"
+                 b"v 1 0 2\nv 0 1 2\nv 1 1 2\nv 2 1 2\n"
+                 b"o floor\nf 1 4 3\nf 1 3 2\no wall\nf 4 6 7\nf 4 7 5\nf 5 7 8\nf 5 8 3\n")
+REPAIR_TEXTS = [b"tjunctions", b"none"]
+
+
+def repair_seeds() -> dict:
+    return {"repair": REPAIR_TEXTS, "objrepair": [TJUNCTION_OBJ]}
+
+
+def load_repair(path):
+    """info's --repair value through the CLI on a small world: accepted (rc 0) or refused in
+    one line (rc 2, raised as VisMobileError); any other outcome is a finding."""
+    from vismobile.app.cli import main as cli
+    from vismobile.errors import VisMobileError
+
+    text = path.read_bytes()[:256].decode("utf-8", errors="replace").replace("\x00", "")
+    world = path.with_name("tjunction.obj")
+    if not world.exists():
+        world.write_bytes(TJUNCTION_OBJ)
+    try:
+        rc = cli(["info", str(world), f"--repair={text}"])
+    except SystemExit as exit:  # argparse's own refusal
+        rc = exit.code
+    if rc == 2:
+        raise VisMobileError(f"--repair {text!r} refused")
+    if rc != 0:
+        raise RuntimeError(f"info --repair {text!r}: exit code {rc}")
+
+
+def load_obj_repair(path):
+    """A (mutated) OBJ loaded with repair="tjunctions": the contract holds or the load fails
+    with a VisMobileError."""
+    from vismobile.files.loader import load_world
+    from vismobile.world.tjunctions import repair_tjunctions
+
+    world = load_world(path)
+    fixed, repair = repair_tjunctions(world)
+    area = np.bincount(repair.parent, fixed.areas, world.triangle_count)
+    scale = max(float(world.areas.max()), 1e-300)
+    assert np.allclose(area, world.areas, rtol=1e-6, atol=1e-9 * scale), "area not kept"
+    dots = (fixed.normals * world.normals[repair.parent]).sum(axis=1)
+    wide = fixed.areas > 1e-9 * scale  # a sliver's normal is rounding noise
+    assert (dots[wide] > 0).all(), "winding not kept"
+    assert fixed.repair == "tjunctions" and load_world(path, "tjunctions").digest() == \
+        fixed.digest()
+
+
+ENTRY = {"repair": (load_repair, ".txt"), "objrepair": (load_obj_repair, ".obj")}
