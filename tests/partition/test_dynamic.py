@@ -19,7 +19,7 @@ def test_refit_rows_matches_a_full_refit():
         rows = np.unique(rng.integers(0, 300, 25))
         boxes[rows] += rng.normal(0.0, 3.0, (len(rows), 1, 3))
         cost, area_sum = refit_rows(boxes, rows, bvh.order, bvh.lo, bvh.hi, bvh.first,
-                                    bvh.start, bvh.count, bvh.parent, bvh.leaf_of, bvh.dirty,
+                                    bvh.start, bvh.count, bvh.parent, bvh.leaf_of,
                                     bvh.node_count, bvh.area_sum)
         bvh.refitted(cost, area_sum, boxes)
         n = bvh.node_count
@@ -27,7 +27,6 @@ def test_refit_rows_matches_a_full_refit():
         full = _refit(boxes, bvh.order, lo, hi, bvh.first, bvh.start, bvh.count, n)
         assert np.array_equal(lo, bvh.lo[:n]) and np.array_equal(hi, bvh.hi[:n])
         assert abs(full - bvh.cost) <= 1e-9 * full
-        assert not bvh.dirty.any()
         # every object's box lies in its leaf's and the root's
         leaf = bvh.leaf_of
         assert (bvh.lo[leaf] <= boxes[:, 0]).all() and (boxes[:, 1] <= bvh.hi[leaf]).all()
@@ -42,9 +41,22 @@ def test_a_degraded_tree_is_rebuilt():
     rows = np.arange(200)
     moved[rows] = boxes[rng.permutation(200)]  # every object jumps to another's place
     cost, area_sum = refit_rows(moved, rows, bvh.order, bvh.lo, bvh.hi, bvh.first, bvh.start,
-                                bvh.count, bvh.parent, bvh.leaf_of, bvh.dirty, bvh.node_count,
+                                bvh.count, bvh.parent, bvh.leaf_of, bvh.node_count,
                                 bvh.area_sum)
     assert cost > bvh.rebuild * bvh.built_cost
     assert bvh.refitted(cost, area_sum, moved) and bvh.rebuilds == 1
     assert bvh.cost == bvh.built_cost  # rebuilt over the moved boxes
     assert (bvh.lo[bvh.leaf_of] <= moved[:, 0]).all()
+
+
+def test_refit_rows_cost_of_a_flat_tree():
+    """Every box one point (the root's area 0): each node weighs 1, as in a full refit."""
+    boxes = np.zeros((37, 2, 3))
+    bvh = DynamicBVH(boxes)
+    rows = np.array([3, 20])
+    cost, _ = refit_rows(boxes, rows, bvh.order, bvh.lo, bvh.hi, bvh.first, bvh.start,
+                         bvh.count, bvh.parent, bvh.leaf_of, bvh.node_count, bvh.area_sum)
+    n = bvh.node_count
+    full = _refit(boxes, bvh.order, bvh.lo[:n].copy(), bvh.hi[:n].copy(), bvh.first,
+                  bvh.start, bvh.count, n)
+    assert cost == full == (n - 1) // 2 + 37

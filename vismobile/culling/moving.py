@@ -32,11 +32,12 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import trailing_zeros
 
 from ..partition.dynamic import DynamicBVH, refit_rows
-from ..world.animated import BOX_PAD, _moved_rows, moved_boxes, transform_rows
+from ..world.animated import BOX_PAD, _move_box, moved_boxes, transform_rows
 from ..world.motion import _matrices
-from ..world.swept import SPAN, expired, swept_boxes
+from ..world.swept import SPAN, TABLE_LIMIT, bake_intervals, baked_boxes, expired, swept_boxes
 from .facing import not_backfacing
 from .hiz import cull_nodes, hidden_triangles
 from .kernels import _box_planes
@@ -90,82 +91,95 @@ def bvh_frustum(lo, hi, first, start, count, order, n_nodes, boxes, planes, tol,
     return found, visited, tests
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _in_order(items, n, bits, out):
+    """out[:n] = the distinct values items[:n] (each < 64 len(bits)) in ascending order, through
+    the bitmap bits (all zero before and after): O(n + the words between the least and the
+    greatest), no sort."""
+    low, high = len(bits), -1
+    for i in range(n):
+        v = items[i]
+        w = v >> 6
+        bits[w] |= np.uint64(1) << np.uint64(v & 63)
+        low, high = min(low, w), max(high, w)
+    j = 0
+    for w in range(low, high + 1):
+        word = bits[w]
+        bits[w] = 0
+        while word:
+            out[j] = w * 64 + trailing_zeros(word)
+            j += 1
+            word &= word - np.uint64(1)
+
+
 @njit(cache=True, nogil=True)
 def frustum_pose(lo, hi, first, start, count, order, n_nodes, swept, planes, tol, out, stack,
-                 masks, whole, t, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st,
-                 sv, ss, pre, post, rest, pad, matrices, boxes):
+                 masks, whole, t, record, links, tt, tv, rt, rv, arc, st, sv, pre, post, rest,
+                 pad, matrices, boxes, scratch, bits):
     """One frame's frustum decision for the moving objects, in one compiled call: the swept
-    boxes through the BVH (bvh_frustum), the candidates sorted; those whose swept box lies
-    wholly inside the planes are kept as they are (their exact box, inside it, would be: the
-    same decision) and left unposed (whole[k] stays True: MovingObjects.settle poses them when
-    a stage needs their matrices or boxes); the others posed at time t (motion's _matrices into
-    matrices, their exact boxes into boxes: animated._moved_boxes' arithmetic) and their exact
-    boxes tested (boxes_in_frustum). out[:count] = the objects kept, ascending; returns (count,
-    BVH nodes visited, candidates, plane tests)."""
+    boxes through the BVH (bvh_frustum), the candidates in ascending order (_in_order); those
+    whose swept box lies wholly inside the planes are kept as they are (their exact box, inside
+    it, would be: the same decision) and left unposed (whole[k] stays True: MovingObjects.settle
+    poses them when a stage needs their matrices or boxes); the others posed at time t
+    (motion's _matrices into matrices) and their exact boxes (animated._move_box's arithmetic,
+    into boxes) tested against the planes. out[:count] = the objects kept, ascending; returns
+    (count, BVH nodes visited, candidates, plane tests). scratch: (2 M,) int64, bits: (M / 64
+    + 1,) uint64 zeros."""
     found, visited, tests = bvh_frustum(lo, hi, first, start, count, order, n_nodes, swept,
                                         planes, tol, out, stack, masks, whole)
-    candidates = np.sort(out[:found])
+    m = len(scratch) // 2
+    candidates, need = scratch[:m], scratch[m:]
+    _in_order(out, found, bits, candidates)
     posed = 0
     for i in range(found):
         if not whole[candidates[i]]:
-            out[posed] = candidates[i]
+            need[posed] = candidates[i]
             posed += 1
-    need = out[:posed].copy()
-    _matrices(t, need, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv,
-              ss, pre, post, matrices)
-    _moved_rows(rest, matrices, need, pad, boxes)
-    keep = np.empty(posed, dtype=np.bool_)
-    tests += boxes_in_frustum(boxes, need, planes, tol, keep)
+    _matrices(t, need[:posed], record, links, tt, tv, rt, rv, arc, st, sv, pre, post,
+              matrices)
+    full = (np.int64(1) << len(planes)) - 1
     kept, j = 0, 0
     for i in range(found):
         k = candidates[i]
-        if whole[k]:
-            out[kept] = k
-            kept += 1
-        else:
-            if keep[j]:
-                out[kept] = k
-                kept += 1
-            j += 1
+        if not whole[k]:
+            _move_box(rest[k], matrices[k], pad, boxes[k])
+            outside, _, n = _box_planes(boxes[k, 0, 0], boxes[k, 0, 1], boxes[k, 0, 2],
+                                        boxes[k, 1, 0], boxes[k, 1, 1], boxes[k, 1, 2], planes,
+                                        full, tol)
+            tests += n
+            if outside:
+                continue
+        out[kept] = k
+        kept += 1
     return kept, visited, found, tests
 
 
 @njit(cache=True, nogil=True)
 def advance(t, valid_from, valid_until, rows, loop, duration, step, tt, tv, ts, rt, rv, rs, st,
             sv, ss, pre, post, rest, swept, order, lo, hi, first, start, count, parent,
-            leaf_of, dirty, n_nodes, area_sum, span):
+            leaf_of, n_nodes, area_sum, span, table_start, table_lo, table_hi, table_boxes,
+            missed):
     """MovingObjects.pose's update in one compiled call: the tracks whose interval does not
-    hold t (swept.expired, into rows) swept anew (swept.swept_boxes), then, when any, the BVH
-    nodes above them refitted (dynamic.refit_rows) and the largest |coordinate| of all swept
-    boxes read off the root's box (it is their exact bound). Returns (tracks swept, that largest
-    |coordinate|, the SAH cost, its numerator); (0, -1, -1, area_sum) when nothing expired."""
+    hold t (swept.expired, into rows) given their next swept box, from the baked intervals
+    (swept.baked_boxes) or, for a track without one, swept anew (swept.swept_boxes); then, when
+    any, the BVH nodes above them refitted (dynamic.refit_rows) and the largest |coordinate|
+    of all swept boxes read off the root's box (it is their exact bound). Returns (tracks
+    renewed, that largest |coordinate|, the SAH cost, its numerator); (0, -1, -1, area_sum)
+    when nothing expired."""
     n = expired(t, valid_from, valid_until, rows)
     if n == 0 or n_nodes == 0:
         return n, (-1.0 if n == 0 else 0.0), (-1.0 if n == 0 else 0.0), area_sum
-    swept_boxes(t, rows[:n], loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre,
-                post, rest, swept, valid_from, valid_until, span)
+    gone = baked_boxes(t, rows[:n], loop, duration, table_start, table_lo, table_hi,
+                       table_boxes, swept, valid_from, valid_until, missed)
+    if gone:
+        swept_boxes(t, missed[:gone], loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss,
+                    pre, post, rest, swept, valid_from, valid_until, span)
     cost, area_sum = refit_rows(swept, rows[:n], order, lo, hi, first, start, count, parent,
-                                leaf_of, dirty, n_nodes, area_sum)
+                                leaf_of, n_nodes, area_sum)
     most = 0.0
     for j in range(3):
         most = max(most, max(abs(lo[0, j]), abs(hi[0, j])))
     return n, most, cost, area_sum
-
-
-@njit(cache=True, nogil=True)
-def boxes_in_frustum(boxes, rows, planes, tol, keep):
-    """keep[i]: boxes[rows[i]] is not outside the planes (tol toward keeping); returns the
-    plane tests made."""
-    full = (np.int64(1) << len(planes)) - 1
-    tests = 0
-    for i in range(len(rows)):
-        k = rows[i]
-        outside, _, n = _box_planes(boxes[k, 0, 0], boxes[k, 0, 1], boxes[k, 0, 2],
-                                    boxes[k, 1, 0], boxes[k, 1, 1], boxes[k, 1, 2], planes, full,
-                                    tol)
-        keep[i] = not outside
-        tests += n
-    return tests
 
 
 @njit(cache=True, nogil=True)
@@ -262,6 +276,8 @@ class MovingObjects:
         self.bvh = DynamicBVH(a.rest_boxes)
         m = len(a.motion)
         self._out = np.empty(max(m, 1), dtype=np.int64)
+        self._scratch = np.empty(2 * max(m, 1), dtype=np.int64)  # frustum_pose's
+        self._bits = np.zeros(max(m, 1) // 64 + 1, dtype=np.uint64)  # its bitmap, kept zero
         self._stack = np.empty(2 * m + 64, dtype=np.int64)
         self._masks = np.empty(2 * m + 64, dtype=np.int64)
         self._posed = np.empty_like(a.rest_vertices)
@@ -279,6 +295,8 @@ class MovingObjects:
         self.valid_from = np.full(m, np.inf)  # nothing valid yet: the first frame sweeps all
         self.valid_until = np.full(m, -np.inf)
         self._expired = np.empty(m, dtype=np.int64)
+        self._missed = np.empty(m, dtype=np.int64)  # tracks without a baked interval at t
+        self._table = (None,)  # (span, swept.bake_intervals' arrays), baked at the first pose
         self.always = np.zeros(0, dtype=np.int64)  # rows whose matrices every pose computes
         self.time, self.magnitude, self._rest = None, 0.0, False
         self._frame_objects = None
@@ -309,11 +327,16 @@ class MovingObjects:
             raise ValueError(f"time must be finite, got {time}")
         self._rest = False
         c, b = motion.channels, self.bvh
+        if self._table[0] != self.span:  # the swept boxes of every interval, baked once
+            self._table = (self.span, *bake_intervals(
+                motion.loop, motion.duration, motion.step, *c["translation"], *c["rotation"],
+                *c["scale"], motion.pre, motion.post, a.rest_boxes, self.span, TABLE_LIMIT))
         count, most, cost, area_sum = advance(
             t, self.valid_from, self.valid_until, self._expired, motion.loop, motion.duration,
             motion.step, *c["translation"], *c["rotation"], *c["scale"], motion.pre,
             motion.post, a.rest_boxes, self.swept, b.order, b.lo, b.hi, b.first, b.start,
-            b.count, b.parent, b.leaf_of, b.dirty, b.node_count, b.area_sum, self.span)
+            b.count, b.parent, b.leaf_of, b.node_count, b.area_sum, self.span, *self._table[1:],
+            self._missed)
         if count:
             self.magnitude = most
             self.rebuilt = b.refitted(cost, area_sum, self.swept)
@@ -367,10 +390,10 @@ class MovingObjects:
         motion, c = self.animated.motion, self.animated.motion.channels
         kept, visited, found, tests = frustum_pose(
             b.lo, b.hi, b.first, b.start, b.count, b.order, b.node_count, self.swept, planes,
-            tol, self._out, self._stack, self._masks, self.whole, self.time, motion.loop,
-            motion.duration, motion.step, motion.simple, *c["translation"], *c["rotation"],
-            motion.arc, *c["scale"], motion.pre, motion.post, self.animated.rest_boxes, BOX_PAD,
-            self.matrices, self.boxes)
+            tol, self._out, self._stack, self._masks, self.whole, self.time, *motion.records,
+            *c["translation"][:2], *c["rotation"][:2], motion.arc, *c["scale"][:2], motion.pre,
+            motion.post, self.animated.rest_boxes, BOX_PAD, self.matrices, self.boxes,
+            self._scratch, self._bits)
         return self._out[:kept].copy(), visited, found, tests
 
     def settle(self, objects) -> None:

@@ -119,32 +119,34 @@ def _area_sum(lo, hi, first, count, n_nodes):
 
 
 @njit(cache=True, nogil=True)
-def refit_rows(boxes, rows, order, lo, hi, first, start, count, parent, leaf_of, dirty,
-               n_nodes, area_sum):
-    """Refit only the nodes above the objects rows (K,) (their boxes changed), bottom-up: the
-    same node boxes as _refit over all (min / max are exact). Returns (SAH cost, its numerator
-    kept up to date from area_sum: O(changed nodes), rounding aside the value _refit sums)."""
+def refit_rows(boxes, rows, order, lo, hi, first, start, count, parent, leaf_of, n_nodes,
+               area_sum):
+    """Refit only the nodes above the objects rows (K,) (their boxes changed): from each one's
+    leaf up, while a node's box changes (above an unchanged node all already hold it). The
+    same node boxes as _refit over all (min / max are exact: each node ends the box of its
+    children's), in O(K x the levels that change), nothing over the whole tree. Returns (SAH
+    cost, its numerator kept up to date from area_sum, rounding aside the value _refit sums)."""
+    total = area_sum
     for i in range(len(rows)):
         node = leaf_of[rows[i]]
-        while node >= 0 and not dirty[node]:
-            dirty[node] = True
+        while node >= 0:
+            x0, y0, z0 = lo[node, 0], lo[node, 1], lo[node, 2]
+            x1, y1, z1 = hi[node, 0], hi[node, 1], hi[node, 2]
+            weight = 1.0 if first[node] >= 0 else float(count[node])
+            total -= _area(lo, hi, node) * weight
+            _node_box(boxes, order, lo, hi, first, start, count, node)
+            total += _area(lo, hi, node) * weight
+            if (x0 == lo[node, 0] and y0 == lo[node, 1] and z0 == lo[node, 2]
+                    and x1 == hi[node, 0] and y1 == hi[node, 1] and z1 == hi[node, 2]):
+                break
             node = parent[node]
-    total = area_sum
-    weight_sum = 0.0
-    for node in range(n_nodes - 1, -1, -1):  # children after parents: bottom-up
-        if first[node] < 0:
-            weight_sum += count[node]
-        else:
-            weight_sum += 1.0
-        if not dirty[node]:
-            continue
-        dirty[node] = False
-        weight = 1.0 if first[node] >= 0 else float(count[node])
-        total -= _area(lo, hi, node) * weight
-        _node_box(boxes, order, lo, hi, first, start, count, node)
-        total += _area(lo, hi, node) * weight
-    root = _area(lo, hi, 0) if n_nodes else 0.0
-    return (total / root if root > 0 else weight_sum), total
+    if n_nodes == 0:
+        return 0.0, total
+    root = _area(lo, hi, 0)
+    if root > 0:
+        return total / root, total
+    # every weight 1: the inner nodes ((N - 1) / 2 of a full binary tree) and the objects
+    return float((n_nodes - 1) // 2 + len(order)), total
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -175,7 +177,6 @@ class DynamicBVH:
         self._stacks = tuple(np.zeros(size + 64, dtype=np.int64) for _ in range(3))
         self.parent = np.full(size, -1, dtype=np.int64)
         self.leaf_of = np.zeros(m, dtype=np.int64)
-        self.dirty = np.zeros(size, dtype=np.bool_)  # refit_rows' marks (cleared as it goes)
         self.rebuilds = 0
         self.node_count = 0
         self._build(boxes)

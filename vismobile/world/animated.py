@@ -235,15 +235,6 @@ def _moved_boxes(boxes, matrices, pad, out):
     return most
 
 
-@njit(cache=True, nogil=True)
-def _moved_rows(boxes, matrices, rows, pad, out):
-    """out[k] = the moved box of boxes[k] under matrices[k] (moved_boxes' arithmetic) for k in
-    rows."""
-    for i in range(len(rows)):
-        k = rows[i]
-        _move_box(boxes[k], matrices[k], pad, out[k])
-
-
 def moved_boxes(boxes, matrices) -> np.ndarray:
     """(M, 2, 3) float64 boxes (M, 2, 3) under affine matrices (M, 4, 4): the box of the moved
     corners (per row, the sum of each term's extremes), padded by BOX_PAD times the row's

@@ -148,6 +148,7 @@ class Motion:
 
         self.arc = _arcs(self.channels["rotation"][1])
         self._all = np.arange(m, dtype=np.int64)
+        self.records = pose_records(self)
 
     def __len__(self) -> int:
         return len(self.object_ids)
@@ -190,9 +191,26 @@ class Motion:
         out = np.empty((len(self), 4, 4)) if out is None else out
         c = self.channels
         rows = self._all if rows is None else rows
-        _matrices(t, rows, self.loop, self.duration, self.step, self.simple, *c["translation"],
-                  *c["rotation"], self.arc, *c["scale"], self.pre, self.post, out)
+        _matrices(t, rows, *self.records, *c["translation"][:2], *c["rotation"][:2], self.arc,
+                  *c["scale"][:2], self.pre, self.post, out)
         return self.object_ids, out
+
+
+def pose_records(motion) -> tuple:
+    """(record (M, 16) float64, links: the same memory as int64) one 128-byte row per track,
+    what _matrices reads of it besides its keys: record[k, 0] its duration, 1:4 pre's and 4:7
+    post's translations; links[k, 8] flags (1 loop, 2 step, 4 simple: pre and post pure
+    translations), 9:15 its translation, rotation and scale key ranges (start, end)."""
+    record = np.zeros((len(motion), 16))
+    links = record.view(np.int64)
+    record[:, 0] = motion.duration
+    record[:, 1:4] = motion.pre[:, :3, 3]
+    record[:, 4:7] = motion.post[:, :3, 3]
+    links[:, 8] = motion.loop + 2 * motion.step + 4 * motion.simple
+    for j, name in enumerate(CHANNELS):
+        start = motion.channels[name][2]
+        links[:, 9 + 2 * j], links[:, 10 + 2 * j] = start[:-1], start[1:]
+    return record, links
 
 
 def _arcs(q) -> np.ndarray:
@@ -323,33 +341,36 @@ def _segment(times, a, b, t, step):
 
 
 @njit(cache=True, nogil=True)
-def _matrices(t, rows, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc, st, sv, ss,
-              pre, post, out):
+def _matrices(t, rows, record, links, tt, tv, rt, rv, arc, st, sv, pre, post, out):
     """out[k] = post[k] @ T R S @ pre[k] of track k in rows at time t (looping tracks wrapped), as
-    _sample_track samples: every track in one pass, scalars only. arc (R, 3): per rotation key,
-    the slerp to the next key's (angle, 1 / sin(angle), sign; angle 0: lerp), precomputed."""
+    _sample_track samples: every track in one pass, scalars only. record, links: the tracks'
+    records (pose_records: one 128-byte row each, so a posed track reads its row and its keys,
+    not a dozen arrays); arc (R, 3): per rotation key, the slerp to the next key's (angle,
+    1 / sin(angle), sign; angle 0: lerp), precomputed."""
     trs = np.empty((3, 4))
     mid = np.empty((3, 4))
     for i in range(len(rows)):
         k = rows[i]
+        flags = links[k, 8]
         local = t
-        if loop[k] and duration[k] > 0:
-            local = t - np.floor(t / duration[k]) * duration[k]
+        if (flags & 1) and record[k, 0] > 0:
+            local = t - np.floor(t / record[k, 0]) * record[k, 0]
+        step = (flags & 2) != 0
         tx = ty = tz = 0.0
-        if ts[k] < ts[k + 1]:
-            lo, hi, u = _segment(tt, ts[k], ts[k + 1], local, step[k])
+        if links[k, 9] < links[k, 10]:
+            lo, hi, u = _segment(tt, links[k, 9], links[k, 10], local, step)
             tx = tv[lo, 0] + u * (tv[hi, 0] - tv[lo, 0])
             ty = tv[lo, 1] + u * (tv[hi, 1] - tv[lo, 1])
             tz = tv[lo, 2] + u * (tv[hi, 2] - tv[lo, 2])
         sx = sy = sz = 1.0
-        if ss[k] < ss[k + 1]:
-            lo, hi, u = _segment(st, ss[k], ss[k + 1], local, step[k])
+        if links[k, 13] < links[k, 14]:
+            lo, hi, u = _segment(st, links[k, 13], links[k, 14], local, step)
             sx = sv[lo, 0] + u * (sv[hi, 0] - sv[lo, 0])
             sy = sv[lo, 1] + u * (sv[hi, 1] - sv[lo, 1])
             sz = sv[lo, 2] + u * (sv[hi, 2] - sv[lo, 2])
         x, y, z, w = 0.0, 0.0, 0.0, 1.0
-        if rs[k] < rs[k + 1]:
-            lo, hi, u = _segment(rt, rs[k], rs[k + 1], local, step[k])
+        if links[k, 11] < links[k, 12]:
+            lo, hi, u = _segment(rt, links[k, 11], links[k, 12], local, step)
             if u == 0.0:
                 x, y, z, w = rv[lo, 0], rv[lo, 1], rv[lo, 2], rv[lo, 3]
             else:
@@ -368,12 +389,12 @@ def _matrices(t, rows, loop, duration, step, simple, tt, tv, ts, rt, rv, rs, arc
                 x, y, z, w = x / norm, y / norm, z / norm, w / norm
         rotation_scale(x, y, z, w, sx, sy, sz, trs)
         trs[0, 3], trs[1, 3], trs[2, 3] = tx, ty, tz
-        if simple[k]:  # pre, post pure translations: R S, then R S pre_t + t + post_t
+        if flags & 4:  # pre, post pure translations: R S, then R S pre_t + t + post_t
             for r in range(3):
-                acc = trs[r, 3] + post[k, r, 3]
+                acc = trs[r, 3] + record[k, 4 + r]
                 for i in range(3):
                     out[k, r, i] = trs[r, i]
-                    acc += trs[r, i] * pre[k, i, 3]
+                    acc += trs[r, i] * record[k, 1 + i]
                 out[k, r, 3] = acc
                 out[k, 3, r] = 0.0
             out[k, 3, 3] = 1.0

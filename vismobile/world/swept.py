@@ -212,3 +212,138 @@ def expired(t, valid_from, valid_until, out):
             out[count] = k
             count += 1
     return count
+
+
+# A track's baked intervals at most (more: it is swept at run time instead).
+TABLE_LIMIT = 4096
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _key_range(times, a, b, low, high):
+    """(low, high) widened by the keys times[a:b]."""
+    if a < b:
+        low, high = min(low, times[a]), max(high, times[b - 1])
+    return low, high
+
+
+@njit(cache=True, nogil=True)
+def _bake_track(k, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre, post, rest,
+                span, row, box, valid_from, valid_until, lo_out, hi_out, box_out, at, limit):
+    """Track k's intervals in its own time, in order, written from index `at` of lo_out,
+    hi_out (I,) and box_out (I, 2, 3) (when they are long enough: a counting pass passes
+    empty ones); returns how many (limit + 1 when more than limit). A looping track steps
+    through [0, duration); another through [first key, last key), with one interval before and
+    one after (every channel held: its box the same whatever the window). Each is what
+    swept_boxes gives for a time in it (the same call)."""
+    row[0] = k
+    count = 0
+    low, high = np.inf, -np.inf
+    low, high = _key_range(tt, ts[k], ts[k + 1], low, high)
+    low, high = _key_range(rt, rs[k], rs[k + 1], low, high)
+    low, high = _key_range(st, ss[k], ss[k + 1], low, high)
+    wraps = loop[k] and duration[k] > 0
+    if not wraps and low > high:  # no keys: the rest pose, always
+        swept_boxes(0.0, row, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre,
+                    post, rest, box, valid_from, valid_until, span)
+        if at < len(lo_out):
+            lo_out[at], hi_out[at], box_out[at] = -np.inf, np.inf, box[k]
+        return 1
+    if wraps:
+        t, end = 0.0, duration[k]
+    else:
+        t, end = low, high
+        swept_boxes(np.nextafter(low, -np.inf), row, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss,
+                    pre, post, rest, box, valid_from, valid_until, span)
+        if at < len(lo_out):
+            lo_out[at], hi_out[at], box_out[at] = -np.inf, low, box[k]
+        count = 1
+    while t < end:
+        swept_boxes(t, row, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre,
+                    post, rest, box, valid_from, valid_until, span)
+        start, until = valid_from[k], valid_until[k]
+        if not (start <= t < until):  # rounding at a window's edge: skip one ulp
+            t = np.nextafter(t, np.inf)
+            continue
+        if count >= limit:
+            return limit + 1
+        if at + count < len(lo_out):
+            lo_out[at + count], hi_out[at + count] = start, until
+            box_out[at + count] = box[k]
+        count += 1
+        t = until
+    if not wraps:
+        swept_boxes(high, row, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre,
+                    post, rest, box, valid_from, valid_until, span)
+        if count >= limit:
+            return limit + 1
+        if at + count < len(lo_out):
+            lo_out[at + count], hi_out[at + count] = high, np.inf
+            box_out[at + count] = box[k]
+        count += 1
+    return count
+
+
+@njit(cache=True, nogil=True)
+def bake_intervals(loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre, post, rest,
+                   span, limit):
+    """Every track's swept boxes over its whole time, baked once: (start (M + 1,) int64,
+    lo (I,), hi (I,) float64 each interval in the track's own time, boxes (I, 2, 3)); track k's
+    intervals are start[k]:start[k + 1], in order, each holding what swept_boxes writes for a
+    time in it. A track with more than `limit` intervals has none (lookup falls back to
+    sweeping it)."""
+    m = len(loop)
+    row = np.zeros(1, dtype=np.int64)
+    box = np.empty((m, 2, 3))
+    valid_from, valid_until = np.empty(m), np.empty(m)
+    none = np.empty(0)
+    counts = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        n = _bake_track(k, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre, post,
+                        rest, span, row, box, valid_from, valid_until, none, none,
+                        np.empty((0, 2, 3)), 0, limit)
+        counts[k] = n if n <= limit else 0
+    start = np.zeros(m + 1, dtype=np.int64)
+    for k in range(m):
+        start[k + 1] = start[k] + counts[k]
+    lo, hi = np.empty(start[m]), np.empty(start[m])
+    boxes = np.empty((start[m], 2, 3))
+    for k in range(m):
+        if counts[k]:
+            _bake_track(k, loop, duration, step, tt, tv, ts, rt, rv, rs, st, sv, ss, pre, post,
+                        rest, span, row, box, valid_from, valid_until, lo, hi, boxes, start[k],
+                        limit)
+    return start, lo, hi, boxes
+
+
+@njit(cache=True, nogil=True)
+def baked_boxes(t, rows, loop, duration, start, lo, hi, boxes, out, valid_from, valid_until,
+                missed):
+    """swept_boxes for rows (K,) from the baked intervals (bake_intervals): out[k] and the
+    interval in global time for each k found; the rows without a baked interval holding t are
+    written to missed (sweep them); returns their count."""
+    n = 0
+    for i in range(len(rows)):
+        k = rows[i]
+        local, base = t, 0.0
+        if loop[k] and duration[k] > 0:
+            local = t - np.floor(t / duration[k]) * duration[k]
+            base = t - local
+        a, b = start[k], start[k + 1]
+        if a == b or local < lo[a]:
+            missed[n] = k
+            n += 1
+            continue
+        while b - a > 1:  # the last interval starting at or before local
+            mid = (a + b) // 2
+            if lo[mid] <= local:
+                a = mid
+            else:
+                b = mid
+        if not local < hi[a]:
+            missed[n] = k
+            n += 1
+            continue
+        valid_from[k], valid_until[k] = lo[a] + base, hi[a] + base
+        for j in range(3):
+            out[k, 0, j], out[k, 1, j] = boxes[a, 0, j], boxes[a, 1, j]
+    return n
