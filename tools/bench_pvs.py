@@ -2,6 +2,7 @@
 
     .venv/bin/python tools/bench_pvs.py [--worlds w1,w2] [--frames 40] [--random 2000]
                                         [--sampled 4,16 [--only-sampled]]
+                                        [--repair tjunctions]
 
 Per world: the portal structure (depth 2) with pvs=conservative; bake seconds; the PVS's bytes
 in the .vmp (file with minus file without) against the OBJ; the mean share of the world in a
@@ -91,8 +92,14 @@ def sampled(name, world, part, traj, picks, counts):
               f"pixels ({100 * missed_px / max(pixels, 1):.3f}%)", flush=True)
 
 
-def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1):
+def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="none"):
     world = build_world(name)
+    if repair == "tjunctions":  # the bake then seals the thin cells, no crack portals
+        from vismobile.world.tjunctions import repair_tjunctions
+
+        world, done = repair_tjunctions(world)
+        print(f"{name}: --repair tjunctions: {done.junctions} junctions, {done.split} "
+              f"triangles split, {world.triangle_count} triangles", flush=True)
     part = partition(world, "portal", depth=2)
     if only_sampled:
         traj = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
@@ -166,10 +173,13 @@ def main():
     parser.add_argument("--sampled", default="", help="sample counts, e.g. 4,16,64")
     parser.add_argument("--only-sampled", action="store_true")
     parser.add_argument("--jobs", type=int, default=1, help="bake processes")
+    parser.add_argument("--repair", choices=("none", "tjunctions"), default="none",
+                        help="repair the world first (world/tjunctions.py)")
     args = parser.parse_args()
     counts = [int(n) for n in args.sampled.split(",") if n]
     for name in args.worlds.split(","):
-        run(name.strip(), args.frames, args.random, counts, args.only_sampled, args.jobs)
+        run(name.strip(), args.frames, args.random, counts, args.only_sampled, args.jobs,
+            args.repair)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ import pytest
 from vismobile.culling import Culler, device_options
 from vismobile.device.profile import get_profile
 from vismobile.partition import partition
-from vismobile.render import item_buffer
+from vismobile.render import SENTINEL, item_buffer
 from vismobile.world.camera import Camera
 
 MODES = ("float64", "float32", "fixed16.16")
@@ -72,3 +72,36 @@ def test_pvs_keeps_what_shows_through_a_t_junction_crease(kit, crease, mode):
         through += len(shown) > 0
     # the rasteriser did open the crease (else this test would check nothing)
     assert through >= 1
+
+
+@pytest.fixture(scope="module")
+def repaired(literal):
+    from vismobile.partition import pvs_cells
+    from vismobile.world.tjunctions import repair_tjunctions
+
+    world, _ = repair_tjunctions(crease_world(literal))
+    edges = [np.array([0.0, 4.0]), np.array([0.0, 0.2, 3.0]), np.array([0.0, 4.0, 5.0])]
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(pvs_cells, "paired_edges", lambda world, cells: edges)
+        return partition(world, "portal", depth=1, pvs="conservative")
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_a_repaired_crease_is_sealed_without_crack_portals(kit, repaired, mode):
+    """After --repair tjunctions the bake seals its cells and adds no crack portal: the slab
+    below is left out of the room's set, and no crease camera sees it (or anything dropped)."""
+    world = repaired.world
+    assert world.repair == "tjunctions"
+    target = np.flatnonzero(world.centroids[:, 1] == 0.0)  # the slab's bottom, y = 0
+    profile = kit.PROFILE if mode == "float64" else get_profile(kit.PROFILE, mode)
+    options = {"arithmetic": "float64"} if mode == "float64" else device_options(profile)
+    culler = Culler(repaired, "pvs,vfc", **options)
+    left_out = 0
+    for cam in crease_cameras(profile, CAMERAS):
+        ids = item_buffer(world, None, cam, profile, cull_back=False)
+        result = culler.cull(cam)
+        assert "pvs.fallbacks" not in result.stats
+        missing = np.setdiff1d(ids[ids != SENTINEL], result.triangles)
+        assert not len(missing), f"{mode}: dropped {missing}: {cam}"
+        left_out += not np.isin(target, result.triangles).any()
+    assert left_out == CAMERAS  # sealed: the slab is in no room camera's set

@@ -221,7 +221,11 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
             stats["seconds"] = time.perf_counter() - began
             return extras, stats
     grow = bake_grow(world)
-    g = view_grid(world, cells, grow=grow)
+    # a world whose T-junctions were repaired (world/tjunctions.py) shares every crease's
+    # corners, so the rasteriser opens no crack: its thin cells are sealed at the walls inside
+    # them and no crack portal is needed (docs/partition.md, "T-junctions repaired")
+    sealed = getattr(world, "repair", None) == "tjunctions"
+    g = view_grid(world, cells, grow=grow, split=sealed, cracks=not sealed)
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
     count = len(g["cell_bounds"])
     sources = np.arange(count)
