@@ -341,7 +341,8 @@ def test_occlusion_on_a_mapped_world_culls_as_in_memory_and_drops_nothing_visibl
     for stages, options, cull_back in (
             ("vfc,occlusion", {}, False),
             ("vfc,occlusion,tbfc", {"screen": screen, "self_occluders": 64}, True),
-            ("vfc,occlusion", {"fuse": False, "first_reach": 15.625}, False)):
+            ("vfc,occlusion", {"fuse": False, "first_reach": 15.625}, False),
+            ("vfc,occlusion,tbfc", {"screen": screen, "samples": True}, True)):
         a = Culler(mapped, stages, occlusion=options)
         b = Culler(loaded, stages, occlusion=options)
         stage, kept = (c.stages[c.names.index("occlusion")] for c in (a, b))
