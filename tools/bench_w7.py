@@ -2,11 +2,11 @@
 with moving objects.
 
     .venv/bin/python tools/bench_w7.py [--step 10] [--pvs] [--viewer 1000] [--skip-drops]
-                                       [--wall-cells] [--door-stages portals]
+                                       [--wall-cells] [--door-stages portals] [--where 10]
 
 Sections 1 and 3 partition W7 by portal:2 (automatic cells; --wall-cells: walls=True, cells
-on both faces of every wall, a room per storey: known to drop one pixel on frame 580 through a
-rasteriser crack, docs/dynamic.md).
+on both faces of every wall, a room per storey, `portals` following the rasteriser's cracks
+there: culling/portal_cracks.py, docs/dynamic.md).
 1. dropped: every conservative combination (tests/culling/test_conservative.COMBOS) on every
    --step-th frame of trajectories/hybrid.csv at t = f / 30 s, doors on their schedule, against
    the item buffer of that frame's pose (back faces culled in it when a backface stage is on).
@@ -14,11 +14,15 @@ rasteriser crack, docs/dynamic.md).
    objects through culling/moving.py) on every other frame, with every door shut and with the
    scheduled doors, each against every door open; summed over the whole path, over the frames
    inside the building, over the street frames, and over the frames 2 m from the shut door
-   into room (2, 0) (frames 600-616); over both cell layouts (LAYOUTS).
+   into room (2, 0) (frames 600-616); over both cell layouts, wall cells with and without the
+   crack slivers (LAYOUTS).
 3. regional: RegionalCuller (portals+tbfc | vfc+occlusion+tbfc, with --pvs also
    pvs+vfc+tbfc over a conservative bake) against each fixed choice, every --step-th frame:
    triangles sent and iPaq-model ms summed (regional's probe culls added), and which choice
    each region kept.
+5. where (--where STEP, alone): the triangles sent with every door shut and every door open,
+   by what they are (the building's inside, its outside, the city, doors, people and cars),
+   on the street and inside, over both cell layouts, beside the item buffer's visible set.
 4. viewer: W7 with --viewer moving people added (walking loops on the streets), rendered by
    the viewer's own frame function (Session.render, headless) along the path: median and p95
    ms per frame (cull + pose upload + draw + HUD), after a warm-up; and the same for W7's own
@@ -54,7 +58,18 @@ FPS = 30.0
 INSIDE = (460, 888)  # frames between the walker's entrance crossings
 FACING = (600, 617)  # 2 m from the door into room (2, 0), facing it
 # the portal octree's cells: automatic (portal.py's default) or on both faces of every wall
-LAYOUTS = {"automatic": False, "wall": True}
+# (walls=true), and whether `portals` follows the cracks (culling/portal_cracks.py; None: its
+# default, on over wall cells)
+LAYOUTS = {"automatic": (False, None), "wall": (True, None),
+           "wall, no crack slivers": (True, False)}
+_PARTS = {}
+
+
+def portal_part(world, doors: str, walls: bool):
+    """portal:2 over `world` (its doors' schedule named `doors`), built once per run."""
+    if (doors, walls) not in _PARTS:
+        _PARTS[doors, walls] = partition(world, "portal", depth=2, walls=walls)
+    return _PARTS[doors, walls]
 
 
 def combos():
@@ -102,11 +117,12 @@ def door_ratios(folder: Path, stages: str = "portals") -> None:
     facing = (frames >= FACING[0]) & (frames <= FACING[1])
     parts = {"whole path": np.ones(len(frames), bool), "inside": inside, "street": ~inside,
              "facing the shut door": facing}
-    for layout, walls in LAYOUTS.items():
+    worlds = {d: animated(d, folder) for d in ("closed", "scheduled", "open")}
+    for layout, (walls, cracks) in LAYOUTS.items():
         sent, fallbacks = {}, 0
         for doors in ("closed", "scheduled", "open"):
-            part = partition(animated(doors, folder), "portal", depth=2, walls=walls)
-            culler = Culler(part, stages)
+            part = portal_part(worlds[doors], doors, walls)
+            culler = Culler(part, stages, portals={"cracks": cracks})
             results = [culler.cull(path.camera(f), time=f / FPS) for f in frames]
             sent[doors] = np.array([len(r.triangles) for r in results])
             fallbacks += sum(r.stats.get("portals.fallbacks", 0) for r in results)
@@ -117,6 +133,58 @@ def door_ratios(folder: Path, stages: str = "portals") -> None:
             ratio = "  ".join(f"{name} {sent[doors][m].sum() / sent['open'][m].sum():.3f}x"
                               for name, m in parts.items())
             print(f"   doors {doors:9s} {ratio}")
+
+
+def category_of(world) -> np.ndarray:
+    """(T,) int: 0 the building inside (W1's rooms), 1 its outside (outer faces, roof), 2 the
+    city (towers, ground), 3 doors, 4 people and cars."""
+    names = np.array(world.object_names)
+    kind = np.zeros(len(names), dtype=np.int64)
+    kind[np.char.startswith(names, "outside_") | (names == "roof")] = 1
+    kind[np.char.startswith(names, "building_") | (names == "ground")] = 2
+    kind[np.char.startswith(names, "door_")] = 3
+    kind[np.char.startswith(names, "person_") | np.char.startswith(names, "car_")] = 4
+    return kind[world.object_ids]
+
+
+CATEGORIES = ("inside", "outside", "city", "doors", "moving")
+
+
+def where(folder: Path, step: int, stages: str = "portals") -> None:
+    """Where the triangles sent go, with every door shut and every door open: per category
+    (category_of), on the street and inside, for `stages` over both cell layouts, beside the
+    item buffer's visible set (the floor no conservative culler goes below)."""
+    path = Trajectory.load(PATH)
+    frames = np.arange(0, len(path), step)
+    inside = (frames >= INSIDE[0]) & (frames <= INSIDE[1])
+    worlds = {d: animated(d, folder) for d in ("closed", "open")}
+    kind = category_of(worlds["open"].world)
+    rows = {}
+    for doors, world in worlds.items():
+        for layout, (walls, cracks) in LAYOUTS.items():
+            culler = Culler(portal_part(world, doors, walls), stages, portals={"cracks": cracks})
+            rows[layout, doors] = np.array([np.bincount(kind[culler.cull(
+                path.camera(f), time=f / FPS).triangles], minlength=5) for f in frames])
+        rows["visible", doors] = np.array([np.bincount(kind[visible_ids(
+            world.posed(f / FPS), path.camera(f, PROFILE.aspect))], minlength=5)
+            for f in frames])
+    print(f"5. where {stages} sends on {len(frames)} frames (every {step}th), summed; shares "
+          f"of each row's total, and closed/open ratios:")
+    for name, mask in (("street", ~inside), ("inside", inside), ("whole path", slice(None))):
+        for source in list(LAYOUTS) + ["visible"]:
+            closed, opened = rows[source, "closed"][mask].sum(0), rows[source, "open"][mask].sum(0)
+            shares = "  ".join(f"{c} {v / max(closed.sum(), 1):.2f}" for c, v in
+                               zip(CATEGORIES, closed))
+            ratios = "  ".join(f"{c} {a / max(b, 1):.3f}x" for c, a, b in
+                               zip(CATEGORIES, closed, opened))
+            print(f"   {name:10s} {source:9s} closed {closed.sum():9,} open {opened.sum():9,} "
+                  f"({closed.sum() / max(opened.sum(), 1):.3f}x)  shares closed: {shares}  "
+                  f"ratios: {ratios}")
+
+
+def visible_ids(world, camera) -> np.ndarray:
+    ids = np.unique(item_buffer(world, None, camera, PROFILE, cull_back=False))
+    return ids[ids != SENTINEL].astype(np.int64)
 
 
 def regional(part, step: int, choices) -> None:
@@ -156,10 +224,15 @@ def main(argv=None) -> int:
                              "automatic cells)")
     parser.add_argument("--door-stages", default="portals",
                         help="the stages whose sent triangles section 2 compares (portals)")
+    parser.add_argument("--where", type=int, default=0, metavar="STEP",
+                        help="only section 5: where the sent triangles go, every STEP-th frame")
     args = parser.parse_args(argv)
     build_world("w7")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
+        if args.where:
+            where(folder, args.where, args.door_stages)
+            return 0
         scheduled = AnimatedWorld.from_motion_file(build_world("w7"), motion_path("w7"))
         walls = args.wall_cells
         part = partition(scheduled, "portal", depth=2, walls=walls)

@@ -3,7 +3,8 @@
 sampled frames of W7's path (street, entrance, gallery, in front of shut doors, back out) and on
 random cameras inside the building and on the streets around it at random times, over the default
 portal cells and over cells on both faces of every wall (`walls=True`: a room per storey, the
-streets' portals into the building its doors, windows and arches); portals with the doors shut
+streets' portals into the building its doors, windows and arches, the cracks where their faces
+meet followed by crack slivers); portals with the doors shut
 in the device's float32 and fixed16.16 vertex formats; and a shut door removes what lies behind,
 seen from inside and from the street."""
 import importlib.util
@@ -85,21 +86,21 @@ def test_no_stage_drops_a_visible_triangle_on_w7(kit, thesis_world, tmp_path_fac
     assert shut > 0  # the doors did block portals on these frames
 
 
-@pytest.mark.xfail(strict=True, reason="known limit of wall cells split at the storeys: the "
-                   "rasteriser's crack where the ceiling meets a wall (a T-junction) shows one "
-                   "pixel of the upper floor, which the covered ceiling face closes")
-def test_wall_cells_keep_what_a_crack_shows(kit, thesis_world, tmp_path_factory):
-    """Frame 580 (in the gallery, looking up the arches), doors on their schedule: over wall
-    cells `portals` drops one triangle of the upper storey's floor that the item buffer shows
-    in one pixel, through the crack along the ceiling's edge. Automatic cells keep it (the
-    slab's band is open in them); crack portals (partition/pvs_cracks.py) would keep it too,
-    but joined every cell to its neighbours (docs/dynamic.md)."""
+@pytest.mark.parametrize("stages, back", [("portals", False), ("portals,tbfc", True)])
+def test_wall_cells_keep_what_a_crack_shows(kit, thesis_world, tmp_path_factory, stages, back):
+    """Frame 580 (in the gallery, looking up the arches), doors on their schedule: the item
+    buffer shows one pixel of the upper storey's floor (with back faces culled, of the wall of
+    the room above) through the crack along the ceiling's edge, a T-junction with the wall's
+    top edge; over wall cells the ceiling closes the cell's top face and the wall its side.
+    The crack slivers (culling/portal_cracks.py) keep it; without them `portals` drops it."""
     path = Trajectory.load(ROOT / "trajectories" / "hybrid.csv")
     camera, t = path.camera(580, kit.ASPECT), 580 / 30.0
     part = animated_w7(thesis_world, tmp_path_factory, "scheduled", walls=True)
-    shown = kit.visible_ids(part.animated.posed(t), camera, False)
-    sent = Culler(part, "portals").cull(camera, time=t).triangles
+    shown = kit.visible_ids(part.animated.posed(t), camera, back)
+    sent = Culler(part, stages).cull(camera, time=t).triangles
     assert not len(np.setdiff1d(shown, sent))
+    without = Culler(part, stages, portals={"cracks": False}).cull(camera, time=t).triangles
+    assert len(np.setdiff1d(shown, without))
 
 
 @pytest.mark.parametrize("walls", [False, True])

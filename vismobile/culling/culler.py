@@ -117,8 +117,8 @@ class Culler:
         self._fuse()
         self._cover()
         self._chain()
-        for stage in self.stages:  # pvs leaves out back faces only when they are culled
-            if stage.name == "pvs":
+        for stage in self.stages:  # pvs leaves out back faces only when they are culled,
+            if stage.name in ("pvs", "portals"):  # portals' crack slivers pass them only then
                 stage.back_culled = bool(set(self.names) & set(BACKFACE_STAGES))
         self.moving = None
         self._doors = None  # ([portals, pvs stages], door rows in the motion) if doors

@@ -34,8 +34,16 @@ Doors (issue 25, culling/doors.py): a closed door - a closed box at rest, not mo
 - blocks the portals wholly inside it (deeper than the device's moves) for an eye outside it
 beyond the near plane's reach; an open or moving door blocks nothing (use_doors).
 
+Cracks (culling/portal_cracks.py): where two cell faces closed by walls meet in a crease whose
+edges do not share corners (a T-junction), the rasteriser may leave pixels open and the item
+buffer shows what lies behind, though no portal leads there. With `cracks` (default: over
+cells on both faces of every wall, portal walls=true) each frame follows the unshared edges
+in the reached cells: every line through such a gap lies in a thin sliver from the eye, which
+floods the cells beyond across their faces (through only their portals where their walls face
+the line) and walks them with its own planes.
+
 Contract: conservative for free-space eyes provided the portals cover every opening between
-cells; portal rectangles err outward (by RECT_SLACK and the device's moves), a portal that
+cells, and, with cracks on, for gaps within pvs_cracks' crack width of an unshared edge; portal rectangles err outward (by RECT_SLACK and the device's moves), a portal that
 crosses the eye's plane widens to the whole current rectangle; every other eye gets plain `vfc`.
 """
 from __future__ import annotations
@@ -49,7 +57,10 @@ from ..geometry.raster import to_camera
 from ..geometry.ray import EDGE_TOLERANCE, ray_hit_t
 from .doors import blocked, closed_doors, door_pairs
 from .frustum import frustum_refine, frustum_traverse
+from .portal_cracks import CrackSlivers
 from .precision import device_move, margin, world_scale
+from ..partition.portal import THICKNESS
+from ..partition.pvs_cracks import CRACK_SLOPE
 from .state import CullState
 from .tree import Tree
 
@@ -234,12 +245,38 @@ def rect_planes(rects, camera, push: float = 0.0, limits=None) -> np.ndarray:
     return out
 
 
+def subtree_sizes(partition) -> np.ndarray:
+    """(N,) int64 nodes in each node's subtree (itself included); levels breadth-first, each
+    node's children contiguous in the next level."""
+    first, count = partition.first_child, partition.child_count
+    size = np.ones(len(first), dtype=np.int64)
+    levels = partition.level_start
+    for k in range(len(levels) - 2, 0, -1):  # level k - 1's nodes sum their children's
+        parents = np.arange(levels[k - 1], levels[k])
+        parents = parents[first[parents] >= 0]
+        cum = np.concatenate([[0], np.cumsum(size)])
+        starts = first[parents].astype(np.int64)
+        size[parents] += cum[starts + count[parents]] - cum[starts]
+    return size
+
+
 class PortalStage:
     """`portals`: cells-and-portals traversal, then vfc per visited cell; replaces `vfc`."""
 
     name = "portals"
     cost = 5
     arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
+    back_culled = True  # the Culler sets it: a back-face stage runs (crack slivers pass walls
+    # seen from behind only then; True errs toward passing)
+
+    def __init__(self, cracks=None):
+        """cracks: follow the rasteriser's cracks (culling/portal_cracks.py) - True, False,
+        or None (default): only over cells on both faces of every wall (portal walls=true),
+        whose faces meet in T-junction creases; automatic cells keep the slab's crease in an
+        open band (about 1.8x the cull time where on: docs/dynamic.md)."""
+        if cracks is not None and not isinstance(cracks, (bool, np.bool_)):
+            raise ValueError(f"portals cracks must be true, false or None, got {cracks!r}")
+        self.crack_option = cracks
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -254,7 +291,21 @@ class PortalStage:
             bounds = np.asarray(self.x["cell_bounds"], dtype=np.float64)
             self.cell_lo = np.ascontiguousarray(bounds[:, 0])
             self.cell_hi = np.ascontiguousarray(bounds[:, 1])
+            self.portal_vertices = np.ascontiguousarray(self.x["portal_vertices"],
+                                                        dtype=np.float64)
+            size = float(np.ptp(world.extent, axis=0).max())
+            thickness = float(tree.partition.params.get("thickness", THICKNESS * size))
+            # pieces within twice the widest crack of an eye in the world box (crack_reach)
+            self.crack_reach = 2.0 * CRACK_SLOPE * float(np.linalg.norm(
+                np.ptp(world.extent, axis=0))) + thickness
+            self.crack_slivers = bool(tree.partition.params.get("walls", False)) \
+                if self.crack_option is None else bool(self.crack_option)
+            self.cracks = CrackSlivers(world, extras, thickness, self.crack_reach) \
+                if self.crack_slivers else None
+            self.cell_subtree = subtree_sizes(tree.partition)[self.cell_node]
         self.frame_cells = None  # this frame's visible cells (None: it fell back to vfc)
+        if not self.available:
+            self.crack_slivers, self.cracks = False, None
         self.door_boxes = None  # use_doors: rest boxes (D, 2, 3) of the doors in portals
         self.door_matrices = None  # this frame's door matrices (D, 4, 4), set per frame
 
@@ -286,6 +337,15 @@ class PortalStage:
                           MAX_ESCAPES, GROUND_ESCAPES, self.x["cell_bounds"], self.cell_node, tree.ref_start,
                           tree.ref_end, tree.tri_refs, self.bounds, self.corners, self.normals)
 
+    def _cracks_reach(self, camera, grow: float) -> bool:
+        """The cells' stored crack pieces hold every crack this eye may see through: the
+        widest gap (grow + CRACK_SLOPE x the farthest cell corner's distance) is within the
+        reach they were clipped with (an eye far outside the world falls back to vfc)."""
+        eye = np.asarray(camera.eye, dtype=np.float64)
+        low, high = self.tree.world.extent
+        farthest = float(np.linalg.norm(np.maximum(np.abs(eye - low), np.abs(high - eye))))
+        return grow + CRACK_SLOPE * farthest <= self.crack_reach
+
     def device_reach(self, camera) -> tuple:
         """(D, push): how far the device's rounding can move a sight line relative to the exact
         eye (2 sqrt(3) device_move: eye and point), and the cell frusta's side-plane push
@@ -304,9 +364,30 @@ class PortalStage:
             return
         ids, rects = cells
         state.count(f"{self.name}.cells_visited", len(ids))
-        planes = rect_planes(rects, camera, self.device_reach(camera)[1], state.planes[4:])
-        state.nodes = frustum_traverse(tree, self.cell_node[ids],
-                                       planes, np.arange(len(ids)), state, self.name)
+        grow, push = self.device_reach(camera)
+        planes = rect_planes(rects, camera, push, state.planes[4:])
+        nodes = frustum_traverse(tree, self.cell_node[ids], planes, np.arange(len(ids)), state,
+                                 self.name)
+        if self.cracks is not None:
+            x = self.x
+            slivers, met, met_sets = self.cracks.frame(
+                camera, ids, planes, grow, push, float(tree.tol),
+                (x["cell_portal_start"], x["cell_portals"], x["portal_cells"],
+                 x["portal_start"], self.portal_vertices, *self._portals), self.back_culled)
+            state.count(f"{self.name}.crack_slivers", len(slivers))
+            self.frame_cells = np.union1d(ids, met)  # moving objects seen through a crack
+            # a walk accepts at most its roots' subtrees' nodes, and Tree.walk's buffer holds
+            # the tree's: walks of consecutive roots whose subtrees add up to at most that
+            ends = np.cumsum(self.cell_subtree[met])
+            cuts = np.searchsorted(ends, np.arange(1, ends[-1] // tree.node_count + 2)
+                                   * tree.node_count, side="right") if len(met) else []
+            walks = [nodes]
+            for lo, hi in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(met)]])):
+                if hi > lo:
+                    walks.append(frustum_traverse(tree, self.cell_node[met[lo:hi]], slivers,
+                                                  met_sets[lo:hi], state, self.name))
+            nodes = np.concatenate(walks)
+        state.nodes = nodes
 
     def visible_cells(self, camera, state: CullState):
         """(cell ids (V,), rects (V, 4)) reached through portals, or None when the eye is in
@@ -323,6 +404,8 @@ class PortalStage:
         reach = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2)) + grow
         if not len(starts) or not self.eye_in_free_space(np.asarray(camera.eye, np.float64),
                                                          reach):
+            return None
+        if self.crack_slivers and not self._cracks_reach(camera, grow):
             return None
         right, up, forward = camera.basis()
         prect, pstate = portal_rects(x["portal_vertices"], x["portal_start"], camera.eye,
@@ -342,5 +425,6 @@ class PortalStage:
         tested = flood_cells(rect, starts.astype(np.int64), x["cell_portal_start"],
                              x["cell_portals"], x["portal_cells"], prect, pstate)
         state.count(f"{self.name}.portals_tested", tested)
+        self._portals = (pstate,)  # the crack slivers cross portals too (not shut doors)
         ids = np.flatnonzero(rect[:, 0] <= rect[:, 1])
         return ids, rect[ids]

@@ -32,9 +32,14 @@ CHUNK = 2048  # edges tested against every cell at once
 
 def unshared_edges(world) -> np.ndarray:
     """(E, 2, 3) float64 triangle edges whose two corners (by position) no other triangle shares."""
+    return unshared_edge_triangles(world)[0]
+
+
+def unshared_edge_triangles(world) -> tuple:
+    """(unshared_edges (E, 2, 3) float64, the triangle each belongs to (E,) int64)."""
     tri = np.asarray(world.triangles)
     if not len(tri):
-        return np.zeros((0, 2, 3))
+        return np.zeros((0, 2, 3)), np.zeros(0, dtype=np.int64)
     _, inv = np.unique(np.asarray(world.vertices), axis=0, return_inverse=True)
     t = inv.ravel()[tri]
     edges = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
@@ -43,10 +48,11 @@ def unshared_edges(world) -> np.ndarray:
     _, first, counts = np.unique(edges, axis=0, return_index=True, return_counts=True)
     lone = first[counts == 1]
     lone = lone[edges[lone, 0] != edges[lone, 1]]  # a degenerate triangle's point edge: skip
-    return np.asarray(world.vertices, dtype=np.float64)[ends[lone]]
+    return (np.asarray(world.vertices, dtype=np.float64)[ends[lone]],
+            (lone % len(tri)).astype(np.int64))
 
 
-def _clip(seg, lo, hi, eps):
+def clip_segments(seg, lo, hi, eps):
     """(K,) t0, t1 of each segment's part inside its box grown by eps (t0 > t1: misses)."""
     p, d = seg[:, 0], seg[:, 1] - seg[:, 0]
     t0, t1 = np.zeros(len(seg)), np.ones(len(seg))
@@ -90,7 +96,7 @@ def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
         slo, shi = part.min(axis=1), part.max(axis=1)
         hit = ((slo[:, None] <= hi_b[None] + near) & (shi[:, None] >= lo_b[None] - near)).all(-1)
         e, c = np.nonzero(hit)
-        t0, t1 = _clip(part[e], lo_b[c], hi_b[c], near)
+        t0, t1 = clip_segments(part[e], lo_b[c], hi_b[c], near)
         ok = t0 <= t1
         e, c, t0, t1 = e[ok], c[ok], t0[ok], t1[ok]
         if not len(e):
@@ -116,7 +122,7 @@ def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
                         continue  # the boxes do not touch (or overlap: not cells)
                     if np.any(np.abs(edge[:, flat] - 0.5 * (lo + hi)[flat]) > eps):
                         continue  # the edge does not lie in their common face or line
-                    u0, u1 = _clip(edge[None], lo[None], hi[None], near)
+                    u0, u1 = clip_segments(edge[None], lo[None], hi[None], near)
                     a0, a1 = float(u0[0]), float(u1[0])
                     if a0 > a1:
                         continue
