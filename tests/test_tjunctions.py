@@ -74,6 +74,8 @@ def test_planted_junctions_are_split_with_the_same_floats(seed, count, splits):
     # no vertex inside an edge any more, and the planted creases are shared corner to corner:
     # only the outer borders stay unshared (2 per base, 2 per fan of neighbours)
     assert not len(vertex_on_edge_interior(fixed, tol))
+    again, second = repair_tjunctions(fixed)  # idempotent: a repaired OBJ reloaded
+    assert second.junctions == 0 and again.digest() == fixed.digest()
     bases = world.triangle_count // (splits + 2)
     assert len(unshared_edges(fixed)) == 4 * bases
     assert len(unshared_edges(world)) == (6 + splits) * bases  # + the base's ab, the strips'
