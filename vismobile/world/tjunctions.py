@@ -63,10 +63,12 @@ def _cell(p, lo, h, n):
 
 
 @numba.njit(cache=True)
-def _walk(points, edges, keys, starts, order, lo, h, n, tol, fill, out_e, out_v, out_t):
-    """Count (fill=False) or write the (edge, vertex, t) junctions: each edge is sampled every
-    h/2, and the 27 hash cells around each sample's cell are searched (a vertex within tol <
-    h/2 of the edge lies in one of them)."""
+def _walk(points, edges, keys, starts, order, lo, h, n, tol):
+    """(edge, vertex, t) junctions: each edge is sampled every h, and the 27 hash cells around
+    each sample's cell are searched (a vertex within tol < h/2 of the edge lies within h/2 +
+    tol < h of a sample, so in one of them)."""
+    size = 1024
+    out_e, out_v, out_t = np.empty(size, np.int64), np.empty(size, np.int64), np.empty(size)
     found = 0
     for e in range(len(edges)):
         a, b = edges[e, 0], edges[e, 1]
@@ -75,7 +77,7 @@ def _walk(points, edges, keys, starts, order, lo, h, n, tol, fill, out_e, out_v,
         length = np.sqrt(length2)
         if length <= 2.0 * tol:
             continue
-        steps = int(np.ceil(2.0 * length / h)) + 1
+        steps = int(np.ceil(length / h)) + 1
         last = (-1, -1, -1)
         for s in range(steps + 1):
             q = points[a] + d * (s / steps)
@@ -104,10 +106,20 @@ def _walk(points, edges, keys, starts, order, lo, h, n, tol, fill, out_e, out_v,
                             r = w - d * t
                             if r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > tol * tol:
                                 continue
-                            if fill:
-                                out_e[found], out_v[found], out_t[found] = e, v, t
+                            if found == size:  # grow the output (doubling)
+                                size *= 2
+                                grown = np.empty(size, np.int64)
+                                grown[:found] = out_e
+                                out_e = grown
+                                grown = np.empty(size, np.int64)
+                                grown[:found] = out_v
+                                out_v = grown
+                                grown_t = np.empty(size)
+                                grown_t[:found] = out_t
+                                out_t = grown_t
+                            out_e[found], out_v[found], out_t[found] = e, v, t
                             found += 1
-    return found
+    return out_e[:found], out_v[:found], out_t[:found]
 
 
 def find_tjunctions(points, edges, tol) -> tuple:
@@ -132,10 +144,8 @@ def find_tjunctions(points, edges, tol) -> tuple:
     order = np.argsort(key, kind="stable")
     keys, starts = np.unique(key[order], return_index=True)
     starts = np.append(starts, len(order)).astype(np.int64)
-    args = (points, edges, keys, starts, order.astype(np.int64), lo, h, n, float(tol))
-    count = _walk(*args, False, empty, empty, np.zeros(0))
-    out_e, out_v, out_t = np.zeros(count, np.int64), np.zeros(count, np.int64), np.zeros(count)
-    _walk(*args, True, out_e, out_v, out_t)
+    out_e, out_v, out_t = _walk(points, edges, keys, starts, order.astype(np.int64), lo, h, n,
+                                float(tol))
     _, first = np.unique(np.stack([out_e, out_v], axis=1), axis=0, return_index=True)
     return out_e[first], out_v[first], out_t[first]
 
