@@ -180,6 +180,16 @@ def where(folder: Path, step: int, stages: str = "portals") -> None:
             print(f"   {name:10s} {source:9s} closed {closed.sum():9,} open {opened.sum():9,} "
                   f"({closed.sum() / max(opened.sum(), 1):.3f}x)  shares closed: {shares}  "
                   f"ratios: {ratios}")
+    print("   along the path, per 100 frames: sent shut / open (wall cells; automatic) and "
+          "visible shut / open, and the inside's share of what wall cells send shut:")
+    for start in range(0, len(path), 100):
+        m = (frames >= start) & (frames < start + 100)
+        cells = [rows[k, "closed"][m].sum() / max(rows[k, "open"][m].sum(), 1)
+                 for k in ("wall", "automatic", "visible")]
+        wall = rows["wall", "closed"][m].sum(0)
+        print(f"   frames {start:4d}-{start + 99:4d} ({'inside' if inside[m].mean() > 0.5 else 'street'})"
+              f"  sent {cells[0]:.3f}x; {cells[1]:.3f}x  visible {cells[2]:.3f}x  "
+              f"inside share {wall[0] / max(wall.sum(), 1):.2f}  wall sent shut {wall.sum():,}")
 
 
 def visible_ids(world, camera) -> np.ndarray:
