@@ -232,9 +232,8 @@ def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
                                      *horizon_arrays(horizon)), expected)
         ids = np.arange(len(stage.corners))
         planes = np.asarray(cam.frustum_planes())
-        off, behind, sub = _triangles(stage.corners, ids, planes, 1e-6, True,
-                                      *horizon_arrays(horizon), stage.margin, *NO_SCREEN,
-                                      *NO_OBJECTS)
+        off, behind, sub = _triangles(stage.corners, ids, planes, 1e-6, stage.margin,
+                                      *horizon_arrays(horizon), *NO_SCREEN, *NO_OBJECTS)
         assert not sub.any()
         assert np.array_equal(off, off_screen(stage.corners, planes, 1e-6))
         expected = horizon.hidden_points(stage.corners, stage.margin)
@@ -243,9 +242,8 @@ def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
         # With a screen: the centre test of hiz (camera space), on what the horizon kept.
         stage.screen = (240, 320)
         samples = stage.samples(cam)
-        off2, behind2, sub = _triangles(stage.corners, ids, planes, 1e-6, True,
-                                        *horizon_arrays(horizon), stage.margin, *samples,
-                                        *NO_OBJECTS)
+        off2, behind2, sub = _triangles(stage.corners, ids, planes, 1e-6, stage.margin,
+                                        *horizon_arrays(horizon), *samples, *NO_OBJECTS)
         assert np.array_equal(off2, off) and np.array_equal(behind2, behind)
         eye, rotation, near, tx, ty, width, height, move = samples
         cam_space = (stage.corners - eye) @ rotation.T
@@ -258,11 +256,11 @@ def test_the_stage_s_kernels_match_the_horizon_s_tests(kit):
 
 @pytest.mark.parametrize("name", ["w5", "terrain"])
 def test_the_fixed_point_triangle_kernel_matches_hidden_points(kit, name):
-    # fixed16.16 tests triangles in one numba call (_triangles_fixed over hidden_one_fixed);
+    # fixed16.16 tests triangles in one numba call (_triangles over hidden_one_fixed);
     # it must decide as FixedHorizon.hidden_points does, triangle by triangle, on an object
     # world's solids and on a terrain's ground (a 65^2 fractal, boxes standing on it).
     from vismobile.culling.horizon import HorizonStage
-    from vismobile.culling.horizon_tests import (NO_OBJECTS, NO_SCREEN, _triangles_fixed,
+    from vismobile.culling.horizon_tests import (NO_OBJECTS, NO_SCREEN, _triangles,
                                                  fixed_arrays, off_screen)
     from vismobile.terrain.horizon import FixedHorizon
 
@@ -298,10 +296,8 @@ def test_the_fixed_point_triangle_kernel_matches_hidden_points(kit, name):
                 continue
             assert isinstance(horizon, FixedHorizon)
             planes = np.asarray(cam.frustum_planes())
-            off, behind, sub = _triangles_fixed(stage.corners, ids, planes, 1e-6,
-                                                horizon.origin, stage.margin,
-                                                float(horizon.limit), *fixed_arrays(horizon),
-                                                *NO_SCREEN, *NO_OBJECTS)
+            off, behind, sub = _triangles(stage.corners, ids, planes, 1e-6, stage.margin,
+                                          *fixed_arrays(horizon), *NO_SCREEN, *NO_OBJECTS)
             assert not sub.any()
             assert np.array_equal(off, off_screen(stage.corners, planes, 1e-6))
             expected = horizon.hidden_points(stage.corners, stage.margin)
@@ -317,8 +313,7 @@ def test_object_boxes_decide_whole_objects_once_a_frame(kit, mode):
     # boxes drop a superset, every extra one in a box the horizon hides, and nothing shown.
     from vismobile.culling.horizon import HorizonStage
     from vismobile.culling.horizon_tests import (BEHIND, NO_OBJECTS, NO_SCREEN, OFF,
-                                                 _triangles, _triangles_fixed, fixed_arrays,
-                                                 horizon_arrays)
+                                                 _triangles, fixed_arrays, horizon_arrays)
 
     world, part = kit.world("w6"), kit.structure("w6", "octree")
     stage = HorizonStage()
@@ -332,12 +327,9 @@ def test_object_boxes_decide_whole_objects_once_a_frame(kit, mode):
         planes = np.asarray(cam.frustum_planes())
 
         def run(objects):
-            if mode == "float64":
-                return _triangles(stage.corners, ids, planes, 1e-6, True,
-                                  *horizon_arrays(horizon), stage.margin, *NO_SCREEN, *objects)
-            return _triangles_fixed(stage.corners, ids, planes, 1e-6, horizon.origin,
-                                    stage.margin, float(horizon.limit), *fixed_arrays(horizon),
-                                    *NO_SCREEN, *objects)
+            arrays = horizon_arrays(horizon) if mode == "float64" else fixed_arrays(horizon)
+            return _triangles(stage.corners, ids, planes, 1e-6, stage.margin, *arrays,
+                              *NO_SCREEN, *objects)
 
         off, behind, _ = run(NO_OBJECTS)
         objects = stage.objects()

@@ -36,8 +36,8 @@ import numpy as np
 from ..terrain.horizon import Horizon
 from ..terrain.horizon_cells import CellCaster
 from .backface import half_tangents
-from .horizon_tests import (NO_SCREEN, _NO_HORIZON, _nodes, _triangles, _triangles_fixed,
-                            fixed_arrays, horizon_arrays)
+from .horizon_tests import (NO_HORIZON, NO_SCREEN, _nodes, _triangles, fixed_arrays,
+                            horizon_arrays)
 from .horizon_solids import MAX_CELLS, find_solids, solid_map
 from .precision import DEVICE_ABSOLUTE, DEVICE_RELATIVE, device_move, world_scale
 from .shared import per_object
@@ -168,8 +168,7 @@ class HorizonStage:
             # triangles.
             nodes = state.nodes[tree.nonempty[state.nodes]]
             if isinstance(horizon, Horizon):  # float64: one numba call
-                hidden = _nodes(tree.node_bounds, nodes, self.margin,
-                                *horizon_arrays(horizon))
+                hidden = _nodes(tree.node_bounds, nodes, self.margin, *horizon_arrays(horizon))
             else:
                 hidden = horizon.hidden(tree.node_bounds[nodes] + self.grow)
             tested = len(nodes)
@@ -188,16 +187,13 @@ class HorizonStage:
             def keep_of(ids):  # holds the stats dict, not the state (no cycle)
                 objects = self.objects()
                 if isinstance(horizon, Horizon):  # float64: one numba call
-                    off, behind, sub = _triangles(self.corners, ids, planes, slack, True,
-                                                  *horizon_arrays(horizon), self.margin,
-                                                  *samples, *objects)
+                    arrays = horizon_arrays(horizon)
                 elif horizon is not None:  # fixed16.16: one numba call too
-                    off, behind, sub = _triangles_fixed(
-                        self.corners, ids, planes, slack, horizon.origin, self.margin,
-                        float(horizon.limit), *fixed_arrays(horizon), *samples, *objects)
+                    arrays = fixed_arrays(horizon)
                 else:  # no horizon cast: off screen and centres
-                    off, behind, sub = _triangles(self.corners, ids, planes, slack, False,
-                                                  *_NO_HORIZON, *samples, *objects)
+                    arrays = NO_HORIZON
+                off, behind, sub = _triangles(self.corners, ids, planes, slack, self.margin,
+                                              *arrays, *samples, *objects)
                 stats[key + "off_screen"] = stats.get(key + "off_screen", 0) + int(off.sum())
                 stats[key + "culled"] = stats.get(key + "culled", 0) + int(behind.sum())
                 stats[key + "subpixel"] = stats.get(key + "subpixel", 0) + int(sub.sum())
