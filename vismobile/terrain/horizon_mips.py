@@ -6,40 +6,35 @@ import numpy as np
 from numba import njit
 
 
+def _pyramid(level, reduce) -> list:
+    """[level (2^n, 2^n), then its 2 x 2 blocks reduced (reduce: np.min or np.max) level by
+    level down to 1 x 1]."""
+    mips = [level]
+    while level.shape[0] > 1:
+        k = level.shape[0] // 2
+        level = reduce(level.reshape(k, 2, k, 2), axis=(1, 3))
+        mips.append(level)
+    return mips
+
+
 def min_mip(heights) -> list:
     """[(2^(n-k))^2 float64 minima over blocks of 2^k cells, samples on the block edge
     included] for k = 0..n."""
     h = np.asarray(heights, dtype=np.float64)
-    level = np.minimum(np.minimum(h[:-1, :-1], h[1:, :-1]), np.minimum(h[:-1, 1:], h[1:, 1:]))
-    mips = [level]
-    while level.shape[0] > 1:
-        k = level.shape[0] // 2
-        level = level.reshape(k, 2, k, 2).min(axis=(1, 3))
-        mips.append(level)
-    return mips
+    return _pyramid(np.minimum(np.minimum(h[:-1, :-1], h[1:, :-1]),
+                               np.minimum(h[:-1, 1:], h[1:, 1:])), np.min)
 
 
 def max_mip(heights) -> list:
     """min_mip with maxima: [(2^(n-k))^2 float64 maxima over blocks of 2^k cells]."""
     h = np.asarray(heights, dtype=np.float64)
-    level = np.maximum(np.maximum(h[:-1, :-1], h[1:, :-1]), np.maximum(h[:-1, 1:], h[1:, 1:]))
-    mips = [level]
-    while level.shape[0] > 1:
-        k = level.shape[0] // 2
-        level = level.reshape(k, 2, k, 2).max(axis=(1, 3))
-        mips.append(level)
-    return mips
+    return _pyramid(np.maximum(np.maximum(h[:-1, :-1], h[1:, :-1]),
+                               np.maximum(h[:-1, 1:], h[1:, 1:])), np.max)
 
 
 def max_mip_cells(cells) -> list:
     """[(2^(n-k))^2 maxima over blocks of 2^k cells] of a per-cell (2^n, 2^n) array."""
-    level = np.asarray(cells, dtype=np.float64)
-    mips = [level]
-    while level.shape[0] > 1:
-        k = level.shape[0] // 2
-        level = level.reshape(k, 2, k, 2).max(axis=(1, 3))
-        mips.append(level)
-    return mips
+    return _pyramid(np.asarray(cells, dtype=np.float64), np.max)
 
 
 def cell_gradients(heights, spacing: float) -> np.ndarray:
