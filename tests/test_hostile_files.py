@@ -20,6 +20,7 @@ _SPEC = importlib.util.spec_from_file_location(
     "hostile", Path(__file__).resolve().parents[1] / "tools" / "hostile.py")
 hostile = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(hostile)
+import hostile_writers as writers  # noqa: E402 - on the path hostile.py puts its folder on
 
 BOMBS = {name for name in hostile.CASES if name.endswith("_bomb")}
 
@@ -40,7 +41,7 @@ def test_a_hostile_file_is_one_clean_line(capsys, tmp_path, monkeypatch, name):
 
 @pytest.mark.parametrize("name, data", [
     ("m.obj.gz", gzip.compress(b"v 0 0 0\n") + gzip.compress(b" " * (8 << 20))),
-    ("m.ply.gz", gzip.compress(hostile.ply(hostile.CUBE_V, hostile.CUBE_F)[:-2])
+    ("m.ply.gz", gzip.compress(writers.ply(writers.CUBE_V, writers.CUBE_F)[:-2])
      + gzip.compress(b"\0" * (8 << 20))),
     ("m.stl.gz", gzip.compress(b"solid s\n" + b" " * (8 << 20))),
 ])
@@ -56,7 +57,7 @@ def test_a_gzip_bomb_stops_at_the_limit(capsys, tmp_path, monkeypatch, name, dat
 
 def test_a_zlib_bomb_in_a_vmt_stops_at_its_samples(capsys, tmp_path):
     path = tmp_path / "t.vmt"
-    path.write_bytes(hostile.vmt(hostile.vmt_header(size=3), zlib.compress(b"\0" * (8 << 20))))
+    path.write_bytes(writers.vmt(writers.vmt_header(size=3), zlib.compress(b"\0" * (8 << 20))))
     assert main(["terrain", "info", str(path)]) == 2
     line = capsys.readouterr().err.strip()
     assert str(path) in line and "over the 18 byte limit" in line
@@ -88,7 +89,7 @@ def test_a_well_formed_gltf_with_a_buffer_beside_it_loads(tmp_path):
 
     from vismobile.world import World
 
-    doc, binary = hostile.gltf()
+    doc, binary = writers.gltf()
     doc["buffers"][0]["uri"] = "buffer.bin"
     (tmp_path / "buffer.bin").write_bytes(binary)
     (tmp_path / "m.gltf").write_text(json.dumps(doc))
@@ -110,17 +111,18 @@ def test_fuzz_has_a_seed_and_an_entry_for_every_surface(tmp_path):
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
     import fuzz
+    import fuzz_formats
+    import fuzz_options
     from vismobile.terrain import store
     from vismobile.world import World
 
-    cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
-    seeds = fuzz.format_seeds(cube, tmp_path)
-    assert set(seeds) | {"obj", "vmp", "trajectory", "cull", "structure", "selection",
-                         "scheduler"} == set(fuzz.ENTRY)
-    for target, datas in seeds.items():
+    cube = World.from_arrays(writers.CUBE_V, writers.CUBE_F, [0] * 12, ["c"])
+    seeds = fuzz_formats.format_seeds(cube, tmp_path)
+    assert set(seeds) | set(fuzz_options.SEEDS) | {"obj", "vmp", "trajectory"} == set(fuzz.ENTRY)
+    for target, datas in seeds.items():  # the files' seeds (the option texts: tests below)
         load, suffix = fuzz.ENTRY[target]
         # the textured GLB entry also renders, and a .vmt's objects take seconds to build
-        load = {"glb": fuzz.load_mesh, "vmt": store.load}.get(target, load)
+        load = {"glb": fuzz_formats.load_mesh, "vmt": store.load}.get(target, load)
         for k, data in enumerate(datas):  # every seed loads as it is
             path = tmp_path / f"seed{k}{suffix}"
             path.write_bytes(data)
@@ -133,8 +135,8 @@ def test_off_headers_of_every_layout_load_at_their_tightest(tmp_path, head):
     # one digit per number, no trailing newline: the byte bound is exact and still passes
     from vismobile.world import World
 
-    body = "\n".join([" ".join(map(str, v)) for v in hostile.CUBE_V]
-                     + ["3 " + " ".join(map(str, f)) for f in hostile.CUBE_F])
+    body = "\n".join([" ".join(map(str, v)) for v in writers.CUBE_V]
+                     + ["3 " + " ".join(map(str, f)) for f in writers.CUBE_F])
     (tmp_path / "c.off").write_bytes(head + body.encode())
     assert World.from_file(tmp_path / "c.off").triangle_count == 12
 
@@ -149,20 +151,21 @@ def test_structure_texts_build_or_are_refused_in_one_line(tmp_path):
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
     import fuzz
+    from fuzz_options import STRUCTURE_TEXTS, load_structure
 
     path = tmp_path / "spec.txt"
-    for seed in fuzz.STRUCTURE_TEXTS:
+    for seed in STRUCTURE_TEXTS:
         path.write_bytes(seed)
-        fuzz.load_structure(path)
+        load_structure(path)
     refused = 0
     for case in range(40):
         pick = random.Random(f"structure:{case}").randrange
-        data = fuzz.STRUCTURE_TEXTS[pick(len(fuzz.STRUCTURE_TEXTS))]
+        data = STRUCTURE_TEXTS[pick(len(STRUCTURE_TEXTS))]
         for _ in range(1 + pick(3)):
             data = fuzz.mutate_bytes(data, pick)
         path.write_bytes(data)
         try:
-            fuzz.load_structure(path)
+            load_structure(path)
         except VisMobileError:
             refused += 1
     assert 0 < refused < 40  # the mutations reach both outcomes
@@ -181,7 +184,7 @@ def test_structure_lists_and_schedulers_parse_or_are_refused_in_one_line(tmp_pat
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
     import fuzz
 
-    texts = {"selection": fuzz.SELECTION_TEXTS, "scheduler": fuzz.SCHEDULER_TEXTS}[target]
+    texts = fuzz.fuzz_options.SEEDS[target]
     load = fuzz.ENTRY[target][0]
     path = tmp_path / "case.txt"
     for seed in texts:
@@ -207,15 +210,15 @@ def test_animated_inputs_load_or_are_refused_in_one_error(tmp_path, target):
     takes it, --fps values, play --regional choices) fuzzed: each seed loads and poses, and each seeded mutation loads
     or is refused with a VisMobileError (any other exception fails the test)."""
     fuzz = _fuzz_module()
-    _seeds_load_and_mutations_refuse(fuzz, target, fuzz.animated_seeds(tmp_path)[target],
-                                     tmp_path)
+    seeds = fuzz.fuzz_motion.animated_seeds(tmp_path)[target]
+    _seeds_load_and_mutations_refuse(fuzz, target, seeds, tmp_path)
 
 
 def test_page_budgets_parse_or_are_refused_in_one_error(tmp_path):
     """play --page-budget values (MB, (0, 2^20]) fuzzed as issue 25's --fps: every seed parses
     within its range, each mutation parses or is refused with a VisMobileError."""
     fuzz = _fuzz_module()
-    _seeds_load_and_mutations_refuse(fuzz, "budget", fuzz.BUDGET_TEXTS, tmp_path)
+    _seeds_load_and_mutations_refuse(fuzz, "budget", fuzz.fuzz_options.BUDGET_TEXTS, tmp_path)
 
 
 @pytest.mark.parametrize("target", ["tifstream", "memory", "vmrpages"])

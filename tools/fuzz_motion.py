@@ -18,7 +18,7 @@ def animated_seeds(folder: Path) -> dict:
     channels, LINEAR and STEP, a child under a moved parent) and a JSON motion file."""
     import numpy as np
 
-    import hostile
+    import hostile_writers as hostile
     from vismobile.files.gltf_write import animated_glb
 
     cube = dict(vertices=np.asarray(hostile.CUBE_V, float), faces=hostile.CUBE_F)
@@ -52,7 +52,7 @@ def load_animated(path):
 
 def load_motion(path):
     """A JSON motion file attached to the cube world (object "c"), posed."""
-    import hostile
+    import hostile_writers as hostile
     from vismobile.world.animated import AnimatedWorld
     from vismobile.world.world import World
 
@@ -66,7 +66,7 @@ def load_play_motion(path):
     with the moving cube posed."""
     import numpy as np
 
-    import hostile
+    import hostile_writers as hostile
     from vismobile.app.playback import load_scene, play
     from vismobile.world.trajectory import Trajectory
     from vismobile.world.world import World
@@ -98,7 +98,7 @@ def load_fps(path):
 def load_regional(path):
     """play --regional text: parsed (commands/play.regional_choices) and, when it parses, a
     RegionalCuller over the cube's portal structure culls one camera."""
-    import hostile
+    import hostile_writers as hostile
     from vismobile.app.playback import Scene, make_culler
     from vismobile.commands.play import regional_choices
     from vismobile.partition import partition
@@ -110,3 +110,8 @@ def load_regional(path):
     cube = World.from_arrays(hostile.CUBE_V, hostile.CUBE_F, [0] * 12, ["c"])
     scene = Scene(cube, partition(cube, "portal", depth=1), "portal:1")
     make_culler(scene, (), None, regional=choices).cull(Camera((0.5, 0.5, 4.0)))
+
+
+ENTRY = {"animglb": (load_animated, ".glb"), "motion": (load_motion, ".json"),
+         "playmotion": (load_play_motion, ".json"), "fps": (load_fps, ".txt"),
+         "regional": (load_regional, ".txt")}
