@@ -297,6 +297,7 @@ class MovingObjects:
         self._expired = np.empty(m, dtype=np.int64)
         self._missed = np.empty(m, dtype=np.int64)  # tracks without a baked interval at t
         self._table = (None,)  # (span, swept.bake_intervals' arrays), baked at the first pose
+        self._argument_tuples = None  # _arguments
         self.always = np.zeros(0, dtype=np.int64)  # rows whose matrices every pose computes
         self.time, self.magnitude, self._rest = None, 0.0, False
         self._frame_objects = None
@@ -331,12 +332,8 @@ class MovingObjects:
             self._table = (self.span, *bake_intervals(
                 motion.loop, motion.duration, motion.step, *c["translation"], *c["rotation"],
                 *c["scale"], motion.pre, motion.post, a.rest_boxes, self.span, TABLE_LIMIT))
-        count, most, cost, area_sum = advance(
-            t, self.valid_from, self.valid_until, self._expired, motion.loop, motion.duration,
-            motion.step, *c["translation"], *c["rotation"], *c["scale"], motion.pre,
-            motion.post, a.rest_boxes, self.swept, b.order, b.lo, b.hi, b.first, b.start,
-            b.count, b.parent, b.leaf_of, b.node_count, b.area_sum, self.span, *self._table[1:],
-            self._missed)
+        count, most, cost, area_sum = advance(t, *self._arguments[0], b.node_count, b.area_sum,
+                                              self.span, *self._table[1:], self._missed)
         if count:
             self.magnitude = most
             self.rebuilt = b.refitted(cost, area_sum, self.swept)
@@ -387,14 +384,29 @@ class MovingObjects:
             self._exact(candidates)
             self.whole[candidates] = False
             return candidates, visited, len(candidates), tests
-        motion, c = self.animated.motion, self.animated.motion.channels
-        kept, visited, found, tests = frustum_pose(
-            b.lo, b.hi, b.first, b.start, b.count, b.order, b.node_count, self.swept, planes,
-            tol, self._out, self._stack, self._masks, self.whole, self.time, *motion.records,
-            *c["translation"][:2], *c["rotation"][:2], motion.arc, *c["scale"][:2], motion.pre,
-            motion.post, self.animated.rest_boxes, BOX_PAD, self.matrices, self.boxes,
-            self._scratch, self._bits)
+        _, head, middle, tail = self._arguments
+        kept, visited, found, tests = frustum_pose(*head, b.node_count, self.swept, planes, tol,
+                                                   *middle, self.time, *tail)
         return self._out[:kept].copy(), visited, found, tests
+
+    @property
+    def _arguments(self) -> tuple:
+        """The arrays advance and frustum_pose take, gathered once (each is kept and written
+        in place): (advance's before the node count, frustum_pose's before the node count,
+        between the tolerance and the time, after the time)."""
+        if self._argument_tuples is None:
+            motion, c, b = self.animated.motion, self.animated.motion.channels, self.bvh
+            self._argument_tuples = (
+                (self.valid_from, self.valid_until, self._expired, motion.loop, motion.duration,
+                 motion.step, *c["translation"], *c["rotation"], *c["scale"], motion.pre,
+                 motion.post, self.animated.rest_boxes, self.swept, b.order, b.lo, b.hi,
+                 b.first, b.start, b.count, b.parent, b.leaf_of),
+                (b.lo, b.hi, b.first, b.start, b.count, b.order),
+                (self._out, self._stack, self._masks, self.whole),
+                (*motion.records, *c["translation"][:2], *c["rotation"][:2], motion.arc,
+                 *c["scale"][:2], motion.pre, motion.post, self.animated.rest_boxes, BOX_PAD,
+                 self.matrices, self.boxes, self._scratch, self._bits))
+        return self._argument_tuples
 
     def settle(self, objects) -> None:
         """Matrices and exact boxes at the posed time for those of objects (K,) int64 that

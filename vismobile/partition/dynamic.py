@@ -124,8 +124,12 @@ def refit_rows(boxes, rows, order, lo, hi, first, start, count, parent, leaf_of,
     """Refit only the nodes above the objects rows (K,) (their boxes changed): from each one's
     leaf up, while a node's box changes (above an unchanged node all already hold it). The
     same node boxes as _refit over all (min / max are exact: each node ends the box of its
-    children's), in O(K x the levels that change), nothing over the whole tree. Returns (SAH
-    cost, its numerator kept up to date from area_sum, rounding aside the value _refit sums)."""
+    children's), in O(K x the levels that change), nothing over the whole tree; with more than
+    N / 4 objects, one bottom-up pass over every node (_refit) instead. Returns (SAH cost, its
+    numerator kept up to date from area_sum, rounding aside the value _refit sums)."""
+    if 4 * len(rows) > n_nodes:  # most paths would reach the root: one pass over every node
+        cost = _refit(boxes, order, lo, hi, first, start, count, n_nodes)
+        return cost, _area_sum(lo, hi, first, count, n_nodes)
     total = area_sum
     for i in range(len(rows)):
         node = leaf_of[rows[i]]
