@@ -18,20 +18,9 @@ import numpy as np
 from .horizon import (NO_BASES, NO_BASES_RAW, ONE, SLOPE_LIMIT, FixedHorizon, Horizon, _cast,
                       _cast_fixed)
 from .horizon_bands import frame_bands, frustum_slopes, stops_raw
-from .horizon_mips import _highest_in, pack
+from .horizon_mips import _highest_in, pack, pyramid
 
 NOTHING_RAW = -(1 << 60)  # raw "no solid" (below every 16.16 value)
-
-
-def _mips(cells, reduce) -> list:
-    """[(2^(n-k))^2 reductions over blocks of 2^k cells] of (2^n, 2^n) cells, k = 0..n."""
-    level = np.asarray(cells, dtype=np.float64)
-    mips = [level]
-    while level.shape[0] > 1:
-        k = level.shape[0] // 2
-        level = reduce(level.reshape(k, 2, k, 2), axis=(1, 3))
-        mips.append(level)
-    return mips
 
 
 def _raw(values, rounding) -> np.ndarray:
@@ -70,11 +59,11 @@ class CellCaster:
         self.bands, self.step, self.arithmetic, self.name = bands, step, arithmetic, name
         self.spacing = float(spacing)
         self.origin = np.array([origin[0], 0.0, origin[1]], dtype=np.float64)
-        self.flat, self.offsets, self.sizes = pack(_mips(tops, np.min))
-        self.high_flat = pack(_mips(highs, np.max))[0]
+        self.flat, self.offsets, self.sizes = pack(pyramid(tops, np.min))
+        self.high_flat = pack(pyramid(highs, np.max))[0]
         self.top = float(self.high_flat[-1])  # the highest solid (the pyramid's root)
         self.bflat = (np.zeros(0) if bases is None else
-                      pack(_mips(-np.asarray(bases, dtype=np.float64), np.min))[0])
+                      pack(pyramid(-np.asarray(bases, dtype=np.float64), np.min))[0])
         if arithmetic == "fixed16.16":
             from ..errors import ProfileError
             from ..device.profile import to_fixed

@@ -6,9 +6,10 @@ import numpy as np
 from numba import njit
 
 
-def _pyramid(level, reduce) -> list:
-    """[level (2^n, 2^n), then its 2 x 2 blocks reduced (reduce: np.min or np.max) level by
-    level down to 1 x 1]."""
+def pyramid(cells, reduce) -> list:
+    """[(2^(n-k))^2 float64 reductions over blocks of 2^k cells] of (2^n, 2^n) cells, k = 0..n
+    (reduce: np.min or np.max)."""
+    level = np.asarray(cells, dtype=np.float64)
     mips = [level]
     while level.shape[0] > 1:
         k = level.shape[0] // 2
@@ -21,20 +22,20 @@ def min_mip(heights) -> list:
     """[(2^(n-k))^2 float64 minima over blocks of 2^k cells, samples on the block edge
     included] for k = 0..n."""
     h = np.asarray(heights, dtype=np.float64)
-    return _pyramid(np.minimum(np.minimum(h[:-1, :-1], h[1:, :-1]),
-                               np.minimum(h[:-1, 1:], h[1:, 1:])), np.min)
+    return pyramid(np.minimum(np.minimum(h[:-1, :-1], h[1:, :-1]),
+                              np.minimum(h[:-1, 1:], h[1:, 1:])), np.min)
 
 
 def max_mip(heights) -> list:
     """min_mip with maxima: [(2^(n-k))^2 float64 maxima over blocks of 2^k cells]."""
     h = np.asarray(heights, dtype=np.float64)
-    return _pyramid(np.maximum(np.maximum(h[:-1, :-1], h[1:, :-1]),
-                               np.maximum(h[:-1, 1:], h[1:, 1:])), np.max)
+    return pyramid(np.maximum(np.maximum(h[:-1, :-1], h[1:, :-1]),
+                              np.maximum(h[:-1, 1:], h[1:, 1:])), np.max)
 
 
 def max_mip_cells(cells) -> list:
     """[(2^(n-k))^2 maxima over blocks of 2^k cells] of a per-cell (2^n, 2^n) array."""
-    return _pyramid(np.asarray(cells, dtype=np.float64), np.max)
+    return pyramid(cells, np.max)
 
 
 def cell_gradients(heights, spacing: float) -> np.ndarray:
