@@ -497,11 +497,10 @@ class CrackSlivers:
         a, b = self.pieces[rows, 0], self.pieces[rows, 1]
         eye = camera.eye
         far = np.maximum(np.linalg.norm(a - eye, axis=1), np.linalg.norm(b - eye, axis=1))
-        ty = np.tan(np.radians(camera.fov) / 2.0)
-        corner = camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
-        width = grow + CRACK_SLOPE * far  # the widest gap along the piece
-        offsets = np.repeat(width[:, None], 5, axis=1)
-        offsets[:, 4] = grow + CRACK_SLOPE * 4.0 * (corner + grow)  # gaps seen near the near plane
+        # the widest gap along the piece: a gap point y within grow + CRACK_SLOPE |y - eye| of
+        # an edge point x no farther than `far` lies within width of it
+        width = (grow + CRACK_SLOPE * far) / (1.0 - CRACK_SLOPE)
+        offsets = np.repeat(width[:, None], 5, axis=1)  # 4 sides and the near plane
         t0, t1 = _clip_to_planes(a, b, cell_planes[owner, :5], offsets)
         # and to the cell's box grown by the widest gap: the line passes it in the cell
         u0, u1 = clip_segments(np.stack([a, b], axis=1), self.lo[ids[owner]],
