@@ -87,8 +87,8 @@ def repaired(literal):
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_a_repaired_crease_is_sealed_without_crack_portals(kit, repaired, mode):
-    """After --repair tjunctions the bake seals its cells and adds no crack portal: the slab
+def test_a_repaired_crease_is_sealed(kit, repaired, mode):
+    """After --repair tjunctions the crease is no crack and the bake seals its cells: the slab
     below is left out of the room's set, and no crease camera sees it (or anything dropped)."""
     world = repaired.world
     assert world.repair == "tjunctions"

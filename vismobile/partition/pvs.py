@@ -222,10 +222,12 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
             return extras, stats
     grow = bake_grow(world)
     # a world whose T-junctions were repaired (world/tjunctions.py) shares every crease's
-    # corners, so the rasteriser opens no crack: its thin cells are sealed at the walls inside
-    # them and no crack portal is needed (docs/partition.md, "T-junctions repaired")
+    # corners, so the rasteriser opens no crack there: its thin cells are sealed at the walls
+    # inside them. Its unshared edges left are open borders (a hollow wall's uncapped foot),
+    # which stay crack portals: without them W1's sealed bake dropped 1 of 2,000 cameras
+    # (docs/partition.md, "T-junctions repaired")
     sealed = getattr(world, "repair", None) == "tjunctions"
-    g = view_grid(world, cells, grow=grow, split=sealed, cracks=not sealed)
+    g = view_grid(world, cells, grow=grow, split=sealed)
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
     count = len(g["cell_bounds"])
     sources = np.arange(count)
