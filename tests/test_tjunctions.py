@@ -46,8 +46,8 @@ def vertex_on_edge_interior(world, tol):
     """(edge, vertex) pairs where a vertex lies strictly inside some triangle's edge."""
     points = np.unique(world.vertices, axis=0)
     index = {tuple(p): i for i, p in enumerate(points)}
-    edges = np.array([[index[tuple(world.vertices[t[k]])], index[tuple(world.vertices[t[(k + 1) % 3]])]]
-                      for t in world.triangles for k in range(3)])
+    ids = np.array([index[tuple(v)] for v in world.vertices])[world.triangles]
+    edges = np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [2, 0]]])
     return find_tjunctions(points, np.unique(np.sort(edges, axis=1), axis=0), tol)[0]
 
 

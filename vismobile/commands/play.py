@@ -2,8 +2,8 @@
 from pathlib import Path
 
 from . import (CULL_HELP, DEFAULT_CULL, default_cull, DEFAULT_STRUCTURE, FIX_WINDING_HELP, FRAMES_HELP,
-               REPAIR_HELP, REPAIRS, FPS_HELP, MOTION_HELP, PROFILE_HELP, STRUCTURE_HELP, WORLD_HELP,
-               default_trajectory, warn_winding)
+               REPAIR_HELP, REPAIRS, FPS_HELP, MOTION_HELP, PROFILE_HELP, STRUCTURE_HELP,
+               WORLD_HELP, default_trajectory, warn_winding)
 
 
 def add_parser(sub):
@@ -101,7 +101,8 @@ def run(args) -> int:
     with Status(f"play {args.world}", enabled=not args.quiet) as status:
         status("loading the world")
         scene = load_scene(args.world, args.structure, progress=not args.quiet,
-                           fix_winding=args.fix_winding, eyes=trajectory.poses[:, :3], repair=args.repair,
+                           fix_winding=args.fix_winding, eyes=trajectory.poses[:, :3],
+                           repair=args.repair,
                            motion=args.motion, fps=args.fps)
         status("checking the winding")
         warn_winding(scene.world, parse_stages(args.cull), args.world,
