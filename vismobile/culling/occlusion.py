@@ -60,6 +60,9 @@ by the out-of-core build) or built at prepare from each leaf's references and th
 (occluder_rows) and its occluders' mesh (occluder_rows.occluder_mesh_of) with the World's
 bits, so both send the same triangles (tests).
 
+DepthBufferOcclusion's mixins: the occluder choice (occluder_choice.py, OccluderChoice) and the
+node and triangle tests against the buffer (occlusion_tests.py, BufferTests).
+
 Contract: never drops a triangle that the full world's item buffer shows (any resolution; with
 `screen`, at that resolution), also when the device moves points by m, and through the cracks
 the GPU may leave at T-junctions (never counted as closed).
@@ -73,13 +76,13 @@ from ..partition.occluders import candidate_lists
 from ..world.world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
-from .hiz import (DEPTH_SLACK, GUARD_PX, SAMPLE_HALF, SLACK_PX, build_tiles, cull_nodes,
-                  frustum_cull_nodes, hidden_triangles, rasterise, shift_table_size, stamp_near,
-                  tile_shifts)
+from .hiz import (DEPTH_SLACK, GUARD_PX, SAMPLE_HALF, SLACK_PX, build_tiles, rasterise,
+                  shift_table_size, stamp_near, tile_shifts)
 from .hiz.frame import FRAME_SLOTS, occluder_shift, occlusion_frame, sample_clip
 from .occluder_choice import GRAZING, SHELL_GROWTH, OccluderChoice
 from .occluder_mesh import world_tables
 from .occluder_rows import occluder_mesh_of
+from .occlusion_tests import BufferTests
 from .precision import depth_order, device_move, world_scale
 from .shared import per_object
 from .state import CullResult, CullState
@@ -113,7 +116,7 @@ FIRST_CANDIDATES = 96
 SAMPLES_FROM = 1 << 19
 
 
-class DepthBufferOcclusion(OccluderChoice):
+class DepthBufferOcclusion(BufferTests, OccluderChoice):
     """`occlusion`: conservative tiled depth buffer occlusion culling; refines state.nodes.
 
     width, height : depth buffer size in pixels (default 120 x 160, half of 240 x 320)
@@ -309,19 +312,6 @@ class DepthBufferOcclusion(OccluderChoice):
         in placing it (sqrt(3) m, and DEVICE_RELATIVE x scale as before), so only parts the GPU
         certainly draws occlude (it clips at `near`)."""
         return self._view(camera)[5]
-
-    def shift(self, camera, move: float) -> float:
-        """Largest screen shift (x / z units) of a rasterised occluder point moved by `move` per
-        coordinate: sqrt(3) move / z (1 + |x| / z) at z >= self.nearest; inf when too near."""
-        if self.nearest == np.inf:
-            return 0.0  # nothing rasterised: nothing to shift
-        reach = np.sqrt(3.0) * move
-        z = self.nearest - reach
-        if not z > 0:
-            return np.inf
-        tx, ty = self._view(camera)[2:4]
-        tangent = max(ty, tx) * self.nearest / z + reach / z
-        return reach / z * (1.0 + tangent)
 
     def _view(self, camera) -> tuple:
         """(eye (3,), rotation (3, 3) rows right, up, forward, tx, ty, move, near clip, scale,
@@ -521,95 +511,3 @@ class DepthBufferOcclusion(OccluderChoice):
             move = self._view(state.camera)[4]
             state.late_filters.append(lambda ids: ~self._hidden_triangles(
                 state, ids, move, 0.0, np.sqrt(3.0) * move, False))
-
-    def nearest_far(self, margin, recede) -> float:
-        """D + margin D^2 + recede for the smallest covered depth bound D: nothing nearer than
-        that can be hidden anywhere."""
-        d = float(self.tile_min.min()) if len(self.tile_min) else np.inf
-        return d + margin * d * d + recede
-
-    def _node_pass(self, state, eye, rotation, tx, ty, move, margin, recede,
-                   from_root=True, fused=False) -> None:
-        """state.nodes refined by hiz.cull_nodes against the current buffer (entered through
-        their ancestors, or, from_root False, at the nodes themselves); fused: by the frustum
-        and the buffer in one walk from them (hiz.frustum_cull_nodes, vfc's counters too)."""
-        tree, camera = self.tree, state.camera
-        roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
-        if len(roots) + tree.node_count > len(self._out):
-            self._out = np.empty(len(roots) + tree.node_count, dtype=np.int64)
-        if len(roots) + tree.node_count > len(self._stack):
-            self._stack = np.empty(len(roots) + tree.node_count, dtype=np.int64)
-            self._below = np.empty(len(roots) + tree.node_count, dtype=np.uint8)
-            self._masks = np.empty(len(roots) + tree.node_count, dtype=np.int64)
-        if fused:
-            kept, visited, tests, outside, culled, tested = frustum_cull_nodes(
-                tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots,
-                np.ascontiguousarray(state.planes, dtype=np.float64), tree.tol, eye, rotation,
-                camera.near, tx, ty, self.width, self.height, move, self.shift(camera, move),
-                margin, recede, self.depth, self.tile_max, self.tile_any, self.tile_shift,
-                *self.tile, self._out, self._stack, self._masks, self.nearest_far(margin, recede),
-                *self.samples(camera, move))
-            state.nodes = self._out[:kept].copy()
-            state.count("nodes_visited", visited)
-            state.count("plane_tests", tests)
-            state.count("vfc.nodes_culled", outside)
-            state.count("vfc.nodes_accepted", kept)
-            state.count(f"{self.name}.nodes_tested", tested)
-            state.count(f"{self.name}.nodes_culled", culled)
-            return
-        self._frame += 1
-        kept, visited, culled = cull_nodes(
-            tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,
-            roots, self.draw_mark, self.up_mark, self._frame, eye, rotation, camera.near, tx, ty,
-            self.width, self.height, move, self.shift(camera, move), margin, recede, self.depth,
-            self.tile_max, self.tile_any, self.tile_shift, *self.tile, self._out, self._stack,
-            self._below, self.nearest_far(margin, recede), from_root,
-            *self.samples(camera, move))
-        state.nodes = self._out[:kept].copy()
-        state.count("nodes_visited", visited)
-        state.count(f"{self.name}.nodes_tested", visited)
-        state.count(f"{self.name}.nodes_culled", culled)
-
-    def samples(self, camera, move) -> tuple:
-        """(screen width, height, the move of a tested point's screen position) for the centre
-        tests with `screen`, else (0, 0, move): the centre tests are off."""
-        if self.screen is None:
-            return 0, 0, move
-        return (*self.screen, max(DEVICE_RELATIVE * self._view(camera)[6] + DEVICE_ABSOLUTE,
-                                  move))
-
-    def _test(self, camera, ids, move, margin, recede, use_buffer) -> tuple:
-        eye, rotation, tx, ty = self._view(camera)[:4]
-        n = len(ids)
-        hidden, subpixel = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
-        zmin = np.empty(n)
-        hidden_triangles(ids, self.vertices, self.triangles_, eye, rotation, camera.near, tx, ty,
-                         self.width, self.height, move, self.shift(camera, move), margin, recede,
-                         self.depth, self.tile_max, self.tile_shift, *self.tile, use_buffer,
-                         *self.samples(camera, move), hidden, subpixel, zmin)
-        return hidden, subpixel, zmin
-
-    def _hidden_triangles(self, state, ids, move, margin, recede, use_buffer) -> np.ndarray:
-        """(n,) bool over the gathered ids: hidden by the buffer, or (with `screen`) covering no
-        pixel centre, or hidden once the survivors certainly facing the eye, nearest first, are
-        rasterised too (`self_occluders`)."""
-        camera = state.camera
-        ids = np.ascontiguousarray(ids, dtype=np.int64)
-        hidden, subpixel, zmin = self._test(camera, ids, move, margin, recede, use_buffer)
-        state.count("triangles_tested", len(ids))
-        state.count(f"{self.name}.triangles_tested", len(ids))
-        state.count(f"{self.name}.subpixel_culled", subpixel.sum())
-        if self.self_occluders and self._view(camera)[7] < np.inf:
-            live = np.flatnonzero(~hidden & ~subpixel & np.isfinite(zmin))
-            live = live[self.facing(ids[live], camera.eye)]
-            if len(live) > self.self_occluders:  # nearest first: they hide the most
-                live = live[np.argpartition(zmin[live], self.self_occluders - 1)
-                            [:self.self_occluders]]
-            state.count(f"{self.name}.self_occluders", len(live))
-            if len(live):
-                extra = ids[live]
-                if self.rasterise(camera, extra):  # may lower self.nearest
-                    again, _, _ = self._test(camera, ids, move, margin, recede, True)
-                    hidden |= again
-        state.count(f"{self.name}.triangles_culled", hidden.sum())
-        return hidden | subpixel
