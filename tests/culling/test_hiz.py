@@ -191,19 +191,24 @@ def test_occluders_cut_by_the_clip_depth_cover_only_their_part_beyond_it(clip):
     assert np.all(depth[np.isfinite(depth)] >= clip)
 
 
+def random_occluders(rng, count=8) -> np.ndarray:
+    """(<= count, 3, 3) random eye-space triangles in view, facing the eye, none edge-on."""
+    tris = []
+    for _ in range(count):
+        z = rng.uniform(0.05, 6.0, 3)
+        uv = rng.uniform(-1.5, 1.5, (3, 2))
+        t = np.column_stack([uv[:, 0] * z * TX, uv[:, 1] * z * TY, z])
+        n = np.cross(t[1] - t[0], t[2] - t[0])
+        if abs(n @ -t[0]) < 1e-3:
+            continue
+        tris.append(t if n @ -t[0] > 0 else t[[0, 2, 1]])
+    return np.array(tris)
+
+
 def test_random_occluders_keep_the_contract():
     rng = np.random.default_rng(11)
     for _ in range(6):
-        tris = []
-        for _ in range(8):
-            z = rng.uniform(0.05, 6.0, 3)
-            uv = rng.uniform(-1.5, 1.5, (3, 2))
-            t = np.column_stack([uv[:, 0] * z * TX, uv[:, 1] * z * TY, z])
-            n = np.cross(t[1] - t[0], t[2] - t[0])
-            if abs(n @ -t[0]) < 1e-3:
-                continue
-            tris.append(t if n @ -t[0] > 0 else t[[0, 2, 1]])
-        check_contract(np.array(tris), clip=0.3, samples=5)
+        check_contract(random_occluders(rng), clip=0.3, samples=5)
 
 
 # ---- the screen's pixel centres ----------------------------------------------------------

@@ -6,7 +6,8 @@ import numpy as np
 
 from vismobile.culling.hiz import SAMPLE_HALF, covers_no_sample
 
-from .test_hiz import TX, TY, H, W, camera_triangle, check_contract, pixel_centres, quad_at, raster
+from .test_hiz import (TX, TY, H, W, camera_triangle, check_contract, pixel_centres, quad_at,
+                       random_occluders, raster)
 
 
 def test_sample_squares_keep_the_contract():
@@ -34,16 +35,7 @@ def test_sample_squares_keep_the_contract():
     check_contract(floor_cut, clip=2.0, half=SAMPLE_HALF)
     rng = np.random.default_rng(12)
     for _ in range(6):
-        tris = []
-        for _ in range(8):
-            z = rng.uniform(0.05, 6.0, 3)
-            uv = rng.uniform(-1.5, 1.5, (3, 2))
-            t = np.column_stack([uv[:, 0] * z * TX, uv[:, 1] * z * TY, z])
-            n = np.cross(t[1] - t[0], t[2] - t[0])
-            if abs(n @ -t[0]) < 1e-3:
-                continue
-            tris.append(t if n @ -t[0] > 0 else t[[0, 2, 1]])
-        check_contract(np.array(tris), clip=0.3, samples=5, half=SAMPLE_HALF)
+        check_contract(random_occluders(rng), clip=0.3, samples=5, half=SAMPLE_HALF)
 
 
 def test_sample_coverage_is_the_centres_neighbourhood():

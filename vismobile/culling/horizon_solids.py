@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..world.footprint import convex_hull, polygon_area
+
 MAX_CELLS = 1024  # map side (cells); the spacing is the power of two that covers the solids
 AREA_TOLERANCE = 1e-6  # relative: projected areas must tile to this
 FLAT = 1e-9  # |n_y| below this is a wall, n_y above 1 - this a roof
@@ -43,29 +45,6 @@ class SolidMap:
     max_base: float
     grounds: int
     prisms: int
-
-
-def _hull(points) -> np.ndarray:
-    """(K, 2) convex hull of (P, 2) points, counter-clockwise (monotone chain)."""
-    pts = np.unique(points, axis=0)
-    if len(pts) < 3:
-        return pts
-
-    def half(seq):
-        out = []
-        for p in seq:
-            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
-                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
-                out.pop()
-            out.append(p)
-        return out[:-1]
-
-    return np.array(half(pts) + half(pts[::-1]))
-
-
-def _polygon_area(poly) -> float:
-    x, z = poly[:, 0], poly[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(z, -1)) - np.dot(z, np.roll(x, -1)))
 
 
 def _projected_areas(corners) -> np.ndarray:
@@ -97,10 +76,10 @@ def is_prism(corners, normals) -> tuple | None:
     roof = (normals[:, 1] > 1 - FLAT) & np.all(ys == top, axis=1)
     if not np.all(wall | roof) or not roof.any():
         return None
-    hull = _hull(corners[..., [0, 2]].reshape(-1, 2))
+    hull = convex_hull(corners[..., [0, 2]].reshape(-1, 2))
     if len(hull) < 3:
         return None
-    area = abs(_polygon_area(hull))
+    area = abs(polygon_area(hull))
     if abs(np.abs(_projected_areas(corners[roof])).sum() - area) > AREA_TOLERANCE * area:
         return None
     height = top - base

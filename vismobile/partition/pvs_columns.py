@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..world.footprint import convex_hull, polygon_area
+
 # coordinates equal within this (relative to the world's size) count as on a plane or edge
 RELATIVE = 1e-9
 AREA_RELATIVE = 1e-7  # covered areas must match within this share
@@ -43,25 +45,6 @@ def _parts(triangles, count) -> np.ndarray:
         label = new
 
 
-def _hull(points) -> np.ndarray:
-    """(H, 2) convex hull of x-z points, counter-clockwise (x right, z up), no collinear points."""
-    pts = np.unique(points, axis=0)
-    if len(pts) < 3:
-        return pts
-
-    def half(seq):
-        out = []
-        for p in seq:
-            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
-                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
-                out.pop()
-            out.append(p)
-        return out
-
-    lower, upper = half(pts), half(pts[::-1])
-    return np.array(lower[:-1] + upper[:-1])
-
-
 def _column(world, ids, directed, floor, tol):
     """(footprint (H, 2) counter-clockwise x-z, base, top) of the part's triangles ids, or None."""
     corners = world.corners[ids]
@@ -72,7 +55,7 @@ def _column(world, ids, directed, floor, tol):
     at_top = np.abs(ys - top) <= tol
     if not (at_top | (np.abs(ys - base) <= tol)).all():
         return None
-    hull = _hull(corners[..., [0, 2]].reshape(-1, 2))
+    hull = convex_hull(corners[..., [0, 2]].reshape(-1, 2))
     if len(hull) < 3:
         return None
     a, b = hull, np.roll(hull, -1, axis=0)
@@ -104,7 +87,7 @@ def _column(world, ids, directed, floor, tol):
     cover = np.bincount(which[walls], weights=area[walls], minlength=len(hull))
     if (np.abs(cover - length * height) > AREA_RELATIVE * length * height).any():
         return None
-    hull_area = 0.5 * float(np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]))
+    hull_area = polygon_area(hull)
     if abs(area[roof].sum() - hull_area) > AREA_RELATIVE * hull_area:
         return None
     # edges: twice in opposite directions, or once along the bottom loop
