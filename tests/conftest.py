@@ -13,6 +13,7 @@ settings.load_profile("vismobile")
 
 from vismobile.app.cli import main
 from vismobile.scenes import build_world
+from vismobile.world.camera import Camera
 from vismobile.world.world import World
 
 # Status lines depend on how long a command runs (they start after 2 s): on a loaded machine a
@@ -80,10 +81,36 @@ def literal_world(parts, name="literal"):
                  name=name)
 
 
+def crease_world():
+    """The T-junction room of test_pvs_cracks and test_tjunctions: x, z in [0, 4], y in
+    [0.2, 3] (faces in), its far wall z = 4 in 22 strips whose bottom corners lie along the
+    floor's edge; the slab's bottom y = 0 below, z in [0, 5], facing up (its two triangles,
+    last, are what the cracks show)."""
+    parts = [rect(1, 0.2, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
+             rect(0, 0.0, (0.2, 3), (0, 4), 1), rect(0, 4.0, (0.2, 3), (0, 4), -1),
+             rect(2, 0.0, (0, 4), (0.2, 3), 1)]
+    xs = np.concatenate([[0.0], np.sort(np.random.default_rng(5).uniform(0.1, 3.9, 22)), [4.0]])
+    parts += [rect(2, 4.0, (a, b), (0.2, 3.0), -1) for a, b in zip(xs[:-1], xs[1:])]
+    parts.append(rect(1, 0.0, (0, 5), (0, 4), 1))
+    return literal_world(parts, name="crease")
+
+
+def crease_cameras(profile, count):
+    """Eyes in the room looking down at random points of the crease (floor meets far wall)."""
+    rng = np.random.default_rng(0)
+    for _ in range(count):
+        eye = np.array([rng.uniform(0.5, 3.5), rng.uniform(0.5, 2.8), rng.uniform(0.5, 3.0)])
+        look = np.array([rng.uniform(0, 4), 0.2, 4.0]) - eye
+        yield Camera(eye, yaw=np.degrees(np.arctan2(look[0], -look[2])),
+                     pitch=np.degrees(np.arctan2(look[1], np.hypot(look[0], look[2]))),
+                     fov=rng.uniform(30, 100), near=0.1, aspect=profile.aspect)
+
+
 @pytest.fixture(scope="session")
 def literal():
     """The helpers above, for test modules (importlib mode cannot import conftest)."""
-    return types.SimpleNamespace(clip_overlaps=clip_overlaps, rect=rect, world=literal_world)
+    return types.SimpleNamespace(clip_overlaps=clip_overlaps, rect=rect, world=literal_world,
+                                 crease_world=crease_world, crease_cameras=crease_cameras)
 
 
 @pytest.fixture(scope="session")

@@ -11,7 +11,6 @@ from hypothesis import strategies as st
 from vismobile.device.profile import get_profile
 from vismobile.partition.pvs_cracks import unshared_edges
 from vismobile.render import item_buffer
-from vismobile.world.camera import Camera
 from vismobile.world.tjunctions import find_tjunctions, repair_tjunctions
 from vismobile.world.world import World
 
@@ -107,41 +106,17 @@ def test_textures_are_interpolated(literal):
     np.testing.assert_allclose(fixed.textures.uv, fixed.corners[:, :, [0, 2]] / 4, atol=1e-6)
 
 
-def crease_cameras(profile, count):
-    """Eyes in the room looking down at random points of the crease (floor meets far wall)."""
-    rng = np.random.default_rng(0)
-    for _ in range(count):
-        eye = np.array([rng.uniform(0.5, 3.5), rng.uniform(0.5, 2.8), rng.uniform(0.5, 3.0)])
-        look = np.array([rng.uniform(0, 4), 0.2, 4.0]) - eye
-        yield Camera(eye, yaw=np.degrees(np.arctan2(look[0], -look[2])),
-                     pitch=np.degrees(np.arctan2(look[1], np.hypot(look[0], look[2]))),
-                     fov=rng.uniform(30, 100), near=0.1, aspect=profile.aspect)
-
-
-def crease_world(literal):
-    """tests/culling/test_pvs_cracks.py's room: its far wall stands on the floor's edge in 22
-    strips (T-junctions); the slab's bottom (last two triangles) lies below."""
-    rect = literal.rect
-    parts = [rect(1, 0.2, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
-             rect(0, 0.0, (0.2, 3), (0, 4), 1), rect(0, 4.0, (0.2, 3), (0, 4), -1),
-             rect(2, 0.0, (0, 4), (0.2, 3), 1)]
-    xs = np.concatenate([[0.0], np.sort(np.random.default_rng(5).uniform(0.1, 3.9, 22)), [4.0]])
-    parts += [rect(2, 4.0, (a, b), (0.2, 3.0), -1) for a, b in zip(xs[:-1], xs[1:])]
-    parts.append(rect(1, 0.0, (0, 5), (0, 4), 1))
-    return literal.world(parts, name="crease")
-
-
 @pytest.mark.parametrize("mode", MODES)
 def test_the_rasteriser_sees_nothing_through_a_repaired_crease(literal, mode):
     profile = get_profile(get_profile("ipaq-hx2490b"), mode) if mode != "float64" \
         else get_profile("ipaq-hx2490b")
-    world = crease_world(literal)
+    world = literal.crease_world()
     fixed, repair = repair_tjunctions(world)
     assert repair.junctions >= 22 and len(unshared_edges(fixed)) < len(unshared_edges(world))
     far = np.arange(world.triangle_count - 2, world.triangle_count)
     far_fixed = np.flatnonzero(np.isin(repair.parent, far))
     before = after = 0
-    for cam in crease_cameras(profile, 100):
+    for cam in literal.crease_cameras(profile, 100):
         before += np.isin(far, item_buffer(world, None, cam, profile, cull_back=False)).any()
         after += np.isin(far_fixed, item_buffer(fixed, None, cam, profile,
                                                 cull_back=False)).any()
@@ -158,7 +133,7 @@ def test_a_partition_keeps_its_repair_and_refuses_the_other_world(tmp_path, lite
     from vismobile.partition import load_partition, partition, save_partition
 
     path = tmp_path / "crease.obj"
-    crease_world(literal).to_obj(path)
+    literal.crease_world().to_obj(path)
     plain, fixed = load_world(path), load_world(path, repair="tjunctions")
     assert plain.repair is None and fixed.repair == "tjunctions"
     assert fixed.triangle_count > plain.triangle_count

@@ -438,9 +438,10 @@ def test_a_border_pixels_depth_bounds_the_occluder_just_off_screen():
 
 # ---- the triangle's shape: only pixels its (moved) shape may reach are read ------------------
 
-def shape_test(tris, depth, move=0.0, shift=0.0):
-    """hidden of camera-space triangles (K, 3, 3) against the (H, W) depth buffer without a
-    screen, each corner moved by up to `move` per coordinate, occluders by `shift` tangents."""
+def shape_test(tris, depth, move=0.0, shift=0.0, screen=(0, 0)):
+    """hidden of camera-space triangles (K, 3, 3) against the (H, W) depth buffer, with the
+    centre test of an sw x sh screen (sw 0: no screen), each corner moved by up to `move` per
+    coordinate (the buffer's and the screen's), occluders by `shift` tangents everywhere."""
     from vismobile.culling.hiz import hidden_triangles, shift_table_size
 
     tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
@@ -453,7 +454,7 @@ def shape_test(tris, depth, move=0.0, shift=0.0):
     hidden, subpixel, zmin = np.empty(n, bool), np.empty(n, bool), np.empty(n)
     hidden_triangles(np.arange(n), tris.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3),
                      np.zeros(3), np.eye(3), 0.1, TX, TY, W, H, move, shift, 0.0, 0.0, flat,
-                     tmax, table, *TILE, True, 0, 0, move, hidden, subpixel, zmin)
+                     tmax, table, *TILE, True, *screen, move, hidden, subpixel, zmin)
     return hidden
 
 

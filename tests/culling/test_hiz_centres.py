@@ -4,29 +4,12 @@ can be, the pixel centres, against the buffer pixels within the occluders' shift
 import numpy as np
 import pytest
 
-from vismobile.culling.hiz import build_tiles
-
-from .test_hiz import TILE, TX, TY, H, W, camera_triangle
+from .test_hiz import TX, TY, H, W, camera_triangle, shape_test
 
 
 def screen_test(tris, depth, move=0.0, shift=0.0, screen=(2 * W, 2 * H)):
-    """hidden of camera-space triangles (K, 3, 3) against the (H, W) depth buffer with the
-    centre test of an sw x sh screen (sw 0: off), each corner moved by up to `move` per
-    coordinate (the buffer's and the screen's), occluders by `shift` tangents everywhere."""
-    from vismobile.culling.hiz import hidden_triangles, shift_table_size
-
-    tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
-    cols, rows = W // TILE[0], H // TILE[1]
-    flat = np.ascontiguousarray(np.asarray(depth, dtype=float).ravel())
-    tmax, tany, tmin = np.empty(rows * cols), np.empty(rows * cols, bool), np.empty(rows * cols)
-    build_tiles(flat, W, H, *TILE, tmax, tany, tmin)
-    table = np.full(shift_table_size(rows, cols), np.inf)
-    n = len(tris)
-    hidden, subpixel, zmin = np.empty(n, bool), np.empty(n, bool), np.empty(n)
-    hidden_triangles(np.arange(n), tris.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3),
-                     np.zeros(3), np.eye(3), 0.1, TX, TY, W, H, move, shift, 0.0, 0.0, flat,
-                     tmax, table, *TILE, True, *screen, move, hidden, subpixel, zmin)
-    return hidden
+    """test_hiz.shape_test with the centre test of a 2x screen by default."""
+    return shape_test(tris, depth, move, shift, screen)
 
 
 def centre_fragments_in_front(tri, depth, move, shift_px, rng, screen=(2 * W, 2 * H)):

@@ -10,35 +10,9 @@ from vismobile.culling import Culler, device_options
 from vismobile.device.profile import get_profile
 from vismobile.partition import partition
 from vismobile.render import SENTINEL, item_buffer
-from vismobile.world.camera import Camera
 
 MODES = ("float64", "float32", "fixed16.16")
 CAMERAS = 100
-
-
-def crease_world(literal):
-    """Room x, z in [0, 4], y in [0.2, 3] (faces in), its far wall z = 4 in 22 strips whose
-    bottom corners lie along the floor's edge; the slab's bottom y = 0 below, z in [0, 5],
-    facing up (its two triangles, last, are what the cracks show)."""
-    rect = literal.rect
-    parts = [rect(1, 0.2, (0, 4), (0, 4), 1), rect(1, 3.0, (0, 4), (0, 4), -1),
-             rect(0, 0.0, (0.2, 3), (0, 4), 1), rect(0, 4.0, (0.2, 3), (0, 4), -1),
-             rect(2, 0.0, (0, 4), (0.2, 3), 1)]
-    xs = np.concatenate([[0.0], np.sort(np.random.default_rng(5).uniform(0.1, 3.9, 22)), [4.0]])
-    parts += [rect(2, 4.0, (a, b), (0.2, 3.0), -1) for a, b in zip(xs[:-1], xs[1:])]
-    parts.append(rect(1, 0.0, (0, 5), (0, 4), 1))
-    return literal.world(parts, name="crease")
-
-
-def crease_cameras(profile, count):
-    """Eyes in the room looking down at random points of the crease (floor meets far wall)."""
-    rng = np.random.default_rng(0)
-    for _ in range(count):
-        eye = np.array([rng.uniform(0.5, 3.5), rng.uniform(0.5, 2.8), rng.uniform(0.5, 3.0)])
-        look = np.array([rng.uniform(0, 4), 0.2, 4.0]) - eye
-        yield Camera(eye, yaw=np.degrees(np.arctan2(look[0], -look[2])),
-                     pitch=np.degrees(np.arctan2(look[1], np.hypot(look[0], look[2]))),
-                     fov=rng.uniform(30, 100), near=0.1, aspect=profile.aspect)
 
 
 @pytest.fixture(scope="module")
@@ -49,20 +23,20 @@ def crease(literal):
     edges = [np.array([0.0, 4.0]), np.array([0.0, 0.2, 3.0]), np.array([0.0, 4.0, 5.0])]
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(pvs_cells, "paired_edges", lambda world, cells: edges)
-        part = partition(crease_world(literal), "portal", depth=1, pvs="conservative")
+        part = partition(literal.crease_world(), "portal", depth=1, pvs="conservative")
     assert len(part.extras["pvs_cells"]) == 4
     return part
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_pvs_keeps_what_shows_through_a_t_junction_crease(kit, crease, mode):
+def test_pvs_keeps_what_shows_through_a_t_junction_crease(kit, literal, crease, mode):
     world = crease.world
     target = np.arange(world.triangle_count - 2, world.triangle_count)
     profile = kit.PROFILE if mode == "float64" else get_profile(kit.PROFILE, mode)
     options = {"arithmetic": "float64"} if mode == "float64" else device_options(profile)
     culler = Culler(crease, "pvs,vfc", **options)
     through = 0
-    for cam in crease_cameras(profile, CAMERAS):
+    for cam in literal.crease_cameras(profile, CAMERAS):
         ids = item_buffer(world, None, cam, profile, cull_back=False)
         shown = np.flatnonzero(np.isin(target, ids))
         result = culler.cull(cam)
@@ -79,7 +53,7 @@ def repaired(literal):
     from vismobile.partition import pvs_cells
     from vismobile.world.tjunctions import repair_tjunctions
 
-    world, _ = repair_tjunctions(crease_world(literal))
+    world, _ = repair_tjunctions(literal.crease_world())
     edges = [np.array([0.0, 4.0]), np.array([0.0, 0.2, 3.0]), np.array([0.0, 4.0, 5.0])]
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(pvs_cells, "paired_edges", lambda world, cells: edges)
@@ -87,7 +61,7 @@ def repaired(literal):
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_a_repaired_crease_is_sealed(kit, repaired, mode):
+def test_a_repaired_crease_is_sealed(kit, literal, repaired, mode):
     """After --repair tjunctions the crease is no crack and the bake seals its cells: the slab
     below is left out of the room's set, and no crease camera sees it (or anything dropped)."""
     world = repaired.world
@@ -97,7 +71,7 @@ def test_a_repaired_crease_is_sealed(kit, repaired, mode):
     options = {"arithmetic": "float64"} if mode == "float64" else device_options(profile)
     culler = Culler(repaired, "pvs,vfc", **options)
     left_out = 0
-    for cam in crease_cameras(profile, CAMERAS):
+    for cam in literal.crease_cameras(profile, CAMERAS):
         ids = item_buffer(world, None, cam, profile, cull_back=False)
         result = culler.cull(cam)
         assert "pvs.fallbacks" not in result.stats
