@@ -12,7 +12,7 @@ from vismobile.device.profile import get_profile
 from vismobile.partition import partition
 from vismobile.render import item_buffer
 
-from .test_pvs_cracks import MODES, crease_cameras, crease_world
+from .test_pvs_cracks import MODES
 
 CAMERAS = 100
 
@@ -48,12 +48,12 @@ def test_sliver_planes_hold_every_line_through_a_gap():
 def crease_cells(literal):
     """Portal cells of the crease room: the room, the slab below it and the strip beyond its
     far wall (y cut at 0.2, z at 4)."""
-    world = crease_world(literal)
+    world = literal.crease_world()
     return partition(world, "portal", depth=1, slabs=(1, [0.2 / 3, 2.8 / 3], [0.8, 0.2]))
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_portals_keep_what_shows_through_a_t_junction_crease(kit, crease_cells, mode):
+def test_portals_keep_what_shows_through_a_t_junction_crease(kit, literal, crease_cells, mode):
     world = crease_cells.world
     assert crease_cells.extras["grid_y"][1] == pytest.approx(0.2)
     target = np.arange(world.triangle_count - 2, world.triangle_count)
@@ -62,7 +62,7 @@ def test_portals_keep_what_shows_through_a_t_junction_crease(kit, crease_cells, 
     with_cracks = Culler(crease_cells, "portals", portals={"cracks": True}, **options)
     without = Culler(crease_cells, "portals", portals={"cracks": False}, **options)
     through = dropped_without = 0
-    for cam in crease_cameras(profile, CAMERAS):
+    for cam in literal.crease_cameras(profile, CAMERAS):
         ids = item_buffer(world, None, cam, profile, cull_back=False)
         shown = target[np.isin(target, ids)]
         result = with_cracks.cull(cam)

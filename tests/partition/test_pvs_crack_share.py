@@ -25,8 +25,7 @@ def _module(path, name):
 @pytest.fixture(scope="module")
 def crease(literal):
     """(world, view grid, grow, tol, room cell): the crease room's four view cells."""
-    world = _module(ROOT / "tests" / "culling" / "test_pvs_cracks.py",
-                    "crease_test").crease_world(literal)
+    world = literal.crease_world()
     edges = [np.array([0.0, 4.0]), np.array([0.0, 0.2, 3.0]), np.array([0.0, 4.0, 5.0])]
     grow = pvs.bake_grow(world)
     with pytest.MonkeyPatch.context() as patch:
