@@ -17,25 +17,30 @@ CUBE_OBJ = ("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 
             "f 2 3 7\nf 2 7 6\nf 1 5 8\nf 1 8 4\n")
 
 
-def load_structure(path):
-    """partition's --structure text, through the CLI on a cube: built (rc 0) or refused in one
-    line (rc 2, raised as VisMobileError); any other outcome is a finding."""
+def run_option(argv, option, text):
+    """The CLI run with argv: accepted (rc 0) or refused in one line (rc 2, raised as
+    VisMobileError naming option and text); any other outcome is a finding (RuntimeError)."""
     from vismobile.app.cli import main as cli
     from vismobile.errors import VisMobileError
 
+    try:
+        rc = cli(argv)
+    except SystemExit as exit:  # argparse's own refusal
+        rc = exit.code
+    if rc == 2:
+        raise VisMobileError(f"{option} {text!r} refused")
+    if rc != 0:
+        raise RuntimeError(f"{argv[0]} {option} {text!r}: exit code {rc}")
+
+
+def load_structure(path):
+    """partition's --structure text, through the CLI on a cube (run_option)."""
     text = path.read_bytes()[:256].decode("utf-8", errors="replace").replace("\x00", "")
     cube = path.with_name("cube.obj")
     if not cube.exists():
         cube.write_text(CUBE_OBJ)
-    try:
-        rc = cli(["partition", str(cube), f"--structure={text}", "-o",
-                  str(path.with_suffix(".vmp"))])
-    except SystemExit as exit:  # argparse's own refusal
-        rc = exit.code
-    if rc == 2:
-        raise VisMobileError(f"--structure {text!r} refused")
-    if rc != 0:
-        raise RuntimeError(f"partition --structure {text!r}: exit code {rc}")
+    run_option(["partition", str(cube), f"--structure={text}", "-o",
+                str(path.with_suffix(".vmp"))], "--structure", text)
 
 
 # compare's and tune's --structures lists: depth ranges, baked PVS labels (+pvs, +pvs=...).

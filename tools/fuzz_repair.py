@@ -18,23 +18,14 @@ def repair_seeds() -> dict:
 
 
 def load_repair(path):
-    """info's --repair value through the CLI on a small world: accepted (rc 0) or refused in
-    one line (rc 2, raised as VisMobileError); any other outcome is a finding."""
-    from vismobile.app.cli import main as cli
-    from vismobile.errors import VisMobileError
+    """info's --repair value through the CLI on a small world (fuzz_options.run_option)."""
+    from fuzz_options import run_option
 
     text = path.read_bytes()[:256].decode("utf-8", errors="replace").replace("\x00", "")
     world = path.with_name("tjunction.obj")
     if not world.exists():
         world.write_bytes(TJUNCTION_OBJ)
-    try:
-        rc = cli(["info", str(world), f"--repair={text}"])
-    except SystemExit as exit:  # argparse's own refusal
-        rc = exit.code
-    if rc == 2:
-        raise VisMobileError(f"--repair {text!r} refused")
-    if rc != 0:
-        raise RuntimeError(f"info --repair {text!r}: exit code {rc}")
+    run_option(["info", str(world), f"--repair={text}"], "--repair", text)
 
 
 def load_obj_repair(path):
