@@ -164,22 +164,30 @@ def in_cell_cameras(boxes, count, rng):
                      fov=rng.uniform(10, 120), near=0.1, aspect=PROFILE.aspect)
 
 
+def in_cell_checks(part, count, seed) -> int:
+    """Asserts `pvs+vfc` keeps all the item buffer shows from count in-cell cameras, the
+    arithmetic modes in turn; returns how many used the PVS (did not fall back)."""
+    cullers = {m: Culler(part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
+                                              else device_options(get_profile(PROFILE, m))))
+               for m in MODES}
+    used = 0
+    cameras = in_cell_cameras(part.extras["pvs_cells"], count, np.random.default_rng(seed))
+    for i, cam in enumerate(cameras):
+        mode = MODES[i % 3]
+        profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
+        r = cullers[mode].cull(cam)
+        ids = np.unique(item_buffer(part.world, None, cam, profile, cull_back=False))
+        shown = ids[ids != SENTINEL].astype(np.int64)
+        assert not len(np.setdiff1d(shown, r.triangles)), (i, mode, cam.eye)
+        used += "pvs.fallbacks" not in r.stats
+    return used
+
+
 def test_in_cell_cameras_drop_nothing_in_every_mode(baked):
     world = baked.world
     assert "pvs_cover" in baked.extras
     boxes = baked.extras["pvs_cells"]
-    cullers = {m: Culler(baked, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
-                                               else device_options(get_profile(PROFILE, m))))
-               for m in MODES}
-    used = 0
-    for i, cam in enumerate(in_cell_cameras(boxes, 150, np.random.default_rng(11))):
-        mode = MODES[i % 3]
-        profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
-        r = cullers[mode].cull(cam)
-        ids = np.unique(item_buffer(world, None, cam, profile, cull_back=False))
-        shown = ids[ids != SENTINEL].astype(np.int64)
-        assert not len(np.setdiff1d(shown, r.triangles)), (i, mode, cam.eye)
-        used += "pvs.fallbacks" not in r.stats
+    used = in_cell_checks(baked, 150, 11)
     # near 0.1 and fov <= 120 fit the cover; a camera on a cell's side that faces a building's
     # inside or the world's edge falls back (its near plane may leave the cells)
     assert used > 120
@@ -201,19 +209,7 @@ def test_a_mesh_object_is_only_hidden_never_hides(cow):
     patterns, ids = decode(part.extras, len(boxes), world.triangle_count)
     bits = np.unpackbits(patterns, axis=1)[:, :len(boxes)][ids.astype(np.int64)]
     assert (bits[herd] == 0).any()  # some cell's set leaves some of the cow out
-    cullers = {m: Culler(part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
-                                              else device_options(get_profile(PROFILE, m))))
-               for m in MODES}
-    used = 0
-    for i, cam in enumerate(in_cell_cameras(boxes, 60, np.random.default_rng(4))):
-        mode = MODES[i % 3]
-        profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
-        ids = np.unique(item_buffer(world, None, cam, profile, cull_back=False))
-        shown = ids[ids != SENTINEL].astype(np.int64)
-        r = cullers[mode].cull(cam)
-        assert not len(np.setdiff1d(shown, r.triangles)), (i, mode)
-        used += "pvs.fallbacks" not in r.stats
-    assert used > 45
+    assert in_cell_checks(part, 60, 4) > 45
 
 
 def test_cameras_off_the_street_layer_fall_back(baked):
