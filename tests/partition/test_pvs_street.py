@@ -164,14 +164,16 @@ def in_cell_cameras(boxes, count, rng):
                      fov=rng.uniform(10, 120), near=0.1, aspect=PROFILE.aspect)
 
 
-def in_cell_checks(part, count, seed) -> int:
-    """Asserts `pvs+vfc` keeps all the item buffer shows from count in-cell cameras, the
-    arithmetic modes in turn; returns how many used the PVS (did not fall back)."""
+def in_cell_checks(part, count, seed, boxes=None) -> int:
+    """Asserts `pvs+vfc` keeps all the item buffer shows from count in-cell cameras (in boxes,
+    default every view cell), the arithmetic modes in turn; returns how many used the PVS
+    (did not fall back)."""
     cullers = {m: Culler(part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
                                               else device_options(get_profile(PROFILE, m))))
                for m in MODES}
     used = 0
-    cameras = in_cell_cameras(part.extras["pvs_cells"], count, np.random.default_rng(seed))
+    cameras = in_cell_cameras(part.extras["pvs_cells"] if boxes is None else boxes, count,
+                              np.random.default_rng(seed))
     for i, cam in enumerate(cameras):
         mode = MODES[i % 3]
         profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)

@@ -105,6 +105,12 @@ def run(args) -> int:
         mode = params.pop("pvs", None)
         if mode is not None and str(mode).startswith("sampled"):
             mode = f"sampled:{_samples(mode)}"
+        from ..partition.pvs import fly_option
+
+        fly = fly_option(params.pop("fly", "off"))
+        if fly and mode != "conservative":
+            raise ValueError("fly=on bakes fly-over cells into a conservative PVS: add "
+                             ",pvs=conservative")
         if args.scheduler is not None:
             from ..study.distributed import scheduler_address
 
@@ -127,6 +133,8 @@ def run(args) -> int:
             result = partition(world, kind, progress=bar, **params)
         finally:
             bar.close()
+        if fly:
+            result.params["fly"] = "on"  # read by the bake (partition/pvs.py)
         if mode is not None:
             result, bake = _bake(result, mode, args, args.world.name)
     except ValueError as error:

@@ -23,7 +23,9 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                parameters keyword params override;
                pvs="conservative" (any kind) bakes the view cells' visible sets (pvs.py);
                with pvs_doors=True (an AnimatedWorld), also what each of its doors shut
-               hides from each cell (the bake walks again per door a cell's lines cross)
+               hides from each cell (the bake walks again per door a cell's lines cross);
+               with fly="on" too, fly-over cells over an outdoor world's street cells
+               (pvs_fly.py)
     progress : optional callable(done, total) for long builds
     An AnimatedWorld (world/animated.py) gives a dynamic.AnimatedPartition: its static
     triangles partitioned as asked (none: a one-node octree), its moving objects left to the
@@ -60,6 +62,7 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     build = builders[kind]
     params = dict(params)
     pvs_mode = params.pop("pvs", None)
+    fly = params.pop("fly", None)
     pvs_doors = params.pop("pvs_door_boxes", None)  # door boxes (D, 2, 3) of an AnimatedWorld
     known = set(build.__code__.co_varnames[1:build.__code__.co_argcount]) - {"progress"}
     unknown = sorted(set(params) - known)
@@ -75,7 +78,15 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
 
         if pvs_mode not in MODES:
             raise ValueError(f"unknown pvs mode {pvs_mode!r}; valid: {', '.join(MODES)}")
+    if fly is not None:
+        from .pvs import fly_option
+
+        if fly_option(fly) and pvs_mode != "conservative":
+            raise ValueError("fly=on bakes fly-over cells into a conservative PVS: give "
+                             "pvs=conservative too")
     result = build(world, progress=progress, **params)
+    if fly is not None and fly_option(fly):
+        result.params["fly"] = "on"
     if pvs_mode is not None:
         from .pvs import bake
 

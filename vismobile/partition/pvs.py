@@ -58,6 +58,14 @@ BACK_RELATIVE, BACK_MIN = 0.002, 0.5
 DEVICE_RELATIVE, DEVICE_ABSOLUTE = 2.0 ** -19, 2.0 ** -15
 
 
+def fly_option(value) -> bool:
+    """The fly= option (fly-over cells over the street cells, pvs_fly.py): on/off, true/false."""
+    text = str(value).strip().lower()
+    if text not in ("on", "off", "true", "false"):
+        raise ValueError(f"fly={value}: expected fly=on or fly=off")
+    return text in ("on", "true")
+
+
 def back_delta(world) -> float:
     """The device move the back-face test covers (twice precision.device_move's, at twice the
     world's magnitude)."""
@@ -195,6 +203,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
                Dask Client: world and view grid scattered to its workers once)
     doors    : optional (D, 2, 3) closed boxes of doors (world/doors.py): per view cell and
                door, what the door shut hides from the cell (door_sets; not for a BSP)
+    partition.params["fly"] "on": fly-over cells over an outdoor world's street cells
+               (pvs_fly.py; ValueError when the world gets no street cells)
     returns  : (extras dict, stats dict: seconds, cells, overflowed cells, walks)
     """
     from .pvs_cells import view_grid
@@ -203,6 +213,7 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         raise ValueError(f"unknown pvs mode {mode!r}; valid: {', '.join(MODES)}")
     began = time.perf_counter()
     world = partition.world
+    fly = fly_option(partition.params.get("fly", "off"))
     if partition.kind != "bsp" and doors is None and cells is None:
         from .pvs_columns import find_columns
         from .pvs_street import COVER, NEAR_MIN, bake_street, outdoor
@@ -212,7 +223,7 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
             grow = bake_grow(world)
             tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
             boxes, masks, stats = bake_street(world, grow, tol, progress, jobs, executor,
-                                              EXECUTOR_CHUNKS, columns)
+                                              EXECUTOR_CHUNKS, columns, fly)
             masks = with_solids(world, boxes, masks, grow)
             extras = {"pvs_cells": boxes.copy(), **encode(masks, len(boxes)),
                       "pvs_grow": np.array([grow], dtype=np.float64),
@@ -220,6 +231,9 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
                       "pvs_cover": np.array([COVER, NEAR_MIN], dtype=np.float64)}
             stats["seconds"] = time.perf_counter() - began
             return extras, stats
+    if fly:
+        raise ValueError("fly=on: fly-over cells lie over an outdoor world's street cells (a "
+                         "world of standing blocks, not a BSP, no doors); this one has none")
     grow = bake_grow(world)
     # a world whose T-junctions were repaired (world/tjunctions.py) shares every crease's
     # corners, so the rasteriser opens no crack there: its thin cells are sealed at the walls

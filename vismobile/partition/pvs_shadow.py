@@ -10,8 +10,11 @@ coordinates around s, per direction bin that the wedge wholly covers, the wall b
 the wall's line taken at its farthest over the bin (the least slope, the latest start). The
 steps of all walls fuse into a staircase per bin (a point under any one step is hidden). A
 triangle is hidden from s when, over every bin its x-z shadow spans, its highest corner is
-below sy + slope dmin for a step starting within dmin (its least x-z distance from s; a step's
-height only grows farther out). A view cell's hidden set is what every sample hides.
+below sy + slope dmin for a step starting within dmin (its least x-z distance from s; a rising
+step's height only grows farther out, a falling one's is taken at the triangle's farthest
+corner). A column no taller than s (a fly-over cell's, pvs_fly.py) hides through its exit
+walls instead: a line from s leaving the footprint below the top passed through it. A view
+cell's hidden set is what every sample hides.
 
 Conservative, with the constants pvs_street.py derives (shrinking by the samples' spacing,
 the push-back `slack` x the distance + `extra` for the depth buffer, ANGLE_SLACK around the
@@ -86,12 +89,20 @@ def sample_steps(sx, sy, sz, polys, starts, tops, use, slack, extra, steps, slop
     """The fused shadows of the shrunk columns' walls from the sample (sx, sy, sz), per
     direction bin b (angle atan2(dz, dx) in [-pi + b 2 pi / BINS, + 2 pi / BINS)): steps
     (start, slope): a point in the bin at distance d >= start (x-z) below sy + slope d is hidden.
-    Only bins wholly inside a wall's wedge take it; start and slope are taken at the bin's
-    worse end (the wall's line farthest there), start pushed back by slack and extra.
+    Only bins wholly inside a wall's wedge take it; start is taken where the wall's line is
+    farthest over the bin, pushed back by slack and extra.
+
+    A column taller than the sample hides through its front walls (the sample outside their
+    line): a line below the wall's top where it crosses it, slope (top - sy) / the farthest
+    crossing. A column no taller than the sample hides through its exit walls (the sample on
+    their inner side, whether above the roof or beside the column): a descending line that
+    leaves the footprint below the top passed through the prism (it entered through the roof
+    or a front wall, nearer still), slope (top - sy) / the nearest crossing (<= 0: the least
+    shadow over the bin).
 
     polys : (V, 2) shrunk footprints' corners (x, z), counter-clockwise, column k's at
             starts[k]..starts[k + 1]; tops (N,) their tops (lowered by the bake's slack),
-            all above sy where use[k]; cosines, sines (BINS + 1,) of the bins' edge angles
+            used where use[k]; cosines, sines (BINS + 1,) of the bins' edge angles
     """
     count[:] = 0
     width = 2.0 * np.pi / BINS
@@ -99,6 +110,7 @@ def sample_steps(sx, sy, sz, polys, starts, tops, use, slack, extra, steps, slop
         if not use[k]:
             continue
         h = tops[k]
+        tall = h > sy
         first, last = starts[k], starts[k + 1]
         for e in range(first, last):
             ax, az = polys[e, 0], polys[e, 1]
@@ -108,11 +120,19 @@ def sample_steps(sx, sy, sz, polys, starts, tops, use, slack, extra, steps, slop
             length = np.sqrt(ex * ex + ez * ez)
             nx, nz = -ez / length, ex / length  # inward normal (left of a -> b)
             d = nx * (ax - sx) + nz * (az - sz)  # > 0: a front wall, its inside beyond it
-            if not d > 0.0:
-                continue
-            # seen from outside, a -> b turns clockwise: the wedge runs from b to a
-            lo = np.arctan2(bz - sz, bx - sx)
-            hi = np.arctan2(az - sz, ax - sx)
+            if tall:
+                if not d > 0.0:
+                    continue
+                # seen from outside, a -> b turns clockwise: the wedge runs from b to a
+                lo = np.arctan2(bz - sz, bx - sx)
+                hi = np.arctan2(az - sz, ax - sx)
+            else:
+                if not d < 0.0:
+                    continue
+                # an exit wall: seen from its inner side a -> b turns counter-clockwise
+                nx, nz, d = -nx, -nz, -d  # the outward normal, the distance to the line
+                lo = np.arctan2(az - sz, ax - sx)
+                hi = np.arctan2(bz - sz, bx - sx)
             if hi < lo:
                 hi += 2.0 * np.pi
             if hi - lo >= np.pi:
@@ -127,8 +147,9 @@ def sample_steps(sx, sy, sz, polys, starts, tops, use, slack, extra, steps, slop
                 if not c > 0.0:
                     continue
                 far = d / c  # the wall's line at its farthest over the bin
+                at = far if tall else d / max(c0, c1)  # the least shadow's crossing
                 _insert(steps, slopes, count, b % BINS, far * (1.0 + slack) + extra,
-                        (h - sy) / far)
+                        (h - sy) / at)
 
 
 @njit(cache=True, inline="always")
@@ -155,18 +176,21 @@ def _wrap(r):
 def _polygon_hidden(xs, zs, n, top, sy, steps, slopes, count):
     """The convex x-z polygon (xs, zs)[:n] (relative to the sample, either winding), up to
     height top, is hidden by the steps: the sample is outside it, and over every direction bin
-    its shadow spans (widened by ANGLE_SLACK) sy + slope dmin > top for a step starting within
-    dmin, its least x-z distance from the sample."""
+    its shadow spans (widened by ANGLE_SLACK) some step starting within dmin, its least x-z
+    distance from the sample, is above top all over it: sy + slope dmin > top for a rising
+    step, sy + slope dmax > top for a falling one (dmax: its farthest corner)."""
     width = 2.0 * np.pi / BINS
     positive = True
     negative = True
     dmin = np.inf
+    dmax = 0.0
     for i in range(n):
         j = (i + 1) % n
         c = xs[i] * zs[j] - zs[i] * xs[j]
         positive = positive and c >= 0.0
         negative = negative and c <= 0.0
         dmin = min(dmin, _edge_distance(xs[i], zs[i], xs[j], zs[j]))
+        dmax = max(dmax, np.sqrt(xs[i] * xs[i] + zs[i] * zs[i]))
     if positive or negative or not dmin > 0.0:  # the sample inside or on it
         return False
     a0 = np.arctan2(zs[0], xs[0])
@@ -180,9 +204,10 @@ def _polygon_hidden(xs, zs, n, top, sy, steps, slopes, count):
         b = bb % BINS
         best = -np.inf
         for i in range(count[b]):
-            if steps[b, i] <= dmin and slopes[b, i] > best:
-                best = slopes[b, i]
-        if not (sy + best * dmin > top):
+            if steps[b, i] <= dmin:
+                s = slopes[b, i]
+                best = max(best, sy + s * (dmin if s >= 0.0 else dmax))
+        if not (best > top):
             return False
     return True
 

@@ -40,7 +40,9 @@ import time
 import numpy as np
 
 from .pvs_columns import find_columns
+from .pvs_fly import face_triangles, fly_cells, usable
 from .pvs_shadow import cell_hidden, erode, triangle_groups
+from .pvs_squares import near, polygon_table, square_cells
 
 CELL, MIN_CELL = 8.0, 4.0  # view cells' x-z size, and the least a split makes (world units)
 EYE_LOW, EYE_HIGH = 1.0, 3.0  # the cells' y above the floor (a walker's or a car's eye)
@@ -83,100 +85,24 @@ def outdoor(world, part) -> bool:
     return bool(flat < OVERHEAD * size[0] * size[2])
 
 
-def polygon_table(polys) -> tuple:
-    """(N, H, 2) the convex polygons padded by repeating their last corner, and (N, 2, 2)
-    their x-z boxes, for near()."""
-    size = max((len(p) for p in polys), default=1)
-    table = np.zeros((len(polys), size, 2))
-    for k, p in enumerate(polys):
-        table[k, :len(p)] = p
-        table[k, len(p):] = p[-1]
-    return table, np.stack([table.min(axis=1), table.max(axis=1)], axis=1)
-
-
-def near(lo, hi, table, pad) -> np.ndarray:
-    """(B, N) bool: the x-z squares lo, hi (B, 2) grown by pad may meet each convex polygon of
-    polygon_table (a separating-axis test on the boxes' axes and the polygons' edge normals;
-    a repeated corner's empty edge separates nothing)."""
-    polys, box = table
-    lo = np.asarray(lo, dtype=np.float64).reshape(-1, 2) - pad
-    hi = np.asarray(hi, dtype=np.float64).reshape(-1, 2) + pad
-    out = ((box[None, :, 0] <= hi[:, None]) & (box[None, :, 1] >= lo[:, None])).all(axis=2)
-    b, k = np.nonzero(out)
-    if not len(b):
-        return out
-    p = polys[k]
-    edge = np.roll(p, -1, axis=1) - p
-    normal = np.stack([edge[..., 1], -edge[..., 0]], axis=2)  # outward (right of a -> b)
-    centre, half = ((lo + hi) / 2)[b], ((hi - lo) / 2)[b]
-    reach_ = np.abs(normal) @ half[:, :, None]
-    side = (normal @ centre[:, :, None])[..., 0] - np.einsum("kij,kij->ki", normal, p)
-    out[b, k] = ~(side > reach_[..., 0]).any(axis=1)
-    return out
-
-
-def inside(lo, hi, polys) -> np.ndarray:
-    """(B,) bool: the x-z square lo, hi (B, 2) lies wholly inside some polygon of polys (a
-    list of counter-clockwise convex (H, 2))."""
-    lo, hi = np.asarray(lo).reshape(-1, 2), np.asarray(hi).reshape(-1, 2)
-    corners = np.stack([lo, np.column_stack([hi[:, 0], lo[:, 1]]), hi,
-                        np.column_stack([lo[:, 0], hi[:, 1]])], axis=1)  # (B, 4, 2)
-    out = np.zeros(len(lo), dtype=bool)
-    for p in polys:
-        edge = np.roll(p, -1, axis=0) - p
-        inward = np.column_stack([-edge[:, 1], edge[:, 0]])
-        side = corners @ inward.T - np.einsum("ij,ij->i", inward, p)  # (B, 4, H)
-        out |= (side > 0).all(axis=(1, 2))
-    return out
-
-
 def street_cells(world, footprints, pad) -> np.ndarray:
     """(V, 2, 3) float64 view-cell boxes (module docstring): CELL squares split near the
     footprints (within pad) down to MIN_CELL, those wholly inside a footprint left out."""
     low, high = world.extent
     y0 = low[1] + min(EYE_LOW, 0.25 * (high[1] - low[1]))
     y1 = low[1] + min(EYE_HIGH, 0.5 * (high[1] - low[1]))
+    return square_cells(world, footprints, footprints, pad, y0, y1, street_cell(world),
+                        MIN_CELL)
+
+
+def street_cell(world) -> float:
+    """The street cells' square side: CELL, doubled until the grid holds at most MAX_CELLS."""
+    low, high = world.extent
     size = high[[0, 2]] - low[[0, 2]]
     cell = CELL
     while np.prod(np.ceil(size / cell)) > MAX_CELLS:
         cell *= 2.0
-    counts = np.maximum(np.ceil(size / cell).astype(int), 1)
-    i, k = np.meshgrid(np.arange(counts[0]), np.arange(counts[1]), indexing="ij")
-    corner = low[[0, 2]] + np.column_stack([i.ravel(), k.ravel()]) * cell
-    table = polygon_table(footprints)
-    keep = []
-    while len(corner):
-        lo, hi = corner, np.minimum(corner + cell, high[[0, 2]])
-        close = near(lo, hi, table, pad).any(axis=1) if len(footprints) else \
-            np.zeros(len(lo), dtype=bool)
-        if cell > MIN_CELL * 1.0001:
-            keep.append((lo[~close], hi[~close]))
-            half = cell / 2
-            split = corner[close]
-            corner = np.concatenate([split + np.array([a, b]) * half for a in (0, 1)
-                                     for b in (0, 1)])
-            corner = corner[(corner < high[[0, 2]]).all(axis=1)]
-            cell = half
-            continue
-        out = close & inside(lo, hi, footprints)
-        keep.append((lo[~out], hi[~out]))
-        break
-    lo = np.concatenate([k[0] for k in keep])
-    hi = np.concatenate([k[1] for k in keep])
-    boxes = np.stack([np.column_stack([lo[:, 0], np.full(len(lo), y0), lo[:, 1]]),
-                      np.column_stack([hi[:, 0], np.full(len(lo), y1), hi[:, 1]])], axis=1)
-    return boxes[np.argsort(morton(boxes[:, 0, [0, 2]], low[[0, 2]], MIN_CELL), kind="stable")]
-
-
-def morton(corners, low, step) -> np.ndarray:
-    """(V,) int64 Morton (Z-order) keys of x-z corners on a lattice of step from low: cells
-    close in the plane get close ranks, so a triangle's cell pattern has long runs (zlib: 17%
-    smaller on W5 than rows of z)."""
-    q = np.floor((np.asarray(corners) - low) / step + 0.5).astype(np.int64)
-    key = np.zeros(len(q), dtype=np.int64)
-    for b in range(20):
-        key |= ((q[:, 0] >> b) & 1) << (2 * b) | ((q[:, 1] >> b) & 1) << (2 * b + 1)
-    return key
+    return cell
 
 
 def boundary_samples(a, b) -> np.ndarray:
@@ -191,11 +117,13 @@ def boundary_samples(a, b) -> np.ndarray:
     return np.column_stack([xz[:, 0], np.full(len(xz), b[1]), xz[:, 1]])
 
 
-def bake_street_cells(world, boxes, polys, starts, valid, tops, footprints, grow, tol, slack):
+def bake_street_cells(world, boxes, polys, starts, valid, tops, footprints, grow, tol, slack,
+                      street_top=np.inf):
     """[(T,) bool visible] per cell box (B, 2, 3): what the shadows from the cell do not hide.
 
     polys, starts : the shrunk footprints' corners (V, 2) and offsets (N + 1,); valid (N,) bool
                     the columns that survived shrinking; tops (N,) lowered by the tolerance
+    street_top    : boxes from this height up are fly-over cells (pvs_fly.py's occluders)
     """
     r = reach()
     table = polygon_table(footprints)
@@ -206,9 +134,15 @@ def bake_street_cells(world, boxes, polys, starts, valid, tops, footprints, grow
         a, b = box[0] - grow, box[1] + grow
         a[1] -= COVER  # a near plane may reach above or below the cell
         b[1] += COVER
-        use = ~near(a[[0, 2]], b[[0, 2]], table, r)[0]  # clear of the region by r
-        use &= valid & (tops > b[1] + tol)  # taller than the region (boundary_samples)
+        fly = box[0, 1] >= street_top
+        if fly:
+            use = usable(a, b, table, valid, tops, r, tol)
+        else:
+            use = ~near(a[[0, 2]], b[[0, 2]], table, r)[0]  # clear of the region by r
+            use &= valid & (tops > b[1] + tol)  # taller than the region (boundary_samples)
         hidden = np.full(world.triangle_count, use.any(), dtype=np.bool_)
+        if fly and use.any():
+            hidden &= ~face_triangles(world, a, b, r)
         if use.any():
             cell_hidden(boundary_samples(a, b), polys, starts, tops, use, slack,
                         slack * 2.0 * (COVER + r), corners, groups, order, gboxes, tol, hidden)
@@ -217,9 +151,10 @@ def bake_street_cells(world, boxes, polys, starts, valid, tops, footprints, grow
 
 
 def bake_street(world, grow, tol, progress=None, jobs=1, executor=None, chunks=32,
-                columns=None) -> tuple:
+                columns=None, fly=False) -> tuple:
     """(boxes (V, 2, 3), masks: V (T,) bool visible sets, stats) of the street cells (module
-    docstring); pvs.bake stores them with pvs_cover (2,) float64 (COVER, NEAR_MIN).
+    docstring), and with fly the fly-over cells above them (pvs_fly.py) after them; pvs.bake
+    stores them with pvs_cover (2,) float64 (COVER, NEAR_MIN).
 
     grow, tol : the bake's growth and plane tolerance (pvs.bake_grow, pvs.TOLERANCE + grow)
     chunks    : source-cell chunks handed to a given executor (a Dask Client or any pool)
@@ -229,6 +164,12 @@ def bake_street(world, grow, tol, progress=None, jobs=1, executor=None, chunks=3
     footprints, _, top, _ = find_columns(world) if columns is None else columns
     r = reach()
     boxes = street_cells(world, footprints, grow + r)
+    street_top = float(boxes[:, 1, 1].max()) if len(boxes) else np.inf
+    street = len(boxes)
+    if fly:
+        boxes = np.concatenate([boxes, fly_cells(world, footprints, top, street_top,
+                                                 street_cell(world), MIN_CELL, grow + r,
+                                                 COVER + grow)])
     shrunk = [erode(p, r + tol) for p in footprints]
     valid = np.array([s is not None for s in shrunk], dtype=bool)
     polys = np.concatenate([s for s in shrunk if s is not None] or [np.zeros((0, 2))])
@@ -236,7 +177,7 @@ def bake_street(world, grow, tol, progress=None, jobs=1, executor=None, chunks=3
     starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     tops = np.asarray(top, dtype=np.float64) - tol
     slack = depth_slack(world, grow)
-    args = (world, polys, starts, valid, tops, footprints, grow, tol, slack)
+    args = (world, polys, starts, valid, tops, footprints, grow, tol, slack, street_top)
     masks = []
     count = len(boxes)
     if executor is not None or (jobs > 1 and count > 1):
@@ -260,7 +201,8 @@ def bake_street(world, grow, tol, progress=None, jobs=1, executor=None, chunks=3
             if progress is not None:
                 progress(len(masks), count)
     stats = {"seconds": time.perf_counter() - began, "cells": count, "overflowed": 0,
-             "walks": 0, "door_sets": 0, "columns": int(valid.sum())}
+             "walks": 0, "door_sets": 0, "columns": int(valid.sum()),
+             "fly_cells": count - street}
     return boxes, masks, stats
 
 
