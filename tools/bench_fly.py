@@ -1,16 +1,20 @@
 """Fly-over view cells benchmark (issue 29, partition/pvs_fly.py): what fly=on costs and saves.
 
     .venv/bin/python tools/bench_fly.py [--worlds w5,w6] [--frames 60] [--random 300] [--jobs 2]
+                                        [--split 4] [--no-street]
 
 Per world: the portal structure (depth 2) baked twice, street cells only and with fly=on; bake
 seconds of each; the PVS's stored bytes (its extras' sections) against the OBJ; the fly-over
 cells per layer and their mean set (share of the world); along a generated fly-over path
 (fly_path: an ellipse over the world at heights from just over the street layer to just under
 the ceiling, looking ahead and down) the triangles sent by vfc+tbfc and pvs+vfc+tbfc over the
-fly-over PVS, the frames that fell back, and the triangles pvs+vfc dropped against the item
-buffer without back-face culling; then --random cameras inside random fly-over cells (a
+fly-over PVS (and the distinct triangles the item buffer shows), in all and per layer the eye
+is in, the frames that fell back, and the triangles pvs+vfc dropped against the item buffer
+without back-face culling; then --random cameras inside random fly-over cells (a
 quarter each uniform, on a face, an edge, a corner; pitch +-89, fov 10-120) in float64,
 float32 and fixed16.16 (cycled): how many used the PVS and how many triangles they dropped.
+--split sets pvs_fly.SPLIT (how far a layer's squares split near a column poking in);
+--no-street skips the street-only bake.
 """
 from __future__ import annotations
 
@@ -27,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench_pvs import MODES, PROFILE, in_cell_cameras, shown  # noqa: E402
 from vismobile.culling import Culler, device_options  # noqa: E402
 from vismobile.device.profile import get_profile  # noqa: E402
-from vismobile.partition import partition  # noqa: E402
+from vismobile.partition import partition, pvs_fly  # noqa: E402
 from vismobile.partition.pvs import bake  # noqa: E402
 from vismobile.partition.pvs_codec import cell_sizes, decode  # noqa: E402
 from vismobile.partition.store import stored_bytes  # noqa: E402
@@ -62,23 +66,27 @@ def baked(part, fly, jobs):
     return out, stats, extras
 
 
-def run(name, frames, randoms, jobs):
+def run(name, frames, randoms, jobs, street=True):
     world = build_world(name)
     part = partition(world, "portal", depth=2)
     obj = os.path.getsize(ROOT / "worlds" / f"{name}.obj")
-    _, street_stats, street_extras = baked(part, False, jobs)
+    if street:
+        _, street_stats, street_extras = baked(part, False, jobs)
     fly_part, stats, extras = baked(part, True, jobs)
-    street_bytes = sum(stored_bytes(v) for v in street_extras.values())
     fly_bytes = sum(stored_bytes(v) for v in extras.values())
     boxes = extras["pvs_cells"]
     cells = len(boxes)
     k = cells - stats["fly_cells"]
     sizes = cell_sizes(*decode(extras, cells, world.triangle_count), cells) / world.triangle_count
-    print(f"{name}: street cells {k}, bake {street_stats['seconds']:.1f} s, "
-          f"{street_bytes / 1024:.0f} KB ({street_bytes / obj:.2f}x OBJ), mean set "
-          f"{100 * sizes[:k].mean():.1f}% | fly=on: {stats['fly_cells']} fly-over cells, bake "
-          f"{stats['seconds']:.1f} s ({stats['seconds'] / street_stats['seconds']:.2f}x), "
-          f"{fly_bytes / 1024:.0f} KB ({fly_bytes / obj:.2f}x OBJ), fly-over mean set "
+    if street:
+        street_bytes = sum(stored_bytes(v) for v in street_extras.values())
+        print(f"{name}: street cells {k}, bake {street_stats['seconds']:.1f} s, "
+              f"{street_bytes / 1024:.0f} KB ({street_bytes / obj:.2f}x OBJ), mean set "
+              f"{100 * sizes[:k].mean():.1f}%", flush=True)
+    print(f"{name} fly=on (SPLIT {pvs_fly.SPLIT}): {stats['fly_cells']} fly-over cells, bake "
+          f"{stats['seconds']:.1f} s" + (f" ({stats['seconds'] / street_stats['seconds']:.2f}x "
+                                          "the street cells')" if street else "") +
+          f", {fly_bytes / 1024:.0f} KB ({fly_bytes / obj:.2f}x OBJ), fly-over mean set "
           f"{100 * sizes[k:].mean():.1f}%", flush=True)
     fly = boxes[k:]
     for y0 in np.unique(fly[:, 0, 1]):
@@ -88,16 +96,21 @@ def run(name, frames, randoms, jobs):
               f"{side.max():.0f} m, mean set {100 * sizes[k:][m].mean():.1f}% (min "
               f"{100 * sizes[k:][m].min():.1f}%)", flush=True)
     base, pvs, check = (Culler(fly_part, s) for s in ("vfc+tbfc", "pvs+vfc+tbfc", "pvs+vfc"))
-    sent_base = sent = fallbacks = dropped = 0
-    for cam in fly_path(fly, frames):
+    tops = np.unique(fly[:, 1, 1])
+    rows = np.zeros((len(tops) + 1, 6), dtype=np.int64)  # per layer, then all: frames, vfc+tbfc,
+    for cam in fly_path(fly, frames):  # pvs+vfc+tbfc, visible, fell back, dropped
         r = pvs.cull(cam)
-        fallbacks += r.stats.get("pvs.fallbacks", 0)
-        sent_base += len(base.cull(cam).triangles)
-        sent += len(r.triangles)
-        dropped += len(np.setdiff1d(shown(world, cam, PROFILE), check.cull(cam).triangles))
-    print(f"  fly path {frames} frames: vfc+tbfc {sent_base}, pvs+vfc+tbfc {sent} "
-          f"({sent / max(sent_base, 1):.3f}x), fell back {fallbacks}, dropped {dropped}",
-          flush=True)
+        ids = shown(world, cam, PROFILE)
+        row = np.array([1, len(base.cull(cam).triangles), len(r.triangles), len(ids),
+                        r.stats.get("pvs.fallbacks", 0),
+                        len(np.setdiff1d(ids, check.cull(cam).triangles))])
+        rows[min(int(np.searchsorted(tops, cam.eye[1])), len(tops) - 1)] += row
+        rows[-1] += row
+    for label, (n, sent_base, sent, seen, fell, lost) in zip(
+            [f"eye under {t:.1f} m" for t in tops] + [f"fly path {frames} frames"], rows):
+        print(f"  {label}: {n} frames, vfc+tbfc {sent_base}, pvs+vfc+tbfc {sent} "
+              f"({sent / max(sent_base, 1):.3f}x; visible {seen / max(sent_base, 1):.3f}x), "
+              f"fell back {fell}, dropped {lost}", flush=True)
     cullers = {m: Culler(fly_part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
                                                    else device_options(get_profile(PROFILE, m))))
                for m in MODES}
@@ -120,9 +133,12 @@ def main():
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--random", type=int, default=300)
     parser.add_argument("--jobs", type=int, default=1, help="bake processes")
+    parser.add_argument("--split", type=float, default=pvs_fly.SPLIT)
+    parser.add_argument("--no-street", action="store_true")
     args = parser.parse_args()
+    pvs_fly.SPLIT = args.split  # the bake's processes are forked: they see it too
     for name in args.worlds.split(","):
-        run(name.strip(), args.frames, args.random, args.jobs)
+        run(name.strip(), args.frames, args.random, args.jobs, not args.no_street)
 
 
 if __name__ == "__main__":
