@@ -73,6 +73,24 @@ def test_fly_shadows_hide_only_what_every_line_from_the_region_crosses_a_column(
     assert total > 1000 and share == 1.0
 
 
+def test_a_bake_sampling_the_bottom_face_is_caught(flown, monkeypatch):
+    """Sample points on the boundary of each region's bottom face instead of its top (the
+    raising step of the argument left out): eyes higher in the cell see over what the samples
+    do not, and the segment check finds such lines."""
+    world = flown.world
+    top_face = pvs_street.boundary_samples
+    monkeypatch.setattr(pvs_street, "boundary_samples",
+                        lambda a, b: top_face(a, np.array([b[0], a[1], b[2]])))
+    part = partition(world, "portal", depth=1, pvs="conservative", fly="on")
+    boxes = part.extras["pvs_cells"]
+    assert np.array_equal(boxes, flown.extras["pvs_cells"])
+    street = int(np.sum(boxes[:, 1, 1] <= boxes[0, 1, 1]))  # the street cells come first
+    masks = masks_of(part.extras, world)
+    share, total = blocked_share(world, boxes[street:], masks[street:],
+                                 np.random.default_rng(5), tries=3000)
+    assert total > 1000 and share < 1.0
+
+
 def yard_world():
     """A 64 x 64 ground, a 20 m tower at (46.5, 46.5) (no corner on the ground's), and at
     (16, 16) a closed yard: four 8 m blocks overlapping at the corners (no shared corner: four
