@@ -8,12 +8,20 @@ thin open strip on every cell face that crosses it: the portals join every cell 
 along the walls. Adding the wall's other face as a boundary puts the inside in thin cells of its
 own, closed on both sides by the walls lying in their faces; they connect to the rooms only
 where the wall is open (doorways' uncapped jambs), as sight lines really can.
+
+A building (thin walls on at least two axes, portal_edges.thin_walls: W1-W4) takes its cells
+from its walls alone (building_edges): both faces of every hollow wall and slab, the outer
+walls' too, so each room of each storey is a cell whatever objects stand in it (the quantile
+boundaries snapped to planes followed W2's and W3's objects and missed the slab between the
+storeys: a ground-floor cell saw the upper floor), each span wider than SPAN_SHARE of the
+world cut in equal parts (a smaller source sees less through the same doorways).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from . import grid, portal
+from .portal_edges import WALL_SHARE, _plane_areas, thin_walls
 from .pvs_cracks import crack_reach, with_cracks
 from .pvs_refine import refine
 
@@ -27,13 +35,60 @@ SLAB_AREA = 0.25
 # The added planes may multiply the cell count by at most MAX_GROWTH, to at most MAX_CELLS
 # cells (the bake's time follows the cells times the portals): the largest walls go first.
 MAX_GROWTH, MAX_CELLS = 16, 640
+# A building's spans between wall faces wider than this share of the world's largest side are
+# cut in equal parts (W1-W4: rooms of 6-10 m in halves, storeys of 3 m whole) ...
+SPAN_SHARE = 0.125
+# ... while its cells stay within this many (the bake's time follows the cells).
+BUILDING_CELLS = 2048
+
+
+def building_edges(world) -> list | None:
+    """Three ascending boundary arrays of a building's cells, or None when the world is not
+    one (thin walls, portal_edges.thin_walls, of at least WALL_SHARE of the largest one's area,
+    on fewer than two axes): the world's extent, both faces of every such wall, the largest
+    wall plane within PAIR_REACH of each side of the world (an outer wall: the strip beyond it,
+    where its windows' reveals stand, is a thin cell of its own), then each span wider than
+    SPAN_SHARE of the world's largest side cut in equal parts (within BUILDING_CELLS)."""
+    low, high = world.extent
+    edges, walled = [], 0
+    for axis in range(3):
+        pairs = thin_walls(world, axis)
+        if len(pairs):
+            pairs = pairs[pairs[:, 2] >= WALL_SHARE * pairs[:, 2].max()]
+        faces = pairs[:, :2].ravel()
+        faces = faces[(faces > low[axis]) & (faces < high[axis])]
+        walled += bool(len(faces))
+        if len(faces):
+            pos, area = _plane_areas(world, axis)
+            reach = PAIR_REACH * float(high[axis] - low[axis])
+            for side in (low[axis], high[axis]):
+                near = np.flatnonzero((np.abs(pos - side) <= reach) & (pos > low[axis])
+                                      & (pos < high[axis]))
+                if len(near) and area[near].max() >= WALL_SHARE * pairs[:, 2].max():
+                    faces = np.append(faces, pos[near[np.argmax(area[near])]])
+        edges.append(np.unique(np.concatenate([[low[axis], high[axis]], faces])))
+    if walled < 2 or np.prod([len(e) - 1 for e in edges]) > BUILDING_CELLS:
+        return None
+    span = SPAN_SHARE * float(np.ptp(world.extent, axis=0).max())
+    cut = []
+    for e in edges:
+        parts = np.maximum(1, np.ceil(np.diff(e) / span - 1e-9)).astype(int)
+        cut.append(np.unique(np.concatenate(
+            [e] + [np.linspace(e[i], e[i + 1], parts[i] + 1) for i in range(len(e) - 1)])))
+    if np.prod([len(e) - 1 for e in cut]) > BUILDING_CELLS:
+        return edges
+    return cut
 
 
 def paired_edges(world, cells) -> list:
-    """Three ascending boundary arrays: portal.auto_edges plus, next to each interior boundary,
+    """Three ascending boundary arrays: a building's walls (building_edges) when it is one;
+    else portal.auto_edges plus, next to each interior boundary,
     the largest parallel wall plane within PAIR_REACH on either side, and on an axis without
     interior boundaries every plane of walls covering SLAB_AREA of the cross-section; the
     largest walls first, within MAX_GROWTH times the automatic cell count and MAX_CELLS."""
+    building = building_edges(world)
+    if building is not None:
+        return building
     edges = portal.auto_edges(world, cells)
     base = [len(e) - 1 for e in edges]
     low, high = world.extent
