@@ -98,8 +98,10 @@ def run(name, frames, randoms, jobs, street=True):
     base, pvs, check = (Culler(fly_part, s) for s in ("vfc+tbfc", "pvs+vfc+tbfc", "pvs+vfc"))
     tops = np.unique(fly[:, 1, 1])
     rows = np.zeros((len(tops) + 1, 6), dtype=np.int64)  # per layer, then all: frames, vfc+tbfc,
+    tested = []  # view-cell boxes the stage's lookup tested per frame (culling/pvs_lookup.py)
     for cam in fly_path(fly, frames):  # pvs+vfc+tbfc, visible, fell back, dropped
         r = pvs.cull(cam)
+        tested.append(r.stats.get("pvs.cells_tested", 0))
         ids = shown(world, cam, PROFILE)
         row = np.array([1, len(base.cull(cam).triangles), len(r.triangles), len(ids),
                         r.stats.get("pvs.fallbacks", 0),
@@ -111,6 +113,8 @@ def run(name, frames, randoms, jobs, street=True):
         print(f"  {label}: {n} frames, vfc+tbfc {sent_base}, pvs+vfc+tbfc {sent} "
               f"({sent / max(sent_base, 1):.3f}x; visible {seen / max(sent_base, 1):.3f}x), "
               f"fell back {fell}, dropped {lost}", flush=True)
+    print(f"  lookup: {np.median(tested):.0f} cell boxes tested a frame (median), at most "
+          f"{max(tested)}", flush=True)
     cullers = {m: Culler(fly_part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
                                                    else device_options(get_profile(PROFILE, m))))
                for m in MODES}

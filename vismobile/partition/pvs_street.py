@@ -8,6 +8,8 @@ column's footprint (pvs_columns.py: the solid blocks, a building's walls and roo
 wholly inside a footprint is no cell. The cells tile the layer but for those holes. A camera
 whose near plane may leave the cells (above the layer, by a building's inside or the world's
 edge) or is nearer than NEAR_MIN, or reaches farther than COVER, falls back (culling/pvs.py).
+With fly=on, layers of fly-over cells lie over the layer (pvs_fly.py, baked here too, after
+the street cells, with pvs_fly's occluders and kept triangles).
 
 A cell's region is its box grown by the bake's growth, and by COVER up and down (a near plane
 may reach over the layer). Its set: every triangle some sample point (SPACING apart along the
