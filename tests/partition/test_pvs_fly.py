@@ -9,7 +9,7 @@ import pytest
 from .test_pvs_street import (PROFILE, blocked_share, box_part, in_cell_checks, street_masks,
                               town)
 from vismobile.culling import Culler
-from vismobile.partition import partition
+from vismobile.partition import load_partition, partition
 from vismobile.partition import pvs_fly, pvs_street
 from vismobile.partition.pvs import bake
 from vismobile.partition.pvs_codec import decode
@@ -17,6 +17,7 @@ from vismobile.partition.pvs_columns import find_columns
 from vismobile.render import SENTINEL, item_buffer
 from vismobile.scenes.surfaces import MeshCollector, tiled_rect
 from vismobile.world.camera import Camera
+from vismobile.world.world import World
 
 
 def masks_of(extras, world):
@@ -181,6 +182,10 @@ def test_the_fly_option_on_the_command_line(tmp_path, capsys, street):
     assert cli(["partition", str(obj), "--structure=portal:1,pvs=conservative,fly=on", "-o",
                 str(out)]) == 0
     assert "fly=on" in capsys.readouterr().out
+    loaded = load_partition(out, World.from_obj(obj))  # the fly-over cells travel in the .vmp
+    assert loaded.params["fly"] == "on"
+    assert len(loaded.extras["pvs_cells"]) > len(street[0])
+    assert (loaded.extras["pvs_cells"][:, 1, 1] > street[0][:, 1, 1].max()).any()
     for text, why in (("portal:1,fly=on", "pvs=conservative"), ("portal:1,pvs=conservative,"
                       "fly=up", "fly=up"), ("bsp:pvs=conservative,fly=on", "fly-over")):
         bad = tmp_path / "bad.vmp"
