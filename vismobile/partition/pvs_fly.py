@@ -6,9 +6,9 @@ region's top face.
 Layers: from the street layer's top, squares of FLY_CELL (each layer up doubles it), half as
 high as wide, up to FLY_CEILING times the tallest column's height above the floor (the last
 layer reaches it). A layer's squares split in four near a column that pokes into it (down to
-a quarter of its side, at least the street cells' least); a least square wholly inside a column taller than
-the layer is no cell. A camera above the ceiling, or whose near plane leaves the cells, falls
-back (culling/pvs.py, as for the street cells).
+1 / SPLIT of its side, at least the street cells' least square); a least square wholly inside
+a column taller than the layer is no cell. A camera above the ceiling, or whose near plane
+leaves the cells, falls back (culling/pvs.py, as for the street cells).
 
 A fly-over region's occluders (`usable`): every column x-z clear of it by r (the samples'
 reach), and every column lower than its bottom (the region lies above it). A column taller
@@ -50,13 +50,12 @@ def fly_layers(world, tops, street_top, street_side, least) -> list:
         return []
     ceiling = low[1] + FLY_CEILING * (float(np.max(tops)) - low[1])
     cell = max(FLY_CELL, 2.0 * street_side)
-    smallest = least
     layers, y = [], street_top
     while y < ceiling:
         top = min(y + cell / 2.0, ceiling)
         if ceiling - top < cell / 4.0:  # no thin layer under the ceiling
             top = ceiling
-        layers.append((y, top, cell, max(smallest, cell / SPLIT)))
+        layers.append((y, top, cell, max(least, cell / SPLIT)))
         y, cell = top, 2.0 * cell
     return layers
 
@@ -72,10 +71,10 @@ def fly_cells(world, footprints, tops, street_top, street_side, least, pad,
     """
     out = []
     tops = np.asarray(tops, dtype=np.float64)
-    for y0, y1, cell, least in fly_layers(world, tops, street_top, street_side, least):
+    for y0, y1, cell, smallest in fly_layers(world, tops, street_top, street_side, least):
         poking = [f for f, t in zip(footprints, tops) if t > y0 - margin]
         over = [f for f, t in zip(footprints, tops) if t >= y1 + margin]
-        out.append(square_cells(world, poking, over, pad, y0, y1, cell, least))
+        out.append(square_cells(world, poking, over, pad, y0, y1, cell, smallest))
     return np.concatenate(out) if out else np.zeros((0, 2, 3))
 
 
