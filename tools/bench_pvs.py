@@ -2,7 +2,7 @@
 
     .venv/bin/python tools/bench_pvs.py [--worlds w1,w2] [--frames 40] [--random 2000]
                                         [--sampled 4,16 [--only-sampled]]
-                                        [--repair tjunctions]
+                                        [--repair tjunctions] [--timing-frames 150]
 
 Per world: the portal structure (depth 2) with pvs=conservative; bake seconds; the PVS's bytes
 in the .vmp (file with minus file without) against the OBJ; the mean share of the world in a
@@ -10,8 +10,10 @@ cell's set; along the world's thesis path (--frames evenly spaced frames) the tr
 vfc+tbfc and pvs+vfc+tbfc and the frames that fell back; dropped triangles (pvs+vfc against the
 item buffer without back-face culling) on those frames and on --random cameras inside random
 view cells (a quarter each uniform, on a face, an edge, a corner; pitch +-89, fov 10-120) in
-float64, float32 and fixed16.16 (cycled); on W2, pvs+vfc against vfc cull time, interleaved,
-medians after a warm-up. With --sampled, for each N the aggressive sampled PVS
+float64, float32 and fixed16.16 (cycled); on W2, pvs+vfc (the fused call and the staged
+path) against vfc cull time, with and without tbfc, interleaved, medians over --timing-frames
+path frames after a warm-up, and a frame whose set is not cached (w2_timing). With
+--sampled, for each N the aggressive sampled PVS
 (render/pvs_sampled.py) on the same cells: bake seconds, sent by pvs+vfc+tbfc against
 vfc+tbfc, and its misses along the path (visible triangles and pixels of the unculled item
 buffer that pvs+vfc dropped, as a share of the visible pixels).
@@ -92,7 +94,56 @@ def sampled(name, world, part, traj, picks, counts):
               f"pixels ({100 * missed_px / max(pixels, 1):.3f}%)", flush=True)
 
 
-def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="none"):
+def w2_timing(part, traj, count, reps=3, misses=20):
+    """One line: vfc, pvs+vfc (the fused call, culling/pvs_frame.py) and pvs+vfc staged
+    (pvs={"fuse": False}: pvs's nodes walked by vfc, then the per-triangle filter), and the
+    same three with tbfc; count path frames, each culled by every row in turn, reps times
+    after a warm-up (every combination of cells cached); medians and ratios to vfc (vfc+tbfc),
+    mean sent and nodes visited. Then the median time of a frame whose cells' set is not
+    cached (the gather, partition/pvs_codec.py) over `misses` frames."""
+    rows = {"vfc": ("vfc", {}), "pvs+vfc": ("pvs+vfc", {}),
+            "staged": ("pvs+vfc", {"pvs": {"fuse": False}}), "vfc+tbfc": ("vfc+tbfc", {}),
+            "pvs+vfc+tbfc": ("pvs+vfc+tbfc", {}),
+            "staged+tbfc": ("pvs+vfc+tbfc", {"pvs": {"fuse": False}})}
+    cullers = {k: Culler(part, stages, **options) for k, (stages, options) in rows.items()}
+    cams = [traj.camera(int(f), PROFILE.aspect) for f in
+            np.linspace(0, len(traj) - 1, count).astype(int)]
+    for c in cams:  # warm-up: compiled, every combination of cells decoded
+        for culler in cullers.values():
+            culler.cull(c)
+    times = {k: [] for k in rows}
+    sent = {k: 0 for k in rows}
+    visited = {k: 0 for k in rows}
+    for rep in range(reps):
+        for c in cams:
+            for k, culler in cullers.items():
+                t = time.perf_counter()
+                result = culler.cull(c)
+                times[k].append(time.perf_counter() - t)
+                if rep == 0:
+                    sent[k] += len(result.triangles)
+                    visited[k] += result.stats["nodes_visited"]
+    median = {k: 1e3 * np.median(v) for k, v in times.items()}
+    parts = []
+    for k in rows:
+        base = "vfc+tbfc" if "tbfc" in k else "vfc"
+        parts.append(f"{k} {median[k]:.4f} ms ({median[k] / median[base]:.3f}x, sent "
+                     f"{sent[k] / count:.1f}, visited {visited[k] / count:.1f})")
+    stage = cullers["pvs+vfc"].stages[0]
+    missed = []
+    for c in cams[:: max(1, count // misses)][:misses]:
+        stage.cache.clear()
+        stage.last = None
+        t = time.perf_counter()
+        cullers["pvs+vfc"].cull(c)
+        missed.append(time.perf_counter() - t)
+    return (f"W2 cull ms median over {count} path frames x {reps}, interleaved: "
+            + "; ".join(parts) + f"; a frame whose set is not cached {1e3 * np.median(missed):.1f}"
+            f" ms (median of {len(missed)})")
+
+
+def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="none",
+        timing_frames=150):
     world = build_world(name)
     if repair == "tjunctions":  # the bake then seals the thin cells, no crack portals
         from vismobile.world.tjunctions import repair_tjunctions
@@ -140,20 +191,7 @@ def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="no
         r = cullers[mode].cull(cam)
         used += "pvs.fallbacks" not in r.stats
         dropped_random += len(np.setdiff1d(shown(world, cam, profile), r.triangles))
-    timing = ""
-    if name == "w2":
-        vfc, pv = Culler(part, "vfc"), Culler(part, "pvs+vfc")
-        cams = [traj.camera(int(f), PROFILE.aspect) for f in picks]
-        for c in cams:
-            vfc.cull(c), pv.cull(c)
-        t_v, t_p = [], []
-        for c in cams:
-            for culler, out in ((vfc, t_v), (pv, t_p)):
-                t = time.perf_counter()
-                culler.cull(c)
-                out.append(time.perf_counter() - t)
-        timing = (f" | W2 cull ms median: vfc {1e3 * np.median(t_v):.3f}, pvs+vfc "
-                  f"{1e3 * np.median(t_p):.3f} ({np.median(t_p) / np.median(t_v):.2f}x)")
+    timing = f" | {w2_timing(part, traj, timing_frames)}" if name == "w2" else ""
     print(f"{name}: cells {stats['cells']}, bake {stats['seconds']:.1f} s "
           f"(overflowed {stats['overflowed']}), PVS {pvs_bytes / 1024:.0f} KB = "
           f"{pvs_bytes / obj:.3f}x OBJ ({pvs_bytes / stats['cells']:.0f} B/cell), mean set "
@@ -175,11 +213,13 @@ def main():
     parser.add_argument("--jobs", type=int, default=1, help="bake processes")
     parser.add_argument("--repair", choices=("none", "tjunctions"), default="none",
                         help="repair the world first (world/tjunctions.py)")
+    parser.add_argument("--timing-frames", type=int, default=150,
+                        help="W2 path frames timed (vfc against pvs+vfc)")
     args = parser.parse_args()
     counts = [int(n) for n in args.sampled.split(",") if n]
     for name in args.worlds.split(","):
         run(name.strip(), args.frames, args.random, counts, args.only_sampled, args.jobs,
-            args.repair)
+            args.repair, args.timing_frames)
 
 
 if __name__ == "__main__":

@@ -157,7 +157,7 @@ class Culler:
         stage between them) and occlusion's `fuse` option is on, vfc defers its frustum test to
         occlusion, whose one walk rejects nodes outside the frustum or hidden behind the buffer
         (hiz.frustum_cull_nodes): hidden subtrees are never entered. Same tests, same
-        conservativeness; fewer nodes visited."""
+        conservativeness; fewer nodes visited. Likewise `pvs` takes vfc's walk (below)."""
         by_name = {stage.name: stage for stage in self.stages}
         vfc, occlusion = by_name.get("vfc"), by_name.get("occlusion")
         others = set(self.names) & {"portals", "pvs", "vfc_thesis", "cone", "occlusion_thesis",
@@ -165,6 +165,14 @@ class Culler:
         if vfc is not None and occlusion is not None and not others \
                 and getattr(occlusion, "fuse", False):
             vfc.deferred = True
+        # pvs then vfc alone among the node stages, on a static partition: pvs walks the
+        # frustum over its set's subtrees, gathers and filters in one compiled call
+        # (culling/pvs_frame.py), the same triangles as pvs's nodes walked by vfc and filtered
+        pvs = by_name.get("pvs")
+        if vfc is not None and pvs is not None and getattr(pvs, "fuse", False) \
+                and occlusion is None and self.animated is None and not others - {"pvs"}:
+            pvs.walker = vfc
+            vfc.absorbed = True
 
     def _chain(self) -> None:
         """When vfc (deferred to occlusion), occlusion and tbfc are the stages (bfc, a render

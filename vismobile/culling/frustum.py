@@ -74,11 +74,14 @@ class FrustumStage:
                only when no later node stage tests vfc's nodes (Culler._cover sets covering)
     deferred : set by the Culler when the next node stage (`occlusion`) tests the frustum in its
                own walk (Culler._fuse): apply then only marks state.frustum_pending
+    absorbed : set by the Culler when `pvs` walks the frustum in its own compiled call
+               (Culler._fuse, culling/pvs_frame.py): apply then does nothing
     """
 
     name = "vfc"
     cost = 10
     deferred = False
+    absorbed = False
 
     def __init__(self, whole_below: int = WHOLE_BELOW, cover: bool = True):
         if isinstance(whole_below, bool) or not isinstance(whole_below, (int, np.integer)) \
@@ -96,6 +99,11 @@ class FrustumStage:
         if self.deferred:
             state.frustum_pending = True
             return
+        if not self.absorbed:
+            self.walk(state)
+
+    def walk(self, state: CullState) -> None:
+        """The walk itself: state.nodes culled against the frustum."""
         state.nodes = frustum_refine(self.tree, state, self.name, self.whole_below,
                                      self.covering)
 

@@ -156,7 +156,7 @@ def _box_planes(lx, ly, lz, ux, uy, uz, planes, mask, tol):
 
 @njit(cache=True, nogil=True)
 def frustum_walk(box, links, size, whole_below, inner, inner_links, covering, roots, root_sets,
-                 plane_sets, tol, out, stack_node, stack_set, stack_mask):
+                 plane_sets, tol, out, stack_node, stack_set, stack_mask, allow=None):
     """Hierarchical p/n-vertex frustum test with plane masks, depth first from `roots`.
 
     Errs toward keeping by tol: a box is rejected only when its p-vertex is more than tol
@@ -177,6 +177,9 @@ def frustum_walk(box, links, size, whole_below, inner, inner_links, covering, ro
     roots : (K,) int64;  root_sets : (K,) int64 into plane_sets
     plane_sets  : (S, P, 4) float64 inward planes (n, d), P <= 62
     out         : (>= accepted,) int64 receives accepted nodes; stacks : (>= K + N,) scratch
+    allow       : None, or (N,) bool: a node not allowed is skipped like one referencing
+                  nothing (the pvs stage: subtrees holding no triangle of the eye's set,
+                  culling/pvs_frame.py); None compiles without the test
     returns (accepted, visited, plane tests, culled, inner nodes accepted while straddling by
     whole_below, inner nodes accepted by their cover); plane tests count the cover's too
     """
@@ -195,6 +198,9 @@ def frustum_walk(box, links, size, whole_below, inner, inner_links, covering, ro
         n = links[node, 7]
         if n < 0:  # references nothing
             continue
+        if allow is not None:
+            if not allow[node]:
+                continue
         visited += 1
         lx, ly, lz = np.float64(box[node, 0]), np.float64(box[node, 1]), np.float64(box[node, 2])
         ux, uy, uz = np.float64(box[node, 3]), np.float64(box[node, 4]), np.float64(box[node, 5])
@@ -236,6 +242,9 @@ def frustum_walk(box, links, size, whole_below, inner, inner_links, covering, ro
         if inner_links[node, 7] == 1:  # octant leaves: their boxes from this record, in order
             codes = inner_links[node, 6]
             for c in range(n):
+                if allow is not None:
+                    if not allow[first + c]:
+                        continue
                 code = (codes >> (3 * c)) & 7
                 clx = np.float64(inner[node, 8]) if code & 1 else lx
                 cly = np.float64(inner[node, 9]) if code & 2 else ly

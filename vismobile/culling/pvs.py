@@ -40,6 +40,8 @@ hollow wall or slab sees through the backs of its faces).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..partition.pvs import back_delta, ids_of
@@ -47,23 +49,42 @@ from ..partition.pvs_back import region_backfacing, triangle_terms
 from ..partition.pvs_codec import cell_mask, decode
 from .doors import closed_doors, shut
 from .precision import device_move, world_scale
+from .pvs_frame import keep_bits, locate_walk_gather
 from .pvs_lookup import cell_index, find
 from .state import CullState
 from .tree import Tree
 
 EXTRAS = ("pvs_cells", "pvs_shape", "pvs_pack", "pvs_grow")
 KEEP = 64  # decoded cell combinations kept
+_NONE = np.zeros(0, dtype=np.int64)  # no cells expected: the fused call only looks them up
 
 
 class PVSStage:
-    """`pvs`: the eye's view-cell set from the baked PVS; runs before the other node stages."""
+    """`pvs`: the eye's view-cell set from the baked PVS; runs before the other node stages.
+
+    fuse : when vfc is the only node stage after it (static partition), walk the frustum over
+           the set's subtrees, gather and filter in one compiled call (pvs_frame.py; the
+           Culler sets `walker`, the vfc stage, whose options the walk takes); False: hand on
+           the set's topmost nodes and a filter, and let vfc walk them (the same triangles)
+    """
 
     name = "pvs"
     cost = 4
     arithmetic = "float64"
 
+    def __init__(self, fuse: bool = True):
+        if not isinstance(fuse, (bool, np.bool_)):
+            raise ValueError(f"pvs fuse must be True or False, got {fuse!r}")
+        self.fuse = bool(fuse)
+        self.walker = None
+        self.last = None  # the fused path's (drop_back, cells, entry) of the frame before
+
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
+        # the fused call's scratch (pvs_frame.locate_walk_gather): walk, gather, counters
+        self.scratch = np.empty((4, tree.node_count + 1), dtype=np.int64)
+        self.ranges = np.empty((tree.node_count + 1, 2), dtype=np.int64)
+        self.counts = np.zeros(9, dtype=np.int64)
         extras = tree.partition.extras or {}
         self.available = all(k in extras for k in EXTRAS)
         self.cache = {}
@@ -114,8 +135,9 @@ class PVSStage:
 
     def reach(self, camera) -> float:
         """2 sqrt(3) device_move at the world's and the eye's magnitude (portals.device_reach)."""
-        scale = max(self.magnitude, float(np.abs(camera.eye).max()))
-        return 2.0 * np.sqrt(3.0) * device_move(self.arithmetic, scale)
+        x, y, z = camera.position
+        scale = max(self.magnitude, abs(x), abs(y), abs(z))
+        return 2.0 * math.sqrt(3.0) * device_move(self.arithmetic, scale)
 
     def eye_cells(self, camera, grow: float) -> np.ndarray:
         """(K,) int64 view cells whose box grown by the tree's slack plus grow holds the eye
@@ -130,8 +152,14 @@ class PVSStage:
         cells' sets, cached; with drop_back (and a pvs_back) each cell's set loses the
         triangles facing away from the whole cell grown by pvs_back (partition/pvs_back.py);
         and what each door of `doors` (shut) hides from it (door sets)."""
+        return self.entry(cells, drop_back, doors)[:3]
+
+    def entry(self, cells, drop_back=True, doors=()) -> tuple:
+        """visible's three, plus what the fused walk reads (pvs_frame.walk_gather): allow (N,)
+        bool, the nodes whose subtree holds a kept triangle, and the kept bits (T // 64 + 1,)
+        uint64; cached together (KEEP combinations)."""
         drop = self.back is not None and drop_back
-        key = (tuple(int(c) for c in cells), drop, tuple(doors))
+        key = (np.asarray(cells, dtype=np.int64).tobytes(), drop, tuple(doors))
         hit = self.cache.get(key)
         if hit is not None:
             return hit
@@ -154,13 +182,15 @@ class PVSStage:
                 start = extras["pvs_door_start"]
                 mask[ids_of(extras["pvs_door_runs"][start[k]:start[k + 1]])] = False
             keep |= mask
-        nodes = cover_nodes(tree, keep)
+        nodes, allow = set_nodes(tree, keep)
         if len(self.cache) >= KEEP:
             self.cache.pop(next(iter(self.cache)))
-        self.cache[key] = (keep, nodes, bool(keep.all()))
+        self.cache[key] = (keep, nodes, bool(keep.all()), allow, keep_bits(keep))
         return self.cache[key]
 
     def apply(self, state: CullState) -> None:
+        if self.walker is not None:
+            return self.apply_fused(state)
         camera = state.camera
         found = self.lookup(camera)
         if found is None:
@@ -170,7 +200,7 @@ class PVSStage:
         found, span = found
         drop_back = self.back_culled and self.back is not None and span <= self.back
         doors = self.shut_doors(camera, self.reach(camera), near_reach(camera))
-        keep, nodes, everything = self.visible(found, drop_back, doors)
+        keep, nodes, everything, allow, bits = self.entry(found, drop_back, doors)
         state.count(f"{self.name}.cells", len(found))
         if doors:
             state.count(f"{self.name}.doors_shut", len(doors))
@@ -189,19 +219,96 @@ class PVSStage:
             return keep[ids]
         state.filters.append(keep_of)
 
+    def apply_fused(self, state: CullState) -> None:
+        """apply with vfc's walk (the Culler set walker): one compiled call finds the eye's
+        cells and, when they are the frame before's (cached entry at hand), walks, gathers and
+        filters (pvs_frame.locate_walk_gather); else the entry is found or made and the call
+        made again. The same fallbacks, cells and triangles as apply then vfc."""
+        camera = state.camera
+        reaches = self.reaches(camera)
+        if reaches is not None and self.cover is not None and self.lookup(camera) is None:
+            reaches = None  # street cells: covered() needs the cells, looked up first
+        if reaches is None:
+            state.count("pvs.fallbacks", 1)
+            self.walker.walk(state)  # vfc as usual
+            return
+        pad = self.tree.tol + reaches[0] + reaches[1]
+        drop = self.back_culled and self.back is not None and pad <= self.back
+        last = self.last
+        self.decoded = 0
+        if last is not None and last[0] == drop:
+            found = self.frame(state, pad, last[1], last[2])
+        else:
+            found = self.frame(state, pad, _NONE, None)
+        if found is not None:  # other cells than the frame before's
+            if not len(found):
+                state.count("pvs.fallbacks", 1)
+                self.walker.walk(state)
+                return
+            entry = self.entry(found, drop, ())
+            self.last = (drop, found, entry)
+            self.frame(state, pad, found, entry)
+
+    def frame(self, state: CullState, pad: float, expect, entry):
+        """One locate_walk_gather call: None when the eye's cells are expect (the frame is
+        culled: state.nodes, state.gathered and the counters set), else the cells found."""
+        tree, vfc = self.tree, self.walker
+        b, g = tree._bitmap, tree.groups
+        allow, bits = (None, None) if entry is None or entry[2] else (entry[3], entry[4])
+        x, y, z = state.camera.position
+        hit, found, ids = locate_walk_gather(
+            self.cells, *self.index, x, y, z, pad, expect, tree._box, tree._links,
+            tree.read_size, vfc.whole_below, tree._inner, tree._inner_links, vfc.covering,
+            state.planes[None], tree.tol, self.scratch, allow, g.words, g.masks, g.span,
+            b.bits, b.summary, b.tops, self.ranges, bits, self.counts)
+        if not hit:
+            return found
+        tested, runs, count, visited, tests, culled, straddling, covered, masked = \
+            self.counts.tolist()
+        state.nodes = self.scratch[0, :count].copy()
+        state.gathered = (ids, runs)
+        stats = state.stats
+        stats["nodes_visited"] = stats.get("nodes_visited", 0) + visited
+        stats["plane_tests"] = stats.get("plane_tests", 0) + tests
+        # keys no other stage writes (vfc is absorbed; pvs runs once a frame)
+        stats.update({"vfc.nodes_culled": culled, "vfc.nodes_accepted": count,
+                      "pvs.cells": len(found), "pvs.cells_tested": tested,
+                      "pvs.ids_decoded": self.decoded})
+        if vfc.whole_below >= 0:
+            stats["vfc.nodes_straddling"] = straddling
+        if vfc.covering:
+            stats["vfc.nodes_covered"] = covered
+        if entry[2]:
+            stats["pvs.everything"] = 1
+        else:  # what the staged filter tests: each gathered triangle's keep byte
+            stats["pvs.triangles_tested"] = masked
+        return None
+
+    def reaches(self, camera):
+        """(grow, reach): the device's reach and the near plane's, or None (fall back): no
+        PVS, the device's reach beyond the bake's growth or the near plane within it, or (street
+        cells) a near plane their depth slack does not cover."""
+        if not self.available:
+            return None
+        grow = self.reach(camera)
+        near = camera.near
+        if not self.sampled and (grow > self.grow or near <= grow / (2.0 * math.sqrt(3.0))):
+            return None
+        ty = math.tan(math.radians(camera.fov) / 2.0)  # near_reach, inline: every frame
+        reach = near * math.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
+        if self.cover is not None and (camera.near < self.cover[1] or
+                                       grow + reach > self.cover[0]):
+            return None  # a near plane the street cells' depth slack does not cover
+        return grow, reach
+
     def lookup(self, camera):
         """(cells, span): the view cells whose sets cover this camera (grown by the device's
         reach) and how far from the eye they were looked for, or None (fall back): no PVS,
         no cell, or the device's reach beyond the bake's growth."""
-        if not self.available:
+        reaches = self.reaches(camera)
+        if reaches is None:
             return None
-        grow = self.reach(camera)
-        if not self.sampled and (grow > self.grow or camera.near <= grow / (2.0 * np.sqrt(3.0))):
-            return None
-        reach = near_reach(camera)
-        if self.cover is not None and (camera.near < self.cover[1] or
-                                       grow + reach > self.cover[0]):
-            return None  # a near plane the street cells' depth slack does not cover
+        grow, reach = reaches
         found = self.eye_cells(camera, grow + reach)
         if self.cover is not None and len(found) and not self.covered(camera.eye, found,
                                                                       grow + reach):
@@ -227,13 +334,14 @@ class PVSStage:
 
 def near_reach(camera) -> float:
     """Distance from the eye to the near plane's corners."""
-    ty = np.tan(np.radians(camera.fov) / 2.0)
-    return camera.near * np.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
+    ty = math.tan(math.radians(camera.fov) / 2.0)
+    return camera.near * math.sqrt(1.0 + ty * ty * (1.0 + camera.aspect ** 2))
 
 
-def cover_nodes(tree: Tree, keep) -> np.ndarray:
-    """(D,) int64 the topmost nodes whose every non-empty leaf references a kept triangle and
-    that hold at least one; computed level by level from the leaves up.
+def set_nodes(tree: Tree, keep) -> tuple:
+    """(cover (D,) int64, some (N,) bool): the topmost nodes whose every non-empty leaf
+    references a kept triangle and that hold at least one, and the nodes whose subtree holds
+    one; computed level by level from the leaves up.
 
     keep : (T,) bool the kept triangles
     """
@@ -263,4 +371,4 @@ def cover_nodes(tree: Tree, keep) -> np.ndarray:
     kids, _ = tree.children(inner)
     parent_full = np.zeros(n, dtype=bool)
     parent_full[kids] = np.repeat(full[inner], count[inner])
-    return np.flatnonzero(full & ~parent_full).astype(np.int64)
+    return np.flatnonzero(full & ~parent_full).astype(np.int64), some

@@ -42,6 +42,9 @@ class CullState:
               walks frustum and buffer in one pass: Culler._fuse); that stage clears it
     late_filters : filters applied after `filters`: costly tests (occlusion's triangle test)
               that should see only the survivors of the cheap ones (tbfc); same result
+    gathered : None, or (ids, runs): what gathering `nodes` gives, already done by the stage
+              that set them (pvs's one compiled call walks, gathers and filters by its set:
+              culling/pvs_frame.py); finish then starts from it
     """
 
     tree: Tree
@@ -53,6 +56,7 @@ class CullState:
     cull_back: bool = False
     frustum_pending: bool = False
     late_filters: list = field(default_factory=list)
+    gathered: tuple | None = None
 
     def count(self, key: str, amount) -> None:
         self.stats[key] = self.stats.get(key, 0) + int(amount)
@@ -65,7 +69,8 @@ class CullState:
         holding them is a reference cycle that keeps the whole Culler (tree, scratch, buffers)
         alive until the cyclic collector runs (issue 28: 1.7 MB a Culler).
         """
-        ids, runs = self.tree.gather(self.nodes)  # leaves share triangles: each once
+        ids, runs = self.gathered if self.gathered is not None else \
+            self.tree.gather(self.nodes)  # leaves share triangles: each once
         filters, self.filters = self.filters + self.late_filters, []
         self.late_filters = []
         for keep_of in filters:

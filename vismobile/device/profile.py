@@ -165,7 +165,8 @@ class Profile:
         pvs              : a baked PVS (extras pvs_*): its arrays as held, its patterns and
                            pattern ids inflated (partition/pvs_codec.py), plus the `pvs`
                            stage's decoded sets (PVS_DECODED combinations of view cells, one
-                           byte per triangle each, culling/pvs.py KEEP)
+                           byte per triangle each, culling/pvs.py KEEP, plus the fused
+                           call's bit per triangle and byte per node, culling/pvs_frame.py)
         textures         : a textured world's (world.textures) mip chains, RGBA8, after the
                            top levels check_memory dropped (texture LOD)
         lod_buffers      : with LOD chains, the level triangles' vertex and index buffers and
@@ -187,8 +188,10 @@ class Profile:
             cells = len(pvs.get("pvs_cells", ()))
             shape = np.asarray(pvs.get("pvs_shape", (0, 0, 0)), dtype=np.int64)
             inflated = int(shape[0]) * ((cells + 7) // 8) + int(shape[1]) * int(shape[2])
+            nodes = len(getattr(partition, "first_child", ()))
+            decoded = triangles + 8 * (triangles // 64 + 1) + nodes  # per combination
             parts["pvs"] = (sum(np.asarray(v).nbytes for v in pvs.values()) + inflated
-                            + min(PVS_DECODED, cells) * triangles)
+                            + min(PVS_DECODED, cells) * decoded)
         textures = getattr(world, "textures", None)
         if textures is not None:
             parts["textures"] = textures.nbytes(self.max_texture_size)

@@ -1,0 +1,98 @@
+"""`pvs` with `vfc` in one compiled call (culling/pvs_frame.py): it hands on exactly the
+triangles the staged path hands on (the set's topmost nodes walked by vfc, then the
+per-triangle filter), with and without a back-face stage, from random cameras in the view
+cells (on faces, edges, corners too) and outside them, on paths through the cells, in
+float64, float32 and fixed16.16; and its walk visits no node vfc alone would not."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vismobile.culling import Culler, device_options
+from vismobile.culling.pvs_frame import keep_bits
+from vismobile.device.profile import get_profile
+from vismobile.partition import partition
+from vismobile.world.camera import Camera
+
+# test_pvs.py's world and cameras (importlib mode: test modules are not importable by name)
+_spec = importlib.util.spec_from_file_location("pvs_cases", Path(__file__).with_name("test_pvs.py"))
+_cases = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_cases)
+MODES, SLABS, in_cell_cameras, zigzag_world = (_cases.MODES, _cases.SLABS,
+                                               _cases.in_cell_cameras, _cases.zigzag_world)
+
+
+@pytest.fixture(scope="module")
+def baked(kit):
+    world = zigzag_world(kit)
+    portal = partition(world, "portal", depth=1, slabs=SLABS, pvs="conservative")
+    octree = partition(world, "octree:3", pvs="conservative")
+    return {"portal": portal, "octree": octree}
+
+
+def path_cameras(part, count, seed):
+    """A walk through the rooms: consecutive eyes a small step apart (so the fused call mostly
+    meets the cells of the frame before), now and then a jump, a near plane of 0.01 to 0.3 (the
+    back-face part of the set comes and goes with the eye's reach) and one eye outside."""
+    rng = np.random.default_rng(seed)
+    low, high = part.world.extent
+    eye = (low + high) / 2.0
+    cams = []
+    for i in range(count):
+        if i % 25 == 0:
+            eye = rng.uniform(low, high)
+        eye = np.clip(eye + rng.normal(0.0, 0.15, 3), low + 0.05, high - 0.05)
+        cams.append(Camera(eye, yaw=rng.uniform(0, 360), pitch=rng.uniform(-89, 89),
+                           fov=rng.uniform(10, 120), near=float(rng.choice([0.01, 0.1, 0.3])),
+                           aspect=4 / 3))
+    cams.append(Camera(low - 3.0, yaw=30.0, aspect=4 / 3))  # outside every cell: falls back
+    return cams
+
+
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("kind", ["portal", "octree"])
+def test_the_fused_call_hands_on_what_the_staged_path_did(baked, kit, kind, mode):
+    part = baked[kind]
+    options = {"arithmetic": "float64"} if mode == "float64" else \
+        device_options(get_profile(kit.PROFILE, mode))
+    cams = in_cell_cameras(part, 60, 11) + path_cameras(part, 80, 12)
+    keys = ("pvs.cells", "pvs.fallbacks", "pvs.everything", "triangles_sent")
+    for stages in ("pvs+vfc", "pvs+vfc+tbfc", "pvs+vfc+bfc+cbfc"):
+        fused = Culler(part, stages, **options)
+        staged = Culler(part, stages, pvs={"fuse": False}, **options)
+        alone = Culler(part, stages.replace("pvs+", ""), **options)
+        assert fused.stages[0].walker is not None and staged.stages[0].walker is None
+        used = narrowed = 0
+        for cam in cams:
+            a, b, c = fused.cull(cam), staged.cull(cam), alone.cull(cam)
+            assert np.array_equal(a.triangles, b.triangles), f"{stages} {mode}: {cam}"
+            assert {k: a.stats.get(k) for k in keys} == {k: b.stats.get(k) for k in keys}
+            # the walk skips what the set leaves out: never more nodes than vfc alone
+            assert a.stats["nodes_visited"] <= c.stats["nodes_visited"]
+            assert not len(np.setdiff1d(a.triangles, c.triangles))
+            used += "pvs.fallbacks" not in a.stats
+            narrowed += len(a.triangles) < len(c.triangles)
+        assert used >= len(cams) - 5 and narrowed > 0  # the sets took part, and cut something
+
+
+def test_the_fused_call_only_where_vfc_is_the_one_node_stage(baked):
+    part = baked["portal"]
+    assert Culler(part, "pvs+vfc+cbfc").stages[0].walker is not None
+    for stages in ("pvs", "pvs+vfc+occlusion", "pvs+vfc+cone", "pvs+portals+vfc"):
+        culler = Culler(part, stages)
+        assert culler.stages[0].walker is None, stages
+        assert not any(getattr(s, "absorbed", False) for s in culler.stages), stages
+    with pytest.raises(ValueError, match="fuse"):
+        Culler(part, "pvs+vfc", pvs={"fuse": "yes"})
+
+
+def test_the_set_bits_follow_the_bitmap_layout():
+    rng = np.random.default_rng(2)
+    for count in (1, 63, 64, 65, 1000):
+        keep = rng.uniform(size=count) < 0.4
+        bits = keep_bits(keep)
+        assert bits.dtype == np.uint64 and len(bits) == count // 64 + 1
+        ids = np.arange(count)
+        held = (bits[ids >> 6] >> (ids & 63).astype(np.uint64)) & np.uint64(1)
+        assert np.array_equal(held.astype(bool), keep)

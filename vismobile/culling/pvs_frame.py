@@ -1,0 +1,125 @@
+"""`pvs` with `vfc` in one compiled call: the frustum walk skips the subtrees holding no
+triangle of the eye's set, the distinct gather marks what the accepted nodes hold, and the
+set's bits clear what it leaves out, word by word (culling/pvs.py hands this on when vfc is
+the only node stage after it: Culler._fuse).
+
+The walk visits a subset of the nodes vfc visits from the root, and each word the gather
+touched costs one AND, so a frame costs no more than vfc's walk and gather plus the lookup;
+nothing in it follows the world's size. What it sends is exactly what the staged path sends
+(pvs's topmost nodes, vfc's walk from them, the gather and the per-triangle filter): the
+triangles of the set in the leaves the frustum does not reject. A node's box holds its
+children's (partition/tight.py), so a leaf is rejected from the root exactly when it is from
+any of its ancestors; a subtree accepted whole may hold leaves outside the set, and the bits
+take their triangles out.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .gather import count_marked, extract_marked, mark_nodes
+from .kernels import frustum_walk
+from .pvs_lookup import find
+
+_ONE = np.uint64(1)
+_M1 = np.uint64(0x5555555555555555)
+_M2 = np.uint64(0x3333333333333333)
+_M4 = np.uint64(0x0F0F0F0F0F0F0F0F)
+_H01 = np.uint64(0x0101010101010101)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _popcount(x):
+    x = x - ((x >> _ONE) & _M1)
+    x = (x & _M2) + ((x >> np.uint64(2)) & _M2)
+    x = (x + (x >> np.uint64(4))) & _M4
+    return np.int64((x * _H01) >> np.uint64(56))
+
+
+def keep_bits(keep) -> np.ndarray:
+    """(T // 64 + 1,) uint64: bit t & 63 of word t >> 6 set when keep[t] (the bitmap's layout,
+    gather.py)."""
+    keep = np.asarray(keep, dtype=bool)
+    words = np.zeros((len(keep) // 64 + 1) * 64, dtype=bool)
+    words[:len(keep)] = keep
+    return np.packbits(words, bitorder="little").view("<u8").astype(np.uint64)
+
+
+@njit(cache=True, nogil=True)
+def mask_marked(bits, summary, tops, ntops, kept):
+    """AND each marked word of the two-level bitmap with kept (same layout); a word left empty
+    leaves its summary bit. Returns how many ids were marked before (the triangles the set
+    tested)."""
+    before = 0
+    for k in range(ntops):
+        s = tops[k]
+        y = summary[s]
+        left = y
+        while y:
+            low = y & (~y + _ONE)
+            y ^= low
+            w = (s << 6) + _popcount(low - _ONE)
+            x = bits[w]
+            before += _popcount(x)
+            x &= kept[w]
+            bits[w] = x
+            if x == 0:
+                left ^= low
+        summary[s] = left
+    return before
+
+
+@njit(cache=True, nogil=True)
+def walk_gather(box, links, size, whole_below, inner, inner_links, covering, planes, tol,
+                out, stack_node, stack_set, stack_mask, allow, words, masks, span, bits,
+                summary, tops, ranges, kept):
+    """One frame of pvs+vfc: (ids (S,) int64 ascending, runs, accepted nodes, visited, plane
+    tests, culled, straddling, covered, ids tested by the set).
+
+    planes : (1, P, 4) float64 the frustum's; allow : (N,) bool nodes whose subtree holds a
+    triangle of the set, or None (every node); kept : (T // 64 + 1,) uint64 the set's bits
+    (keep_bits), or None (the whole world). The rest: kernels.frustum_walk's and
+    gather.mark_nodes' arguments (Tree's records, scratch and bitmap). Accepted nodes are
+    out[:accepted]."""
+    roots = np.zeros(1, dtype=np.int64)
+    count, visited, tests, culled, straddling, covered = frustum_walk(
+        box, links, size, whole_below, inner, inner_links, covering, roots, roots, planes, tol,
+        out, stack_node, stack_set, stack_mask, allow)
+    ntops = mark_nodes(words, masks, span, out[:count], bits, summary, tops, ranges)
+    tested = 0
+    if kept is not None:
+        tested = mask_marked(bits, summary, tops, ntops, kept)
+    total = count_marked(bits, summary, tops, ntops)
+    ids = np.empty(total, dtype=np.int64)
+    runs = extract_marked(bits, summary, tops, ntops, ids)
+    return ids, runs, count, visited, tests, culled, straddling, covered, tested
+
+
+@njit(cache=True, nogil=True)
+def locate_walk_gather(cells, x0, z0, size, nx, nz, start, index, x, y, z, pad, expect, box,
+                       links, size_of, whole_below, inner, inner_links, covering, planes, tol,
+                       scratch, allow, words, masks, span, bits, summary, tops, ranges, kept,
+                       counts):
+    """The eye's view cells (pvs_lookup.find: grown by pad, bucketed by cell_index's
+    x0 .. index) and, when they are `expect` (the cells allow and kept were made for: the
+    frame before's, mostly), walk_gather's frame. Returns (hit, found (K,) int64, ids (S,)
+    int64; empty on a miss: nothing walked); counts (>= 9,) int64 receives the boxes tested,
+    then walk_gather's runs, accepted, visited, plane tests, culled, straddling, covered and
+    masked. scratch : (4, >= N + 1) int64, the walk's out and stacks (accepted nodes are
+    scratch[0, :accepted]); the rest as walk_gather's."""
+    eye = np.empty(3, dtype=np.float64)
+    eye[0], eye[1], eye[2] = x, y, z
+    found, tested = find(cells, x0, z0, size, nx, nz, start, index, eye, pad)
+    counts[0] = tested
+    hit = len(found) == len(expect) and len(found) > 0
+    if hit:
+        for k in range(len(found)):
+            if found[k] != expect[k]:
+                hit = False
+    if not hit:
+        return False, found, np.empty(0, dtype=np.int64)
+    ids, counts[1], counts[2], counts[3], counts[4], counts[5], counts[6], counts[7], \
+        counts[8] = walk_gather(box, links, size_of, whole_below, inner, inner_links, covering,
+                                planes, tol, scratch[0], scratch[1], scratch[2], scratch[3],
+                                allow, words, masks, span, bits, summary, tops, ranges, kept)
+    return True, found, ids
