@@ -259,8 +259,9 @@ def _seeds_load_and_mutations_refuse(fuzz, target, seeds, folder):
 
 
 def test_crafted_pvs_packs_load_or_are_refused_in_one_error(tmp_path, literal):
-    """A baked PVS's zlib'd sets (partition/pvs_codec.py) edited inside and re-compressed
-    (tools/fuzz.py mutate_pvs_pack, CRCs recomputed): each loads or raises PartitionError."""
+    """A baked PVS's side stream, pattern bits or shape (partition/pvs_codec.py) edited inside
+    and re-compressed (tools/fuzz.py mutate_pvs_pack, CRCs recomputed): each loads or raises
+    PartitionError."""
     import random
     import sys
 
@@ -283,8 +284,7 @@ def test_crafted_pvs_packs_load_or_are_refused_in_one_error(tmp_path, literal):
         header = json.loads(seed[20:20 + header_len])
         body_start = 20 + header_len + (-(20 + header_len) % 64)
         body = bytearray(seed[body_start:])
-        sec = next(s for s in header["sections"] if s["name"] == "extras.pvs_pack")
-        body = fuzz.mutate_pvs_pack(sec, header["fields"]["extras.pvs_pack"], body, pick)
+        body = fuzz.mutate_pvs_pack(header, body, pick)
         text = json.dumps(header, sort_keys=True, separators=(",", ":")).encode()
         head = struct.pack("<8sIII", seed[:8], 1, len(text), zlib.crc32(text)) + text
         path = tmp_path / f"case{case}.vmp"

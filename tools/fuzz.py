@@ -18,7 +18,7 @@ Three modes:
   from it, a thesis trajectory): byte flips, insertions, deletions, repeats, truncation, extreme
   numbers swapped into tokens, and for .vmp crafted edits of the JSON header and of sections
   with their CRC32s recomputed, so the checks behind the checksums are reached (a baked PVS's
-  zlib'd sets re-compressed after an edit inside; tools/fuzz_vmp.py). A .vmp that
+  side stream, pattern bits or shape edited inside, re-compressed; tools/fuzz_vmp.py). A .vmp that
   loads is also culled (vfc, occlusion, portals) from a camera inside its world.
 - hostile: issue 28's crafted cases (tools/hostile.py: bad indices, node graphs, instancing,
   URIs, bombs, special files, .vmt headers, heightmap shapes), each through the CLI in a child

@@ -16,9 +16,12 @@ def edit_vmp(data: bytes, pick) -> bytes:
     header = json.loads(data[HEADER.size:HEADER.size + length])
     body_start = HEADER.size + length + (-(HEADER.size + length) % 64)
     body = bytearray(data[body_start:])
-    packs = [sec for sec in header["sections"] if sec["name"] == "extras.pvs_pack"]
-    if packs and header["fields"]["extras.pvs_pack"]["encoding"] == "raw" and pick(3) == 0:
-        body = mutate_pvs_pack(packs[0], header["fields"]["extras.pvs_pack"], body, pick)
+    names = {sec["name"] for sec in header["sections"]}
+    fields = header["fields"]
+    if {"extras.pvs_pack", "extras.pvs_shape"} <= names and all(
+            fields[f"extras.pvs_{n}"]["encoding"] == "raw" for n in ("pack", "shape")) \
+            and pick(3) == 0:
+        body = mutate_pvs_pack(header, body, pick)
     elif pick(2) == 0:
         _edit_json(header, pick)
     elif header["sections"]:
@@ -33,29 +36,63 @@ def edit_vmp(data: bytes, pick) -> bytes:
     return head + b"\0" * (-len(head) % 64) + bytes(body)
 
 
-def mutate_pvs_pack(sec, field, body, pick) -> bytearray:
-    """A PVS whose pvs_pack (partition/pvs_codec.py) still inflates, edited inside: a pattern
-    id or bits changed, the stream cut or lengthened, a zero bomb, bytes after the stream, or
-    another compression level; the new section goes at the end of the body (aligned), the
-    section entry, its CRC32 and the field's shape updated."""
-    start, size = sec["offset"], sec["nbytes"]
-    data = bytearray(zlib.decompress(bytes(body[start:start + size])))
-    edit = pick(6)
-    if edit == 0 and data:  # one byte: a pattern bit or a pattern id
-        data[pick(len(data))] = pick(256)
-    elif edit == 1 and data:
-        del data[pick(len(data)):]
+def mutate_pvs_pack(header, body, pick) -> bytearray:
+    """A PVS (partition/pvs_codec.py: pvs_shape, and pvs_pack = an lzma side stream, then the
+    range-coded pattern bits) edited inside, still well formed around the edit: a byte of the
+    inflated side stream (a coordinate, a corner, a reference or a pattern id) or of the
+    pattern bits, either stream cut or lengthened, a side stream that inflates far past its
+    declared size, bytes after a stream, or a pvs_shape count off by a little; the new
+    sections go at the end of the body (aligned), their entries, CRC32s and shapes updated."""
+    import lzma
+
+    import numpy as np
+
+    sections = {sec["name"]: sec for sec in header["sections"]}
+    shape_sec, pack_sec = sections["extras.pvs_shape"], sections["extras.pvs_pack"]
+    shape = np.frombuffer(bytes(body[shape_sec["offset"]:shape_sec["offset"]
+                                     + shape_sec["nbytes"]]), dtype=shape_sec["dtype"])
+    shape = shape.astype(np.int64)
+    pack = bytes(body[pack_sec["offset"]:pack_sec["offset"] + pack_sec["nbytes"]])
+    filters = [{"id": lzma.FILTER_LZMA2, "preset": 9, "dict_size": 1 << 20}]
+    if len(shape) != 9 or not 0 <= shape[-1] <= len(pack):
+        side, bits = b"", pack
+    else:
+        try:
+            side = lzma.decompress(pack[:shape[-1]], format=lzma.FORMAT_RAW, filters=filters)
+        except lzma.LZMAError:
+            side = b""
+        bits = pack[shape[-1]:]
+    side, bits = bytearray(side), bytearray(bits)
+    edit, at = pick(8), None
+    if edit == 0 and side:  # one byte of a table, a corner, a reference or an id
+        side[pick(len(side))] = pick(256)
+    elif edit == 1 and bits:  # one byte of the pattern bits
+        bits[pick(len(bits))] = pick(256)
     elif edit == 2:
-        data += bytes([pick(256)]) * (1 + pick(64))
+        del side[pick(len(side) + 1):]
     elif edit == 3:
-        data = bytearray(1 << (10 + pick(16)))  # inflates far past what pvs_shape declares
-    pack = zlib.compress(bytes(data), pick(10))
-    if edit == 4:
-        pack += bytes([pick(256)]) * (1 + pick(8))  # trailing bytes after the stream
-    body += b"\0" * (-len(body) % 64)
-    sec.update(offset=len(body), nbytes=len(pack), count=len(pack), crc32=zlib.crc32(pack))
-    field["shape"] = [len(pack)]
-    return body + pack
+        del bits[pick(len(bits) + 1):]
+    elif edit == 4:
+        side += bytes([pick(256)]) * (1 + pick(64))
+    elif edit == 5:
+        side = bytearray(1 << (10 + pick(16)))  # inflates far past what pvs_shape declares
+    elif edit == 6:
+        bits += bytes([pick(256)]) * (1 + pick(8))  # bytes after the pattern stream
+    elif len(shape):
+        at = pick(len(shape))
+        shape[at] += pick(5) - 2  # a count, a size or a length off by a little
+    packed = lzma.compress(bytes(side), format=lzma.FORMAT_RAW, filters=filters)
+    if len(shape) == 9 and at != 8:
+        shape[-1] = len(packed)
+    for sec, data in ((pack_sec, packed + bytes(bits)), (shape_sec, shape.astype("<i8").tobytes())):
+        body += b"\0" * (-len(body) % 64)
+        sec.update(offset=len(body), nbytes=len(data), count=len(data) // (8 if sec is shape_sec
+                                                                        else 1),
+                   crc32=zlib.crc32(data), dtype="<i8" if sec is shape_sec else "|u1")
+        body += data
+    header["fields"]["extras.pvs_pack"]["shape"] = [pack_sec["count"]]
+    header["fields"]["extras.pvs_shape"]["shape"] = [shape_sec["count"]]
+    return body
 
 
 def _edit_json(node, pick):

@@ -186,8 +186,9 @@ class Profile:
         if pvs:
             parts["partition"] -= sum(np.asarray(v).nbytes for v in pvs.values())
             cells = len(pvs.get("pvs_cells", ()))
-            shape = np.asarray(pvs.get("pvs_shape", (0, 0, 0)), dtype=np.int64)
-            inflated = int(shape[0]) * ((cells + 7) // 8) + int(shape[1]) * int(shape[2])
+            # pvs_shape (partition/pvs_codec.py): layout, V, K patterns, T ids, bytes per id
+            shape = np.asarray(pvs.get("pvs_shape", (0,) * 5), dtype=np.int64)
+            inflated = int(shape[2]) * ((cells + 7) // 8) + int(shape[3]) * int(shape[4])
             nodes = len(getattr(partition, "first_child", ()))
             decoded = triangles + 8 * (triangles // 64 + 1) + nodes  # per combination
             parts["pvs"] = (sum(np.asarray(v).nbytes for v in pvs.values()) + inflated

@@ -6,9 +6,9 @@ and `pvs_kernels.flow_from_cell` walks the portal crossings out of each (separat
 conservative). The result is stored with the partition as extras, so it travels in the `.vmp`
 (CRC'd sections, checked on load by `check`):
 
-    pvs_cells  (V, 2, 3) float64  view-cell boxes
-    pvs_shape, pvs_pack           the cells' sets, one pattern of cells per triangle, zlib'd
-                                  (pvs_codec.py)
+    pvs_cells  (V, 2, 3) float64  view-cell boxes (the .vmp keeps them in pvs_pack)
+    pvs_shape, pvs_pack           the boxes and the cells' sets, one pattern of cells per
+                                  triangle, arithmetic-coded (pvs_codec.py)
     pvs_grow   (1,)      float64  how far eyes and portals were grown (device rounding)
     pvs_back   (1,)      float64  the stage may leave out what faces away from the whole cell
                                   grown by this much (pvs_back.py), when back faces are culled
@@ -225,7 +225,7 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
             boxes, masks, stats = bake_street(world, grow, tol, progress, jobs, executor,
                                               EXECUTOR_CHUNKS, columns, fly)
             masks = with_solids(world, boxes, masks, grow)
-            extras = {"pvs_cells": boxes.copy(), **encode(masks, len(boxes)),
+            extras = {"pvs_cells": boxes.copy(), **encode(boxes, masks),
                       "pvs_grow": np.array([grow], dtype=np.float64),
                       "pvs_back": np.array([back_reach(world)], dtype=np.float64),
                       "pvs_cover": np.array([COVER, NEAR_MIN], dtype=np.float64)}
@@ -283,8 +283,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
         from .pvs_leaves import leaf_sets
 
         boxes, masks = leaf_sets(partition, boxes, masks, tol)
-    extras = {"pvs_cells": np.asarray(boxes, dtype=np.float64).copy(),
-              **encode(masks, len(boxes)),
+    boxes = np.asarray(boxes, dtype=np.float64).copy()
+    extras = {"pvs_cells": boxes, **encode(boxes, masks),
               "pvs_grow": np.array([grow], dtype=np.float64),
               "pvs_back": np.array([back_reach(world)], dtype=np.float64), **door_extras}
     stats = {"seconds": time.perf_counter() - began, "cells": len(boxes),

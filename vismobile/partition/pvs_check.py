@@ -3,22 +3,23 @@ from __future__ import annotations
 
 import numpy as np
 
-from .pvs_codec import decode
+from .pvs_codec import decode_all
 
-NAMES = ("pvs_cells", "pvs_shape", "pvs_pack", "pvs_grow")
+NAMES = ("pvs_shape", "pvs_pack", "pvs_grow")
 
 
 def check_pvs(x, triangles) -> None:
     """Raise ValueError when the PVS extras are inconsistent (loaded files are checked; the
-    sets are inflated once to check them, within their declared size)."""
+    sets are inflated once to check them, within their declared size). pvs_cells, the boxes
+    the .vmp keeps in pvs_pack (pvs_codec.derived_extras), must be the decoded ones."""
     present = [n for n in NAMES if n in x]
     if not present:
-        if "pvs_runs" in x or "pvs_start" in x:
-            raise ValueError("the PVS is stored as runs (an older layout): bake it again")
+        if "pvs_runs" in x or "pvs_start" in x or "pvs_cells" in x:
+            raise ValueError("the PVS is stored in an older layout: bake it again")
         return
     if len(present) != len(NAMES):
         raise ValueError(f"pvs extras missing: {', '.join(n for n in NAMES if n not in x)}")
-    cells, grow = np.asarray(x["pvs_cells"]), np.asarray(x["pvs_grow"])
+    grow = np.asarray(x["pvs_grow"])
     if "pvs_back" in x:
         back = np.asarray(x["pvs_back"])
         if back.shape != (1,) or not np.isfinite(back).all() or back[0] < 0:
@@ -27,13 +28,12 @@ def check_pvs(x, triangles) -> None:
         cover = np.asarray(x["pvs_cover"])
         if cover.shape != (2,) or not np.isfinite(cover).all() or (cover <= 0).any():
             raise ValueError("pvs_cover must be two finite positive values (cover, near)")
-    if cells.ndim != 3 or cells.shape[1:] != (2, 3) or not np.isfinite(cells).all() \
-            or np.any(cells[:, 0] > cells[:, 1]):
-        raise ValueError("pvs_cells must be (V, 2, 3) finite boxes")
     if grow.shape != (1,) or not np.isfinite(grow).all() or grow[0] < 0:
         raise ValueError("pvs_grow must be one finite non-negative value")
-    decode(x, len(cells), int(triangles))
-    check_door_sets(x, len(cells), triangles)
+    boxes = decode_all(x, int(triangles))[0]
+    if "pvs_cells" not in x or not np.array_equal(np.asarray(x["pvs_cells"]), boxes):
+        raise ValueError("pvs_cells must be the view-cell boxes pvs_pack holds")
+    check_door_sets(x, len(boxes), triangles)
 
 
 def check_door_sets(x, cells, triangles) -> None:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import PartitionError
 from ..world.world import World, atomic_write_bytes
+from . import pvs_codec
 from .base import KINDS, Partition
 
 MAGIC = b"\x89VMP\r\n\x1a\n"
@@ -128,7 +129,9 @@ def _fields(partition: Partition) -> dict:
     fields = {"world.vertices": w.vertices, "world.triangles": w.triangles,
               "world.object_ids": w.object_ids}
     fields.update({name: getattr(partition, name) for name in TREE_FIELDS})
-    fields.update({f"extras.{name}": value for name, value in sorted(partition.extras.items())})
+    derived = pvs_codec.DERIVED if "pvs_pack" in partition.extras else ()
+    fields.update({f"extras.{name}": value for name, value in sorted(partition.extras.items())
+                   if name not in derived})  # the PVS's boxes travel in its pack
     return fields
 
 
@@ -437,6 +440,10 @@ def _parse(path, buffer, world):
     child_count = fields["child_count"].astype(np.int32)
     extras = {name[len("extras."):]: value for name, value in fields.items()
               if name.startswith("extras.")}
+    try:
+        extras.update(pvs_codec.derived_extras(extras, loaded.triangle_count))
+    except ValueError as error:
+        raise PartitionError(f"{path}: inconsistent partition file: {error}") from None
     if header["fields"]["node_bounds"]["encoding"] == "octants":
         shape = tuple(int(n) for n in header["fields"]["node_bounds"]["shape"])
         if shape != (len(child_count), 2, 3) or "octant" not in extras:

@@ -70,7 +70,7 @@ def bake_sampled(partition, samples: int, profile, seed: int = 0, progress=None)
         masks.append(seen)
         if progress is not None:
             progress(c + 1, len(cells))
-    extras = {"pvs_cells": cells.copy(), **encode(masks, len(cells)),
+    extras = {"pvs_cells": cells.copy(), **encode(cells, masks),
               "pvs_grow": np.array([0.0])}  # no growth: the stage knows it is sampled
     return extras, {"seconds": time.perf_counter() - began, "cells": len(cells),
                     "renders": len(cells) * int(samples) * len(FACES)}

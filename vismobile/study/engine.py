@@ -165,7 +165,7 @@ def bake_pvs(base, mode: str, progress=None, jobs: int = 1, executor=None) -> tu
     import copy
 
     from ..partition.pvs import bake
-    from ..partition.pvs_codec import cell_sizes, decode
+    from ..partition.pvs_codec import DERIVED, cell_sizes, decode
     from ..partition.store import stored_bytes
 
     if mode == "conservative":
@@ -184,7 +184,8 @@ def bake_pvs(base, mode: str, progress=None, jobs: int = 1, executor=None) -> tu
     cells = len(extras["pvs_cells"])
     sizes = cell_sizes(*decode(extras, cells, base.world.triangle_count), cells)
     summary = {"mode": mode, "seconds": float(stats["seconds"]), "cells": int(len(sizes)),
-               "bytes": int(sum(stored_bytes(v) for v in extras.values())),
+               "bytes": int(sum(stored_bytes(v) for k, v in extras.items()
+                                if k not in DERIVED)),
                "mean_set": float(np.mean(sizes) / max(base.world.triangle_count, 1))
                if len(sizes) else 0.0}
     return built, summary
