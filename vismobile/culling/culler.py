@@ -20,7 +20,7 @@ from .occlusion_chain import cull_chained
 from .occlusion_thesis import ThesisOcclusion
 from .portals import PortalStage
 from .pvs import PVSStage
-from .precision import conservative_planes, world_scale
+from .precision import culling_planes, world_scale
 from .state import CullResult, CullState
 from .tree import Tree
 from .triangle_backface import TriangleBackface
@@ -207,7 +207,7 @@ class Culler:
             if self._doors is not None:  # where the doors stand: shut ones block portals
                 for stage in self._doors[0]:
                     stage.door_matrices = self.moving.matrices[self._doors[1]]
-        planes = conservative_planes(camera.frustum_planes(), self.arithmetic, scale)
+        planes = culling_planes(camera, self.arithmetic, scale)
         if self._chained is not None:  # the whole frame in one compiled call
             result = cull_chained(*self._chained, camera, planes, self.cull_back)
             if result is not None:

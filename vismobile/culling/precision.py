@@ -92,6 +92,15 @@ def conservative_planes(planes, mode: str, scale: float) -> np.ndarray:
     return planes
 
 
+def culling_planes(camera: Camera, mode: str, scale: float) -> np.ndarray:
+    """conservative_planes(camera.frustum_planes(), mode, scale), bit for bit: in one compiled
+    call (Camera.pushed_planes) when the camera's planes are Camera's own, else (a subclass
+    that pushes them, ConservativeCamera) through its frustum_planes."""
+    if type(camera).frustum_planes is Camera.frustum_planes:
+        return camera.pushed_planes(margin(mode, scale), _max_magnitude(mode))
+    return conservative_planes(camera.frustum_planes(), mode, scale)
+
+
 @lru_cache(maxsize=8)
 def _max_magnitude(mode: str) -> float:
     return arithmetic.max_magnitude(mode)

@@ -89,26 +89,19 @@ class Camera:
         Built from the camera basis rather than the clip matrix, so the near and far planes
         keep full precision at far/near ratios of 1e7. Order: left, right, bottom, top, near, far.
         """
-        (rx, ry, rz), (ux, uy, uz), (fx, fy, fz) = self.axes()
-        ch, sh, cv, sv = _half_angles(self.fov, self.aspect)
-        rows = ((ch * rx + sh * fx, ch * ry + sh * fy, ch * rz + sh * fz),
-                (-ch * rx + sh * fx, -ch * ry + sh * fy, -ch * rz + sh * fz),
-                (cv * ux + sv * fx, cv * uy + sv * fy, cv * uz + sv * fz),
-                (-cv * ux + sv * fx, -cv * uy + sv * fy, -cv * uz + sv * fz),
-                (fx, fy, fz), (-fx, -fy, -fz))
-        # Scalars: a frame's few small numpy calls cost more than this arithmetic. The offsets
-        # stay one matrix product (the BLAS's rounding, so the planes keep their bits).
-        units = []
-        for x, y, z in rows:
-            length = math.sqrt(x * x + y * y + z * z)
-            units.append((x / length, y / length, z / length))
-        planes = np.empty((6, 4))
-        planes[:, :3] = units
-        d = -planes[:, :3] @ self.eye
-        d[4] -= self.near
-        d[5] += self.far
-        planes[:, 3] = d
-        return planes
+        return self.pushed_planes(-0.0, np.inf)  # x + -0.0 is x: the offsets unchanged
+
+    def pushed_planes(self, margin: float, limit: float) -> np.ndarray:
+        """(6, 4) float64 Camera.frustum_planes (this class's, never a subclass's) with each
+        offset raised by margin, and a plane whose raised offset exceeds limit in magnitude
+        replaced by the always-inside (0, 0, 0, 1): culling.precision.conservative_planes of
+        them, bit for bit, in one compiled call (world/view_planes.py)."""
+        from .view_planes import view_planes  # numba: not on the --help import path
+
+        x, y, z = self.position
+        return view_planes(x, y, z, float(self.yaw), float(self.pitch),
+                           *_half_angles(self.fov, self.aspect), float(self.near),
+                           float(self.far), float(margin), float(limit))
 
     def with_(self, **changes) -> "Camera":
         """A copy with some fields replaced."""
