@@ -245,7 +245,7 @@ def test_the_compiled_frame_decides_as_the_python_path(kit, monkeypatch):
     traj = Trajectory.load(Path(__file__).resolve().parents[2] / "trajectories" / "indoor.csv")
     ran, chained = 0, []
     monkeypatch.setattr(culler_module, "cull_chained", lambda *a, run=culler_module.cull_chained:
-                        chained.append(run(*a)) or chained[-1])
+                        chained.append(run(*a)) or chained[-1])  # (result or None, planes)
     for arithmetic, options in (("float32", {"screen": (240, 320)}), ("fixed16.16", {}),
                                 ("float64", {"rounds": 3})):
         whole = Culler(part, "vfc,occlusion,tbfc", arithmetic, occlusion=options)
@@ -278,9 +278,9 @@ def test_the_compiled_frame_decides_as_the_python_path(kit, monkeypatch):
                 assert np.array_equal(result.triangles, two.triangles), arithmetic
                 assert result.stats == two.stats, arithmetic
             assert np.array_equal(whole.stages[1].history, python.stages[1].history)
-        assert all(r is None for r in chained[regular:])  # both went stage by stage
+        assert all(r is None for r, _ in chained[regular:])  # both went stage by stage
     assert ran == 36  # the compiled path ran on every frame
-    assert len(chained) == 36 + 6 and sum(r is not None for r in chained) == 36
+    assert len(chained) == 36 + 6 and sum(r is not None for r, _ in chained) == 36
     # top_scored: the best positive scores first, ties in the ids' order, count kept.
     ids = np.array([10, 11, 12, 13, 14, 15], dtype=np.int64)
     score = np.array([0.5, 0.0, 2.0, 0.5, -1.0, 0.5])

@@ -207,11 +207,13 @@ class Culler:
             if self._doors is not None:  # where the doors stand: shut ones block portals
                 for stage in self._doors[0]:
                     stage.door_matrices = self.moving.matrices[self._doors[1]]
-        planes = culling_planes(camera, self.arithmetic, scale)
-        if self._chained is not None:  # the whole frame in one compiled call
-            result = cull_chained(*self._chained, camera, planes, self.cull_back)
+        if self._chained is not None:  # the whole frame, planes too, in one compiled call
+            result, planes = cull_chained(*self._chained, camera, self.arithmetic, scale,
+                                          self.cull_back)
             if result is not None:
                 return result
+        else:
+            planes = culling_planes(camera, self.arithmetic, scale)
         state = CullState(self.tree, camera, planes, np.zeros(1, dtype=np.int64),
                           stats={"nodes_visited": 0, "plane_tests": 0, "triangles_tested": 0})
         try:

@@ -5,7 +5,10 @@ occlusion's triangle test and the ranking of the sent triangles as next frame's 
 (occlusion.observe). The same kernels in the same order as Culler.cull with those stages
 (CullState.finish with tbfc's and occlusion's filters, then observe), so it sends exactly the
 same triangles with the same counters; it only saves the Python between them (issue 32: about
-a quarter of a W2 frame played after a render was that Python).
+a quarter of a W2 frame played after a render was that Python). The frustum planes and the
+stage's view are computed in the call too (view_planes, chain_view: the Python path's bits),
+and what stays the same from frame to frame goes in as one structref (ChainTables), so the
+Python left around the call is a few lookups and the result's dict.
 
 The Culler takes this path (Culler._chain, cull_chained) only when vfc, occlusion and tbfc (and
 bfc, a render flag) are its only stages on a static partition: any other filter would have to
@@ -13,6 +16,8 @@ run between. A frame the compiled frame does not cover (the device cannot order 
 occluder pixel written) goes the stages' way.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit, types
@@ -23,11 +28,15 @@ from .gather import count_marked, extract_marked, mark_nodes
 from .hiz import GUARD_PX
 from .hiz.buffer import hidden_triangles
 from .hiz.candidates import score_candidates
-from .hiz.frame import FRAME_SLOTS, occlusion_frame, occluder_shift, top_scored
+from .hiz.frame import (CANDIDATE_NODES, CANDIDATES, FRAME_SLOTS, NODES_CULLED, NODES_TESTED,
+                        OCCLUDERS, PIXELS, PLANE_TESTS, VFC_ACCEPTED, VFC_CULLED, VISITED,
+                        occlusion_frame, occluder_shift, sample_clip, top_scored)
 from .kernels import run_count
 from .occluder_choice import GRAZING, SHELL_GROWTH
-from .occlusion import LOCAL_SHIFT_PX, ZBUFFER_MARGIN
-from .precision import device_move
+from ..world.view_planes import view_planes
+from .backface import half_tangents
+from .occlusion import LOCAL_SHIFT_PX, NEAR_RELATIVE, ZBUFFER_MARGIN
+from .precision import culling_planes, culling_push, device_move
 from .state import CullResult
 from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE, GAMMA_8
 
@@ -77,6 +86,23 @@ def chain_finish(nodes, words, masks, span, bits, summary, tops, ranges, vertice
     return out, top_scored(out, score, occluders)
 
 
+@njit(cache=True, nogil=True)
+def chain_counters(stats, counts, sent, kept):
+    """(19,) int64: the frame's counters in chain_tables' names' order, from occlusion_frame's
+    stats, chain_finish's counts, the sent count and the draw nodes kept."""
+    gathered, front = counts[GATHERED], counts[FRONT]
+    values = np.empty(19, dtype=np.int64)
+    values[0], values[1], values[2] = stats[VISITED], stats[PLANE_TESTS], gathered + front
+    values[3], values[4], values[5] = stats[OCCLUDERS], stats[PIXELS], stats[CANDIDATES]
+    values[6], values[7] = stats[CANDIDATE_NODES], stats[VFC_CULLED]
+    values[8] = stats[VFC_ACCEPTED]
+    values[9], values[10], values[11] = stats[NODES_TESTED], stats[NODES_CULLED], gathered
+    values[12], values[13], values[14] = gathered - front, front, counts[SUBPIXEL]
+    values[15], values[16], values[17] = counts[HIDDEN], sent, counts[RUNS]
+    values[18] = kept
+    return values
+
+
 @structref.register
 class ChainTablesType(types.StructRef):
     """numba's type of ChainTables (fields typed as given, literals widened)."""
@@ -103,7 +129,7 @@ TABLE_FIELDS = (
     "tile_max", "tile_any", "tile_min", "tile_near", "tile_shift", "local_px", "sw", "sh",
     "g_words", "g_masks", "g_span", "g_bits", "g_summary", "g_tops", "zbuffer_margin",
     "magnitude", "device_relative", "device_absolute", "tbfc_relative", "tbfc_magnitude",
-    "tbfc_absolute")
+    "tbfc_absolute", "move_absolute", "near_relative")
 structref.define_constructor(ChainTables, ChainTablesType, TABLE_FIELDS)
 structref.define_boxing(ChainTablesType, ChainTables)
 
@@ -113,16 +139,18 @@ def _pack(fields):
     return ChainTables(*fields)
 
 
-def chain_tables(stage, tbfc) -> ChainTables:
-    """The stage's ChainTables, built once per preparation and kept on the stage under a key
-    of what may replace them: prepare (a new buffer), a stage-by-stage frame growing its
-    scratch, the options. The tables hold the arrays, so the ids in the key stay theirs."""
+def chain_tables(stage, tbfc) -> tuple:
+    """(ChainTables, the result's counter names in chain_counters' order) of the stage, built
+    once per preparation and kept on the stage under a key of what may replace them: prepare
+    (a new buffer), a stage-by-stage frame growing its scratch, the options. The tables hold
+    the arrays, so the ids in the key stay theirs."""
     key = (id(stage.depth), id(stage._cands), id(stage._later), id(stage._masks),
            stage.screen, stage.rounds, stage.occluders, stage.detail, stage.first_candidates,
-           tbfc.magnitude, tbfc.relative, tbfc.absolute, tbfc.arithmetic)
+           tbfc.magnitude, tbfc.relative, tbfc.absolute, tbfc.arithmetic, stage.arithmetic,
+           stage.name)
     held = getattr(stage, "_chain_tables", None)
     if held is not None and held[0] == key:
-        return held[1]
+        return held[1:]
     tree = stage.tree
     groups, bitmap = tree.groups, tree._bitmap
     absolute = device_move(tbfc.arithmetic, 0.0) if tbfc.absolute is None else tbfc.absolute
@@ -141,24 +169,76 @@ def chain_tables(stage, tbfc) -> ChainTables:
         *((0, 0) if stage.screen is None else stage.screen), groups.words, groups.masks,
         groups.span, bitmap.bits, bitmap.summary, bitmap.tops, ZBUFFER_MARGIN,
         float(stage.magnitude), DEVICE_RELATIVE, DEVICE_ABSOLUTE, tbfc.relative,
-        float(tbfc.magnitude), float(absolute)))
-    stage._chain_tables = (key, tables)
-    return tables
+        float(tbfc.magnitude), float(absolute), device_move(stage.arithmetic, 0.0),
+        NEAR_RELATIVE))
+    name = stage.name
+    names = ("nodes_visited", "plane_tests", "triangles_tested", f"{name}.occluders",
+             f"{name}.pixels_covered", f"{name}.candidates", f"{name}.candidate_nodes",
+             "vfc.nodes_culled", "vfc.nodes_accepted", f"{name}.nodes_tested",
+             f"{name}.nodes_culled", tbfc._tested_key, tbfc._culled_key,
+             f"{name}.triangles_tested", f"{name}.subpixel_culled",
+             f"{name}.triangles_culled", "triangles_sent", "draw_batches", "nodes_drawn")
+    stage._chain_tables = (key, tables, names)
+    return tables, names
 
 
 @njit(cache=True, nogil=True)
-def chained_frame(t, history, stack, out, below, g_ranges, planes, eye, rot, near, tx, ty,
-                  move, clip, order_slack, scale, frame, clear_shift):
-    """occlusion.apply's start (buffer cleared, the shift table too when clear_shift), its
+def chain_view(t, x, y, z, yaw, pitch, near, tx, ty):
+    """occlusion._view's (eye (3,), rotation (3, 3) rows right, up, forward, move, clip,
+    scale, depth order slack) for the camera at (x, y, z), yaw and pitch in degrees, with the
+    same arithmetic (Camera.axes, precision.device_move and depth_order, the near clip and
+    sample_clip): the same bits. The order slack is inf when the device cannot order depths."""
+    yaw, pitch = math.radians(yaw), math.radians(pitch)
+    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+    rot = np.empty((3, 3))
+    rot[2, 0], rot[2, 1], rot[2, 2] = -sy * cp, sp, -cy * cp
+    rot[0, 0], rot[0, 1], rot[0, 2] = cy, 0.0, -sy
+    rot[1, 0] = rot[0, 1] * rot[2, 2] - rot[0, 2] * rot[2, 1]
+    rot[1, 1] = rot[0, 2] * rot[2, 0] - rot[0, 0] * rot[2, 2]
+    rot[1, 2] = rot[0, 0] * rot[2, 1] - rot[0, 1] * rot[2, 0]
+    eye = np.empty(3)
+    eye[0], eye[1], eye[2] = x, y, z
+    scale = max(t.magnitude, abs(x), abs(y), abs(z))
+    move = 2.0 * (t.device_relative * scale + t.move_absolute)
+    clip = near * (1.0 + t.near_relative) + max(t.device_relative * scale, 2.0 * move)
+    if t.half < 0.5:
+        clip = sample_clip(clip, move, tx, ty, t.width, t.height, t.half)
+    order = np.inf
+    if move < 2.0 * near:
+        order = 2.0 * move / (2.0 * near - move)
+    return eye, rot, move, clip, scale, order
+
+
+@njit(cache=True, nogil=True)
+def chained_frame(t, history, stack, out, below, g_ranges, given, x, y, z, yaw, pitch, near,
+                  far, half_angles, tx, ty, plane_margin, plane_limit, frame, clear_shift):
+    """The frame's planes (given (6, 4), or with none given (0, 4) the camera's pushed out by
+    plane_margin and limited to plane_limit: view_planes, as precision.culling_planes; the
+    camera at (x, y, z), yaw, pitch, near, far, half_angles (4,) Camera's (ch, sh, cv, sv)),
+    its view (chain_view, tx and ty the half tangents, as occlusion._view), then
+    occlusion.apply's start (buffer cleared, the shift table too when clear_shift), its
     compiled frame (occlusion_frame over the tables t, history and the scratch stack, out,
-    below, with the camera's view: eye (3,), rot (3, 3), near, tx, ty, move, clip, the depth
-    order slack and the scale of the stage's _view) and, when that kept draw nodes,
-    chain_finish over them (g_ranges: the bitmap's node ranges). margin, recede, the triangle
-    tests' move and tbfc's delta are computed here with the Python path's arithmetic
-    (occlusion._frame_arguments, samples, TriangleBackface.delta: the same bits).
+    below) and, when that kept draw nodes, chain_finish over them (g_ranges: the bitmap's
+    node ranges). margin, recede, the triangle tests' move and tbfc's delta are computed
+    here with the Python path's arithmetic (occlusion._frame_arguments, samples,
+    TriangleBackface.delta: the same bits).
     Returns occlusion_frame's tuple, then the sent ids and next frame's history (empty when
-    the frame kept none: kept -1), g_ranges (a larger one when the nodes needed more), and
-    the counters: FRAME_SLOTS (stats) and CHAIN_SLOTS (counts) int64."""
+    the frame kept none: kept -1), g_ranges (a larger one when the nodes needed more), the
+    counters (chain_counters; kept < 0: occlusion_frame's FRAME_SLOTS), the planes and a
+    copy of the draw nodes. kept is -2 when the device cannot order depths (nothing run but
+    the planes and the view): the caller culls stage by stage."""
+    planes = given
+    if len(given) == 0:
+        ch, sh, cv, sv = half_angles[0], half_angles[1], half_angles[2], half_angles[3]
+        planes = view_planes(x, y, z, yaw, pitch, ch, sh, cv, sv, near, far, plane_margin,
+                             plane_limit)
+    eye, rot, move, clip, scale, order_slack = chain_view(t, x, y, z, yaw, pitch, near, tx, ty)
+    none = np.zeros(0, dtype=np.int64)
+    stats = np.zeros(FRAME_SLOTS, dtype=np.int64)
+    counts = np.zeros(CHAIN_SLOTS, dtype=np.int64)
+    if not order_slack < np.inf:
+        return (-2, frame, np.inf, np.inf, none, out, stack, below, -1, none, none, g_ranges,
+                stats, planes, none)
     margin = t.zbuffer_margin / near
     recede = np.sqrt(3.0) * move
     eye_abs = max(abs(eye[0]), abs(eye[1]), abs(eye[2]))
@@ -167,8 +247,6 @@ def chained_frame(t, history, stack, out, below, g_ranges, planes, eye, rot, nea
     if t.sw > 0:
         sample_move = max(t.device_relative * scale + t.device_absolute, move)
     tbfc_delta = t.tbfc_relative * max(t.tbfc_magnitude, eye_abs) + t.tbfc_absolute
-    stats = np.zeros(FRAME_SLOTS, dtype=np.int64)
-    counts = np.zeros(CHAIN_SLOTS, dtype=np.int64)
     depth = t.depth
     depth[:] = np.inf
     if clear_shift:
@@ -184,10 +262,9 @@ def chained_frame(t, history, stack, out, below, g_ranges, planes, eye, rot, nea
         t.shell, t.limit, t.growth, t.count, t.rounds, t.width, t.height, t.tw, t.th, depth,
         t.mask, t.centre, t.crease_far, t.tile_max, t.tile_any, t.tile_min, t.tile_near,
         t.tile_shift, t.local_px, t.sw, t.sh, sample_move, frame, stats)
-    none = np.zeros(0, dtype=np.int64)
     if kept < 0:
         return (kept, frame, nearest, reach, chosen, out, stack, below, local, none, none,
-                g_ranges, stats, counts)
+                g_ranges, stats, planes, none)
     if len(g_ranges) < kept:
         g_ranges = np.empty((kept, 2), dtype=np.int64)
     sent, ranked = chain_finish(
@@ -197,50 +274,47 @@ def chained_frame(t, history, stack, out, below, g_ranges, planes, eye, rot, nea
         t.tile_max, t.tile_shift, t.tw, t.th, t.sw, t.sh, sample_move, t.normals, t.v0,
         t.centroids, t.radius, t.areas, planes, t.grazing, t.count, counts)
     return (kept, frame, nearest, reach, chosen, out, stack, below, local, sent, ranked,
-            g_ranges, stats, counts)
+            g_ranges, chain_counters(stats, counts, len(sent), kept), planes,
+            out[:kept].copy())
 
 
-def cull_chained(stage, tbfc, camera, planes, cull_back: bool):
-    """The frame of a Culler whose stages are vfc, occlusion (`stage`) and tbfc (bfc may join:
-    cull_back) in one compiled call: a CullResult with the same triangles, draw nodes and
-    counters as Culler.cull's stage by stage, with stage's state (buffer, history, occluders)
-    left as its apply and observe leave it; None when this frame is not the compiled frame's
-    (stage.compiled off, options it does not run, the device cannot order depths, no occluder
-    pixel written): the caller then culls stage by stage (apply starts afresh)."""
+EMPTY_PLANES = np.zeros((0, 4))
+
+
+def cull_chained(stage, tbfc, camera, arithmetic: str, scale: float, cull_back: bool) -> tuple:
+    """(result, planes) of the frame of a Culler whose stages are vfc, occlusion (`stage`) and
+    tbfc (bfc may join: cull_back) in one compiled call, planes the frame's frustum planes
+    (precision.culling_planes for the Culler's arithmetic and scale, computed in the call).
+    result is a CullResult with the same triangles, draw nodes and counters as Culler.cull's
+    stage by stage, with stage's state (buffer, history, occluders) left as its apply and
+    observe leave it; None when this frame is not the compiled frame's (stage.compiled off,
+    options it does not run, the device cannot order depths, no occluder pixel written):
+    the caller then culls stage by stage with the planes (apply starts afresh)."""
     if not (stage.compiled and stage.tables and stage.first_reach is None
             and stage.first_candidates > 0 and stage.triangles and not stage.self_occluders):
-        return None
-    eye, rotation, tx, ty, move, clip, scale, order = stage._view(camera)
-    if not order < np.inf:
-        return None
-    stage._camera = camera
-    stage._planes = np.ascontiguousarray(planes, dtype=np.float64)
-    bitmap = stage.tree._bitmap
-    (kept, stage._frame, stage.nearest, stage.reach, chosen, stage._out, stage._stack,
-     stage._below, local, sent, history, bitmap.ranges, stats, counts) = chained_frame(
-        chain_tables(stage, tbfc), stage.history, stage._stack, stage._out, stage._below,
-        bitmap.ranges, stage._planes, eye, rotation, camera.near, tx, ty, move, clip, order, scale,
-        stage._frame, stage._shift_written)
+        return None, culling_planes(camera, arithmetic, scale)
+    given, push, limit = culling_push(camera, arithmetic, scale)
+    tx, ty = half_tangents(camera.fov, camera.aspect)
+    (x, y, z), bitmap = camera.position, stage.tree._bitmap
+    tables, names = chain_tables(stage, tbfc)
+    (kept, frame, nearest, reach, chosen, out, stack, below, local, sent, history, ranges,
+     counters, planes, nodes) = chained_frame(
+        tables, stage.history, stage._stack, stage._out, stage._below, bitmap.ranges,
+        EMPTY_PLANES if given is None else given, x, y, z, float(camera.yaw),
+        float(camera.pitch), float(camera.near), float(camera.far), camera.half_angles(), tx,
+        ty, push, limit, stage._frame, stage._shift_written)
+    if kept == -2:  # the device cannot order depths: the stages' way (_unordered)
+        return None, planes
+    stage._camera, stage._planes = camera, planes
+    (stage._frame, stage.nearest, stage.reach, stage._out, stage._stack, stage._below,
+     bitmap.ranges) = frame, nearest, reach, out, stack, below, ranges
     stage._shift_written = local == 1
     stage._local = None if local < 0 else bool(local)
     stage.frame_occluders = chosen
     if kept < 0:  # nothing occludes: the stages' way (the frustum walk alone)
-        return None
+        return None, planes
     stage.history = history
-    nodes = stage._out[:kept].copy()
-    (occluders, pixels, candidates, candidate_nodes, visited, tests, outside, accepted, tested,
-     culled) = stats.tolist()
-    gathered, front, subpixel, hidden, runs = counts.tolist()[:CHAIN_SLOTS]
-    name = stage.name
-    result = {"nodes_visited": visited, "plane_tests": tests,
-              "triangles_tested": gathered + front, f"{name}.occluders": occluders,
-              f"{name}.pixels_covered": pixels, f"{name}.candidates": candidates,
-              f"{name}.candidate_nodes": candidate_nodes, "vfc.nodes_culled": outside,
-              "vfc.nodes_accepted": accepted, f"{name}.nodes_tested": tested,
-              f"{name}.nodes_culled": culled, tbfc._tested_key: gathered,
-              tbfc._culled_key: gathered - front, f"{name}.triangles_tested": front,
-              f"{name}.subpixel_culled": subpixel, f"{name}.triangles_culled": hidden,
-              "triangles_sent": len(sent), "draw_batches": runs, "nodes_drawn": kept}
+    result = dict(zip(names, counters.tolist()))
     if cull_back:
         result["bfc.render_flag"] = 1
-    return CullResult(sent, nodes, result, cull_back)
+    return CullResult(sent, nodes, result, cull_back), planes

@@ -101,6 +101,15 @@ def culling_planes(camera: Camera, mode: str, scale: float) -> np.ndarray:
     return conservative_planes(camera.frustum_planes(), mode, scale)
 
 
+def culling_push(camera: Camera, mode: str, scale: float) -> tuple:
+    """(planes, margin, limit) for culling_planes' planes computed elsewhere: (None, the
+    margin and the largest offset the mode holds) when the camera's planes are Camera's own
+    (Camera.pushed_planes(margin, limit) gives them), else (culling_planes' planes, 0, inf)."""
+    if type(camera).frustum_planes is Camera.frustum_planes:
+        return None, margin(mode, scale), _max_magnitude(mode)
+    return conservative_planes(camera.frustum_planes(), mode, scale), 0.0, np.inf
+
+
 @lru_cache(maxsize=8)
 def _max_magnitude(mode: str) -> float:
     return arithmetic.max_magnitude(mode)

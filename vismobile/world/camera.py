@@ -91,6 +91,11 @@ class Camera:
         """
         return self.pushed_planes(-0.0, np.inf)  # x + -0.0 is x: the offsets unchanged
 
+    def half_angles(self) -> tuple:
+        """(cos, sin) of the horizontal then the vertical half field of view, as Python floats
+        (the side planes' rows; cached per fov and aspect)."""
+        return _half_angles(self.fov, self.aspect)
+
     def pushed_planes(self, margin: float, limit: float) -> np.ndarray:
         """(6, 4) float64 Camera.frustum_planes (this class's, never a subclass's) with each
         offset raised by margin, and a plane whose raised offset exceeds limit in magnitude
