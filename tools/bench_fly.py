@@ -34,6 +34,7 @@ from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.partition import partition, pvs_fly  # noqa: E402
 from vismobile.partition.pvs import bake  # noqa: E402
 from vismobile.partition.pvs_codec import cell_sizes, decode  # noqa: E402
+from vismobile.partition.pvs_codec import DERIVED  # noqa: E402
 from vismobile.partition.store import stored_bytes  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
 from vismobile.world.camera import Camera, yaw_toward  # noqa: E402
@@ -57,6 +58,11 @@ def fly_path(boxes, frames, pitch=-20.0):
                    aspect=PROFILE.aspect) for i in range(frames)]
 
 
+def stored(extras) -> int:
+    """The PVS's bytes in a .vmp: its sections but those rebuilt on load (pvs_codec.DERIVED)."""
+    return sum(stored_bytes(v) for k, v in extras.items() if k not in DERIVED)
+
+
 def baked(part, fly, jobs):
     """(a copy of part with its PVS baked, bake stats)."""
     out = copy.copy(part)
@@ -73,13 +79,13 @@ def run(name, frames, randoms, jobs, street=True):
     if street:
         _, street_stats, street_extras = baked(part, False, jobs)
     fly_part, stats, extras = baked(part, True, jobs)
-    fly_bytes = sum(stored_bytes(v) for v in extras.values())
+    fly_bytes = stored(extras)
     boxes = extras["pvs_cells"]
     cells = len(boxes)
     k = cells - stats["fly_cells"]
     sizes = cell_sizes(*decode(extras, cells, world.triangle_count), cells) / world.triangle_count
     if street:
-        street_bytes = sum(stored_bytes(v) for v in street_extras.values())
+        street_bytes = stored(street_extras)
         print(f"{name}: street cells {k}, bake {street_stats['seconds']:.1f} s, "
               f"{street_bytes / 1024:.0f} KB ({street_bytes / obj:.2f}x OBJ), mean set "
               f"{100 * sizes[:k].mean():.1f}%", flush=True)
