@@ -86,8 +86,15 @@ def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
     the surface lies in a cell face (portal.py: walls within the cells' thickness of a face
     block; anything else lies inside a cell, which the walk crosses whole), so y lies in the
     face A | B of the cells before and after it (or on their common line), and so does the
-    wall's unshared edge within the crack's width of y."""
-    seg = unshared_edges(world)
+    wall's unshared edge within the crack's width of y. And only edges of triangles lying in
+    that face's plane (within eps; on a common line, in either plane through it): what blocks
+    a line crossing the face is the triangles lying in it (portal.py; a closed solid crossing
+    it has no unshared edge), and their rasterised cover of the plane is open only within the
+    crack's width of their own unshared edges; elsewhere an edge they share by both corners
+    is watertight (the fill rule), whatever other triangle's edge lies on them (a ramp's side
+    standing against a wall does not open the wall)."""
+    seg, owner = unshared_edge_triangles(world)
+    tri_lo, tri_hi = world.bounds[owner, 0], world.bounds[owner, 1]
     lo_b, hi_b = boxes[:, 0], boxes[:, 1]
     near = eps + reach
     pieces = {}
@@ -120,8 +127,13 @@ def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
                     flat = hi - lo <= eps
                     if np.any(hi < lo - eps) or not flat.any():
                         continue  # the boxes do not touch (or overlap: not cells)
-                    if np.any(np.abs(edge[:, flat] - 0.5 * (lo + hi)[flat]) > eps):
+                    mid = 0.5 * (lo + hi)
+                    if np.any(np.abs(edge[:, flat] - mid[flat]) > eps):
                         continue  # the edge does not lie in their common face or line
+                    t = s + e[i0]
+                    if not np.any(flat & (np.abs(tri_lo[t] - mid) <= eps)
+                                  & (np.abs(tri_hi[t] - mid) <= eps)):
+                        continue  # its triangle lies in none of the face's (line's) planes
                     u0, u1 = clip_segments(edge[None], lo[None], hi[None], near)
                     a0, a1 = float(u0[0]), float(u1[0])
                     if a0 > a1:

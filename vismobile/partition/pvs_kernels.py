@@ -20,6 +20,10 @@ BOX_EDGES = np.array([[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5
                       [0, 4], [1, 5], [2, 6], [3, 7]], dtype=np.int64)
 MAX_VERTS = 48      # vertices of a clipped portal polygon (more: kept unclipped)
 MAX_PLANES = 192    # separating planes kept per sequence step (more are dropped: looser)
+# A crossing box that grows grows this much further (a share of the cells' extent, within the
+# portal's face): the walk's fixed point is reached in fewer, larger steps (the axis planes
+# let boxes in thin cells creep by a crack's width per round; W1 overflowed the budget).
+STEP = 2.0 ** -10
 
 
 @njit(cache=True, inline="always")
@@ -96,6 +100,31 @@ def separators(a, na, a_box, b, nb, out, count, b_box=False):
             if count >= limit:
                 return count
             count = _try(b[i], b[j], a[r], a, na, b, nb, out, count)
+    return count
+
+
+@njit(cache=True)
+def axis_planes(s_lo, s_hi, e_lo, e_hi, out, count):
+    """Append to out[count:] the axis planes that bound a line beyond the box [e_lo, e_hi] after
+    the box [s_lo, s_hi]: along an axis where the source lies wholly at or above the entry
+    (s_lo >= e_hi), every line from the source through the entry has that coordinate
+    non-increasing, so beyond the entry it stays at most e_hi (positive side: e_hi - x >= 0);
+    likewise at least e_lo where the source lies wholly at or below it. Each plane touches
+    the entry and has the source on its other side: a separator as in `separators`, the
+    tightest one across that axis (separators' planes sit mid-gap). Returns the new count."""
+    for a in range(3):
+        if count >= len(out):
+            return count
+        if s_lo[a] >= e_hi[a]:
+            out[count, 0], out[count, 1], out[count, 2] = 0.0, 0.0, 0.0
+            out[count, a] = -1.0
+            out[count, 3] = e_hi[a]
+            count += 1
+        elif s_hi[a] <= e_lo[a]:
+            out[count, 0], out[count, 1], out[count, 2] = 0.0, 0.0, 0.0
+            out[count, a] = 1.0
+            out[count, 3] = -e_lo[a]
+            count += 1
     return count
 
 
@@ -312,6 +341,26 @@ def grow_box(box, d, cand, n):
     return grew
 
 
+@njit(cache=True, inline="always")
+def grow_box_step(box, d, cand, n, step, face, pad):
+    """grow_box, but a bound that moves (once the box holds a point) moves `step` beyond
+    cand[:n], kept within face (2, 3) grown by pad; returns whether it grew. Larger: sound."""
+    grew = False
+    first = box[d, 0, 0] > box[d, 1, 0]  # empty before
+    for a in range(3):
+        lo, hi = np.inf, -np.inf
+        for i in range(n):
+            lo, hi = min(lo, cand[i, a]), max(hi, cand[i, a])
+        extra = 0.0 if first else step
+        if lo < box[d, 0, a]:
+            box[d, 0, a] = min(lo, max(lo - extra, face[0, a] - pad))
+            grew = True
+        if hi > box[d, 1, a]:
+            box[d, 1, a] = max(hi, min(hi + extra, face[1, a] + pad))
+            grew = True
+    return grew
+
+
 @njit(cache=True)
 def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
                    cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
@@ -323,7 +372,12 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     by `grow`) inside the source cell (the whole cell, or a part of it). The exit portals of
     the cell a crossing enters are clipped by the separators of (source box, crossing box),
     the surviving parts grow those exits' boxes, and a crossing whose box grew is walked
-    again. The entered cell's triangles are marked against the same planes.
+    again. The entered cell's triangles are marked against the same planes, and against the
+    axis planes (axis_planes): along an axis where the source lies wholly on one side of the
+    crossing box, a line beyond it stays on that box's far side (a line entering the thin
+    strip along the world's side through a crack within w of it stays within w of it). A box
+    that grows again grows STEP of the cells' extent further (within its face), so the fixed
+    point comes in fewer rounds.
 
     Sound: a line from the source crossing portals p1, p2, ... crosses each at a point of its
     box (induction: its exit point lies beyond its entry point and the source, so on the
@@ -353,6 +407,9 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     scratch = np.empty((MAX_VERTS, 3))
     cand = np.empty((MAX_VERTS, 3))
     common = np.empty((2, 3))
+    step = 0.0
+    for a in range(3):
+        step = max(step, STEP * (cell_bounds[:, 1, a].max() - cell_bounds[:, 0, a].min()))
     for r in range(cell_ref_start[source], cell_ref_end[source]):
         visible[tri_refs[r]] = True
     cell_seen[source] = True
@@ -366,7 +423,9 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             cell = portal_cells[p, 1] if current % 2 == 0 else portal_cells[p, 0]
             came = p
             ne = _flat_rectangle(box[current, 0], box[current, 1], entry)
-            count = separators(src, 8, True, entry, ne, planes, 0, ne == 8)
+            count = axis_planes(src_lo - grow, src_hi + grow, box[current, 0], box[current, 1],
+                                planes, 0)
+            count = separators(src, 8, True, entry, ne, planes, count, ne == 8)
             if not done[cell]:  # a cell wholly marked needs no more marking
                 done[cell] = _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners,
                                    planes, count, tol, visible, cell_bounds[cell, 0],
@@ -385,7 +444,8 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
             if n == 0:
                 continue
             d = 2 * p + (0 if forward else 1)
-            grew = grow_box(box, d, cand, n)
+            common_face(cell_bounds, portal_cells, p, common)
+            grew = grow_box_step(box, d, cand, n, step, common, grow)
             crossed[p] = True
             if grew and not queued[d]:
                 queued[d] = True
