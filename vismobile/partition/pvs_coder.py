@@ -117,32 +117,36 @@ def references(patterns, window=WINDOW) -> np.ndarray:
 
 
 @njit(inline="always")
-def _bit(rows, k, v):
-    return (rows[k, v >> 3] >> (7 - (v & 7))) & 1
+def _unpack(rows, k, out):
+    """Row k's bits into out[:cells] (one byte each; out[cells], the missing parent, stays 0)."""
+    for v in range(len(out) - 1):
+        out[v] = (rows[k, v >> 3] >> (7 - (v & 7))) & 1
 
 
 @njit(inline="always")
-def _context(rows, k, v, refs, par):
-    c = 0
-    for j in range(PARENTS):
-        p = par[v, j]
-        c = 2 * c + (_bit(rows, k, p) if p >= 0 else 0)
-    if refs[k, 0] == 0:
+def _context(own, first, second, v, par, referred):
+    """The context of bit v: own (this row so far), first and second (the references' bits,
+    zeros without them) unpacked, par with -1 replaced by the zero slot at the end."""
+    p0, p1 = par[v, 0], par[v, 1]
+    c = 4 * own[p0] + 2 * own[p1] + own[par[v, 2]]
+    if not referred:
         return c
-    r = k - refs[k, 0]
-    c = 2 * c + _bit(rows, r, v)
-    for j in range(2):
-        p = par[v, j]
-        c = 2 * c + (_bit(rows, r, p) if p >= 0 else 0)
-    if refs[k, 1] > 0:
-        r = k - refs[k, 1]
-        c = 2 * c + _bit(rows, r, v)
-        for j in range(2):
-            p = par[v, j]
-            c = 2 * c + (_bit(rows, r, p) if p >= 0 else 0)
-    else:
-        c = 8 * c
+    c = 8 * c + 4 * first[v] + 2 * first[p0] + first[p1]
+    c = 8 * c + 4 * second[v] + 2 * second[p0] + second[p1]
     return 2 * c + 1
+
+
+@njit(cache=True)
+def _row_refs(rows, k, refs, first, second):
+    """Unpack row k's references into first and second (zeros where none); True if any."""
+    if refs[k, 0] == 0:
+        return False
+    _unpack(rows, k - refs[k, 0], first)
+    if refs[k, 1] > 0:
+        _unpack(rows, k - refs[k, 1], second)
+    else:
+        second[:] = 0
+    return True
 
 
 @njit(cache=True)
@@ -154,11 +158,16 @@ def _encode(rows, cells, refs, par):
     span = 0xFFFFFFFF
     cache = 0
     pending = 1
+    own = np.zeros(cells + 1, dtype=np.int64)
+    first = np.zeros(cells + 1, dtype=np.int64)
+    second = np.zeros(cells + 1, dtype=np.int64)
     for k in range(rows.shape[0]):
+        referred = _row_refs(rows, k, refs, first, second)
+        _unpack(rows, k, own)
         for v in range(cells):
-            c = _context(rows, k, v, refs, par)
+            c = _context(own, first, second, v, par, referred)
             bound = (span >> PROB_BITS) * prob[c]
-            if _bit(rows, k, v) == 0:
+            if own[v] == 0:
                 span = bound
                 prob[c] += ((1 << PROB_BITS) - prob[c]) >> SHIFT
             else:
@@ -214,17 +223,23 @@ def _decode(stream, count, cells, refs, par):
         code = (code << 8) | stream[i]
     pos = 5
     span = 0xFFFFFFFF
+    own = np.zeros(cells + 1, dtype=np.int64)
+    first = np.zeros(cells + 1, dtype=np.int64)
+    second = np.zeros(cells + 1, dtype=np.int64)
     for k in range(count):
+        referred = _row_refs(rows, k, refs, first, second)
         for v in range(cells):
-            c = _context(rows, k, v, refs, par)
+            c = _context(own, first, second, v, par, referred)
             bound = (span >> PROB_BITS) * prob[c]
             if code < bound:
                 span = bound
                 prob[c] += ((1 << PROB_BITS) - prob[c]) >> SHIFT
+                own[v] = 0
             else:
                 code -= bound
                 span -= bound
                 prob[c] -= prob[c] >> SHIFT
+                own[v] = 1
                 rows[k, v >> 3] |= np.uint8(1 << (7 - (v & 7)))
             while span < TOP:
                 if pos >= len(stream):
@@ -235,11 +250,16 @@ def _decode(stream, count, cells, refs, par):
     return rows, pos
 
 
+def _slots(par, cells) -> np.ndarray:
+    """par (V, PARENTS) with a missing parent (-1) pointing at the zero slot `cells`."""
+    par = np.asarray(par, dtype=np.int64)
+    return np.ascontiguousarray(np.where(par < 0, cells, par))
+
+
 def encode_rows(rows, cells: int, refs, par) -> np.ndarray:
     """(N,) uint8 range-coded stream of rows (K, ceil(cells / 8)) uint8 packed bits."""
     return _encode(np.ascontiguousarray(rows, dtype=np.uint8), int(cells),
-                   np.ascontiguousarray(refs, dtype=np.int64),
-                   np.ascontiguousarray(par, dtype=np.int64)).copy()
+                   np.ascontiguousarray(refs, dtype=np.int64), _slots(par, cells)).copy()
 
 
 def decode_rows(stream, count: int, cells: int, refs, par) -> np.ndarray:
@@ -249,8 +269,7 @@ def decode_rows(stream, count: int, cells: int, refs, par) -> np.ndarray:
     if len(stream) and stream[0] != 0:
         raise ValueError("the pattern stream does not start with the coder's zero byte")
     rows, used = _decode(stream, int(count), int(cells),
-                         np.ascontiguousarray(refs, dtype=np.int64),
-                         np.ascontiguousarray(par, dtype=np.int64))
+                         np.ascontiguousarray(refs, dtype=np.int64), _slots(par, cells))
     if used < 0:
         raise ValueError("the pattern stream ends before its patterns do")
     if used != len(stream):
