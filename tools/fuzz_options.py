@@ -1,8 +1,9 @@
 """Fuzz targets of command-line option texts (tools/fuzz.py imports them): compare's --cull
 lists (cull, issue 31), partition's --structure text (structure), compare's and tune's
 --structures lists with baked PVS labels (selection) and --scheduler addresses (scheduler,
-issue 29), play's --page-budget values (budget, issue 30): their seeds and entry points. Each
-entry parses or ends in a VisMobileError."""
+issue 29), play's --page-budget values (budget, issue 30), compare's and tune's --repair values
+(studyrepair, issue 29): their seeds and entry points. Each entry parses or ends in a
+VisMobileError."""
 from __future__ import annotations
 
 # compare's --cull texts (issue 31's grammar: + joins stages, ';' or ',' separates them).
@@ -105,8 +106,43 @@ def load_page_budget(path):
     assert 0.0 < args.page_budget <= 1 << 20
 
 
+# compare's and tune's --repair values (issue 29; info's, partition's: fuzz_repair.py).
+STUDY_REPAIR_TEXTS = [b"tjunctions", b"none"]
+
+
+def load_study_repair(path):
+    """A --repair value through compare's and tune's parsers (argparse's refusal: exit 2, one
+    line), then a floor and wall meeting at T-junctions (fuzz_repair.TJUNCTION_OBJ) loaded as
+    their runs load a world (study/engine.load_world): repaired exactly when asked. Running
+    the commands themselves (tests/study/test_repair_study.py) takes over the case's time
+    limit in a fresh process (numba's first compile)."""
+    from fuzz_repair import TJUNCTION_OBJ
+
+    from vismobile.app.cli import build_parser
+    from vismobile.errors import VisMobileError
+    from vismobile.study import engine
+
+    text = path.read_bytes()[:256].decode("utf-8", errors="replace").replace("\x00", "")
+    world = path.with_name("tjunction.obj")
+    if not world.exists():
+        world.write_bytes(TJUNCTION_OBJ)
+    parser = build_parser()
+    try:
+        compare = parser.parse_args(["compare", "--worlds", str(world), f"--repair={text}"])
+        tune = parser.parse_args(["tune", str(world), f"--repair={text}"])
+    except SystemExit:
+        raise VisMobileError(f"--repair {text!r} refused") from None
+    assert compare.repair == tune.repair == text
+    loaded = engine.load_world(str(world), None, compare.repair)
+    plain = engine.load_world(str(world), None, "none")
+    assert (loaded.repair == "tjunctions") == (text == "tjunctions")
+    assert loaded.triangle_count > plain.triangle_count if text == "tjunctions" else \
+        loaded is plain
+
+
 SEEDS = {"cull": CULL_TEXTS, "structure": STRUCTURE_TEXTS, "selection": SELECTION_TEXTS,
-         "scheduler": SCHEDULER_TEXTS, "budget": BUDGET_TEXTS}
+         "scheduler": SCHEDULER_TEXTS, "budget": BUDGET_TEXTS,
+         "studyrepair": STUDY_REPAIR_TEXTS}
 ENTRY = {"cull": (load_cull_list, ".txt"), "structure": (load_structure, ".txt"),
          "selection": (load_selection, ".txt"), "scheduler": (load_scheduler, ".txt"),
-         "budget": (load_page_budget, ".txt")}
+         "budget": (load_page_budget, ".txt"), "studyrepair": (load_study_repair, ".txt")}

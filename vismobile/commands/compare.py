@@ -2,7 +2,8 @@
 import sys
 from pathlib import Path
 
-from . import CULL_HELP, FIX_WINDING_HELP, FRAMES_HELP, PROFILE_NAMES, WORLDS_DIR_HELP
+from . import (CULL_HELP, FIX_WINDING_HELP, FRAMES_HELP, PROFILE_NAMES, REPAIR_HELP, REPAIRS,
+               WORLDS_DIR_HELP)
 
 
 def add_parser(sub):
@@ -25,6 +26,9 @@ def add_parser(sub):
                         help=FIX_WINDING_HELP + "; worlds given as mesh files only (the thesis "
                              "worlds are used as built), each fixed copy written to "
                              "OUT/fixed/NAME.obj and swept in its place")
+    parser.add_argument("--repair", choices=REPAIRS, default="none",
+                        help=REPAIR_HELP + "; every world of the sweep, each run's record and "
+                             "key say so (a static world only)")
     parser.add_argument("--structures", default="grid,octree:3-6,portal:1-3,bsp",
                         help="comma-separated grid, octree[:N or A-B], portal[:N or A-B], bsp, "
                              "kdtree, or all (the thesis's set; the default); +pvs bakes a "
@@ -119,7 +123,7 @@ def run(args) -> int:
         check_destination(path)  # before hours of runs, not after
     if not args.fix_winding:
         _warn_winding(specs)
-    context = Context(".", args.out, args.worlds_dir, args.cache)
+    context = Context(".", args.out, args.worlds_dir, args.cache, args.repair)
     reused, executed = reusable_runs(specs, context)
     shared = len(specs) - reused - executed
     print(f"{len(specs)} runs -> {args.out}/runs/: {reused} reused from earlier, {executed} to "
@@ -140,7 +144,10 @@ def run(args) -> int:
                                json.dumps(checks, indent=1).encode())
         status("writing the report")
         report = write_report(records, args.report or args.out / "report.html",
-                              agreement=checks)
+                              agreement=checks,
+                              **({} if args.repair == "none" else
+                                 {"title": f"vismobile comparison (worlds repaired: "
+                                           f"{args.repair})"}))
     failed = sum("error" in r for r in records)
     print(f"wrote {args.out / 'runs.csv'}, {args.out / 'runs.json'} and {report}"
           + (f"; {failed} runs failed (listed in the report)" if failed else ""))
@@ -206,6 +213,9 @@ def _terrain_options(args) -> tuple:
 
     def bad(option, message):
         return WorldError(args.terrain, f"{option}: {message}")
+
+    if args.repair != "none":
+        raise bad("--repair", "applies to triangle worlds, not to a .vmt terrain")
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     for m in methods:

@@ -5,8 +5,8 @@ profile's device model predicts on that device; `--measured` minimises this mach
 """
 from pathlib import Path
 
-from . import (BACKFACE_NAMES, FIX_WINDING_HELP, PROFILE_HELP, WORLD_HELP, WORLDS_DIR_HELP,
-               fix_winding, warn_winding)
+from . import (BACKFACE_NAMES, FIX_WINDING_HELP, PROFILE_HELP, REPAIR_HELP, REPAIRS,
+               WORLD_HELP, WORLDS_DIR_HELP, fix_winding, warn_winding)
 
 # The same default as tune() (study/tune.py PROBE_FRAMES; tests/study/test_tune.py checks), kept
 # here so that `--help` needs no heavy import.
@@ -45,6 +45,8 @@ def add_parser(sub):
     parser.add_argument("-o", "--out", "--json", dest="out", type=Path, default=None,
                         help="also write the result as JSON to this file")
     parser.add_argument("--fix-winding", action="store_true", help=FIX_WINDING_HELP)
+    parser.add_argument("--repair", choices=REPAIRS, default="none",
+                        help=REPAIR_HELP + " (a static world only)")
     parser.add_argument("--max-error-px", type=float, default=None, metavar="PX",
                         help="also pick the level-of-detail tolerance for the chosen "
                              "configuration: the fastest tau up to PX pixels of projected "
@@ -88,7 +90,8 @@ def run(args) -> int:
     with Status(f"tune {args.world}", enabled=not args.quiet) as status:
         status("loading the world (compiling on a first run)")
         world = engine.load_world(args.world.lower() if args.world.lower() in WORLDS
-                                  else args.world, args.worlds_dir or default_cache_dir())
+                                  else args.world, args.worlds_dir or default_cache_dir(),
+                                  args.repair)
         trajectory = Trajectory.load(args.trajectory or trajectory_for(args.world.lower()))
         world = fix_winding(world, args.fix_winding, trajectory.poses[:, :3])
         status("checking the winding")
@@ -114,6 +117,9 @@ def run(args) -> int:
         print(f"numba's first-use compile took {compiled:.0f} s of this run (timed apart; a "
               "second run loads its cache)")
     output = result.to_dict()
+    if args.repair != "none":  # the world tuned is not the file's geometry: say so
+        print(f"world repaired first: {args.repair} ({world.triangle_count:,} triangles)")
+        output["repair"] = args.repair
     if lod is not None:
         from ..study.lod_tune import report_lines
 
@@ -144,8 +150,9 @@ def run_terrain(args) -> int:
 
     if args.out:
         check_destination(args.out)
-    if args.fix_winding or args.pvs:
-        raise VisMobileError("--fix-winding and --pvs apply to triangle worlds, not to a .vmt")
+    if args.fix_winding or args.pvs or args.repair != "none":
+        raise VisMobileError("--fix-winding, --pvs and --repair apply to triangle worlds, not "
+                             "to a .vmt")
     profile = get_profile(args.profile)
     heightmap, _ = store.load(args.world)
     if args.trajectory is not None:

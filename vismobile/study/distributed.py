@@ -187,4 +187,5 @@ def absolute(context):
     """The context with absolute paths, so workers in other directories find the same files."""
     from .tasks import Context
 
-    return Context(*(Path(p).resolve() for p in context.as_tuple()))
+    *paths, repair = context.as_tuple()
+    return Context(*(Path(p).resolve() for p in paths), repair)

@@ -40,20 +40,29 @@ def ensure_world_file(name: str, worlds_dir) -> Path:
     return world_file(name, worlds_dir)
 
 
-def load_world(name: str, worlds_dir):
+def load_world(name: str, worlds_dir, repair=None):
     """World of a thesis world name (or a mesh file path), cached per process. A world that
     moves (W7, an animated glTF: scenes.lookup.animated_world) is its rest pose, and
-    animated_of(world) is its AnimatedWorld."""
+    animated_of(world) is its AnimatedWorld.
+
+    repair : None / "none", or "tjunctions" (files/loader.repaired: the world's T-junctions
+             split, `world.repair` set; compare --repair, tune --repair)"""
     from ..files.loader import load_world as load_file
     from ..scenes.lookup import animated_world
 
     path = ensure_world_file(name, worlds_dir)
-    key = str(path.resolve())
+    repair = None if repair in (None, "none") else repair
+    key = (str(path.resolve()), repair)
     if key in _WORLDS:
         _WORLDS.move_to_end(key)
         return _WORLDS[key]
-    world = load_file(path)
+    world = load_file(path, repair)
     animated = animated_world(name, world, worlds_dir=worlds_dir)
+    if animated is not None and repair is not None:  # as play: triangle ids would move
+        from ..errors import VisMobileError
+
+        raise VisMobileError(f"{name}: --repair applies to a static world, not to a moving "
+                             "one")
     if animated is not None:
         world = animated.world
         _ANIMATED[id(world)] = animated

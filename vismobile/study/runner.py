@@ -196,7 +196,7 @@ def agreement(world_name: str, context: Context, profile: str = "ipaq-hx2490b",
     from .groundtruth import compare_truths
     from .thesis import trajectory_for
 
-    world = engine.load_world(world_name, context.worlds_dir)
+    world = engine.load_world(world_name, context.worlds_dir, context.repair)
     path = Path(trajectory or trajectory_for(world_name))
     path = path if path.is_absolute() else context.root / path
     track = Trajectory.load(path)

@@ -32,22 +32,30 @@ RENDER_REPEATS = 2
 
 
 class Context:
-    """Where a study reads and writes: repo root (trajectory paths), worlds, cache, results."""
+    """Where a study reads and writes: repo root (trajectory paths), worlds, cache, results;
+    and the repair every world gets on loading ("none" or "tjunctions": compare --repair)."""
 
-    def __init__(self, root=".", out="out/compare", worlds_dir=None, cache_dir=None):
+    def __init__(self, root=".", out="out/compare", worlds_dir=None, cache_dir=None,
+                 repair="none"):
         from ..scenes.thesis import default_cache_dir
 
         self.root = Path(root)
         self.out = Path(out)
         self.worlds_dir = Path(worlds_dir) if worlds_dir else default_cache_dir()
         self.cache_dir = Path(cache_dir) if cache_dir else Path("out/cache")
+        self.repair = repair or "none"
 
     def trajectory_path(self, spec: RunSpec) -> Path:
         path = Path(spec.trajectory)
         return path if path.is_absolute() else self.root / path
 
+    def world(self, spec: RunSpec):
+        """The run's world, repaired as the context says (engine.load_world, cached)."""
+        return engine.load_world(spec.world, self.worlds_dir, self.repair)
+
     def as_tuple(self) -> tuple:
-        return str(self.root), str(self.out), str(self.worlds_dir), str(self.cache_dir)
+        return (str(self.root), str(self.out), str(self.worlds_dir), str(self.cache_dir),
+                self.repair)
 
     @classmethod
     def from_tuple(cls, values) -> "Context":
@@ -68,7 +76,9 @@ def salts(specs, context: Context) -> dict:
                     raise TrajectoryError(f"{path}: no such trajectory file")
                 digests[path] = engine.file_digest(path)
         result[spec] = (f"{RESULT_VERSION}:{digests[world_file]}:"
-                        f"{digests[context.trajectory_path(spec)]}")
+                        f"{digests[context.trajectory_path(spec)]}"
+                        # a repaired world's runs apart (unrepaired keys as before)
+                        + ("" if context.repair == "none" else f":repair={context.repair}"))
     return result
 
 
@@ -81,7 +91,7 @@ def _load_frames(spec: RunSpec, context: Context):
     from ..device.profile import get_profile
     from ..world.trajectory import Trajectory
 
-    world = engine.load_world(spec.world, context.worlds_dir)
+    world = context.world(spec)
     trajectory = Trajectory.load(context.trajectory_path(spec))
     profile = get_profile(spec.profile)
     frames = frame_indices(spec.frames, len(trajectory), trajectory.waypoints)
@@ -122,7 +132,7 @@ def bake_first(prep, executor, progress=True) -> int:
         if what != "structure" or pvs_of(spec.structure) != "conservative":
             continue
         context = Context.from_tuple(context_tuple)
-        world = engine.load_world(spec.world, context.worlds_dir)
+        world = context.world(spec)
         bar = Progress(f"compare: baking {spec.world} {spec.structure}",
                        enabled=None if progress else False)
         try:
@@ -139,7 +149,7 @@ def prepare(task) -> str:
     context = Context.from_tuple(context_tuple)
     try:
         if what == "structure":
-            world = engine.load_world(spec.world, context.worlds_dir)
+            world = context.world(spec)
             engine.load_structure(world, spec.structure, context.cache_dir)
         else:
             truth_for(spec, context)
@@ -213,6 +223,8 @@ def execute(spec: RunSpec, context: Context) -> dict:
     bake = engine.bake_stats(world, spec.structure, context.cache_dir)
     if bake is not None:  # a baked PVS: its offline cost, for the report's bake-or-cull table
         summary["pvs"] = bake
+    if context.repair != "none":  # the world the run measured (compare --repair)
+        summary["repair"] = context.repair
     if view:
         from ..lod.image_error import error_summary
 
