@@ -3,8 +3,10 @@
     .venv/bin/python tools/bench_pvs.py [--worlds w1,w2] [--frames 40] [--random 2000]
                                         [--sampled 4,16 [--only-sampled]]
                                         [--repair tjunctions] [--timing-frames 150]
+                                        [--structure bsp]
 
-Per world: the portal structure (depth 2) with pvs=conservative; bake seconds; the PVS's bytes
+Per world: the --structure (default portal:2; any kind in the CLI grammar) with
+pvs=conservative; bake seconds; the PVS's bytes
 in the .vmp (file with minus file without) against the OBJ; the mean share of the world in a
 cell's set; along the world's thesis path (--frames evenly spaced frames) the triangles sent by
 vfc+tbfc and pvs+vfc+tbfc and the frames that fell back; dropped triangles (pvs+vfc against the
@@ -143,7 +145,7 @@ def w2_timing(part, traj, count, reps=3, misses=20):
 
 
 def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="none",
-        timing_frames=150):
+        timing_frames=150, structure="portal:2"):
     world = build_world(name)
     if repair == "tjunctions":  # the bake then seals the thin cells, no crack portals
         from vismobile.world.tjunctions import repair_tjunctions
@@ -151,12 +153,12 @@ def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="no
         world, done = repair_tjunctions(world)
         print(f"{name}: --repair tjunctions: {done.junctions} junctions, {done.split} "
               f"triangles split, {world.triangle_count} triangles", flush=True)
-    part = partition(world, "portal", depth=2)
-    if only_sampled:
+    if only_sampled:  # on portal:2's cells, whatever --structure says
         traj = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
                                                         else "indoor.csv"))
         picks = np.linspace(0, len(traj) - 1, frames).astype(int)
-        return sampled(name, world, part, traj, picks, counts)
+        return sampled(name, world, partition(world, "portal", depth=2), traj, picks, counts)
+    part = partition(world, structure)
     extras, stats = bake(part, jobs=jobs)
     with tempfile.TemporaryDirectory() as tmp:
         save_partition(part, Path(tmp) / "a.vmp")
@@ -192,7 +194,7 @@ def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="no
         used += "pvs.fallbacks" not in r.stats
         dropped_random += len(np.setdiff1d(shown(world, cam, profile), r.triangles))
     timing = f" | {w2_timing(part, traj, timing_frames)}" if name == "w2" else ""
-    print(f"{name}: cells {stats['cells']}, bake {stats['seconds']:.1f} s "
+    print(f"{name} {structure}: cells {stats['cells']}, bake {stats['seconds']:.1f} s "
           f"(overflowed {stats['overflowed']}), PVS {pvs_bytes / 1024:.0f} KB = "
           f"{pvs_bytes / obj:.3f}x OBJ ({pvs_bytes / stats['cells']:.0f} B/cell), mean set "
           f"{100 * share:.1f}% of the world | path {frames} frames: vfc+tbfc {sent_base}, "
@@ -215,11 +217,13 @@ def main():
                         help="repair the world first (world/tjunctions.py)")
     parser.add_argument("--timing-frames", type=int, default=150,
                         help="W2 path frames timed (vfc against pvs+vfc)")
+    parser.add_argument("--structure", default="portal:2",
+                        help="the structure the PVS is baked on (partition's grammar)")
     args = parser.parse_args()
     counts = [int(n) for n in args.sampled.split(",") if n]
     for name in args.worlds.split(","):
         run(name.strip(), args.frames, args.random, counts, args.only_sampled, args.jobs,
-            args.repair, args.timing_frames)
+            args.repair, args.timing_frames, args.structure)
 
 
 if __name__ == "__main__":

@@ -11,11 +11,13 @@ frame of the world's thesis path, likewise. Prints one line per world and struct
 cells, bake seconds, checks, cameras that fell back (eye outside every cell or within the
 device's move of the near plane; with street cells, partition/pvs_street.py, also a near plane
 nearer than the bake's NEAR_MIN, counted apart), dropped triangles, and the wall time. With --out, appends
-the lines' figures as JSON lines.
+the lines' figures as JSON lines. With --repair tjunctions each world is repaired first
+(world/tjunctions.py, as `partition --repair` does: the bake seals its thin cells) and judged on
+the repaired world's item buffer.
 
 Usage: .venv/bin/python tools/pvs_sweep.py [--worlds w1,w5] [--structures portal:2,bsp]
        [--cameras 2000] [--path-stride 10] [--seed 0] [--cache out/pvs_sweep] [--out F.jsonl]
-       [--jobs 1]
+       [--jobs 1] [--repair tjunctions]
 Run one world per call to stay within a few minutes on a shared machine. Exit status 0 when
 nothing was dropped, 1 otherwise.
 """
@@ -35,6 +37,7 @@ sys.path.insert(0, str(ROOT))
 
 from vismobile.culling import Culler, device_options  # noqa: E402
 from vismobile.device.profile import get_profile  # noqa: E402
+from vismobile.files.loader import repaired  # noqa: E402
 from vismobile.partition import load_partition, partition, save_partition  # noqa: E402
 from vismobile.partition.pvs import bake  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
@@ -56,7 +59,8 @@ def bake_key(world, spec) -> str:
 
 def baked(world, spec, cache, jobs=1) -> tuple:
     """(partition with pvs=conservative, bake seconds or None when loaded from the cache)."""
-    path = Path(cache) / f"{world.name}-{spec.replace(':', '')}-{bake_key(world, spec)}.vmp"
+    tag = "-repaired" if getattr(world, "repair", None) else ""
+    path = Path(cache) / f"{world.name}{tag}-{spec.replace(':', '')}-{bake_key(world, spec)}.vmp"
     if path.is_file():
         return load_partition(path), None
     start = time.perf_counter()
@@ -110,20 +114,22 @@ def check(world, part, cameras) -> dict:
     return out
 
 
-def sweep(name, spec, cameras, stride, seed, cache, jobs=1) -> dict:
+def sweep(name, spec, cameras, stride, seed, cache, jobs=1, repair="none") -> dict:
     began = time.perf_counter()
-    world = build_world(name)
+    world = repaired(build_world(name), repair, name)
     part, seconds = baked(world, spec, cache, jobs)
     randoms = check(world, part, in_cell_cameras(part, cameras, seed))
     path = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
                                                     else "indoor.csv"))
     frames = range(0, len(path), stride)
     along = check(world, part, (path.camera(f, PROFILE.aspect) for f in frames))
-    row = {"world": name, "structure": spec, "cells": int(len(part.extras["pvs_cells"])),
+    row = {"world": name, "structure": spec, "repair": repair,
+           "cells": int(len(part.extras["pvs_cells"])),
            "bake_seconds": seconds, "random": randoms, "path": along,
            "path_frames": len(frames), "seconds": time.perf_counter() - began}
     bake = "cached" if seconds is None else f"{seconds:.1f} s"
-    print(f"{name} {spec}+pvs: {row['cells']} cells, bake {bake} | random {cameras} cameras x "
+    tag = "" if repair == "none" else f" (repaired {repair})"
+    print(f"{name}{tag} {spec}+pvs: {row['cells']} cells, bake {bake} | random {cameras} cameras x "
           f"3 modes: {randoms['checks']} checks, {randoms['fallbacks']} fell back "
           f"({randoms['near_fallbacks']} for a near plane nearer than the bake's), dropped "
           f"{randoms['dropped']} | path {len(frames)} frames x 3 modes: {along['fallbacks']} "
@@ -144,6 +150,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cache", type=Path, default=ROOT / "out" / "pvs_sweep")
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--jobs", type=int, default=1, help="bake processes")
+    parser.add_argument("--repair", choices=("none", "tjunctions"), default="none",
+                        help="repair each world first (world/tjunctions.py)")
     args = parser.parse_args(argv)
     if args.cameras < 0 or args.path_stride < 1 or args.jobs < 1:
         parser.error("--cameras >= 0, --path-stride >= 1 and --jobs >= 1")
@@ -151,7 +159,7 @@ def main(argv=None) -> int:
     for name in filter(None, args.worlds.split(",")):
         for spec in filter(None, args.structures.split(",")):
             row = sweep(name.strip(), spec.strip(), args.cameras, args.path_stride, args.seed,
-                        args.cache, args.jobs)
+                        args.cache, args.jobs, args.repair)
             dropped += row["random"]["dropped"] + row["path"]["dropped"]
             if args.out:
                 with open(args.out, "a") as handle:
