@@ -4,7 +4,8 @@
                                         [--split 4] [--no-street]
 
 Per world: the portal structure (depth 2) baked twice, street cells only and with fly=on; bake
-seconds of each; the PVS's stored bytes (its extras' sections) against the OBJ; the fly-over
+seconds of each; the PVS's stored bytes (its extras' sections, pvs_codec.DERIVED aside)
+against the OBJ, and what the street cells' sets of the same bake take alone; the fly-over
 cells per layer and their mean set (share of the world); along a generated fly-over path
 (fly_path: an ellipse over the world at heights from just over the street layer to just under
 the ceiling, looking ahead and down) the triangles sent by vfc+tbfc and pvs+vfc+tbfc over the
@@ -33,7 +34,7 @@ from vismobile.culling import Culler, device_options  # noqa: E402
 from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.partition import partition, pvs_fly  # noqa: E402
 from vismobile.partition.pvs import bake  # noqa: E402
-from vismobile.partition.pvs_codec import cell_sizes, decode  # noqa: E402
+from vismobile.partition.pvs_codec import cell_sizes, decode, encode  # noqa: E402
 from vismobile.partition.pvs_codec import DERIVED  # noqa: E402
 from vismobile.partition.store import stored_bytes  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
@@ -89,10 +90,15 @@ def run(name, frames, randoms, jobs, street=True):
         print(f"{name}: street cells {k}, bake {street_stats['seconds']:.1f} s, "
               f"{street_bytes / 1024:.0f} KB ({street_bytes / obj:.2f}x OBJ), mean set "
               f"{100 * sizes[:k].mean():.1f}%", flush=True)
+    patterns, ids = decode(extras, cells, world.triangle_count)
+    masks = np.unpackbits(patterns, axis=1, count=cells)[ids].T.astype(bool)
+    alone = stored(encode(boxes[:k], masks[:k]))  # the street cells' sets of the same bake
+    print(f"{name}: the street cells' sets alone take {alone / 1024:.1f} KB "
+          f"({alone / obj:.3f}x OBJ)", flush=True)
     print(f"{name} fly=on (SPLIT {pvs_fly.SPLIT}): {stats['fly_cells']} fly-over cells, bake "
           f"{stats['seconds']:.1f} s" + (f" ({stats['seconds'] / street_stats['seconds']:.2f}x "
                                           "the street cells')" if street else "") +
-          f", {fly_bytes / 1024:.0f} KB ({fly_bytes / obj:.2f}x OBJ), fly-over mean set "
+          f", {fly_bytes / 1024:.1f} KB ({fly_bytes / obj:.3f}x OBJ), fly-over mean set "
           f"{100 * sizes[k:].mean():.1f}%", flush=True)
     fly = boxes[k:]
     for y0 in np.unique(fly[:, 0, 1]):
