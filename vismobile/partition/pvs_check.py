@@ -12,10 +12,11 @@ def check_pvs(x, triangles) -> None:
     """Raise ValueError when the PVS extras are inconsistent (loaded files are checked; the
     sets are inflated once to check them, within their declared size). pvs_cells, the boxes
     the .vmp keeps in pvs_pack (pvs_codec.derived_extras), must be the decoded ones."""
+    if "pvs_runs" in x or "pvs_start" in x or (
+            "pvs_cells" in x and np.asarray(x.get("pvs_shape", ())).shape != (9,)):
+        raise ValueError("the PVS is stored in an older layout: bake it again")
     present = [n for n in NAMES if n in x]
     if not present:
-        if "pvs_runs" in x or "pvs_start" in x or "pvs_cells" in x:
-            raise ValueError("the PVS is stored in an older layout: bake it again")
         return
     if len(present) != len(NAMES):
         raise ValueError(f"pvs extras missing: {', '.join(n for n in NAMES if n not in x)}")

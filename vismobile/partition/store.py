@@ -274,6 +274,7 @@ def map_partition(path, verify: bool = True) -> Partition:
                            tri_refs=fields["tri_refs"],
                            extras={n[len("extras."):]: v for n, v in fields.items()
                                    if n.startswith("extras.")})
+        result.extras.update(pvs_codec.derived_extras(result.extras, world.triangle_count))
     except PartitionError:
         raise
     except (ValueError, KeyError, TypeError, IndexError, OverflowError, AttributeError,
