@@ -162,8 +162,8 @@ def test_the_fly_option(rooms, street):
         partition(world, "portal", depth=1, fly="on")
     with pytest.raises(ValueError, match="fly=maybe"):
         partition(world, "portal", depth=1, pvs="conservative", fly="maybe")
-    with pytest.raises(ValueError, match="fly-over"):
-        partition(world, "bsp", pvs="conservative", fly="on")
+    with pytest.raises(ValueError, match="fly-over"):  # indoors: no street cells, any kind
+        partition(rooms, "bsp", pvs="conservative", fly="on")
     with pytest.raises(ValueError, match="fly-over"):
         partition(rooms, "portal", depth=1, pvs="conservative", fly="on")
     off = partition(world, "portal", depth=1, pvs="conservative", fly="off")
@@ -187,7 +187,7 @@ def test_the_fly_option_on_the_command_line(tmp_path, capsys, street):
     assert len(loaded.extras["pvs_cells"]) > len(street[0])
     assert (loaded.extras["pvs_cells"][:, 1, 1] > street[0][:, 1, 1].max()).any()
     for text, why in (("portal:1,fly=on", "pvs=conservative"), ("portal:1,pvs=conservative,"
-                      "fly=up", "fly=up"), ("bsp:pvs=conservative,fly=on", "fly-over")):
+                      "fly=up", "fly=up")):
         bad = tmp_path / "bad.vmp"
         assert cli(["partition", str(obj), f"--structure={text}", "-o", str(bad)]) == 2
         err = capsys.readouterr().err.strip()

@@ -234,3 +234,22 @@ def test_cover_is_stored_and_checked(baked, tmp_path):
     for bad in (np.array([-1.0, 0.1]), np.array([0.75]), np.array([np.nan, 0.1])):
         with pytest.raises(ValueError, match="pvs_cover"):
             check_pvs({**baked.extras, "pvs_cover": bad}, baked.world.triangle_count)
+
+
+@pytest.mark.parametrize("kind", ["bsp", "kdtree"])
+def test_every_kind_takes_the_street_cells(baked, kind):
+    """Outdoors the view cells and sets do not depend on the structure: the BSP tree (whose
+    leaves got the grid's cells, sets of the whole world) and a k-d tree bake the portal
+    structure's street cells and shadows, and the BSP's in-cell cameras drop nothing."""
+    part = partition(baked.world, kind, pvs="conservative")
+    assert "pvs_cover" in part.extras
+    for name in ("pvs_cells", "pvs_cover", "pvs_grow", "pvs_back"):
+        assert np.array_equal(part.extras[name], baked.extras[name]), name
+    cells = len(part.extras["pvs_cells"])
+    ours = decode(part.extras, cells, baked.world.triangle_count)
+    theirs = decode(baked.extras, cells, baked.world.triangle_count)
+    assert all(np.array_equal(a, b) for a, b in zip(ours, theirs))
+    sizes = cell_sizes(*ours, cells)
+    assert sizes.mean() < 0.9 * baked.world.triangle_count
+    if kind == "bsp":
+        assert in_cell_checks(part, 90, 23) > 70

@@ -195,7 +195,9 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     The view cells are a portal grid of the PVS's own (pvs_cells.view_grid: about `cells`
     cells, default as the portal structure's), so the structure's kind does not matter; a
     BSP tree's leaves then become the view cells, each taking the grid cells its region may
-    touch (pvs_leaves.py).
+    touch (pvs_leaves.py). An outdoor world (pvs_street.outdoor) gets the street cells and
+    their occluder shadows instead, whatever the kind (BSP too), unless doors or cells are
+    given.
     progress : optional callable(done, total) per source cell
     jobs     : processes (>1: source cells split over a process pool)
     executor : optional pool with submit(fn, *args) -> future with result(), used instead of
@@ -214,7 +216,9 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     began = time.perf_counter()
     world = partition.world
     fly = fly_option(partition.params.get("fly", "off"))
-    if partition.kind != "bsp" and doors is None and cells is None:
+    # outdoors every kind takes the street cells, the BSP tree too: its leaves span far more
+    # than the street layer, and their sets from the grid's cells were the whole world
+    if doors is None and cells is None:
         from .pvs_columns import find_columns
         from .pvs_street import COVER, NEAR_MIN, bake_street, outdoor
 
@@ -233,7 +237,7 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
             return extras, stats
     if fly:
         raise ValueError("fly=on: fly-over cells lie over an outdoor world's street cells (a "
-                         "world of standing blocks, not a BSP, no doors); this one has none")
+                         "world of standing blocks, no doors); this one has none")
     grow = bake_grow(world)
     # a world whose T-junctions were repaired (world/tjunctions.py) shares every crease's
     # corners, so the rasteriser opens no crack there: its thin cells are sealed at the walls
