@@ -62,7 +62,10 @@ def baked(world, spec, cache, jobs=1) -> tuple:
     tag = "-repaired" if getattr(world, "repair", None) else ""
     path = Path(cache) / f"{world.name}{tag}-{spec.replace(':', '')}-{bake_key(world, spec)}.vmp"
     if path.is_file():
-        return load_partition(path), None
+        try:
+            return load_partition(path), None
+        except Exception as error:  # an older .vmp layout (store.py): baked again below
+            print(f"{path.name}: {error}; baking again", flush=True)
     start = time.perf_counter()
     part = partition(world, spec)
     extras, _ = bake(part, "conservative", jobs=jobs)  # as partition(..., pvs=) does
