@@ -85,6 +85,8 @@ class PVSStage:
         self.scratch = np.empty((4, tree.node_count + 1), dtype=np.int64)
         self.ranges = np.empty((tree.node_count + 1, 2), dtype=np.int64)
         self.counts = np.zeros(9, dtype=np.int64)
+        self.arguments = None  # the fused call's fixed arguments, gathered on its first frame
+        self.memo = (None, None)  # reaches' last (near, fov, aspect) and result
         extras = tree.partition.extras or {}
         self.available = all(k in extras for k in EXTRAS)
         self.cache = {}
@@ -253,14 +255,19 @@ class PVSStage:
         """One locate_walk_gather call: None when the eye's cells are expect (the frame is
         culled: state.nodes, state.gathered and the counters set), else the cells found."""
         tree, vfc = self.tree, self.walker
-        b, g = tree._bitmap, tree.groups
+        if self.arguments is None:  # the Culler set walker and its options after prepare
+            b, g = tree._bitmap, tree.groups
+            self.arguments = ((self.cells, *self.index),
+                              (tree._box, tree._links, tree.read_size, vfc.whole_below,
+                               tree._inner, tree._inner_links, vfc.covering),
+                              (g.words, g.masks, g.span, b.bits, b.summary, b.tops,
+                               self.ranges))
+        cells, walk, gather = self.arguments
         allow, bits = (None, None) if entry is None or entry[2] else (entry[3], entry[4])
         x, y, z = state.camera.position
         hit, found, ids = locate_walk_gather(
-            self.cells, *self.index, x, y, z, pad, expect, tree._box, tree._links,
-            tree.read_size, vfc.whole_below, tree._inner, tree._inner_links, vfc.covering,
-            state.planes[None], tree.tol, self.scratch, allow, g.words, g.masks, g.span,
-            b.bits, b.summary, b.tops, self.ranges, bits, self.counts)
+            *cells, x, y, z, pad, expect, *walk, state.planes[None], tree.tol, self.scratch,
+            allow, *gather, bits, self.counts)
         if not hit:
             return found
         tested, runs, count, visited, tests, culled, straddling, covered, masked = \
@@ -290,6 +297,11 @@ class PVSStage:
         cells) a near plane their depth slack does not cover."""
         if not self.available:
             return None
+        key = (camera.near, camera.fov, camera.aspect)
+        x, y, z = camera.position
+        m = self.magnitude
+        if key == self.memo[0] and -m <= x <= m and -m <= y <= m and -m <= z <= m:
+            return self.memo[1]  # the same camera shape, the device's reach the world's
         grow = self.reach(camera)
         near = camera.near
         if not self.sampled and (grow > self.grow or near <= grow / (2.0 * math.sqrt(3.0))):
@@ -299,6 +311,8 @@ class PVSStage:
         if self.cover is not None and (camera.near < self.cover[1] or
                                        grow + reach > self.cover[0]):
             return None  # a near plane the street cells' depth slack does not cover
+        if max(abs(x), abs(y), abs(z)) <= m:
+            self.memo = (key, (grow, reach))
         return grow, reach
 
     def lookup(self, camera):
