@@ -49,7 +49,7 @@ from ..partition.pvs_back import region_backfacing, triangle_terms
 from ..partition.pvs_codec import cell_mask, decode
 from .doors import closed_doors, shut
 from .precision import device_move, world_scale
-from .pvs_frame import keep_bits, locate_walk_gather
+from .pvs_frame import TABLE_FIELDS, keep_bits, locate_walk_gather, pack_tables
 from .pvs_lookup import cell_index, find
 from .state import CullState
 from .tree import Tree
@@ -85,7 +85,7 @@ class PVSStage:
         self.scratch = np.empty((4, tree.node_count + 1), dtype=np.int64)
         self.ranges = np.empty((tree.node_count + 1, 2), dtype=np.int64)
         self.counts = np.zeros(9, dtype=np.int64)
-        self.arguments = None  # the fused call's fixed arguments, gathered on its first frame
+        self.tables = None  # the fused call's FrameTables, packed on its first frame
         self.memo = (None, None)  # reaches' last (near, fov, aspect) and result
         extras = tree.partition.extras or {}
         self.available = all(k in extras for k in EXTRAS)
@@ -254,20 +254,20 @@ class PVSStage:
     def frame(self, state: CullState, pad: float, expect, entry):
         """One locate_walk_gather call: None when the eye's cells are expect (the frame is
         culled: state.nodes, state.gathered and the counters set), else the cells found."""
-        tree, vfc = self.tree, self.walker
-        if self.arguments is None:  # the Culler set walker and its options after prepare
+        vfc = self.walker
+        if self.tables is None:  # the Culler set walker and its options after prepare
+            tree = self.tree
             b, g = tree._bitmap, tree.groups
-            self.arguments = ((self.cells, *self.index),
-                              (tree._box, tree._links, tree.read_size, vfc.whole_below,
-                               tree._inner, tree._inner_links, vfc.covering),
-                              (g.words, g.masks, g.span, b.bits, b.summary, b.tops,
-                               self.ranges))
-        cells, walk, gather = self.arguments
+            fields = (self.cells, *self.index, tree._box, tree._links, tree.read_size,
+                      int(vfc.whole_below), tree._inner, tree._inner_links, bool(vfc.covering),
+                      float(tree.tol), self.scratch, g.words, g.masks, g.span, b.bits,
+                      b.summary, b.tops, self.ranges, self.counts)
+            assert len(fields) == len(TABLE_FIELDS)
+            self.tables = pack_tables(fields)
         allow, bits = (None, None) if entry is None or entry[2] else (entry[3], entry[4])
         x, y, z = state.camera.position
-        hit, found, ids = locate_walk_gather(
-            *cells, x, y, z, pad, expect, *walk, state.planes[None], tree.tol, self.scratch,
-            allow, *gather, bits, self.counts)
+        hit, found, ids = locate_walk_gather(self.tables, x, y, z, pad, expect,
+                                             state.planes[None], allow, bits)
         if not hit:
             return found
         tested, runs, count, visited, tests, culled, straddling, covered, masked = \

@@ -15,7 +15,8 @@ take their triangles out.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.experimental import structref
 
 from .gather import count_marked, extract_marked, mark_nodes
 from .kernels import frustum_walk
@@ -95,21 +96,47 @@ def walk_gather(box, links, size, whole_below, inner, inner_links, covering, pla
     return ids, runs, count, visited, tests, culled, straddling, covered, tested
 
 
+@structref.register
+class FrameTablesType(types.StructRef):
+    """numba's type of FrameTables (fields typed as given, literals widened)."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(kind)) for name, kind in fields)
+
+
+class FrameTables(structref.StructRefProxy):
+    """What locate_walk_gather reads that stays the same from frame to frame (TABLE_FIELDS:
+    the view cells and their buckets, the tree's records, vfc's options, the gather's pairs
+    and bitmap, the stage's scratch and counters) in one numba structref: the call unboxes one
+    pointer instead of some twenty-five arrays (as occlusion_chain.ChainTables)."""
+
+
+TABLE_FIELDS = ("cells", "x0", "z0", "size", "nx", "nz", "start", "index", "box", "links",
+                "size_of", "whole_below", "inner", "inner_links", "covering", "tol", "scratch",
+                "words", "masks", "span", "bits", "summary", "tops", "ranges", "counts")
+structref.define_constructor(FrameTables, FrameTablesType, TABLE_FIELDS)
+structref.define_boxing(FrameTablesType, FrameTables)
+
+
+@njit(cache=True)
+def pack_tables(fields):
+    """FrameTables of the TABLE_FIELDS values, in that order."""
+    return FrameTables(*fields)
+
+
 @njit(cache=True, nogil=True)
-def locate_walk_gather(cells, x0, z0, size, nx, nz, start, index, x, y, z, pad, expect, box,
-                       links, size_of, whole_below, inner, inner_links, covering, planes, tol,
-                       scratch, allow, words, masks, span, bits, summary, tops, ranges, kept,
-                       counts):
-    """The eye's view cells (pvs_lookup.find: grown by pad, bucketed by cell_index's
-    x0 .. index) and, when they are `expect` (the cells allow and kept were made for: the
-    frame before's, mostly), walk_gather's frame. Returns (hit, found (K,) int64, ids (S,)
-    int64; empty on a miss: nothing walked); counts (>= 9,) int64 receives the boxes tested,
-    then walk_gather's runs, accepted, visited, plane tests, culled, straddling, covered and
-    masked. scratch : (4, >= N + 1) int64, the walk's out and stacks (accepted nodes are
-    scratch[0, :accepted]); the rest as walk_gather's."""
+def locate_walk_gather(t, x, y, z, pad, expect, planes, allow, kept):
+    """The eye (x, y, z)'s view cells (pvs_lookup.find in t's cells, grown by pad) and, when
+    they are `expect` (the cells allow and kept were made for: the frame before's, mostly),
+    walk_gather's frame over t (FrameTables). Returns (hit, found (K,) int64, ids (S,) int64;
+    empty on a miss: nothing walked); t.counts (>= 9,) int64 receives the boxes tested, then
+    walk_gather's runs, accepted, visited, plane tests, culled, straddling, covered and
+    masked; t.scratch (4, >= N + 1) int64 is the walk's out and stacks (accepted nodes are
+    scratch[0, :accepted])."""
     eye = np.empty(3, dtype=np.float64)
     eye[0], eye[1], eye[2] = x, y, z
-    found, tested = find(cells, x0, z0, size, nx, nz, start, index, eye, pad)
+    found, tested = find(t.cells, t.x0, t.z0, t.size, t.nx, t.nz, t.start, t.index, eye, pad)
+    counts, scratch = t.counts, t.scratch
     counts[0] = tested
     hit = len(found) == len(expect) and len(found) > 0
     if hit:
@@ -119,7 +146,8 @@ def locate_walk_gather(cells, x0, z0, size, nx, nz, start, index, x, y, z, pad, 
     if not hit:
         return False, found, np.empty(0, dtype=np.int64)
     ids, counts[1], counts[2], counts[3], counts[4], counts[5], counts[6], counts[7], \
-        counts[8] = walk_gather(box, links, size_of, whole_below, inner, inner_links, covering,
-                                planes, tol, scratch[0], scratch[1], scratch[2], scratch[3],
-                                allow, words, masks, span, bits, summary, tops, ranges, kept)
+        counts[8] = walk_gather(t.box, t.links, t.size_of, t.whole_below, t.inner,
+                                t.inner_links, t.covering, planes, t.tol, scratch[0],
+                                scratch[1], scratch[2], scratch[3], allow, t.words, t.masks,
+                                t.span, t.bits, t.summary, t.tops, t.ranges, kept)
     return True, found, ids
