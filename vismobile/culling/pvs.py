@@ -6,7 +6,9 @@ set (or none at all), and a triangle filter keeps the set's triangles. The store
 (partition/pvs_codec.py) are inflated once when the stage is prepared; a cell's set is then
 one gather of its pattern bits, done per combination of cells (on a boundary) and kept (KEEP
 combinations); a frame's own work is the cell lookup and the filter over what is gathered,
-nothing proportional to the world. No free-space
+nothing proportional to the world. When vfc is the only node stage after it (static
+partition), lookup, vfc's walk over the set's subtrees, gather and filter run in one compiled
+call instead (pvs_frame.py, apply_fused): the same triangles. No free-space
 test: the cells taken are all those within the near plane's reach (plus the device's) of the
 eye, since sight lines start on the near plane, perhaps beyond a wall next to the eye; the bake
 put the inside of every solid near a cell in its set (partition/pvs.py).
