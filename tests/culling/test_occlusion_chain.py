@@ -5,7 +5,7 @@ import numpy as np
 
 from vismobile.culling import Culler
 from vismobile.culling.backface import half_tangents
-from vismobile.culling.occlusion_chain import chain_tables, chain_view
+from vismobile.culling.occlusion_chain import chain_tables, chain_view, warm_caches
 from vismobile.culling.precision import ConservativeCamera, conservative_planes, culling_planes
 from vismobile.world.camera import Camera
 
@@ -74,3 +74,25 @@ def test_the_compiled_view_is_the_stages_bit_for_bit(kit):
             assert order == view[7] or (order == np.inf and view[7] == np.inf)
             unordered += order == np.inf
         assert mode != "float32" or unordered  # near 1e-4 at 1e5 in float32: no order
+
+
+def test_the_cache_hints_take_any_ids_and_change_no_send(kit):
+    # warm_caches only prefetches: ids out of range (a caller may reuse its result's arrays)
+    # must be skipped or harmless, and a frame sends the same with and without the hints.
+    part = kit.structure("w2", "octree")
+    culler = Culler(part, "vfc,occlusion,tbfc", "float32", occlusion={"screen": (240, 320)})
+    stage, tbfc = culler._chained
+    tables = chain_tables(stage, tbfc)[0]
+    wild = np.array([-7, 0, part.node_count - 1, part.node_count, 10 ** 12], dtype=np.int64)
+    warm_caches(tables, wild, wild)
+    cold = Culler(part, "vfc,occlusion,tbfc", "float32", occlusion={"screen": (240, 320)})
+    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    lo, hi = part.world.extent
+    used = 0
+    for k in range(8):
+        camera = Camera(position=tuple(lo + (hi - lo) * (0.2 + 0.08 * k)), yaw=40.0 * k)
+        cold.stages[1]._warm = empty
+        one, two = culler.cull(camera), cold.cull(camera)
+        assert np.array_equal(one.triangles, two.triangles) and one.stats == two.stats
+        used += stage._warm[0] is one.nodes  # the chained frame ran and keeps its hints
+    assert used >= 2

@@ -32,6 +32,7 @@ from .hiz.frame import (CANDIDATE_NODES, CANDIDATES, FRAME_SLOTS, NODES_CULLED, 
                         OCCLUDERS, PIXELS, PLANE_TESTS, VFC_ACCEPTED, VFC_CULLED, VISITED,
                         occlusion_frame, occluder_shift, sample_clip, top_scored)
 from .kernels import run_count
+from .prefetch import prefetch
 from .occluder_choice import GRAZING, SHELL_GROWTH
 from ..world.view_planes import view_planes
 from .backface import half_tangents
@@ -210,8 +211,36 @@ def chain_view(t, x, y, z, yaw, pitch, near, tx, ty):
 
 
 @njit(cache=True, nogil=True)
+def warm_caches(t, nodes, ids):
+    """Hints (culling/prefetch.py: no effect on any value) for what the frame is likely to read
+    cold after a render: the tree records of last frame's draw nodes `nodes`, their neighbours
+    and three levels of ancestors (the fused walk's), and the rows of last frame's sent
+    triangles `ids` (the triangle test's), asked for before the rasteriser's work so their
+    misses overlap it. Only hints: node ids out of range (a caller may have changed its
+    result) are skipped, and a prefetch never faults. (Also reading those rows to prefetch
+    their corners measured no gain: the reads are demand misses.)"""
+    count = len(t.lo)
+    for k in range(len(nodes)):
+        node = nodes[k]
+        for _ in range(4):
+            if not 0 <= node < count:
+                break
+            for near in (node - 2, node, node + 2):
+                at = max(near, 0)
+                prefetch(t.lo, at)
+                prefetch(t.hi, at)
+            prefetch(t.nonempty, node)
+            prefetch(t.child_count, node)
+            prefetch(t.first_child, node)
+            node = t.parent[node]
+    for k in range(len(ids)):
+        prefetch(t.triangles, ids[k])
+
+
+@njit(cache=True, nogil=True)
 def chained_frame(t, history, stack, out, below, g_ranges, given, x, y, z, yaw, pitch, near,
-                  far, half_angles, tx, ty, plane_margin, plane_limit, frame, clear_shift):
+                  far, half_angles, tx, ty, plane_margin, plane_limit, frame, clear_shift,
+                  warm_nodes, warm_ids):
     """The frame's planes (given (6, 4), or with none given (0, 4) the camera's pushed out by
     plane_margin and limited to plane_limit: view_planes, as precision.culling_planes; the
     camera at (x, y, z), yaw, pitch, near, far, half_angles (4,) Camera's (ch, sh, cv, sv)),
@@ -227,6 +256,7 @@ def chained_frame(t, history, stack, out, below, g_ranges, given, x, y, z, yaw, 
     counters (chain_counters; kept < 0: occlusion_frame's FRAME_SLOTS), the planes and a
     copy of the draw nodes. kept is -2 when the device cannot order depths (nothing run but
     the planes and the view): the caller culls stage by stage."""
+    warm_caches(t, warm_nodes, warm_ids)
     planes = given
     if len(given) == 0:
         ch, sh, cv, sv = half_angles[0], half_angles[1], half_angles[2], half_angles[3]
@@ -297,12 +327,14 @@ def cull_chained(stage, tbfc, camera, arithmetic: str, scale: float, cull_back: 
     tx, ty = half_tangents(camera.fov, camera.aspect)
     (x, y, z), bitmap = camera.position, stage.tree._bitmap
     tables, names = chain_tables(stage, tbfc)
+    if not hasattr(stage, "_warm"):  # last frame's draw nodes and sent ids: warm_caches
+        stage._warm = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     (kept, frame, nearest, reach, chosen, out, stack, below, local, sent, history, ranges,
      counters, planes, nodes) = chained_frame(
         tables, stage.history, stage._stack, stage._out, stage._below, bitmap.ranges,
         EMPTY_PLANES if given is None else given, x, y, z, float(camera.yaw),
         float(camera.pitch), float(camera.near), float(camera.far), camera.half_angles(), tx,
-        ty, push, limit, stage._frame, stage._shift_written)
+        ty, push, limit, stage._frame, stage._shift_written, stage._warm[0], stage._warm[1])
     if kept == -2:  # the device cannot order depths: the stages' way (_unordered)
         return None, planes
     stage._camera, stage._planes = camera, planes
@@ -314,6 +346,7 @@ def cull_chained(stage, tbfc, camera, arithmetic: str, scale: float, cull_back: 
     if kept < 0:  # nothing occludes: the stages' way (the frustum walk alone)
         return None, planes
     stage.history = history
+    stage._warm = (nodes, sent)
     result = dict(zip(names, counters.tolist()))
     if cull_back:
         result["bfc.render_flag"] = 1
