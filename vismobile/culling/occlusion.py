@@ -24,7 +24,9 @@ Each frame:
    ancestors of the frame's nodes, so hidden regions go at a coarse level: hidden when the
    box's nearest depth is beyond the largest depth over its screen rectangle (plus the 24-bit
    depth buffer's resolution there), or the rectangle is off screen with the box in front.
-   Visible inner nodes touching covered tiles are expanded. With `rounds` > 1, the surviving
+   Visible inner nodes touching covered tiles are expanded (with `rounds` > 1 the fused walk
+   stops expanding after hiz.frame.WALK_BUDGET nodes; the nodes it kept unexpanded are
+   refined after the rounds, never dropped untested). With `rounds` > 1, the surviving
    nodes (what is seen through doors and windows) offer occluders again, they are added to the
    buffer and the nodes are tested again.
 4. Each triangle gathered from the surviving nodes gets the same test with its own vertices
@@ -410,7 +412,9 @@ class DepthBufferOcclusion(BufferTests, OccluderChoice):
         if not written and fused:  # nothing occludes: the frustum walk alone
             state.nodes = frustum_refine(tree, state, "vfc")
         if written:
-            self._node_pass(state, eye, rotation, tx, ty, move, margin, recede, fused=fused)
+            # refined: no node is left deferred by the fused walk's budget (hiz.frame)
+            refined = not self._node_pass(state, eye, rotation, tx, ty, move, margin, recede,
+                                          fused=fused)
             for _ in range(self.rounds - 1 if not np.isfinite(self.tile_max).all() else 0):
                 # Occluders seen through what is still open: the surviving nodes' largest
                 # triangles (far walls behind doors and windows), then the nodes again.
@@ -423,6 +427,9 @@ class DepthBufferOcclusion(BufferTests, OccluderChoice):
                 state.count(f"{self.name}.pixels_covered", more)
                 if not more:
                     break
+                self._node_pass(state, eye, rotation, tx, ty, move, margin, recede, False)
+                refined = True
+            if not refined:
                 self._node_pass(state, eye, rotation, tx, ty, move, margin, recede, False)
         self.frame_occluders = chosen  # read by tools (bench_peers' MOC rows); not a copy
         written += self._moving_occluders(state)

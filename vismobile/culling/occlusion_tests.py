@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from .hiz import cull_nodes, frustum_cull_nodes, hidden_triangles
+from .hiz.frame import WALK_BUDGET
+from .hiz.walks import NO_BUDGET
 from .triangle_backface import DEVICE_ABSOLUTE, DEVICE_RELATIVE
 
 
@@ -40,10 +42,12 @@ class BufferTests:
         return d + margin * d * d + recede
 
     def _node_pass(self, state, eye, rotation, tx, ty, move, margin, recede,
-                   from_root=True, fused=False) -> None:
+                   from_root=True, fused=False) -> int:
         """state.nodes refined by hiz.cull_nodes against the current buffer (entered through
         their ancestors, or, from_root False, at the nodes themselves); fused: by the frustum
-        and the buffer in one walk from them (hiz.frustum_cull_nodes, vfc's counters too)."""
+        and the buffer in one walk from them (hiz.frustum_cull_nodes, vfc's counters too), which
+        stops expanding after WALK_BUDGET nodes when later rounds follow. Returns the nodes the
+        fused walk deferred (kept unexpanded: the caller refines them with a later pass)."""
         tree, camera = self.tree, state.camera
         roots = np.ascontiguousarray(state.nodes, dtype=np.int64)
         if len(roots) + tree.node_count > len(self._out):
@@ -53,13 +57,14 @@ class BufferTests:
             self._below = np.empty(len(roots) + tree.node_count, dtype=np.uint8)
             self._masks = np.empty(len(roots) + tree.node_count, dtype=np.int64)
         if fused:
-            kept, visited, tests, outside, culled, tested = frustum_cull_nodes(
+            budget = WALK_BUDGET if self.rounds > 1 else NO_BUDGET
+            kept, visited, tests, outside, culled, tested, deferred = frustum_cull_nodes(
                 tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots,
                 np.ascontiguousarray(state.planes, dtype=np.float64), tree.tol, eye, rotation,
                 camera.near, tx, ty, self.width, self.height, move, self.shift(camera, move),
                 margin, recede, self.depth, self.tile_max, self.tile_any, self.tile_shift,
                 *self.tile, self._out, self._stack, self._masks, self.nearest_far(margin, recede),
-                *self.samples(camera, move))
+                *self.samples(camera, move), budget)
             state.nodes = self._out[:kept].copy()
             state.count("nodes_visited", visited)
             state.count("plane_tests", tests)
@@ -67,7 +72,7 @@ class BufferTests:
             state.count("vfc.nodes_accepted", kept)
             state.count(f"{self.name}.nodes_tested", tested)
             state.count(f"{self.name}.nodes_culled", culled)
-            return
+            return deferred
         self._frame += 1
         kept, visited, culled = cull_nodes(
             tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,
@@ -80,6 +85,7 @@ class BufferTests:
         state.count("nodes_visited", visited)
         state.count(f"{self.name}.nodes_tested", visited)
         state.count(f"{self.name}.nodes_culled", culled)
+        return 0
 
     def samples(self, camera, move) -> tuple:
         """(screen width, height, the move of a tested point's screen position) for the centre

@@ -14,7 +14,15 @@ from .buffer import build_tiles, tile_shifts
 from .candidates import (facing_occluders, gather_candidates, gather_shell_candidates,
                          lod_ancestors, score_candidates)
 from .raster import DEPTH_SLACK, SLACK_PX, rasterise, stamp_near
-from .walks import cull_nodes, frustum_cull_nodes
+from .walks import NO_BUDGET, cull_nodes, frustum_cull_nodes
+
+# The fused walk expands at most about this many nodes when later rounds follow; the rest is
+# kept whole and refined by cull_nodes after them (walks.frustum_cull_nodes). Tiled W2 at 5.0M,
+# frames 301-329 played in order: the frames whose first-round buffer leaves holes onto the
+# far tiles visited up to 59,633 nodes (median 16,477); with it up to 36,235, sending 224.1
+# triangles a frame against 223.7 (docs/culling-performance.md). Thesis worlds stay below it.
+WALK_BUDGET = 16384
+
 
 # Slots of occlusion_frame's counters (occlusion.FRAME_COUNTERS names them).
 (OCCLUDERS, PIXELS, CANDIDATES, CANDIDATE_NODES, VISITED, PLANE_TESTS, VFC_CULLED, VFC_ACCEPTED,
@@ -181,17 +189,19 @@ def occlusion_frame(lo, hi, first_child, child_count, nonempty, parent, tol, ver
     if not written:
         return -1, frame, nearest, reach, chosen, out, stack, below, int(local) if len(chosen) else -1
     # The fused frustum and buffer walk from the root.
-    kept, visited, tests, outside, culled, tested = frustum_cull_nodes(
+    budget = WALK_BUDGET if rounds > 1 else NO_BUDGET
+    kept, visited, tests, outside, culled, tested, deferred = frustum_cull_nodes(
         lo, hi, first_child, child_count, nonempty, np.zeros(1, dtype=np.int64), planes, tol,
         eye, rot, near, tx, ty, width, height, move, occluder_shift(nearest, move, tx, ty),
         margin, recede, depth, tile_max, tile_any, tile_shift, tw, th, out, stack, masks,
-        _nearest_far(tile_min, margin, recede), sw, sh, sample_move)
+        _nearest_far(tile_min, margin, recede), sw, sh, sample_move, budget)
     stats[VISITED] += visited
     stats[PLANE_TESTS] += tests
     stats[VFC_CULLED] += outside
     stats[VFC_ACCEPTED] += kept
     stats[NODES_TESTED] += tested
     stats[NODES_CULLED] += culled
+    refined = deferred == 0  # else the deferred nodes are refined after the rounds at least
     for _ in range(rounds - 1 if not np.isfinite(tile_max).all() else 0):
         # Occluders seen through what is still open, then the nodes again.
         nodes = out[:kept].copy()
@@ -222,17 +232,44 @@ def occlusion_frame(lo, hi, first_child, child_count, nonempty, parent, tol, ver
         stats[PIXELS] += more
         if not more:
             break
-        if len(below) < need:
-            below = np.empty(need, dtype=np.uint8)
-        if len(out) < need:  # out is written from here on: kept indexes the new one
-            out = np.empty(need, dtype=np.int64)
+        kept, out, stack, below = _cull_again(
+            nodes, lo, hi, first_child, child_count, nonempty, parent, draw_mark, up_mark,
+            frame + 1, eye, rot, near, tx, ty, width, height, move, nearest, margin, recede,
+            depth, tile_max, tile_any, tile_min, tile_shift, tw, th, out, stack, below, sw, sh,
+            sample_move, stats)
         frame += 1
-        kept, visited, culled = cull_nodes(
-            lo, hi, first_child, child_count, nonempty, parent, nodes, draw_mark, up_mark, frame,
-            eye, rot, near, tx, ty, width, height, move, occluder_shift(nearest, move, tx, ty),
-            margin, recede, depth, tile_max, tile_any, tile_shift, tw, th, out, stack, below,
-            _nearest_far(tile_min, margin, recede), False, sw, sh, sample_move)
-        stats[VISITED] += visited
-        stats[NODES_TESTED] += visited
-        stats[NODES_CULLED] += culled
+        refined = True
+    if not refined:
+        kept, out, stack, below = _cull_again(
+            out[:kept].copy(), lo, hi, first_child, child_count, nonempty, parent, draw_mark,
+            up_mark, frame + 1, eye, rot, near, tx, ty, width, height, move, nearest, margin,
+            recede, depth, tile_max, tile_any, tile_min, tile_shift, tw, th, out, stack, below,
+            sw, sh, sample_move, stats)
+        frame += 1
     return kept, frame, nearest, reach, chosen, out, stack, below, int(local)
+
+
+@njit(cache=True, nogil=True)
+def _cull_again(nodes, lo, hi, first_child, child_count, nonempty, parent, draw_mark, up_mark,
+                frame, eye, rot, near, tx, ty, width, height, move, nearest, margin, recede,
+                depth, tile_max, tile_any, tile_min, tile_shift, tw, th, out, stack, below, sw,
+                sh, sample_move, stats):
+    """occlusion._node_pass from the draw nodes themselves (hiz.cull_nodes, from_root False,
+    stamped with frame) against the current buffer, the scratch grown as the Python path grows
+    it; counters added to stats. Returns (kept count, out, stack, below)."""
+    need = len(nodes) + len(lo)
+    if len(stack) < need:
+        stack = np.empty(need, dtype=np.int64)
+    if len(below) < need:
+        below = np.empty(need, dtype=np.uint8)
+    if len(out) < need:  # out is written from here on: kept indexes the new one
+        out = np.empty(need, dtype=np.int64)
+    kept, visited, culled = cull_nodes(
+        lo, hi, first_child, child_count, nonempty, parent, nodes, draw_mark, up_mark, frame,
+        eye, rot, near, tx, ty, width, height, move, occluder_shift(nearest, move, tx, ty),
+        margin, recede, depth, tile_max, tile_any, tile_shift, tw, th, out, stack, below,
+        _nearest_far(tile_min, margin, recede), False, sw, sh, sample_move)
+    stats[VISITED] += visited
+    stats[NODES_TESTED] += visited
+    stats[NODES_CULLED] += culled
+    return kept, out, stack, below

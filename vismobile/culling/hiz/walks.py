@@ -1,6 +1,8 @@
 """The tiled depth buffer's node walks (numba, cached on disk): tree boxes tested against the
 buffer from the root, hidden subtrees never entered (cull_nodes), and the same fused with the
-frustum test (frustum_cull_nodes). Box tests as in buffer.py; errs toward keeping.
+frustum test (frustum_cull_nodes), which may stop expanding after a budget of nodes (the rest
+is refined by cull_nodes once later rounds have filled the buffer). Box tests as in buffer.py;
+errs toward keeping.
 """
 from __future__ import annotations
 
@@ -14,6 +16,8 @@ from .raster import _box_to_camera
 # With a screen, node boxes whose rectangle spans up to this many pixels (width + height, buffer
 # pixels) are tested at the centres (cull_nodes): on w2x7 wider ones cost more than they cull.
 CENTRE_SPAN = 24.0
+# frustum_cull_nodes' budget that never stops a walk.
+NO_BUDGET = 1 << 62
 
 
 @njit(cache=True, nogil=True)
@@ -127,7 +131,7 @@ def cull_nodes(lo, hi, first_child, child_count, nonempty, parent, roots, draw_m
 def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes, tol, eye, rot,
                        near, tx, ty, width, height, move, shift, margin, recede, depth,
                        tile_max, tile_any, tile_shift, tw, th, out, stack_node, stack_mask,
-                       nearest_far, sw, sh, sample_move):
+                       nearest_far, sw, sh, sample_move, budget):
     """One walk from `roots` that rejects a node outside the frustum or hidden by the buffer, so
     neither kind of subtree is entered: the frustum test of kernels.frustum_walk (p/n-vertex
     with plane masks; errs toward keeping by tol: rejects only a box more than tol behind a
@@ -135,9 +139,15 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
     boxes it leaves. A visible inner node is replaced by its non-empty children when it
     straddles a plane, is not testable or its rectangle meets a covered tile; others are kept
     in out. A leaf whose nearest corner is not beyond nearest_far is kept without a rectangle.
+    Once more than `budget` nodes were visited, a visible node inside the frustum that would be
+    expanded is kept instead (deferred: never dropped untested); cull_nodes from the kept nodes
+    (from_root False) against the same buffer then keeps exactly the set an unbounded walk
+    keeps (its tests are the same), or fewer nodes against a fuller buffer.
     planes : (P, 4) float64 inward (n, d), P <= 62;  stacks : (>= N + len(roots),) int64
     sw, sh, sample_move, tile_shift : the screen's centre test, as in cull_nodes
-    returns (kept count, nodes visited, plane tests, outside the frustum, hidden, tested)"""
+    budget : nodes visited before expansion stops (NO_BUDGET: never)
+    returns (kept count, nodes visited, plane tests, outside the frustum, hidden, tested,
+    deferred)"""
     cols = (width + tw - 1) // tw
     cam = np.empty((8, 3))
     r = np.empty(12)
@@ -148,7 +158,7 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
         stack_node[top] = roots[k]
         stack_mask[top] = full
         top += 1
-    count = visited = tests = outside_count = hidden = tested = 0
+    count = visited = tests = outside_count = hidden = tested = deferred = 0
     while top > 0:
         top -= 1
         node, mask = stack_node[top], stack_mask[top]
@@ -177,6 +187,11 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
         testable = r[5] > 0
         if n > 0 and (straddle != 0 or not testable
                       or _touches(x0, x1, y0, y1, tile_any, cols, tw, th)):
+            if visited > budget and straddle == 0 and testable:
+                out[count] = node  # over budget: kept whole for the refinement after
+                count += 1
+                deferred += 1
+                continue
             first = first_child[node]
             for c in range(n - 1, -1, -1):  # first child on top: depth-first in stored order
                 stack_node[top] = first + c
@@ -185,4 +200,4 @@ def frustum_cull_nodes(lo, hi, first_child, child_count, nonempty, roots, planes
             continue
         out[count] = node
         count += 1
-    return count, visited, tests, outside_count, hidden, tested
+    return count, visited, tests, outside_count, hidden, tested, deferred
