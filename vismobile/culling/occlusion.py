@@ -80,6 +80,7 @@ from .backface import half_tangents
 from .frustum import frustum_refine
 from .hiz import (DEPTH_SLACK, GUARD_PX, SAMPLE_HALF, SLACK_PX, build_tiles, rasterise,
                   shift_table_size, stamp_near, tile_shifts)
+from .hiz.edges import buffer_length
 from .hiz.frame import FRAME_SLOTS, occluder_shift, occlusion_frame, sample_clip
 from .occluder_choice import GRAZING, SHELL_GROWTH, OccluderChoice
 from .occluder_mesh import world_tables
@@ -258,7 +259,11 @@ class DepthBufferOcclusion(BufferTests, OccluderChoice):
         tw, th = self.tile
         self._cols, self._rows = (self.width + tw - 1) // tw, (self.height + th - 1) // th
         self.tiles = self._cols * self._rows
-        self.depth = np.full(pixels, np.inf)
+        # The bounds, then room for the edge records of a frame's occluders' pieces (hiz.edges:
+        # the triangle test reads them at the screen's centres; the sample buffer's pixels are
+        # the screen's, bounded near their centres: none there).
+        records = 0 if self.sampled else 3 * self.occluders * self.rounds
+        self.depth = np.full(buffer_length(pixels, records) if records else pixels, np.inf)
         self.mask = np.zeros(pixels, dtype=np.uint8)
         self.centre = np.zeros(pixels, dtype=np.uint8)
         self.crease_far = np.zeros(pixels)

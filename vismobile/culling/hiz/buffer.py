@@ -23,12 +23,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .edges import edge_bound
 from .raster import DEPTH_SLACK, GUARD_PX, SLACK_PX, _to_camera
 
 SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
 # Relative to the corners' largest 1 / z: the plane's 1 / z fitted in float64 from a projection
 # no thinner than _triangle_edges allows (conditioning <= 1e6) errs far below this.
 PLANE_SLACK = 1e-6
+# Screen centres per tested triangle that edge records (hiz.edges) may hide: beyond it the
+# triangle is kept (a visible triangle along an occluder's outline stops scanning sooner).
+EDGE_RESCUES = 6
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -312,7 +316,7 @@ def _plane_near(x0, x1, y0, y1, zmin, edges, reach, wmax):
 
 @njit(cache=True, nogil=True)
 def _behind_shape(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, recede,
-                  edges, gx, gy, reach, wmax, centres):
+                  edges, gx, gy, reach, wmax, centres, first):
     """_behind for a triangle, reading only the pixels its shape may reach: a pixel (or tile)
     whose square grown by gx, gy pixels lies wholly outside an edge of the projected triangle
     (edges: _triangle_edges) holds no point the device draws there, nor one an occluder's
@@ -323,42 +327,57 @@ def _behind_shape(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, ma
     read only at the screen's pixel centres the device may draw there (_pixel_centres_behind):
     those within gsx, gsy buffer pixels of its square (the occluders' shift), each a box grown
     by gmx, gmy (the points' own move and the GPU's snapping) for the shape and plane tests.
+    first (2,): a buffer point whose tile is read first (the triangle's projected centroid:
+    a visible triangle fails soonest there); the answer does not depend on it.
     Errs toward False as _behind does."""
-    for ty_ in range(y0 // th, y1 // th + 1):
-        for tx_ in range(x0 // tw, x1 // tw + 1):
-            d = tile_max[ty_ * cols + tx_]
-            if zmin > d + margin * d * d + recede:
+    tx0, ty0, ntx = x0 // tw, y0 // th, x1 // tw - x0 // tw + 1
+    fx = int(min(max(first[0], x0), x1)) // tw if first[0] == first[0] else tx0
+    fy = int(min(max(first[1], y0), y1)) // th if first[1] == first[1] else ty0
+    for k in range(-1, ntx * (y1 // th - ty0 + 1)):
+        if k < 0:  # the first tile, then the others in order
+            tx_, ty_ = fx, fy
+        else:
+            tx_, ty_ = tx0 + k % ntx, ty0 + k // ntx
+            if tx_ == fx and ty_ == fy:
                 continue
-            r0, r1 = max(y0, ty_ * th), min(y1, ty_ * th + th - 1)
-            c0, c1 = max(x0, tx_ * tw), min(x1, tx_ * tw + tw - 1)
-            if _outside(c0 - gx, c1 + 1.0 + gx, r0 - gy, r1 + 1.0 + gy, edges):
-                continue
-            if _plane_near(c0 - gx, c1 + 1.0 + gx, r0 - gy, r1 + 1.0 + gy, zmin, edges, reach,
-                           wmax) > d + margin * d * d + recede:
-                continue
-            for r in range(r0, r1 + 1):
-                for c in range(c0, c1 + 1):
-                    d = depth[r * width + c]
-                    if zmin > d + margin * d * d + recede \
-                            or _outside(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, edges):
-                        continue
-                    if centres[0] > 0:
-                        if not _pixel_centres_behind(c, r, d + margin * d * d + recede, zmin,
-                                                     width, edges, wmax, centres):
-                            return False
-                    elif not _plane_near(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, zmin,
-                                         edges, reach, wmax) > d + margin * d * d + recede:
+        d = tile_max[ty_ * cols + tx_]
+        if zmin > d + margin * d * d + recede:
+            continue
+        r0, r1 = max(y0, ty_ * th), min(y1, ty_ * th + th - 1)
+        c0, c1 = max(x0, tx_ * tw), min(x1, tx_ * tw + tw - 1)
+        if _outside(c0 - gx, c1 + 1.0 + gx, r0 - gy, r1 + 1.0 + gy, edges):
+            continue
+        if _plane_near(c0 - gx, c1 + 1.0 + gx, r0 - gy, r1 + 1.0 + gy, zmin, edges, reach,
+                       wmax) > d + margin * d * d + recede:
+            continue
+        for r in range(r0, r1 + 1):
+            for c in range(c0, c1 + 1):
+                d = depth[r * width + c]
+                if zmin > d + margin * d * d + recede \
+                        or _outside(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, edges):
+                    continue
+                if centres[0] > 0:
+                    if not _pixel_centres_behind(c, r, d + margin * d * d + recede, zmin,
+                                                 width, edges, wmax, centres, depth,
+                                                 margin, recede):
                         return False
+                elif not _plane_near(c - gx, c + 1.0 + gx, r - gy, r + 1.0 + gy, zmin,
+                                     edges, reach, wmax) > d + margin * d * d + recede:
+                    return False
     return True
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _pixel_centres_behind(c, r, bound, zmin, width, edges, wmax, centres):
+def _pixel_centres_behind(c, r, bound, zmin, width, edges, wmax, centres, depth, margin,
+                          recede):
     """True when every pixel centre of the sw x sh screen within gsx, gsy buffer pixels of
     buffer pixel (c, r)'s square (the occluders' shift: the centres whose device occluder
     fragment may come from this pixel) either lies, grown by gmx, gmy, wholly outside an edge
     of the projected triangle (no fragment of the triangle there) or has the triangle's plane,
-    over that grown box less `reach`, beyond `bound` (_plane_near). centres: _behind_shape's.
+    over that grown box less `reach`, beyond `bound` (_plane_near) or beyond the pixel's edge
+    record over the centre's box within gsx, gsy (hiz.edges.edge_bound: the occluder points
+    the device may draw there all lie on the covered side of an occluder's outline; margin
+    and recede as the bound has them). centres: _behind_shape's.
     The device draws and depth-tests at pixel centres only (no multisampling), so a triangle
     fragment at a centre s is hidden when it lies beyond every buffer pixel within the shift of
     s: the pairs (s, pixel) are those the whole-square test reads, minus the points of the
@@ -380,9 +399,13 @@ def _pixel_centres_behind(c, r, bound, zmin, width, edges, wmax, centres):
             xc = (i + 0.5) / fx
             if _outside(xc - gmx, xc + gmx, yc - gmy, yc + gmy, edges):
                 continue
-            if not _plane_near(xc - gmx, xc + gmx, yc - gmy, yc + gmy, zmin, edges, reach,
-                               wmax) > bound:
-                return False
+            near = _plane_near(xc - gmx, xc + gmx, yc - gmy, yc + gmy, zmin, edges, reach, wmax)
+            if not near > bound:
+                if not (centres[8] > 0 and near > edge_bound(
+                        depth, c, r, width, int(height), xc, yc, gsx, gsy, margin, recede,
+                        GUARD_PX)):
+                    return False
+                centres[8] -= 1.0  # one rescue fewer left to this triangle
     return True
 
 
@@ -439,7 +462,8 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
     px = np.empty(3)
     py = np.empty(3)
     edges = np.empty((4, 3))
-    centres = np.zeros(8)
+    first = np.empty(2)
+    centres = np.zeros(9)
     reach = np.sqrt(3.0) * move
     lateral = 2.0 + 2.0 * max(tx, ty) + shift  # bounds 1 + |x / z| over the screen and shift
     for k in range(len(ids)):
@@ -479,10 +503,16 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
             centres[5] = grow / tx * 0.5 * width + snap_x
             centres[6] = grow / ty * 0.5 * height + snap_y
             centres[7] = own
+            centres[8] = EDGE_RESCUES
         else:
             centres[0] = 0.0
+        if shaped:  # the projected centroid's tile first (a visible triangle fails soonest)
+            first[0] = (cam[0, 0] / cam[0, 2] + cam[1, 0] / cam[1, 2] + cam[2, 0] / cam[2, 2]) \
+                / (3.0 * tx) * 0.5 * width + 0.5 * width
+            first[1] = (cam[0, 1] / cam[0, 2] + cam[1, 1] / cam[1, 2] + cam[2, 1] / cam[2, 2]) \
+                / (3.0 * ty) * 0.5 * height + 0.5 * height
         if use and (_behind_shape(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th,
-                                  margin, recede, edges, gx, gy, reach, wmax, centres)
+                                  margin, recede, edges, gx, gy, reach, wmax, centres, first)
                     if shaped else
                     _behind(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th, margin,
                             recede)):
@@ -496,7 +526,7 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
             a0, a1, b0, b1 = int(r[0]), int(r[1]), int(r[2]), int(r[3])
             if (a0 != x0 or a1 != x1 or b0 != y0 or b1 != y1) and (
                     _behind_shape(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th,
-                                  margin, recede, edges, gx, gy, reach, wmax, centres)
+                                  margin, recede, edges, gx, gy, reach, wmax, centres, first)
                     if shaped else
                     _behind(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th, margin,
                             recede)):

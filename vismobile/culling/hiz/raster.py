@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .edges import add_record, capacity, set_record
+
 SLACK_PX = 0.01     # pixels: boundaries and rectangles grown by this (GPU snapping is 1/1024)
 DEPTH_SLACK = 1e-9  # relative: occluder depths pushed back, tested depths pulled forward
 # Buffer pixels: a border pixel is covered (and bounded) over its square taken this much wider
@@ -100,11 +102,15 @@ def _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut):
 
 
 @njit(cache=True, nogil=True)
-def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half=0.5):
+def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half, piece_of,
+                  line):
     """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of
     the pixel's square of half-size `half` about its centre (0.5: the whole pixel), a border
     pixel's square taken GUARD_PX wider off screen (errs toward more pixels), and widens each
-    marked row's span [row_lo, row_hi] (height,) int64 to hold the pixels marked."""
+    marked row's span [row_lo, row_hi] (height,) int64 to hold the pixels marked. With bit
+    _BOUNDARY and piece_of (H * W,) int32 (or an empty one: not kept): a pixel's first
+    boundary mark of the group sets piece_of to `line` (the segment's edge record, or -1),
+    any other mark to -1 (hiz.edges: only a pixel one piece meets keeps a record)."""
     steep = abs(by - ay) > abs(bx - ax)
     if steep:
         ax, ay, bx, by = ay, ax, by, bx
@@ -126,6 +132,7 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half
         return
     dx = bx - ax
     slope = (by - ay) / dx if dx > 0 else 0.0
+    keep = bit == _BOUNDARY and len(piece_of) > 0
     for c in range(int(c0), int(c1) + 1):
         # c + 0.5 -+ 0.5 is c and c + 1 exactly: the whole-pixel bounds are unchanged
         lo = max(c + 0.5 - half - SLACK_PX - (GUARD_PX if c == 0 else 0.0), ax)
@@ -150,12 +157,26 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half
             row_lo[c] = min(row_lo[c], int(r0))
             row_hi[c] = max(row_hi[c], int(r1))
             for r in range(int(r0), int(r1) + 1):
+                if keep:
+                    _keep_piece(mask, piece_of, c * width + r, line)
                 mask[c * width + r] |= bit
         else:  # column c, rows r0..r1
             for r in range(int(r0), int(r1) + 1):
+                if keep:
+                    _keep_piece(mask, piece_of, r * width + c, line)
                 mask[r * width + c] |= bit
                 row_lo[r] = min(row_lo[r], c)
                 row_hi[r] = max(row_hi[r], c)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _keep_piece(mask, piece_of, p, line):
+    """_mark_segment's piece count of pixel p: the group's first boundary piece sets it."""
+    if mask[p] & _BOUNDARY:
+        if piece_of[p] != line:
+            piece_of[p] = -1
+    else:
+        piece_of[p] = line
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -179,6 +200,9 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
               width, height, depth, mask, centre, crease_far, slack=DEPTH_SLACK, half=0.5):
     """Rasterise occluder triangles `ids` (sorted by group) into depth (H * W,) float64 by the
     pointwise minimum; returns (nearest rasterised depth (inf if none), pixels written).
+    A longer depth (hiz.edges.buffer_length) also gets edge records: pixels one boundary piece
+    of a group meets keep the group's plane and the piece's line (the part of the square on
+    the group's side is covered; hiz.edges), read by the triangle test at the screen's centres.
     half: a pixel's square is [i + 0.5 - half, i + 0.5 + half] about its centre (0.5: the
     whole pixel; less: a sample's neighbourhood, SAMPLE_HALF) for coverage and depth alike.
 
@@ -218,10 +242,22 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     span_hi = np.full(height, -1, dtype=np.int64)
     # Per triangle of ids: 1 when step 1 cut it at the near plane (step 2 marks the cut side).
     was_cut = np.zeros(len(ids), dtype=np.uint8)
+    # Per triangle of ids: the sign of its projected area when uncut (its inside lies to that
+    # side of each edge in corner order), else 0 (no edge records).
+    orient = np.zeros(len(ids))
+    # Per triangle of ids: its corners' buffer pixels when uncut (flat 1; step 2 reads them).
+    flat = np.zeros(len(ids), dtype=np.uint8)
+    proj = np.empty((len(ids), 3, 2))
     sx, sy = 0.5 * width / tx, 0.5 * height / ty
     nearest = np.inf
     written = 0
     creases = False
+    # Edge records (hiz.edges) when depth has room for them; piece_of: per pixel the one
+    # boundary piece of the group that meets it (its record), -1 for none or several.
+    pixels = width * height
+    records = capacity(depth, pixels) > 0
+    piece_of = np.empty(pixels if records else 0, dtype=np.int32)
+    scale = 1.0 / (1.0 + slack)
     start = 0
     while start < len(ids):
         g = groups[ids[start]]
@@ -244,6 +280,13 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 ys[c] = poly[c, 1] / poly[c, 2] * sy + 0.5 * height
                 bx0, bx1 = min(bx0, xs[c]), max(bx1, xs[c])
                 by0, by1 = min(by0, ys[c]), max(by1, ys[c])
+            if n == 3 and not was_cut[k]:  # poly is the triangle, corners in order
+                flat[k] = 1
+                for c in range(3):
+                    proj[k, c, 0], proj[k, c, 1] = xs[c], ys[c]
+                u, v = (xs[1] - xs[0]) * (ys[2] - ys[0]), (ys[1] - ys[0]) * (xs[2] - xs[0])
+                if abs(u - v) > 1e-6 * (abs(u) + abs(v)):  # else too thin to orient surely
+                    orient[k] = 1.0 if u > v else -1.0
             r0 = max(np.ceil(ys[:n].min() - 0.5), 0.0)
             r1 = min(np.floor(ys[:n].max() - 0.5), height - 1.0)
             if not r0 <= r1:
@@ -286,45 +329,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
         if gx1 < gx0 or gy1 < gy0:  # nothing marked (the box holds every mark)
             start = stop
             continue
-        # 2. Pixels unpaired pieces, crease pieces or near-plane cuts pass near.
-        for k in range(start, stop):
-            t = ids[k]
-            for s in range(piece_start[t], piece_end[t]):
-                q = partner[s]
-                if q >= 0 and stamp[q] == frame:
-                    continue  # the reverse piece's triangle is on the other side
-                q = partner_any[s]
-                bit = _CREASE if q >= 0 and stamp[q] == frame else _BOUNDARY
-                _to_camera(points[piece_a[s]], eye, rot, pa)
-                _to_camera(points[piece_b[s]], eye, rot, pb)
-                if pa[2] < clip and pb[2] < clip:
-                    continue
-                if pa[2] < clip or pb[2] < clip:
-                    u = (clip - pa[2]) / (pb[2] - pa[2])
-                    cx = pa[0] + u * (pb[0] - pa[0])
-                    cy = pa[1] + u * (pb[1] - pa[1])
-                    if pa[2] < clip:
-                        pa[0], pa[1], pa[2] = cx, cy, clip
-                    else:
-                        pb[0], pb[1], pb[2] = cx, cy, clip
-                _mark_segment(pa[0] / pa[2] * sx + 0.5 * width,
-                              pa[1] / pa[2] * sy + 0.5 * height,
-                              pb[0] / pb[2] * sx + 0.5 * width,
-                              pb[1] / pb[2] * sy + 0.5 * height, width, height, mask, bit,
-                              span_lo, span_hi, half)
-            if not was_cut[k]:
-                continue  # no near-plane side to mark
-            n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
-            for c in range(n):
-                d = (c + 1) % n
-                if cut[c] and cut[d]:  # the near-plane side of a cut triangle
-                    _mark_segment(poly[c, 0] / clip * sx + 0.5 * width,
-                                  poly[c, 1] / clip * sy + 0.5 * height,
-                                  poly[d, 0] / clip * sx + 0.5 * width,
-                                  poly[d, 1] / clip * sy + 0.5 * height, width, height, mask,
-                                  _BOUNDARY, span_lo, span_hi, half)
-        # 3. The group's plane, farthest over each pixel's corners: covered pixels take it,
-        # crease pixels keep the largest over groups; scratch cleared.
+        # The group's plane: 1 / z = a x + b y + c0_ at buffer point (x, y) (when dd > 0).
         t = ids[start]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
         for r in range(3):  # camera-space n away from the eye, d > 0: n.x = d on the plane
@@ -338,6 +343,56 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
             # the least of a x + b y over the pixel's square (whole: [i, i + 1] x [r, r + 1])
             low = (min(a, 0.0) + min(b, 0.0) if half >= 0.5
                    else 0.5 * (a + b) - half * (abs(a) + abs(b)))
+        # 2. Pixels unpaired pieces, crease pieces or near-plane cuts pass near.
+        for k in range(start, stop):
+            t = ids[k]
+            for s in range(piece_start[t], piece_end[t]):
+                q = partner[s]
+                if q >= 0 and stamp[q] == frame:
+                    continue  # the reverse piece's triangle is on the other side
+                q = partner_any[s]
+                bit = _CREASE if q >= 0 and stamp[q] == frame else _BOUNDARY
+                e = s - piece_start[t]  # the triangle's edge e: corner e -> corner e + 1?
+                edge = flat[k] and e < 3 and piece_a[s] == tri_points[t, e] \
+                    and piece_b[s] == tri_points[t, (e + 1) % 3]
+                if edge:  # step 1's projection of the uncut triangle (the same arithmetic)
+                    f = (e + 1) % 3
+                    ax, ay, bx, by = proj[k, e, 0], proj[k, e, 1], proj[k, f, 0], proj[k, f, 1]
+                else:
+                    _to_camera(points[piece_a[s]], eye, rot, pa)
+                    _to_camera(points[piece_b[s]], eye, rot, pb)
+                    if pa[2] < clip and pb[2] < clip:
+                        continue
+                    if pa[2] < clip or pb[2] < clip:
+                        u = (clip - pa[2]) / (pb[2] - pa[2])
+                        cx = pa[0] + u * (pb[0] - pa[0])
+                        cy = pa[1] + u * (pb[1] - pa[1])
+                        if pa[2] < clip:
+                            pa[0], pa[1], pa[2] = cx, cy, clip
+                        else:
+                            pb[0], pb[1], pb[2] = cx, cy, clip
+                    ax, ay = pa[0] / pa[2] * sx + 0.5 * width, pa[1] / pa[2] * sy + 0.5 * height
+                    bx, by = pb[0] / pb[2] * sx + 0.5 * width, pb[1] / pb[2] * sy + 0.5 * height
+                line = -1  # the piece's edge record: uncut triangles' boundary pieces only
+                if records and edge and bit == _BOUNDARY and dd > 0 and orient[k] != 0:
+                    line = add_record(depth, pixels, half, a * scale, b * scale, c0_ * scale,
+                                      ax, ay, bx, by, orient[k])
+                _mark_segment(ax, ay, bx, by, width, height, mask, bit, span_lo, span_hi, half,
+                              piece_of, line)
+            if not was_cut[k]:
+                continue  # no near-plane side to mark
+            n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
+            for c in range(n):
+                d = (c + 1) % n
+                if cut[c] and cut[d]:  # the near-plane side of a cut triangle
+                    _mark_segment(poly[c, 0] / clip * sx + 0.5 * width,
+                                  poly[c, 1] / clip * sy + 0.5 * height,
+                                  poly[d, 0] / clip * sx + 0.5 * width,
+                                  poly[d, 1] / clip * sy + 0.5 * height, width, height, mask,
+                                  _BOUNDARY, span_lo, span_hi, half, piece_of, -1)
+        # 3. Covered pixels take the plane's farthest over their corners, crease pixels keep
+        # the largest over groups, pixels one boundary piece meets its edge record (hiz.edges);
+        # scratch cleared.
         for rr in range(gy0, gy1 + 1):
             i0, i1 = span_lo[rr], span_hi[rr]  # the row's marked columns (none: i0 > i1)
             span_lo[rr], span_hi[rr] = width, -1
@@ -351,6 +406,8 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                     centre[p] = 1
                 if m & _BOUNDARY:
                     crease_far[p] = -1.0
+                    if records and piece_of[p] >= 0 and not m & _CREASE:
+                        set_record(depth, pixels, p, piece_of[p], i + 0.5, rr + 0.5)
                     continue
                 z = np.inf
                 if dd > 0:
