@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from vismobile.culling import Culler, device_options
+from vismobile.culling.pvs import on_face
 from vismobile.device.profile import get_profile
 from vismobile.partition import load_partition, partition
 from vismobile.partition.pvs_codec import cell_mask, decode
@@ -43,6 +44,13 @@ def zigzag_world(kit):
 
 
 SLABS = ((4 / 20.2, 4 / 20.2, 4 / 20.2, 4 / 20.2, 4.2 / 20.2), 1, 1)
+
+
+def in_face_plane(part, cam) -> bool:
+    """Whether the eye lies in the plane of a view cell's face, where the stage falls back
+    (culling/pvs.py on_face): a wall there is edge-on."""
+    cells = part.extras["pvs_cells"]
+    return on_face([np.unique(cells[:, :, a]) for a in range(3)], cam.position, 1e-6)
 
 
 def in_cell_cameras(part, count, seed):
@@ -116,7 +124,8 @@ def test_pvs_keeps_what_cameras_in_the_cells_see(kit, zigzag, mode):
     options = {"arithmetic": "float64"} if mode == "float64" else device_options(profile)
     cullers = {s: Culler(zigzag, s, **options) for s in ("pvs", "pvs,vfc")}
     used = 0
-    for cam in in_cell_cameras(zigzag, 60, 7):
+    cams = in_cell_cameras(zigzag, 60, 7)
+    for cam in cams:
         shown = np.unique(item_buffer(zigzag.world, None, cam, profile, cull_back=False))
         shown = shown[shown != SENTINEL].astype(np.int64)
         for stages, culler in cullers.items():
@@ -124,7 +133,8 @@ def test_pvs_keeps_what_cameras_in_the_cells_see(kit, zigzag, mode):
             missing = np.setdiff1d(shown, result.triangles)
             assert not len(missing), f"{stages} ({mode}) dropped {missing}: {cam}"
             used += "pvs.fallbacks" not in result.stats
-    assert used == 2 * 60  # every camera used the baked sets, on walls and in corners too
+    # every camera used the baked sets but those in a face's plane, which fell back
+    assert used == 2 * sum(not in_face_plane(zigzag, cam) for cam in cams) > 0
 
 
 def test_w1_pvs_keeps_what_cameras_in_the_cells_see(kit):

@@ -73,7 +73,8 @@ def test_the_fused_call_hands_on_what_the_staged_path_did(baked, kit, kind, mode
             assert not len(np.setdiff1d(a.triangles, c.triangles))
             used += "pvs.fallbacks" not in a.stats
             narrowed += len(a.triangles) < len(c.triangles)
-        assert used >= len(cams) - 5 and narrowed > 0  # the sets took part, and cut something
+        # the sets took part (but in face planes: test_pvs.in_face_plane), and cut something
+        assert used >= sum(not _cases.in_face_plane(part, c) for c in cams) - 5 and narrowed > 0
 
 
 def test_the_fused_call_only_where_vfc_is_the_one_node_stage(baked):

@@ -67,14 +67,15 @@ def test_bsp_leaves_pvs_keeps_what_cameras_in_them_see(kit, baked, mode):
     options = {"arithmetic": "float64"} if mode == "float64" else device_options(profile)
     culler = Culler(baked, "pvs,vfc", **options)
     used = 0
-    for cam in in_cell_cameras(baked, 40, 11):
+    cams = in_cell_cameras(baked, 40, 11)
+    for cam in cams:
         shown = np.unique(item_buffer(baked.world, None, cam, profile, cull_back=False))
         shown = shown[shown != SENTINEL].astype(np.int64)
         result = culler.cull(cam)
         missing = np.setdiff1d(shown, result.triangles)
         assert not len(missing), f"bsp leaves ({mode}) dropped {missing}: {cam}"
         used += "pvs.fallbacks" not in result.stats
-    assert used == 40
+    assert used == sum(not _cases.in_face_plane(baked, cam) for cam in cams) > 0
 
 
 def test_an_eye_outside_every_leaf_falls_back_and_says_so(baked):

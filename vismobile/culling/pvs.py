@@ -58,6 +58,9 @@ from .tree import Tree
 
 EXTRAS = ("pvs_cells", "pvs_shape", "pvs_pack", "pvs_grow")
 KEEP = 64  # decoded cell combinations kept
+# how far from a cell face's plane (in the device's reach) an eye falls back: past the
+# device's rounding of the eye, a wall in the plane shows a sliver (on_face)
+FACE_REACH = 4.0
 _NONE = np.zeros(0, dtype=np.int64)  # no cells expected: the fused call only looks them up
 
 
@@ -92,9 +95,13 @@ class PVSStage:
         extras = tree.partition.extras or {}
         self.available = all(k in extras for k in EXTRAS)
         self.cache = {}
+        self.faces = None
         if not self.available:
             return
         self.cells = np.ascontiguousarray(extras["pvs_cells"], dtype=np.float64)
+        # portal-walk cells: the coordinates of their faces, per axis (on_face)
+        self.faces = None if "pvs_cover" in extras else \
+            [np.unique(self.cells[:, :, a]) for a in range(3)]
         self.index = cell_index(self.cells)  # x-z buckets: a frame tests the cells near the eye
         self.tested = 0
         # inflated once, here (the load checked it): K pattern bitsets, a pattern per triangle
@@ -295,8 +302,17 @@ class PVSStage:
 
     def reaches(self, camera):
         """(grow, reach): the device's reach and the near plane's, or None (fall back): no
-        PVS, the device's reach beyond the bake's growth or the near plane within it, or (street
-        cells) a near plane their depth slack does not cover."""
+        PVS, the device's reach beyond the bake's growth or the near plane within it, (street
+        cells) a near plane their depth slack does not cover, or (portal-walk cells) an eye in
+        the plane of a cell face (on_face)."""
+        found = self.camera_reaches(camera)
+        if found is not None and self.faces is not None and \
+                on_face(self.faces, camera.position, FACE_REACH * found[0] + self.tree.tol):
+            return None
+        return found
+
+    def camera_reaches(self, camera):
+        """reaches without the face test."""
         if not self.available:
             return None
         key = (camera.near, camera.fov, camera.aspect)
@@ -346,6 +362,26 @@ class PVSStage:
         inside = ((boxes[None, :, 0] - grown <= corners[:, None])
                   & (corners[:, None] <= boxes[None, :, 1] + grown)).all(axis=2)
         return bool(inside.any(axis=1).all())
+
+
+def on_face(faces, eye, reach: float) -> bool:
+    """Whether the eye lies within reach of a plane holding a view cell's face.
+
+    A wall closing a cell face lies in the face's plane; from an eye in that plane it is
+    edge-on and draws nothing, and a line running in the plane slips through the creases it
+    shares with slabs and lintels, which the walk from the face's cells took as closed (W2, eye
+    (19.18, 1.55, 8.1)). Such eyes fall back. Errs toward falling back: every cell's faces are
+    taken, not only the eye's cells'.
+
+    faces : three sorted (F,) float64 arrays, the face coordinates per axis
+    """
+    for axis in range(3):
+        coords = faces[axis]
+        i = int(np.searchsorted(coords, eye[axis]))
+        for j in (i - 1, i):
+            if 0 <= j < len(coords) and abs(coords[j] - eye[axis]) <= reach:
+                return True
+    return False
 
 
 def near_reach(camera) -> float:
