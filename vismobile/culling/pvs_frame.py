@@ -18,23 +18,9 @@ import numpy as np
 from numba import njit, types
 from numba.experimental import structref
 
-from .gather import count_marked, extract_marked, mark_nodes
+from .gather import _ONE, _popcount, count_marked, extract_marked, mark_nodes
 from .kernels import frustum_walk
 from .pvs_lookup import find
-
-_ONE = np.uint64(1)
-_M1 = np.uint64(0x5555555555555555)
-_M2 = np.uint64(0x3333333333333333)
-_M4 = np.uint64(0x0F0F0F0F0F0F0F0F)
-_H01 = np.uint64(0x0101010101010101)
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _popcount(x):
-    x = x - ((x >> _ONE) & _M1)
-    x = (x & _M2) + ((x >> np.uint64(2)) & _M2)
-    x = (x + (x >> np.uint64(4))) & _M4
-    return np.int64((x * _H01) >> np.uint64(56))
 
 
 def keep_bits(keep) -> np.ndarray:

@@ -149,6 +149,26 @@ def _row_refs(rows, k, refs, first, second):
     return True
 
 
+@njit(inline="always")
+def _shift_low(low, cache, pending, out, n):
+    """LZMA's shift_low: emit the cached byte, and the 0xFF bytes pending behind it, once no
+    carry can reach them; (low, cache, pending, out, n), out grown when full."""
+    if low < 0xFF000000 or low >= 0x100000000:
+        carry = low >> 32
+        byte = cache
+        while pending > 0:
+            if n == len(out):
+                grown = np.empty(2 * n, dtype=np.uint8)
+                grown[:n] = out
+                out = grown
+            out[n] = (byte + carry) & 0xFF
+            n += 1
+            byte = 0xFF
+            pending -= 1
+        cache = (low >> 24) & 0xFF
+    return (low & 0x00FFFFFF) << 8, cache, pending + 1, out, n
+
+
 @njit(cache=True)
 def _encode(rows, cells, refs, par):
     out = np.empty(1024, dtype=np.uint8)
@@ -176,38 +196,9 @@ def _encode(rows, cells, refs, par):
                 prob[c] -= prob[c] >> SHIFT
             while span < TOP:
                 span = (span << 8) & 0xFFFFFFFF
-                # shift_low (LZMA): emit the cached byte once no carry can reach it
-                if low < 0xFF000000 or low >= 0x100000000:
-                    carry = low >> 32
-                    byte = cache
-                    while pending > 0:
-                        if n == len(out):
-                            grown = np.empty(2 * n, dtype=np.uint8)
-                            grown[:n] = out
-                            out = grown
-                        out[n] = (byte + carry) & 0xFF
-                        n += 1
-                        byte = 0xFF
-                        pending -= 1
-                    cache = (low >> 24) & 0xFF
-                pending += 1
-                low = (low & 0x00FFFFFF) << 8
+                low, cache, pending, out, n = _shift_low(low, cache, pending, out, n)
     for _ in range(5):  # flush
-        if low < 0xFF000000 or low >= 0x100000000:
-            carry = low >> 32
-            byte = cache
-            while pending > 0:
-                if n == len(out):
-                    grown = np.empty(2 * n, dtype=np.uint8)
-                    grown[:n] = out
-                    out = grown
-                out[n] = (byte + carry) & 0xFF
-                n += 1
-                byte = 0xFF
-                pending -= 1
-            cache = (low >> 24) & 0xFF
-        pending += 1
-        low = (low & 0x00FFFFFF) << 8
+        low, cache, pending, out, n = _shift_low(low, cache, pending, out, n)
     return out[:n]
 
 
