@@ -98,7 +98,8 @@ def array_planes(camera):
                         np.cos(half_v) * up + np.sin(half_v) * forward,
                         -np.cos(half_v) * up + np.sin(half_v) * forward, forward, -forward])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    d = -normals @ camera.eye
+    x, y, z = camera.eye  # summed in order: a BLAS product may fuse or reorder
+    d = -(normals[:, 0] * x + normals[:, 1] * y + normals[:, 2] * z)
     d[4] -= camera.near
     d[5] += camera.far
     return np.column_stack([normals, d])
