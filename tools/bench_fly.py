@@ -29,9 +29,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench_pvs import MODES, PROFILE, in_cell_cameras, shown  # noqa: E402
-from vismobile.culling import Culler, device_options  # noqa: E402
-from vismobile.device.profile import get_profile  # noqa: E402
+from bench_pvs import PROFILE, in_cell_cameras, random_checks, shown  # noqa: E402
+from vismobile.culling import Culler  # noqa: E402
 from vismobile.partition import partition, pvs_fly  # noqa: E402
 from vismobile.partition.pvs import bake  # noqa: E402
 from vismobile.partition.pvs_codec import cell_sizes, decode, encode  # noqa: E402
@@ -127,18 +126,9 @@ def run(name, frames, randoms, jobs, street=True):
               f"fell back {fell}, dropped {lost}", flush=True)
     print(f"  lookup: {np.median(tested):.0f} cell boxes tested a frame (median), at most "
           f"{max(tested)}", flush=True)
-    cullers = {m: Culler(fly_part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
-                                                   else device_options(get_profile(PROFILE, m))))
-               for m in MODES}
     holder = copy.copy(fly_part)
     holder.extras = {"pvs_cells": fly}
-    used = lost = 0
-    for i, cam in enumerate(in_cell_cameras(holder, randoms, 1)):
-        mode = MODES[i % 3]
-        profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
-        r = cullers[mode].cull(cam)
-        used += "pvs.fallbacks" not in r.stats
-        lost += len(np.setdiff1d(shown(world, cam, profile), r.triangles))
+    used, lost = random_checks(fly_part, world, in_cell_cameras(holder, randoms, 1))
     print(f"  random {randoms} cameras in fly-over cells ({used} used the PVS): dropped {lost}",
           flush=True)
 

@@ -65,6 +65,22 @@ def in_cell_cameras(part, count, seed):
                      fov=rng.uniform(10, 120), aspect=PROFILE.aspect)
 
 
+def random_checks(part, world, cameras) -> tuple:
+    """(used, dropped): each camera culled by pvs+vfc in the next of MODES in turn; how many
+    used the PVS, and the triangles lost against that mode's item buffer."""
+    cullers = {m: Culler(part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
+                                               else device_options(get_profile(PROFILE, m))))
+               for m in MODES}
+    used = dropped = 0
+    for i, cam in enumerate(cameras):
+        mode = MODES[i % 3]
+        profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
+        r = cullers[mode].cull(cam)
+        used += "pvs.fallbacks" not in r.stats
+        dropped += len(np.setdiff1d(shown(world, cam, profile), r.triangles))
+    return used, dropped
+
+
 def sampled(name, world, part, traj, picks, counts):
     """One line per sample count: bake time, sent ratio, misses along the path."""
     from vismobile.render.pvs_sampled import bake_sampled
@@ -183,16 +199,7 @@ def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="no
         sent_pvs += len(r.triangles)
         fallbacks += r.stats.get("pvs.fallbacks", 0)
         dropped_path += len(np.setdiff1d(shown(world, cam, PROFILE), check.cull(cam).triangles))
-    cullers = {m: Culler(part, "pvs+vfc", **({"arithmetic": "float64"} if m == "float64"
-                                               else device_options(get_profile(PROFILE, m))))
-               for m in MODES}
-    dropped_random = used = 0
-    for i, cam in enumerate(in_cell_cameras(part, randoms, 1)):
-        mode = MODES[i % 3]
-        profile = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
-        r = cullers[mode].cull(cam)
-        used += "pvs.fallbacks" not in r.stats
-        dropped_random += len(np.setdiff1d(shown(world, cam, profile), r.triangles))
+    used, dropped_random = random_checks(part, world, in_cell_cameras(part, randoms, 1))
     timing = f" | {w2_timing(part, traj, timing_frames)}" if name == "w2" else ""
     print(f"{name} {structure}: cells {stats['cells']}, bake {stats['seconds']:.1f} s "
           f"(overflowed {stats['overflowed']}), PVS {pvs_bytes / 1024:.0f} KB = "
