@@ -3,14 +3,17 @@ the item buffer shows, from random cameras inside its view cells and along the w
 in float64, float32 and fixed16.16.
 
 Per world and structure (each with pvs=conservative baked, or loaded from --cache when the
-bake's code and the world are unchanged): --cameras random cameras inside random view cells (a
-quarter each uniform, on a face, on an edge, in a corner of the cell; yaw any, pitch up to
-+-89, fov 10-120, near 0.1 or 0.01), each culled by pvs+vfc in all three arithmetic modes and
-judged against that mode's item buffer without back-face culling; and every --path-stride-th
-frame of the world's thesis path, likewise. Prints one line per world and structure: view
-cells, bake seconds, checks, cameras that fell back (eye outside every cell or within the
-device's move of the near plane; with street cells, partition/pvs_street.py, also a near plane
-nearer than the bake's NEAR_MIN, counted apart), dropped triangles, and the wall time. With --out, appends
+bake's code and the world are unchanged): --cameras random cameras inside random view cells
+(in_cell_cameras: an eighth each uniform; exactly on a face, an edge, a corner of the cell, which
+fall back, culling/pvs.py on_face; 1 mm to 10 cm inside a face, an edge, a corner, which use the
+cell's set; in the plane of a world triangle crossing the cell; yaw any, pitch up to +-89, fov
+10-120, near 0.1 or 0.01), each culled by pvs+vfc in all three arithmetic modes and judged
+against that mode's item buffer without back-face culling; and every --path-stride-th frame of
+the world's thesis path, likewise. Prints one line per world and structure: view cells, bake
+seconds, checks, cameras that fell back (eye outside every cell, within the device's move of
+the near plane or in a cell face's plane; with street cells, partition/pvs_street.py, also a
+near plane nearer than the bake's NEAR_MIN, counted apart), dropped triangles, and the wall
+times; then the random cameras' checks, fallbacks and drops per kind. With --out, appends
 the lines' figures as JSON lines. With --repair tjunctions each world is repaired first
 (world/tjunctions.py, as `partition --repair` does: the bake seals its thin cells) and judged on
 the repaired world's item buffer.
@@ -77,43 +80,90 @@ def baked(world, spec, cache, jobs=1) -> tuple:
     return part, seconds
 
 
-def in_cell_cameras(part, count, seed):
-    """Cameras inside random view cells (module docstring)."""
+# the in-cell cameras' kinds, in turn (in_cell_cameras)
+KINDS = ("inside", "face", "edge", "corner", "near face", "near edge", "near corner",
+         "triangle plane")
+
+
+def in_cell_cameras(part, count, seed, world=None):
+    """(kind, camera) pairs inside random view cells (module docstring), the KINDS in turn:
+    uniform inside; exactly on a face, an edge or a corner of the cell (1-3 coordinates on its
+    boundary: culling/pvs.py on_face makes these fall back); just inside a face, an edge or a
+    corner, 1 mm to 10 cm in from each snapped side (past on_face's reach, so the cell's set
+    is used next to its boundary); and in the plane of a world triangle crossing the cell (the
+    projection of a random point of the cell, when it stays inside: an eye in a wall's or an
+    object's plane sees it edge-on; without a world, or with none found, "inside")."""
     rng = np.random.default_rng(seed)
     boxes = part.extras["pvs_cells"]
     for i in range(count):
+        kind = KINDS[i % len(KINDS)]
         lo, hi = boxes[rng.integers(len(boxes))]
-        t = rng.uniform(0, 1, 3)
-        snap = rng.permutation(3)[:i % 4]  # 0..3 coordinates on the cell's boundary
-        t[snap] = rng.integers(0, 2, len(snap))
-        yield Camera(lo + t * (hi - lo), yaw=rng.uniform(0, 360), pitch=rng.uniform(-89, 89),
-                     fov=rng.uniform(10, 120), near=float(rng.choice([0.1, 0.01])),
-                     aspect=PROFILE.aspect)
+        pos = lo + rng.uniform(0, 1, 3) * (hi - lo)
+        if kind not in ("inside", "triangle plane"):
+            snap = rng.permutation(3)[:KINDS.index(kind.split()[-1])]  # 1, 2 or 3 sides
+            side = rng.integers(0, 2, len(snap)).astype(bool)
+            pos[snap] = np.where(side, hi[snap], lo[snap])  # exactly on the boundary
+            if kind.startswith("near"):
+                gap = np.minimum(10.0 ** rng.uniform(-3, -1, len(snap)), 0.25 * (hi - lo)[snap])
+                pos[snap] += np.where(side, -gap, gap)
+        elif kind == "triangle plane":
+            found = plane_point(world, lo, hi, rng)
+            pos, kind = (pos, "inside") if found is None else (found, kind)
+        yield kind, Camera(pos, yaw=rng.uniform(0, 360), pitch=rng.uniform(-89, 89),
+                           fov=rng.uniform(10, 120), near=float(rng.choice([0.1, 0.01])),
+                           aspect=PROFILE.aspect)
+
+
+def plane_point(world, lo, hi, rng, tries=8):
+    """(3,) a point of the box [lo, hi] in the plane of a triangle whose bounds meet the box
+    (a random point of the box projected onto it; an axis plane's coordinate set exactly), or
+    None when no try lands inside the box."""
+    if world is None:
+        return None
+    near = np.flatnonzero((world.bounds[:, 0] <= hi).all(axis=1)
+                          & (world.bounds[:, 1] >= lo).all(axis=1))
+    for _ in range(tries if len(near) else 0):
+        k = near[rng.integers(len(near))]
+        normal = world.normals[k]
+        corner = world.vertices[world.triangles[k, 0]]
+        pos = lo + rng.uniform(0, 1, 3) * (hi - lo)
+        axis = np.flatnonzero(normal != 0.0)
+        if len(axis) == 1:
+            pos[axis[0]] = corner[axis[0]]
+        else:
+            pos = pos - float(np.dot(pos - corner, normal)) * normal
+        if np.all((pos >= lo) & (pos <= hi)):
+            return pos
+    return None
 
 
 def check(world, part, cameras) -> dict:
-    """Every camera through pvs+vfc in each mode, against that mode's unculled item buffer."""
+    """Every (kind, camera) through pvs+vfc in each mode, against that mode's unculled item
+    buffer; the counts in all and per kind ([checks, fell back, dropped])."""
     cullers, profiles = {}, {}
     for mode in MODES:
         profiles[mode] = PROFILE if mode == "float64" else get_profile(PROFILE, mode)
         options = ({"arithmetic": "float64"} if mode == "float64"
                    else device_options(profiles[mode]))
         cullers[mode] = Culler(part, "pvs+vfc", **options)
-    out = {"checks": 0, "fallbacks": 0, "near_fallbacks": 0, "dropped": 0, "worst": None}
+    out = {"checks": 0, "fallbacks": 0, "near_fallbacks": 0, "dropped": 0, "worst": None,
+           "kinds": {}}
     cover = part.extras.get("pvs_cover")  # street cells: near planes from cover[1] only
-    for cam in cameras:
+    for kind, cam in cameras:
         for mode in MODES:
             ids = np.unique(item_buffer(world, None, cam, profiles[mode], cull_back=False))
             shown = ids[ids != SENTINEL].astype(np.int64)
             result = cullers[mode].cull(cam)
             lost = np.setdiff1d(shown, result.triangles)
+            fell = "pvs.fallbacks" in result.stats
             out["checks"] += 1
-            out["fallbacks"] += int("pvs.fallbacks" in result.stats)
-            out["near_fallbacks"] += int("pvs.fallbacks" in result.stats and cover is not None
-                                         and cam.near < float(cover[1]))
+            out["fallbacks"] += int(fell)
+            out["near_fallbacks"] += int(fell and cover is not None and cam.near < float(cover[1]))
             out["dropped"] += len(lost)
+            counts = out["kinds"].setdefault(kind, [0, 0, 0])
+            counts[0], counts[1], counts[2] = counts[0] + 1, counts[1] + fell, counts[2] + len(lost)
             if len(lost) and out["worst"] is None:
-                out["worst"] = f"{mode} {cam}: {lost[:8].tolist()}"
+                out["worst"] = f"{mode} {kind} {cam}: {lost[:8].tolist()}"
     return out
 
 
@@ -121,22 +171,29 @@ def sweep(name, spec, cameras, stride, seed, cache, jobs=1, repair="none") -> di
     began = time.perf_counter()
     world = repaired(build_world(name), repair, name)
     part, seconds = baked(world, spec, cache, jobs)
-    randoms = check(world, part, in_cell_cameras(part, cameras, seed))
+    began_random = time.perf_counter()
+    randoms = check(world, part, in_cell_cameras(part, cameras, seed, world))
     path = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
                                                     else "indoor.csv"))
     frames = range(0, len(path), stride)
-    along = check(world, part, (path.camera(f, PROFILE.aspect) for f in frames))
+    began_path = time.perf_counter()
+    along = check(world, part, (("path", path.camera(f, PROFILE.aspect)) for f in frames))
     row = {"world": name, "structure": spec, "repair": repair,
            "cells": int(len(part.extras["pvs_cells"])),
            "bake_seconds": seconds, "random": randoms, "path": along,
-           "path_frames": len(frames), "seconds": time.perf_counter() - began}
+           "path_frames": len(frames), "seconds": time.perf_counter() - began,
+           "random_seconds": began_path - began_random,
+           "path_seconds": time.perf_counter() - began_path}
     bake = "cached" if seconds is None else f"{seconds:.1f} s"
     tag = "" if repair == "none" else f" (repaired {repair})"
     print(f"{name}{tag} {spec}+pvs: {row['cells']} cells, bake {bake} | random {cameras} cameras x "
           f"3 modes: {randoms['checks']} checks, {randoms['fallbacks']} fell back "
           f"({randoms['near_fallbacks']} for a near plane nearer than the bake's), dropped "
           f"{randoms['dropped']} | path {len(frames)} frames x 3 modes: {along['fallbacks']} "
-          f"fell back, dropped {along['dropped']} | {row['seconds']:.0f} s", flush=True)
+          f"fell back, dropped {along['dropped']} | {row['seconds']:.0f} s (random "
+          f"{row['random_seconds']:.0f} s, path {row['path_seconds']:.0f} s)", flush=True)
+    print("  random cameras by kind (checks, fell back, dropped): " + ", ".join(
+        f"{kind} {c[0]}/{c[1]}/{c[2]}" for kind, c in randoms["kinds"].items()), flush=True)
     for worst in (randoms["worst"], along["worst"]):
         if worst:
             print(f"  first drop: {worst}")
