@@ -2,9 +2,6 @@
 view cell and door, what the door shut hides (partition/pvs.py door_sets); `pvs` leaves those
 out while the door is shut and the eye outside it, and drops nothing the item buffer of the
 frame's pose shows, shut, opening or open."""
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -16,10 +13,7 @@ from vismobile.world.camera import Camera
 from vismobile.world.motion import Motion, Track
 from vismobile.world.world import World
 
-_spec = importlib.util.spec_from_file_location("pvs_tests", Path(__file__).with_name("test_pvs.py"))
-_pvs = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_pvs)
-SLABS, zigzag_world = _pvs.SLABS, _pvs.zigzag_world
+from .pvs_cases import SLABS, zigzag_world
 
 # a door in the first wall's doorway (x 4 .. 4.2, z 0.2 .. 1.0, y 0 .. 2), 1 cm past it
 DOOR = np.array([[3.99, -0.01, 0.19], [4.21, 2.01, 1.01]])

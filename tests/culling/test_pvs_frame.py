@@ -3,9 +3,6 @@ triangles the staged path hands on (the set's topmost nodes walked by vfc, then 
 per-triangle filter), with and without a back-face stage, from random cameras in the view
 cells (on faces, edges, corners too) and outside them, on paths through the cells, in
 float64, float32 and fixed16.16; and its walk visits no node vfc alone would not."""
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -15,12 +12,7 @@ from vismobile.device.profile import get_profile
 from vismobile.partition import partition
 from vismobile.world.camera import Camera
 
-# test_pvs.py's world and cameras (importlib mode: test modules are not importable by name)
-_spec = importlib.util.spec_from_file_location("pvs_cases", Path(__file__).with_name("test_pvs.py"))
-_cases = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_cases)
-MODES, SLABS, in_cell_cameras, zigzag_world = (_cases.MODES, _cases.SLABS,
-                                               _cases.in_cell_cameras, _cases.zigzag_world)
+from .pvs_cases import MODES, SLABS, in_cell_cameras, in_face_plane, zigzag_world
 
 
 @pytest.fixture(scope="module")
@@ -73,8 +65,8 @@ def test_the_fused_call_hands_on_what_the_staged_path_did(baked, kit, kind, mode
             assert not len(np.setdiff1d(a.triangles, c.triangles))
             used += "pvs.fallbacks" not in a.stats
             narrowed += len(a.triangles) < len(c.triangles)
-        # the sets took part (but in face planes: test_pvs.in_face_plane), and cut something
-        assert used >= sum(not _cases.in_face_plane(part, c) for c in cams) - 5 and narrowed > 0
+        # the sets took part (but in face planes: pvs_cases.in_face_plane), and cut something
+        assert used >= sum(not in_face_plane(part, c) for c in cams) - 5 and narrowed > 0
 
 
 def test_the_fused_call_only_where_vfc_is_the_one_node_stage(baked):

@@ -12,16 +12,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vismobile.culling import Culler, device_options
-from vismobile.culling.pvs import on_face
-from vismobile.device.profile import get_profile
 from vismobile.partition import partition
 from vismobile.partition.pvs_codec import cell_mask, decode
-from vismobile.render import SENTINEL, item_buffer
-from vismobile.world.camera import Camera
 from vismobile.world.tjunctions import repair_tjunctions
 
-MODES = ("float64", "float32", "fixed16.16")
+from .pvs_cases import MODES, in_cell_cameras, in_face_plane, keeps_what_cameras_see
 WIDE, DEEP, WALL, SLAB, HIGH = 8.2, 4.0, (4.0, 4.2), (3.0, 3.2), 6.2
 
 
@@ -85,26 +80,6 @@ def test_cells_split_at_both_slab_faces(storeys):
 
 @pytest.mark.parametrize("mode", MODES)
 def test_storey_cells_keep_what_cameras_see(kit, storeys, mode):
-    profile = kit.PROFILE if mode == "float64" else get_profile(kit.PROFILE, mode)
-    options = {"arithmetic": "float64"} if mode == "float64" else device_options(profile)
-    culler = Culler(storeys, "pvs,vfc", **options)
-    rng = np.random.default_rng(3)
-    boxes = storeys.extras["pvs_cells"]
-    faces = [np.unique(boxes[:, :, a]) for a in range(3)]
-    used = off = 0
-    for i in range(40):
-        lo, hi = boxes[rng.integers(len(boxes))]
-        t = rng.uniform(0, 1, 3)
-        snap = rng.permutation(3)[:i % 4]  # on a face, an edge, a corner
-        t[snap] = rng.integers(0, 2, len(snap))
-        cam = Camera(lo + t * (hi - lo), yaw=rng.uniform(0, 360), pitch=rng.uniform(-89, 89),
-                     fov=rng.uniform(10, 120), near=float(rng.choice([0.1, 0.01])),
-                     aspect=4 / 3)
-        shown = np.unique(item_buffer(storeys.world, None, cam, profile, cull_back=False))
-        shown = shown[shown != SENTINEL].astype(np.int64)
-        result = culler.cull(cam)
-        missing = np.setdiff1d(shown, result.triangles)
-        assert not len(missing), f"pvs,vfc ({mode}) dropped {missing}: {cam}"
-        used += "pvs.fallbacks" not in result.stats
-        off += not on_face(faces, cam.position, 1e-6)  # in a face's plane: falls back
-    assert used == off > 0
+    cams = in_cell_cameras(storeys, 40, 3)  # inside, on a face, an edge, a corner
+    used = keeps_what_cameras_see(storeys, ("pvs,vfc",), cams, mode, kit.PROFILE)
+    assert used == sum(not in_face_plane(storeys, cam) for cam in cams) > 0  # in one: fell back
