@@ -103,14 +103,16 @@ def _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut):
 
 @njit(cache=True, nogil=True)
 def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half, piece_of,
-                  line):
+                  line, marked):
     """Sets `bit` in mask on every pixel a -> b (pixel coordinates) passes within SLACK_PX of
     the pixel's square of half-size `half` about its centre (0.5: the whole pixel), a border
     pixel's square taken GUARD_PX wider off screen (errs toward more pixels), and widens each
     marked row's span [row_lo, row_hi] (height,) int64 to hold the pixels marked. With bit
     _BOUNDARY and piece_of (H * W,) int32 (or an empty one: not kept): a pixel's first
     boundary mark of the group sets piece_of to `line` (the segment's edge record, or -1),
-    any other mark to -1 (hiz.edges: only a pixel one piece meets keeps a record)."""
+    any other mark to -1 (hiz.edges: only a pixel one piece meets keeps a record). marked
+    (H * W + 1,) int32 lists the group's pixels with a piece mark: marked[0] of them after it,
+    each once (its first piece mark appends it)."""
     steep = abs(by - ay) > abs(bx - ax)
     if steep:
         ax, ay, bx, by = ay, ax, by, bx
@@ -159,14 +161,24 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half
             for r in range(int(r0), int(r1) + 1):
                 if keep:
                     _keep_piece(mask, piece_of, c * width + r, line)
-                mask[c * width + r] |= bit
+                _mark(mask, c * width + r, bit, marked)
         else:  # column c, rows r0..r1
             for r in range(int(r0), int(r1) + 1):
                 if keep:
                     _keep_piece(mask, piece_of, r * width + c, line)
-                mask[r * width + c] |= bit
+                _mark(mask, r * width + c, bit, marked)
                 row_lo[r] = min(row_lo[r], c)
                 row_hi[r] = max(row_hi[r], c)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _mark(mask, p, bit, marked):
+    """Sets a piece `bit` on pixel p, listing p in marked (after its count marked[0]) at the
+    group's first piece mark there."""
+    if mask[p] < _BOUNDARY:
+        marked[0] += 1
+        marked[marked[0]] = p
+    mask[p] |= bit
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -192,6 +204,57 @@ def _guarded_low(a, i, n, half=0.5):
 # (no reverse partner among this call's triangles) or a near-plane cut, met by a crease piece
 # (reverse partner in another group of this call).
 _CENTRE, _BOUNDARY, _CREASE = 1, 2, 4
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _far(a, b, c0_, low, i, rr, width, height, half, dd, num):
+    """Step 3's bound of pixel (i, rr) from the group plane's 1 / z = a x + b y + c0_ (low: the
+    least of a x + b y over a pixel's square; at the border the guarded square): num / the
+    least 1 / z, inf when the plane is not in front (dd <= 0) or that is not positive."""
+    if not dd > 0:
+        return np.inf
+    inv = a * i + b * rr + c0_ + low
+    if i == 0 or rr == 0 or i == width - 1 or rr == height - 1:
+        inv = _guarded_low(a, i, width, half) + _guarded_low(b, rr, height, half) + c0_
+    return num / inv if inv > 0 else np.inf
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _covered_pixel(mask, depth, centre, p, a, b, c0_, low, i, rr, width, height, half, dd, num):
+    """_covered_run for the one pixel p = (i, rr) (at the border too); returns 1 when written
+    for the first time."""
+    if mask[p] != _CENTRE:
+        return 0  # nothing here, or a pixel a piece meets (step 3 took it from the list)
+    centre[p] = 1
+    z = _far(a, b, c0_, low, i, rr, width, height, half, dd, num)
+    if not z < depth[p]:
+        return 0
+    first = depth[p] == np.inf
+    depth[p] = z
+    return 1 if first else 0
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _covered_run(mask, depth, centre, base, j0, j1, a, brow, c0_, low, num):
+    """Step 3 over columns [j0, j1) of the row at base (no border pixel; brow = b row): a
+    pixel only the group's centres mark (mask == _CENTRE) lowers depth to the plane's bound
+    (_far's arithmetic, the same bits), every centre mark sets centre. Branch-free, so LLVM
+    vectorises it (numpy's error model: no check of the division). Returns the pixels
+    written for the first time."""
+    ms = mask[base + j0:base + j1]
+    ds = depth[base + j0:base + j1]
+    cs = centre[base + j0:base + j1]
+    written = 0
+    for k in range(len(ds)):
+        m = ms[k]
+        inv = a * (j0 + k) + brow + c0_ + low
+        z = num / inv if inv > 0 else np.inf
+        d = ds[k]
+        better = (m == _CENTRE) & (z < d)
+        written += better & (d == np.inf)
+        ds[k] = z if better else d
+        cs[k] |= m & _CENTRE
+    return written
 
 
 @njit(cache=True, nogil=True)
@@ -257,7 +320,13 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     pixels = width * height
     records = capacity(depth, pixels) > 0
     piece_of = np.empty(pixels if records else 0, dtype=np.int32)
+    # The group's pixels a piece meets, and every pixel step 3 touched (crease_far), each
+    # once, their count first.
+    marked = np.empty(pixels + 1, dtype=np.int32)
+    touched = np.empty(pixels + 1, dtype=np.int32)
+    touched[0] = 0
     scale = 1.0 / (1.0 + slack)
+    num = 1.0 + slack
     start = 0
     while start < len(ids):
         g = groups[ids[start]]
@@ -344,6 +413,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
             low = (min(a, 0.0) + min(b, 0.0) if half >= 0.5
                    else 0.5 * (a + b) - half * (abs(a) + abs(b)))
         # 2. Pixels unpaired pieces, crease pieces or near-plane cuts pass near.
+        marked[0] = 0
         for k in range(start, stop):
             t = ids[k]
             for s in range(piece_start[t], piece_end[t]):
@@ -378,7 +448,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                     line = add_record(depth, pixels, half, a * scale, b * scale, c0_ * scale,
                                       ax, ay, bx, by, orient[k])
                 _mark_segment(ax, ay, bx, by, width, height, mask, bit, span_lo, span_hi, half,
-                              piece_of, line)
+                              piece_of, line, marked)
             if not was_cut[k]:
                 continue  # no near-plane side to mark
             n = _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut)
@@ -389,53 +459,59 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                                   poly[c, 1] / clip * sy + 0.5 * height,
                                   poly[d, 0] / clip * sx + 0.5 * width,
                                   poly[d, 1] / clip * sy + 0.5 * height, width, height, mask,
-                                  _BOUNDARY, span_lo, span_hi, half, piece_of, -1)
+                                  _BOUNDARY, span_lo, span_hi, half, piece_of, -1, marked)
         # 3. Covered pixels take the plane's farthest over their corners, crease pixels keep
         # the largest over groups, pixels one boundary piece meets its edge record (hiz.edges);
-        # scratch cleared.
+        # scratch cleared. First the pixels pieces meet (listed by step 2), then each row's
+        # run of covered pixels (_covered_run, vectorised; the border's one by one).
+        for q in range(1, marked[0] + 1):
+            p = marked[q]
+            m = mask[p]
+            rr, i = p // width, p % width
+            if m & _CENTRE:
+                centre[p] = 1
+            if crease_far[p] == 0.0:  # first touched this call: step 4 reads and clears it
+                touched[0] += 1
+                touched[touched[0]] = p
+            if m & _BOUNDARY:
+                crease_far[p] = -1.0
+                if records and piece_of[p] >= 0 and not m & _CREASE:
+                    set_record(depth, pixels, p, piece_of[p], i + 0.5, rr + 0.5)
+                continue
+            creases = True  # a crease piece meets it, no boundary piece
+            if crease_far[p] >= 0:
+                crease_far[p] = max(crease_far[p], _far(a, b, c0_, low, i, rr, width, height,
+                                                        half, dd, num))
         for rr in range(gy0, gy1 + 1):
             i0, i1 = span_lo[rr], span_hi[rr]  # the row's marked columns (none: i0 > i1)
             span_lo[rr], span_hi[rr] = width, -1
-            for i in range(i0, i1 + 1):
-                p = rr * width + i
-                m = mask[p]
-                if m == 0:
-                    continue
-                mask[p] = 0
-                if m & _CENTRE:
-                    centre[p] = 1
-                if m & _BOUNDARY:
-                    crease_far[p] = -1.0
-                    if records and piece_of[p] >= 0 and not m & _CREASE:
-                        set_record(depth, pixels, p, piece_of[p], i + 0.5, rr + 0.5)
-                    continue
-                z = np.inf
-                if dd > 0:
-                    inv = a * i + b * rr + c0_ + low
-                    if i == 0 or rr == 0 or i == width - 1 or rr == height - 1:
-                        inv = _guarded_low(a, i, width, half) + _guarded_low(b, rr, height,
-                                                                            half) + c0_
-                    if inv > 0:
-                        z = (1.0 + slack) / inv
-                if m & _CREASE:
-                    creases = True
-                    if crease_far[p] >= 0:
-                        crease_far[p] = max(crease_far[p], z)
-                elif z < depth[p]:
-                    if depth[p] == np.inf:
-                        written += 1
-                    depth[p] = z
+            if i0 > i1:
+                continue
+            base = rr * width
+            j0 = j1 = i1 + 1  # [j0, j1): the run _covered_run takes, the rest one by one
+            if dd > 0 and 0 < rr < height - 1:
+                j0, j1 = max(i0, 1), max(min(i1 + 1, width - 1), max(i0, 1))
+                written += _covered_run(mask, depth, centre, base, j0, j1, a, b * rr, c0_, low,
+                                        num)
+            for i in range(i0, min(j0, i1 + 1)):  # the border's columns and rows
+                written += _covered_pixel(mask, depth, centre, base + i, a, b, c0_, low, i, rr,
+                                          width, height, half, dd, num)
+            for i in range(max(j1, i0), i1 + 1):
+                written += _covered_pixel(mask, depth, centre, base + i, a, b, c0_, low, i, rr,
+                                          width, height, half, dd, num)
+            mask[base + i0:base + i1 + 1] = 0
         start = stop
-    # 4. Crease pixels: centre in some triangle, met by no boundary, every group near bounded.
-    if creases:
-        for p in range(width * height):
-            f = crease_far[p]
-            if f > 0 and f < depth[p] and centre[p]:
-                if depth[p] == np.inf:
-                    written += 1
-                depth[p] = f
+    # 4. Crease pixels: centre in some triangle, met by no boundary, every group near bounded
+    # (every pixel step 3 touched is listed: their scratch is cleared here).
+    for q in range(1, touched[0] + 1):
+        p = touched[q]
+        f = crease_far[p]
+        if creases and f > 0 and f < depth[p] and centre[p]:
+            if depth[p] == np.inf:
+                written += 1
+            depth[p] = f
+        crease_far[p] = 0.0
     centre[:] = 0
-    crease_far[:] = 0.0
     return nearest, written
 
 
