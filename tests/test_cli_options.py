@@ -37,6 +37,21 @@ def test_the_table_and_the_parser_agree():
     assert options.MAX_FRAMES == MAX_FRAMES
 
 
+def test_structure_ranges_mirror_the_checks_partition_makes():
+    # partition() checks budget= itself (it cannot import commands/): the same range
+    from vismobile.partition.pvs_coarsen import BUDGET_MAX, budget_option
+
+    limit = options.STRUCTURE["budget"]
+    assert (limit.low, limit.high, limit.above) == (0.0, BUDGET_MAX, True)
+    for value in (0.0, -1.0, BUDGET_MAX * 2, float("nan"), float("inf"), 1e-9, BUDGET_MAX):
+        refused = limit.problem(value) is not None
+        try:
+            budget_option(value)
+            assert not refused, value
+        except ValueError:
+            assert refused, value
+
+
 def test_help_shows_the_range(capsys):
     with pytest.raises(SystemExit):
         main(["terrain", "build", "--help"])

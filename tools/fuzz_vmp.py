@@ -39,9 +39,9 @@ def edit_vmp(data: bytes, pick) -> bytes:
 def mutate_pvs_pack(header, body, pick) -> bytearray:
     """A PVS (partition/pvs_codec.py: pvs_shape, and pvs_pack = an lzma side stream, then the
     range-coded pattern bits) edited inside, still well formed around the edit: a byte of the
-    inflated side stream (a coordinate, a corner, a reference or a pattern id) or of the
-    pattern bits, either stream cut or lengthened, a side stream that inflates far past its
-    declared size, bytes after a stream, or a pvs_shape count off by a little; the new
+    inflated side stream (a coordinate, a corner, a cell's group, a reference or a pattern
+    id) or of the pattern bits, either stream cut or lengthened, a side stream that inflates
+    far past its declared size, bytes after a stream, or a pvs_shape count off by a little; the new
     sections go at the end of the body (aligned), their entries, CRC32s and shapes updated."""
     import lzma
 
@@ -54,14 +54,15 @@ def mutate_pvs_pack(header, body, pick) -> bytearray:
     shape = shape.astype(np.int64)
     pack = bytes(body[pack_sec["offset"]:pack_sec["offset"] + pack_sec["nbytes"]])
     filters = [{"id": lzma.FILTER_LZMA2, "preset": 9, "dict_size": 1 << 20}]
-    if len(shape) != 9 or not 0 <= shape[-1] <= len(pack):
+    known = len(shape) in (9, 10)  # layout 2, or 3 with its column groups last
+    if not known or not 0 <= shape[8] <= len(pack):
         side, bits = b"", pack
     else:
         try:
-            side = lzma.decompress(pack[:shape[-1]], format=lzma.FORMAT_RAW, filters=filters)
+            side = lzma.decompress(pack[:shape[8]], format=lzma.FORMAT_RAW, filters=filters)
         except lzma.LZMAError:
             side = b""
-        bits = pack[shape[-1]:]
+        bits = pack[shape[8]:]
     side, bits = bytearray(side), bytearray(bits)
     edit, at = pick(8), None
     if edit == 0 and side:  # one byte of a table, a corner, a reference or an id
@@ -82,8 +83,8 @@ def mutate_pvs_pack(header, body, pick) -> bytearray:
         at = pick(len(shape))
         shape[at] += pick(5) - 2  # a count, a size or a length off by a little
     packed = lzma.compress(bytes(side), format=lzma.FORMAT_RAW, filters=filters)
-    if len(shape) == 9 and at != 8:
-        shape[-1] = len(packed)
+    if known and at != 8:
+        shape[8] = len(packed)
     for sec, data in ((pack_sec, packed + bytes(bits)), (shape_sec, shape.astype("<i8").tobytes())):
         body += b"\0" * (-len(body) % 64)
         sec.update(offset=len(body), nbytes=len(data), count=len(data) // (8 if sec is shape_sec

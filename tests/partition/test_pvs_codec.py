@@ -82,15 +82,15 @@ def baked():
 
 def _side(x):
     shape = x["pvs_shape"]
-    return bytearray(lzma.decompress(x["pvs_pack"][:shape[-1]].tobytes(),
+    return bytearray(lzma.decompress(x["pvs_pack"][:shape[8]].tobytes(),
                                      format=lzma.FORMAT_RAW, filters=pvs_codec.SIDE_FILTERS))
 
 
 def _with_side(x, side):
     packed = lzma.compress(bytes(side), format=lzma.FORMAT_RAW, filters=pvs_codec.SIDE_FILTERS)
     shape = x["pvs_shape"].copy()
-    bits = x["pvs_pack"][shape[-1]:]
-    shape[-1] = len(packed)
+    bits = x["pvs_pack"][shape[8]:]
+    shape[8] = len(packed)
     return {"pvs_shape": shape,
             "pvs_pack": np.concatenate([np.frombuffer(packed, np.uint8), bits])}
 
@@ -99,9 +99,10 @@ def test_a_damaged_pack_is_refused(baked):
     boxes, masks, x = baked
     cells, triangles = len(boxes), masks.shape[1]
     shape, pack = x["pvs_shape"], x["pvs_pack"]
-    layout, _, count, _, size, nx, ny, nz, side_bytes = (int(v) for v in shape)
+    layout, _, count, _, size, nx, ny, nz, side_bytes, groups = (int(v) for v in shape)
     tables_at = 8 * (nx + ny + nz)
-    refs_at = tables_at + 24 * cells
+    groups_at = tables_at + 24 * cells
+    refs_at = groups_at + 4 * cells
     ids_at = refs_at + 8 * count
     side = _side(x)
 
@@ -115,7 +116,9 @@ def test_a_damaged_pack_is_refused(baked):
     for at, value, match in ((1, 0, "view cells"), (1, pvs_codec.MAX_CELLS + 1, "view cells"),
                              (2, triangles + 1, "pattern count"), (4, 3, "id size"),
                              (5, 0, "coordinate tables"), (8, len(pack) + 1, "side stream"),
-                             (2, 10 ** 9 // cells, "pattern count|too short")):
+                             (2, 10 ** 9 // cells, "pattern count|too short"),
+                             (9, 0, "columns"), (9, cells + 1, "columns"),
+                             (9, groups - 1, "column groups")):
         bad = shape.copy()
         bad[at] = value
         refused({**x, "pvs_shape": bad}, match)
@@ -134,6 +137,7 @@ def test_a_damaged_pack_is_refused(baked):
                                (8, np.float64(-1e300).tobytes(), "finite and ascending"),
                                (tables_at, np.uint32(nx).tobytes(), "past their coordinate"),
                                (tables_at + 12 * cells, np.uint32(nx).tobytes(), "past their"),
+                               (groups_at + 4, np.uint32(2).tobytes(), "column groups"),
                                (refs_at + 4, np.uint32(2).tobytes(), "before the first"),
                                (ids_at, np.array(count, f"<u{size}").tobytes(), "outside pvs_shape")):
         edited = side.copy()
@@ -154,3 +158,44 @@ def test_a_pattern_bomb_is_refused_before_decoding(baked):
     shape[2], shape[3], shape[4] = triangles, triangles, 4
     with pytest.raises(ValueError, match="too short"):
         pvs_codec._decode(shape, x["pvs_pack"], triangles)
+
+
+def test_cells_with_one_set_share_a_column(baked):
+    # a coarsened PVS (pvs_coarsen.py) gives groups of cells one set: the set is coded once
+    boxes, masks, x = baked
+    group = np.arange(len(boxes)) // 3
+    shared = masks[group * 3]  # every three cells in order take the first one's set
+    y = encode(boxes, shared)
+    assert int(y["pvs_shape"][9]) == len(np.unique(group)) < len(boxes)
+    assert len(y["pvs_pack"]) < len(x["pvs_pack"])
+    pvs_codec._CACHE.clear()
+    got, patterns, ids = decode_all(y, masks.shape[1])
+    assert np.array_equal(got, boxes)
+    assert np.array_equal(np.unpackbits(patterns, axis=1, count=len(boxes))[ids].T, shared)
+
+
+def test_layout_2_still_decodes(baked):
+    # layout 2 had no group map (one column per cell): the same pack without it, read alike
+    boxes, masks, x = baked
+    shape = x["pvs_shape"]
+    cells, nx, ny, nz = int(shape[1]), *(int(v) for v in shape[5:8])
+    assert int(shape[9]) == cells  # every cell its own set in this fixture
+    side = _side(x)
+    at = 8 * (nx + ny + nz) + 24 * cells
+    assert not any(side[at:at + 4 * cells])  # the group codes: all "a new group"
+    old = _with_side(x, side[:at] + side[at + 4 * cells:])
+    old["pvs_shape"] = np.concatenate([[2], old["pvs_shape"][1:9]])
+    pvs_codec._CACHE.clear()
+    got = decode_all(old, masks.shape[1])
+    pvs_codec._CACHE.clear()
+    want = decode_all(x, masks.shape[1])
+    assert all(np.array_equal(a, b) for a, b in zip(got, want))
+
+
+def test_group_parents_sum_the_faces_between_groups():
+    # cells 0-3 in a row along x (unit cubes); groups {0, 2}, {1}, {3}: group 2 ({3}) meets
+    # only group 0 (through cell 2), group 1 meets group 0 on two faces
+    boxes = np.array([[[i, 0, 0], [i + 1, 1, 1]] for i in range(4)], dtype=np.float64)
+    near, area = pvs_coder.neighbours(boxes, 1024, pvs_coder.NEIGHBOURS)
+    par = pvs_coder.group_parents(near, area, np.array([0, 1, 0, 2]), 3)
+    assert par.tolist() == [[-1, -1, -1], [0, -1, -1], [0, -1, -1]]

@@ -117,6 +117,13 @@ RANGES = {
 }
 
 
+# Structure parameters with a numeric range (--structure KIND:...,key=value, and the API's
+# partition(..., key=value)): partition/ cannot import this layer, so partition() checks them
+# through the constant each mirrors (budget: partition/pvs_coarsen.BUDGET_MAX, a share of the
+# OBJ's bytes); tests/test_cli_options.py checks they agree.
+STRUCTURE = {"budget": Range(0.0, 64.0, float, above=True)}
+
+
 def _dest(option: str) -> str:
     return option.lstrip("-").replace("-", "_")
 

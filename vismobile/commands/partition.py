@@ -111,6 +111,14 @@ def run(args) -> int:
         if fly and mode != "conservative":
             raise ValueError("fly=on bakes fly-over cells into a conservative PVS: add "
                              ",pvs=conservative")
+        budget = params.pop("budget", None)
+        if budget is not None:
+            from ..partition.pvs_coarsen import budget_option
+
+            budget = budget_option(budget)
+            if mode != "conservative":
+                raise ValueError("budget= coarsens a conservative PVS to a share of the "
+                                 "OBJ's bytes: add ,pvs=conservative")
         if args.scheduler is not None:
             from ..study.distributed import scheduler_address
 
@@ -135,6 +143,8 @@ def run(args) -> int:
             bar.close()
         if fly:
             result.params["fly"] = "on"  # read by the bake (partition/pvs.py)
+        if budget is not None:
+            result.params["budget"] = budget  # read by the bake (pvs.stored_sets)
         if mode is not None:
             result, bake = _bake(result, mode, args, args.world.name)
     except ValueError as error:
@@ -167,6 +177,10 @@ def run(args) -> int:
         print(f"pvs         {mode}: {bake['cells']:,} view cells, bake {bake['seconds']:.1f} s, "
               f"{bake['bytes'] / 1024:,.1f} KB ({bake['bytes'] / args.world.stat().st_size:.2f} "
               f"x the {_input_kind(args.world)}), mean set {bake['mean_set']:.1%} of the world")
+        if bake.get("budget") and bake["budget"].get("budget") is not None:
+            from ..partition.pvs_coarsen import describe
+
+            print(f"pvs budget  {describe(bake['budget'])}")
     return 0
 
 

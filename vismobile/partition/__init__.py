@@ -25,7 +25,8 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                with pvs_doors=True (an AnimatedWorld), also what each of its doors shut
                hides from each cell (the bake walks again per door a cell's lines cross);
                with fly="on" too, fly-over cells over an outdoor world's street cells
-               (pvs_fly.py)
+               (pvs_fly.py); with budget=F too, the sets coarsened (cells merged, sets only
+               grow) until the PVS takes at most F x the OBJ's bytes (pvs_coarsen.py)
     progress : optional callable(done, total) for long builds
     An AnimatedWorld (world/animated.py) gives a dynamic.AnimatedPartition: its static
     triangles partitioned as asked (none: a one-node octree), its moving objects left to the
@@ -63,6 +64,7 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
     params = dict(params)
     pvs_mode = params.pop("pvs", None)
     fly = params.pop("fly", None)
+    budget = params.pop("budget", None)
     pvs_doors = params.pop("pvs_door_boxes", None)  # door boxes (D, 2, 3) of an AnimatedWorld
     known = set(build.__code__.co_varnames[1:build.__code__.co_argcount]) - {"progress"}
     unknown = sorted(set(params) - known)
@@ -84,9 +86,18 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
         if fly_option(fly) and pvs_mode != "conservative":
             raise ValueError("fly=on bakes fly-over cells into a conservative PVS: give "
                              "pvs=conservative too")
+    if budget is not None:
+        from .pvs_coarsen import budget_option
+
+        budget = budget_option(budget)
+        if pvs_mode != "conservative":
+            raise ValueError("budget= coarsens a conservative PVS to a share of the OBJ's "
+                             "bytes: give pvs=conservative too")
     result = build(world, progress=progress, **params)
     if fly is not None and fly_option(fly):
         result.params["fly"] = "on"
+    if budget is not None:
+        result.params["budget"] = budget
     if pvs_mode is not None:
         from .pvs import bake
 

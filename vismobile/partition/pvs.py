@@ -43,7 +43,6 @@ import numpy as np
 
 from . import pvs_cracks, pvs_kernels
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
-from .pvs_codec import encode
 
 MODES = ("conservative",)
 EXECUTOR_CHUNKS = 32  # source-cell chunks handed to a given executor (a progress step each)
@@ -207,7 +206,10 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
                door, what the door shut hides from the cell (door_sets; not for a BSP)
     partition.params["fly"] "on": fly-over cells over an outdoor world's street cells
                (pvs_fly.py; ValueError when the world gets no street cells)
-    returns  : (extras dict, stats dict: seconds, cells, overflowed cells, walks)
+    partition.params["budget"]: a share of the OBJ's bytes the PVS may take; the sets are
+               coarsened until they fit (pvs_coarsen.py; stats["budget"] says how, and
+               whether they did)
+    returns  : (extras dict, stats dict: seconds, cells, overflowed cells, walks, budget)
     """
     from .pvs_cells import view_grid
 
@@ -229,10 +231,11 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
             boxes, masks, stats = bake_street(world, grow, tol, progress, jobs, executor,
                                               EXECUTOR_CHUNKS, columns, fly)
             masks = with_solids(world, boxes, masks, grow)
-            extras = {"pvs_cells": boxes.copy(), **encode(boxes, masks),
-                      "pvs_grow": np.array([grow], dtype=np.float64),
+            extras = {"pvs_grow": np.array([grow], dtype=np.float64),
                       "pvs_back": np.array([back_reach(world)], dtype=np.float64),
                       "pvs_cover": np.array([COVER, NEAR_MIN], dtype=np.float64)}
+            sets, stats["budget"] = stored_sets(partition, boxes, masks, extras)
+            extras = {"pvs_cells": boxes.copy(), **sets, **extras}
             stats["seconds"] = time.perf_counter() - began
             return extras, stats
     if fly:
@@ -288,14 +291,26 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
 
         boxes, masks = leaf_sets(partition, boxes, masks, tol)
     boxes = np.asarray(boxes, dtype=np.float64).copy()
-    extras = {"pvs_cells": boxes, **encode(boxes, masks),
-              "pvs_grow": np.array([grow], dtype=np.float64),
+    extras = {"pvs_grow": np.array([grow], dtype=np.float64),
               "pvs_back": np.array([back_reach(world)], dtype=np.float64), **door_extras}
-    stats = {"seconds": time.perf_counter() - began, "cells": len(boxes),
+    sets, report = stored_sets(partition, boxes, masks, extras)
+    extras = {"pvs_cells": boxes, **sets, **extras}
+    stats = {"budget": report, "seconds": time.perf_counter() - began, "cells": len(boxes),
              "overflowed": int(sum(s < 0 for _, s, _ in results)),
              "walks": int(sum(max(s, 0) for _, s, _ in results)),
              "door_sets": int(sum(len(h) for _, _, h in results))}
     return extras, stats
+
+
+def stored_sets(partition, boxes, masks, others) -> tuple:
+    """(pvs_shape and pvs_pack of the sets, the budget's report): coarsened until the PVS
+    (with the others extras) fits partition.params["budget"] x the OBJ's bytes when a budget
+    is given (pvs_coarsen.py: cells merged, sets only grow), else exact."""
+    from .pvs_coarsen import budget_option, fit
+
+    share = partition.params.get("budget")
+    budget = None if share is None else budget_option(share) * partition.world.obj_bytes()
+    return fit(boxes, masks, budget, others, partition.world.corners)
 
 
 def door_portal_sets(world, g, doors, grow) -> list:

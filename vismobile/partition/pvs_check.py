@@ -13,7 +13,7 @@ def check_pvs(x, triangles) -> None:
     sets are inflated once to check them, within their declared size). pvs_cells, the boxes
     the .vmp keeps in pvs_pack (pvs_codec.derived_extras), must be the decoded ones."""
     if "pvs_runs" in x or "pvs_start" in x or (
-            "pvs_cells" in x and np.asarray(x.get("pvs_shape", ())).shape != (9,)):
+            "pvs_cells" in x and np.asarray(x.get("pvs_shape", ())).shape not in ((9,), (10,))):
         raise ValueError("the PVS is stored in an older layout: bake it again")
     present = [n for n in NAMES if n in x]
     if not present:

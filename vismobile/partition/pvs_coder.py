@@ -38,14 +38,18 @@ CONTEXTS = 1 << 10
 MIN_BITS = -math.log2(((1 << PROB_BITS) - 15) / (1 << PROB_BITS))
 
 
+NEIGHBOURS = 8  # earlier face neighbours kept per cell for the groups' parents
+
+
 @njit(cache=True)
-def parents(boxes, window):
-    """(V, PARENTS) int64 for each cell the earlier cells (within `window` before it) whose
-    closed box meets its own over an area (a shared face or more), largest area first, lower
-    index on ties; -1 where fewer exist. boxes (V, 2, 3) float64, decoded exactly."""
+def neighbours(boxes, window, slots):
+    """((V, slots) int64, (V, slots) float64): for each cell the earlier cells (within `window`
+    before it) whose closed box meets its own over an area (a shared face or more), largest
+    area first, lower index on ties, and those areas; -1 and 0 where fewer exist. boxes
+    (V, 2, 3) float64, decoded exactly."""
     count = boxes.shape[0]
-    out = np.full((count, PARENTS), -1, dtype=np.int64)
-    score = np.empty(PARENTS, dtype=np.float64)
+    out = np.full((count, slots), -1, dtype=np.int64)
+    score = np.zeros((count, slots), dtype=np.float64)
     lap = np.empty(3, dtype=np.float64)
     for v in range(count):
         n = 0
@@ -63,17 +67,54 @@ def parents(boxes, window):
                 continue
             # insert by descending score (u ascends, so an equal score keeps the lower index)
             j = 0
-            while j < n and score[j] >= s:
+            while j < n and score[v, j] >= s:
                 j += 1
-            if j == PARENTS:
+            if j == slots:
                 continue
-            for i in range(min(n, PARENTS - 1), j, -1):
-                score[i] = score[i - 1]
+            for i in range(min(n, slots - 1), j, -1):
+                score[v, i] = score[v, i - 1]
                 out[v, i] = out[v, i - 1]
-            score[j] = s
+            score[v, j] = s
             out[v, j] = u
-            n = min(n + 1, PARENTS)
+            n = min(n + 1, slots)
+    return out, score
+
+
+def group_parents(near, area, group, groups: int) -> np.ndarray:
+    """(G, PARENTS) int64: for each column group (cells sharing one set, pvs_codec.py) the
+    earlier groups it meets most, by the summed areas of its cells' faces shared with theirs
+    (`neighbours`' pairs, either way round), largest first, lower index on ties; -1 where fewer
+    exist. With one cell per group (group = arange(V)) these are `parents`."""
+    near = np.asarray(near, dtype=np.int64)
+    cells, slots = near.shape
+    v = np.repeat(np.arange(cells, dtype=np.int64), slots)
+    u = near.ravel()
+    keep = u >= 0
+    gu, gv, a = group[u[keep]], group[v[keep]], np.asarray(area).ravel()[keep]
+    apart = gu != gv
+    hi = np.maximum(gu, gv)[apart]
+    lo = np.minimum(gu, gv)[apart]
+    out = np.full((groups, PARENTS), -1, dtype=np.int64)
+    if not len(hi):
+        return out
+    keys, inverse = np.unique(hi * groups + lo, return_inverse=True)
+    sums = np.bincount(np.asarray(inverse).ravel(), weights=a[apart])
+    hi, lo = keys // groups, keys % groups
+    order = np.lexsort((lo, -sums, hi))
+    hi, lo = hi[order], lo[order]
+    rank = np.arange(len(hi)) - np.searchsorted(hi, hi)  # place within its group
+    take = rank < PARENTS
+    out[hi[take], rank[take]] = lo[take]
     return out
+
+
+def parents(boxes, window) -> np.ndarray:
+    """(V, PARENTS) int64 for each cell the earlier cells (within `window` before it) whose
+    closed box meets its own over an area (a shared face or more), largest area first, lower
+    index on ties; -1 where fewer exist (group_parents with a group per cell)."""
+    near, area = neighbours(np.ascontiguousarray(boxes, dtype=np.float64), window, PARENTS)
+    count = len(near)
+    return group_parents(near, area, np.arange(count, dtype=np.int64), count)
 
 
 @njit(cache=True)

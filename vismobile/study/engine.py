@@ -196,7 +196,7 @@ def bake_pvs(base, mode: str, progress=None, jobs: int = 1, executor=None) -> tu
                "bytes": int(sum(stored_bytes(v) for k, v in extras.items()
                                 if k not in DERIVED)),
                "mean_set": float(np.mean(sizes) / max(base.world.triangle_count, 1))
-               if len(sizes) else 0.0}
+               if len(sizes) else 0.0, "budget": stats.get("budget")}
     return built, summary
 
 

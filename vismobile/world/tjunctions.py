@@ -249,4 +249,6 @@ def _rebuilt(world, vertices, triangles, parent, bary, junctions, split, added, 
     elif hasattr(world, "textures"):
         out.textures = None
     out.repair = "tjunctions"
+    if hasattr(world, "obj_source_bytes"):  # a PVS budget stays a share of the OBJ given
+        out.obj_source_bytes = world.obj_source_bytes
     return out, Repair(parent, bary, junctions, split, added)

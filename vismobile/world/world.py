@@ -140,7 +140,10 @@ class World:
 
         path = Path(path)
         vertices, triangles, object_ids, names = load_obj(path)
-        return cls.from_arrays(vertices, triangles, object_ids, names, path)
+        world = cls.from_arrays(vertices, triangles, object_ids, names, path)
+        if not path.name.lower().endswith(".gz"):
+            world.obj_source_bytes = path.stat().st_size  # obj_bytes: the file as given
+        return world
 
     @classmethod
     def from_file(cls, path) -> "World":
@@ -201,6 +204,16 @@ class World:
         """Write a deterministic OBJ (one `o` record per object), atomically. Coordinates with
         `digits` significant digits; None: exact (6 when those read back to the same doubles,
         else 17). progress: optional callable(done, total) over vertices plus triangles."""
+        atomic_write_bytes(path, self.obj_text(digits, progress))
+
+    def obj_bytes(self) -> int:
+        """Bytes of the world's OBJ: the file it was read from (an uncompressed OBJ, also
+        after a repair), else what to_obj writes (a PVS budget is a share of it)."""
+        given = getattr(self, "obj_source_bytes", None)
+        return int(given) if given is not None else len(self.obj_text())
+
+    def obj_text(self, digits=None, progress=None) -> bytes:
+        """The OBJ file to_obj writes, as bytes (a PVS budget is a share of its size)."""
         buffer = io.StringIO()
         buffer.write(f"# vismobile world {self.name}: {self.triangle_count} triangles\n")
         if digits is None:
@@ -225,7 +238,7 @@ class World:
         for start, end in zip(starts, ends):
             buffer.write(f"o {self.object_names[ids[start]]}\n")
             rows(self.triangles[order[start:end]] + 1, "f %d %d %d")
-        atomic_write_bytes(path, buffer.getvalue().encode("ascii"))
+        return buffer.getvalue().encode("ascii")
 
 
 def unit_normals(corners) -> tuple:

@@ -1,0 +1,110 @@
+"""A PVS coarsened to a size budget (partition/pvs_coarsen.py, pvs=conservative,budget=F): the
+coarsened sets hold the exact ones, the budget is met or the report says it was not, random
+in-cell cameras lose nothing, and a bad budget is refused in one line."""
+import numpy as np
+import pytest
+
+from .test_pvs_codec import grid_boxes, spatial_masks
+from .test_pvs_fly import masks_of
+from .test_pvs_street import in_cell_checks, town
+from vismobile.app.cli import main
+from vismobile.partition import partition, pvs_codec
+from vismobile.partition.pvs_coarsen import (HEADER, budget_option, describe, fit,
+                                             merge_order, stored_size)
+
+
+def decoded(extras, triangles, cells):
+    pvs_codec._CACHE.clear()
+    _, patterns, ids = pvs_codec.decode_all(extras, triangles)
+    return np.unpackbits(patterns, axis=1, count=cells)[ids.astype(np.int64)].T.astype(bool)
+
+
+@pytest.fixture(scope="module")
+def sets():
+    rng = np.random.default_rng(3)
+    boxes = grid_boxes(rng, 9, 8, 0)
+    return boxes, spatial_masks(rng, boxes, 400, 0.02)
+
+
+def test_coarser_sets_only_grow_and_fit_the_budget(sets):
+    boxes, masks = sets
+    exact, report = fit(boxes, masks, None)
+    assert report["met"] and report["merges"] == 0 and report["after"] == report["before"]
+    assert np.array_equal(decoded(exact, masks.shape[1], len(boxes)), masks)
+    growth = []
+    for share in (0.7, 0.4, 0.2):
+        budget = HEADER + share * (report["before"] - HEADER)
+        extras, done = fit(boxes, masks, budget)
+        assert done["met"] and done["after"] == stored_size(extras) <= budget
+        got = decoded(extras, masks.shape[1], len(boxes))
+        assert (got >= masks).all()  # a superset: conservative sets stay conservative
+        assert done["groups"] < len(boxes) and done["merges"] > 0
+        assert done["groups"] == len(np.unique(got, axis=0))  # a group's cells share one set
+        growth.append(done["mean_set_after"])
+        assert "budget" in describe(done) and "not met" not in describe(done)
+    assert report["mean_set_before"] < growth[0] <= growth[1] <= growth[2]
+
+
+def test_an_unreachable_budget_says_so(sets):
+    boxes, masks = sets
+    extras, report = fit(boxes, masks, HEADER + 10)
+    assert not report["met"] and report["after"] > HEADER + 10
+    assert "not met" in describe(report)
+    got = decoded(extras, masks.shape[1], len(boxes))
+    # every merge made: the grid's cells are connected, so one set, the union of all
+    assert (got == masks.any(axis=0)).all()
+    assert report["merges"] == len(merge_order(boxes, masks)[0]) == len(boxes) - 1
+
+
+@pytest.fixture(scope="module")
+def town_bakes():
+    world = town()
+    exact = partition(world, "portal", depth=1, pvs="conservative")
+    before = stored_size({k: v for k, v in exact.extras.items()
+                          if k.startswith("pvs_") and k != "pvs_cells"})
+    share = (HEADER + 0.5 * (before - HEADER)) / world.obj_bytes()
+    return exact, partition(world, "portal", depth=1, pvs="conservative", budget=share), share
+
+
+def test_a_budgeted_bake_holds_the_exact_sets(town_bakes):
+    exact, coarse, share = town_bakes
+    world = exact.world
+    assert coarse.params["budget"] == share
+    assert np.array_equal(coarse.extras["pvs_cells"], exact.extras["pvs_cells"])
+    want, got = masks_of(exact.extras, world), masks_of(coarse.extras, world)
+    assert (got >= want).all() and (got > want).any()
+    size = stored_size({k: v for k, v in coarse.extras.items() if k.startswith("pvs_")})
+    assert size <= share * world.obj_bytes()
+
+
+def test_in_cell_cameras_on_a_coarsened_bake_drop_nothing(town_bakes):
+    _, coarse, _ = town_bakes
+    assert in_cell_checks(coarse, 60, 21) > 40
+
+
+@pytest.mark.parametrize("value", [0, -0.25, "nan", "inf", 65, "quarter", True])
+def test_a_bad_budget_is_refused(value):
+    with pytest.raises(ValueError, match="budget="):
+        budget_option(value)
+    world = town()
+    with pytest.raises(ValueError, match="budget="):
+        partition(world, "portal", depth=1, pvs="conservative", budget=value)
+
+
+def test_a_budget_without_a_pvs_is_refused():
+    with pytest.raises(ValueError, match="pvs=conservative"):
+        partition(town(), "portal", depth=1, budget=0.25)
+
+
+@pytest.mark.parametrize("text", ["budget=0", "budget=-1", "budget=1e9", "budget=x"])
+def test_the_cli_refuses_a_bad_budget_in_one_line(tmp_path, capsys, text):
+    obj = tmp_path / "cube.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                   "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 3 4 8\nf 3 8 7\n"
+                   "f 2 3 7\nf 2 7 6\nf 1 5 8\nf 1 8 4\n")
+    out = tmp_path / "cube.vmp"
+    rc = main(["partition", str(obj), f"--structure=portal:1,pvs=conservative,{text}", "-o",
+               str(out)])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and "budget=" in err
+    assert not out.exists()

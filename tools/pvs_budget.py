@@ -1,0 +1,119 @@
+"""The PVS size budget per world (issue 29: PVS bytes at most 0.25x the OBJ, the sent targets
+kept, nothing dropped), measured on saved exact bakes (pvs_bytes.py's cache), coarsened here as
+`pvs=conservative,budget=F` bakes them (partition/pvs_coarsen.fit).
+
+    .venv/bin/python tools/pvs_budget.py [--worlds w5,w6] [--repair tjunctions]
+                                         [--budgets 0.25] [--frames 80] [--cameras 300]
+                                         [--cache DIR] [--jobs 2]
+
+Per world and budget: the PVS's bytes in the .vmp against the OBJ before and after, the view
+cells and how many sets they keep, the volume-weighted mean set, the coarsening's seconds
+(what the budget adds to the bake); along the world's path (--frames evenly spaced frames)
+the triangles pvs+vfc+tbfc sends against vfc+tbfc with the exact and the coarsened sets; and
+dropped triangles of the coarsened sets (pvs+vfc against each mode's item buffer without
+back-face culling) on those frames and on --cameras random in-cell cameras, each in float64,
+float32 and fixed16.16 (pvs_sweep.py's cameras and check). Exit status 1 if any was dropped.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from pvs_bytes import baked  # noqa: E402
+from pvs_sweep import check, in_cell_cameras  # noqa: E402
+
+from vismobile.culling import Culler  # noqa: E402
+from vismobile.device.profile import get_profile  # noqa: E402
+from vismobile.partition import pvs_codec  # noqa: E402
+from vismobile.partition.pvs_coarsen import fit, stored_size  # noqa: E402
+from vismobile.partition.store import to_bytes  # noqa: E402
+from vismobile.world.trajectory import Trajectory  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+PROFILE = get_profile("ipaq-hx2490b")
+
+
+def pvs_bytes(part) -> int:
+    """The PVS's bytes in the .vmp: the file with its PVS minus the file without."""
+    plain = copy.copy(part)
+    plain.extras = {k: v for k, v in part.extras.items() if not k.startswith("pvs_")}
+    return len(to_bytes(part)) - len(to_bytes(plain))
+
+
+def sent(part, cameras) -> tuple:
+    """(pvs+vfc+tbfc, vfc+tbfc) triangles sent over the cameras."""
+    pvs, base = Culler(part, "pvs+vfc+tbfc"), Culler(part, "vfc+tbfc")
+    return (sum(len(pvs.cull(c).triangles) for c in cameras),
+            sum(len(base.cull(c).triangles) for c in cameras))
+
+
+def run(name, repair, budgets, frames, cameras, cache, jobs) -> int:
+    world, part = baked(name, repair, cache, jobs)
+    triangles = world.triangle_count
+    obj = os.path.getsize(ROOT / "worlds" / f"{name}.obj")
+    pvs_codec._CACHE.clear()
+    boxes, patterns, ids = pvs_codec.decode_all(part.extras, triangles)
+    masks = np.unpackbits(patterns, axis=1, count=len(boxes))[ids.astype(np.int64)].T
+    masks = masks.astype(bool)
+    others = {k: v for k, v in part.extras.items()
+              if k.startswith("pvs_") and k not in ("pvs_shape", "pvs_pack", "pvs_cells")}
+    traj = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
+                                                    else "indoor.csv"))
+    path = [traj.camera(int(f), PROFILE.aspect)
+            for f in np.linspace(0, len(traj) - 1, frames).astype(int)]
+    exact_sent, base_sent = sent(part, path)
+    exact_bytes = pvs_bytes(part)
+    label = name + (" (repaired)" if repair == "tjunctions" else "")
+    dropped = 0
+    for share in budgets:
+        began = time.perf_counter()
+        extras, report = fit(boxes, masks, share * world.obj_bytes(), others, world.corners)
+        seconds = time.perf_counter() - began
+        coarse = copy.copy(part)
+        coarse.extras = {**part.extras, **extras}
+        size = pvs_bytes(coarse)
+        coarse_sent, _ = sent(coarse, path)
+        randoms = check(world, coarse, in_cell_cameras(coarse, cameras, 0))
+        along = check(world, coarse, path)
+        dropped += randoms["dropped"] + along["dropped"]
+        print(f"{label} budget={share:g}: PVS {exact_bytes / obj:.3f}x -> {size / obj:.3f}x the "
+              f"OBJ ({exact_bytes / 1e3:.1f} -> {size / 1e3:.1f} KB; counted "
+              f"{stored_size({**extras, **others}) / 1e3:.1f} KB, met {report['met']}), "
+              f"{report['cells']} cells in {report['groups']} sets, mean set (by volume) "
+              f"{report['mean_set_before']:.3f} -> {report['mean_set_after']:.3f}, coarsening "
+              f"{seconds:.1f} s | path {frames} frames: pvs+vfc+tbfc / vfc+tbfc "
+              f"{exact_sent / base_sent:.3f}x -> {coarse_sent / base_sent:.3f}x | dropped: "
+              f"{cameras} in-cell cameras x 3 modes {randoms['dropped']} "
+              f"({randoms['fallbacks']} of {randoms['checks']} fell back), path x 3 modes "
+              f"{along['dropped']}", flush=True)
+    return dropped
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--worlds", default="w5,w6")
+    parser.add_argument("--repair", default="none", choices=("none", "tjunctions"))
+    parser.add_argument("--budgets", default="0.25")
+    parser.add_argument("--frames", type=int, default=80)
+    parser.add_argument("--cameras", type=int, default=300)
+    parser.add_argument("--cache", default=os.path.join(os.environ.get("TMPDIR", "/tmp"),
+                                                        "vismobile-pvs-bytes"))
+    parser.add_argument("--jobs", type=int, default=2)
+    args = parser.parse_args(argv)
+    budgets = [float(b) for b in args.budgets.split(",") if b]
+    dropped = sum(run(w.strip(), args.repair, budgets, args.frames, args.cameras, args.cache,
+                      args.jobs) for w in args.worlds.split(",") if w.strip())
+    return 1 if dropped else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

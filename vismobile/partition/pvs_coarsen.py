@@ -1,0 +1,239 @@
+"""A PVS coarsened to a size budget (`pvs=conservative,budget=0.25`: at most a quarter of the
+world's OBJ bytes), as shipping bakes trade data size against accuracy.
+
+Coarsening only ever adds triangles to a cell's set, so a coarsened PVS stays conservative
+(a superset of a conservative set is conservative): it merges neighbouring view cells, and
+every cell of a merged group takes the union of the group's sets. The codec then codes the
+group's set once (pvs_codec.py: cells with one set share a column), so a merge removes a
+column of K pattern bits, and the patterns themselves get fewer (rows equal over the groups).
+
+The merges are greedy: at each step the two face-neighbouring groups whose union adds the
+fewest triangles, weighted by how likely an eye is in each (its volume; merge_order), merge.
+The budget fixes how many merges: the fewest whose encoded PVS fits (found by bisection on
+the merge count, each probe a full encode, so the bytes are exact). Measured on the thesis
+worlds (docs/partition.md, "A size budget"), merging cells costs less sent per byte saved
+than setting rarely-differing bits (a majority of neighbours) and about the same as merging
+triangle patterns.
+
+The bytes counted are the PVS's sections as the .vmp stores them (store.stored_bytes of each
+stored extra), the OBJ's bytes those of the world's OBJ text (World.obj_bytes, the file
+build_world writes for a thesis world).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from numba import njit
+
+from . import pvs_coder
+from .pvs_codec import DERIVED, encode
+
+# budget= : a share of the OBJ's bytes in (0, BUDGET_MAX] (commands/options.py STRUCTURE
+# mirrors it; tests/test_cli_options.py checks they agree)
+BUDGET_MAX = 64.0
+NEIGHBOURS = 16  # earlier face neighbours per cell taken as merge candidates
+# the .vmp's section entries and padding for the PVS's extras, counted with their bytes
+# (measured: 1,176 bytes beyond store.stored_bytes on W5)
+HEADER = 1536
+
+
+def budget_option(value) -> float:
+    """The budget= option: a finite number in (0, BUDGET_MAX]; ValueError in one line else."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if isinstance(value, bool) or not (0.0 < number <= BUDGET_MAX):
+        raise ValueError(f"budget={value}: expected a share of the OBJ's bytes in "
+                         f"(0, {BUDGET_MAX:g}], e.g. budget=0.25")
+    return number
+
+
+@njit(cache=True)
+def _gain(sets, front, g, h):
+    """Triangles of set h not in set g that face some point of g's cells (rows of bitsets)."""
+    total = 0
+    for w in range(sets.shape[1]):
+        total += pvs_coder._popcount(sets[h, w] & ~sets[g, w] & front[g, w])
+    return total
+
+
+@njit(cache=True)
+def _merge_order(sets, front, chance, edges):
+    """(M, 2) int64 the greedy merges (kept group, merged group, by their lowest cells) and
+    (M,) float64 what each added (chance-weighted triangles facing the group). sets and front
+    (V, W) uint64 triangle bitsets (modified: groups' unions), chance (V,) float64 (modified),
+    edges (E, 2) int64 face-neighbouring cells."""
+    count = sets.shape[0]
+    a, b = edges[:, 0].copy(), edges[:, 1].copy()
+    cost = np.empty(len(a), dtype=np.float64)
+    for e in range(len(a)):
+        cost[e] = chance[a[e]] * _gain(sets, front, a[e], b[e]) \
+            + chance[b[e]] * _gain(sets, front, b[e], a[e])
+    merges = np.empty((max(count - 1, 0), 2), dtype=np.int64)
+    added = np.empty(max(count - 1, 0), dtype=np.float64)
+    m = 0
+    while True:
+        best = -1
+        for e in range(len(a)):
+            if a[e] != b[e] and (best < 0 or cost[e] < cost[best]):
+                best = e
+        if best < 0:
+            break
+        g, h = min(a[best], b[best]), max(a[best], b[best])
+        merges[m, 0], merges[m, 1], added[m] = g, h, cost[best]
+        m += 1
+        sets[g] |= sets[h]
+        front[g] |= front[h]
+        chance[g] += chance[h]
+        for e in range(len(a)):
+            if a[e] == h:
+                a[e] = g
+            if b[e] == h:
+                b[e] = g
+        for e in range(len(a)):
+            if a[e] != b[e] and (a[e] == g or b[e] == g):
+                cost[e] = chance[a[e]] * _gain(sets, front, a[e], b[e]) \
+                    + chance[b[e]] * _gain(sets, front, b[e], a[e])
+    return merges[:m], added[:m]
+
+
+def _bitsets(bits) -> np.ndarray:
+    """(R, ceil(C / 64)) uint64 of (R, C) bool rows."""
+    words = (bits.shape[1] + 63) // 64
+    packed = np.packbits(np.pad(bits, ((0, 0), (0, 64 * words - bits.shape[1]))), axis=1,
+                         bitorder="little")
+    return np.ascontiguousarray(packed).view("<u8").astype(np.uint64).reshape(len(bits), words)
+
+
+def facing(boxes, corners) -> np.ndarray:
+    """(V, T) bool: triangles whose plane has some point of the cell in front (a triangle
+    facing away from a whole cell costs nothing sent there: back-face culling drops it)."""
+    corners = np.asarray(corners, dtype=np.float64)
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    offset = np.einsum("ij,ij->i", normal, corners[:, 0])
+    centre, half = boxes.mean(axis=1), 0.5 * (boxes[:, 1] - boxes[:, 0])
+    return centre @ normal.T + half @ np.abs(normal).T >= offset[None, :]
+
+
+def merge_order(boxes, masks, corners=None) -> tuple:
+    """((M, 2) int64 merges, (M,) float64 added) of the view cells (boxes (V, 2, 3)) with the
+    sets masks (V, T) bool: the greedy order, cheapest first (a merge's cost: the triangles
+    each group gains that face it, by the corners (T, 3, 3); None: all, times the group's
+    share of the cells' volume)."""
+    boxes = np.ascontiguousarray(boxes, dtype=np.float64)
+    cells = len(boxes)
+    masks = np.asarray(masks, dtype=bool).reshape(cells, -1)
+    sets = _bitsets(masks)
+    front = _bitsets(facing(boxes, corners)) if corners is not None and masks.shape[1] \
+        else np.full_like(sets, np.uint64(0xFFFFFFFFFFFFFFFF))
+    volume = np.prod(np.maximum(boxes[:, 1] - boxes[:, 0], 0.0), axis=1)
+    chance = np.maximum(volume, 1e-12 * max(volume.max(initial=0.0), 1e-300))
+    chance = chance / chance.sum()
+    near, _ = pvs_coder.neighbours(boxes, pvs_coder.CELL_WINDOW, NEIGHBOURS)
+    v = np.repeat(np.arange(cells), near.shape[1])
+    keep = near.ravel() >= 0
+    edges = np.ascontiguousarray(np.stack([near.ravel()[keep], v[keep]], axis=1))
+    return _merge_order(sets, front, chance.copy(), edges.astype(np.int64))
+
+
+def groups_after(cells: int, merges, count: int) -> np.ndarray:
+    """(V,) int64 each cell's group (its lowest cell) after the first `count` merges."""
+    root = np.arange(cells, dtype=np.int64)
+    for g, h in merges[:count]:
+        root[root == h] = g  # h is a group's lowest cell: its members point at it
+    return root
+
+
+def merged_masks(patterns, ids, group) -> np.ndarray:
+    """(V, T) bool each cell's set: the union of its group's cells' sets."""
+    cells = len(group)
+    bits = np.unpackbits(patterns, axis=1, count=cells)  # (K, V)
+    order = np.argsort(group, kind="stable")
+    starts = np.flatnonzero(np.r_[True, np.diff(group[order]) != 0])
+    union = np.maximum.reduceat(bits[:, order], starts, axis=1) if len(bits) else \
+        np.zeros((0, len(starts)), np.uint8)
+    column = np.searchsorted(group[order][starts], group)  # each cell's group's column
+    return union[:, column][np.asarray(ids, dtype=np.int64)].T.astype(bool)
+
+
+def stored_size(extras) -> int:
+    """Bytes the PVS adds to a .vmp, as the budget counts them: its sections
+    (store.stored_bytes) plus HEADER for their entries."""
+    from .store import stored_bytes
+
+    return HEADER + int(sum(stored_bytes(v) for k, v in extras.items() if k not in DERIVED))
+
+
+def fit(boxes, masks, budget_bytes, others=None, corners=None) -> tuple:
+    """(encoded extras, report): the sets coarsened by the fewest greedy merges (merge_order)
+    whose encoding, with the others extras beside it, takes at most budget_bytes (None: exact).
+
+    boxes  : (V, 2, 3) float64 view cells; masks: V (T,) bool conservative sets
+    corners: (T, 3, 3) float64 the triangles (a merge's cost counts only those facing the
+             cells, merge_order); None: every triangle counts
+    report : dict(budget, before, after bytes; cells, groups; merges; mean_set before and
+             after (volume-weighted share of the triangles); met (bool); seconds)
+    """
+    began = time.perf_counter()
+    others = others or {}
+    exact = encode(boxes, masks)
+    before = stored_size({**exact, **others})
+    cells = len(boxes)
+    masks = np.asarray(masks, dtype=bool).reshape(cells, -1)
+    volume = np.prod(np.maximum(boxes[:, 1] - boxes[:, 0], 0.0), axis=1)
+    share = volume / volume.sum() if volume.sum() > 0 else np.full(cells, 1.0 / cells)
+    triangles = max(masks.shape[1], 1)
+    mean_before = float(share @ masks.sum(axis=1)) / triangles
+    report = {"budget": budget_bytes, "before": before, "after": before, "cells": cells,
+              "groups": int(exact["pvs_shape"][9]), "merges": 0, "mean_set_before": mean_before,
+              "mean_set_after": mean_before, "met": budget_bytes is None or before <= budget_bytes}
+    if report["met"]:
+        report["seconds"] = time.perf_counter() - began
+        return exact, report
+    from .pvs_codec import decode_all, _CACHE
+
+    _, patterns, ids = decode_all(exact, masks.shape[1])
+    merges, _ = merge_order(boxes, masks, corners)
+    probes = {}
+
+    def probe(count):
+        if count not in probes:
+            extras = encode(boxes, merged_masks(patterns, ids, groups_after(cells, merges,
+                                                                             count)))
+            probes[count] = (stored_size({**extras, **others}), extras)
+        return probes[count]
+
+    low, high = 0, len(merges)  # low does not fit; find the fewest merges that fit
+    if probe(high)[0] > budget_bytes:
+        count = high
+    else:
+        while high - low > 1:
+            middle = (low + high) // 2
+            if probe(middle)[0] <= budget_bytes:
+                high = middle
+            else:
+                low = middle
+        count = high
+    size, extras = probe(count)
+    sets = merged_masks(patterns, ids, groups_after(cells, merges, count))
+    _CACHE.clear()
+    report.update(after=size, groups=int(extras["pvs_shape"][9]), merges=int(count),
+                  mean_set_after=float(share @ sets.sum(axis=1)) / triangles,
+                  met=size <= budget_bytes, seconds=time.perf_counter() - began)
+    return extras, report
+
+
+def describe(report) -> str:
+    """One line of what a budget did (the partition command's pvs line)."""
+    if report.get("budget") is None:
+        return ""
+    kb = lambda n: f"{n / 1024:,.1f} KB"  # noqa: E731
+    head = (f"budget {kb(report['budget'])}: {kb(report['before'])} -> {kb(report['after'])}, "
+            f"{report['cells']:,} cells in {report['groups']:,} sets, mean set "
+            f"{report['mean_set_before']:.1%} -> {report['mean_set_after']:.1%} (by volume)")
+    if report["met"]:
+        return head
+    return head + " - not met: every neighbouring cell merged is still larger"
