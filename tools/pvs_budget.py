@@ -12,7 +12,8 @@ cells and how many sets they keep, the volume-weighted mean set, the coarsening'
 the triangles pvs+vfc+tbfc sends against vfc+tbfc with the exact and the coarsened sets; and
 dropped triangles of the coarsened sets (pvs+vfc against each mode's item buffer without
 back-face culling) on those frames and on --cameras random in-cell cameras, each in float64,
-float32 and fixed16.16 (pvs_sweep.py's cameras and check). Exit status 1 if any was dropped.
+float32 and fixed16.16 (pvs_sweep.py's cameras of each kind, and its check). Exit status 1
+if any was dropped.
 """
 from __future__ import annotations
 
@@ -82,8 +83,8 @@ def run(name, repair, budgets, frames, cameras, cache, jobs) -> int:
         coarse.extras = {**part.extras, **extras}
         size = pvs_bytes(coarse)
         coarse_sent, _ = sent(coarse, path)
-        randoms = check(world, coarse, in_cell_cameras(coarse, cameras, 0))
-        along = check(world, coarse, path)
+        randoms = check(world, coarse, in_cell_cameras(coarse, cameras, 0, world))
+        along = check(world, coarse, (("path", c) for c in path))
         dropped += randoms["dropped"] + along["dropped"]
         print(f"{label} budget={share:g}: PVS {exact_bytes / obj:.3f}x -> {size / obj:.3f}x the "
               f"OBJ ({exact_bytes / 1e3:.1f} -> {size / 1e3:.1f} KB; counted "
