@@ -69,6 +69,27 @@ def in_cell_cameras(part, count, seed):
     return cams
 
 
+def near_boundary_cameras(part, count, seed):
+    """Cameras 1 mm to 10 cm (at most a quarter of the cell) inside a face, an edge or a
+    corner of random view cells (each a third), the rest as in_cell_cameras: past the stage's
+    on_face reach, so they use the cell's set right next to its boundary (tools/pvs_sweep.py's
+    "near" kinds), where those exactly on it fall back."""
+    rng = np.random.default_rng(seed)
+    boxes = part.extras["pvs_cells"]
+    cams = []
+    for i in range(count):
+        lo, hi = boxes[rng.integers(len(boxes))]
+        pos = lo + rng.uniform(0, 1, 3) * (hi - lo)
+        snap = rng.permutation(3)[:1 + i % 3]  # 1..3 of its sides near
+        side = rng.integers(0, 2, len(snap)).astype(bool)
+        gap = np.minimum(10.0 ** rng.uniform(-3, -1, len(snap)), 0.25 * (hi - lo)[snap])
+        pos[snap] = np.where(side, hi[snap] - gap, lo[snap] + gap)
+        cams.append(Camera(pos, yaw=rng.uniform(0, 360), pitch=rng.uniform(-89, 89),
+                           fov=rng.uniform(10, 120), near=float(rng.choice([0.1, 0.01])),
+                           aspect=4 / 3))
+    return cams
+
+
 def keeps_what_cameras_see(part, stages, cams, mode, profile) -> int:
     """Asserts that each culler of `stages` on part, in arithmetic `mode` (profile: the
     float64 profile the mode's is made from), keeps every triangle that mode's item buffer

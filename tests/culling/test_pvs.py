@@ -12,7 +12,7 @@ from vismobile.render import SENTINEL, item_buffer
 from vismobile.world.camera import Camera
 
 from .pvs_cases import (MODES, SLABS, in_cell_cameras, in_face_plane, keeps_what_cameras_see,
-                        zigzag_world)
+                        near_boundary_cameras, zigzag_world)
 
 
 @pytest.fixture(scope="module")
@@ -64,7 +64,7 @@ def test_any_structure_takes_a_pvs(zigzag):
 
 @pytest.mark.parametrize("mode", MODES)
 def test_pvs_keeps_what_cameras_in_the_cells_see(kit, zigzag, mode):
-    cams = in_cell_cameras(zigzag, 60, 7)
+    cams = in_cell_cameras(zigzag, 60, 7) + near_boundary_cameras(zigzag, 24, 8)
     used = keeps_what_cameras_see(zigzag, ("pvs", "pvs,vfc"), cams, mode, kit.PROFILE)
     # every camera used the baked sets but those in a face's plane, which fell back
     assert used == 2 * sum(not in_face_plane(zigzag, cam) for cam in cams) > 0

@@ -10,7 +10,8 @@ from vismobile.partition import partition
 from vismobile.partition.pvs_leaves import clip, box_faces, leaf_regions
 from vismobile.world.camera import Camera
 
-from .pvs_cases import MODES, in_cell_cameras, in_face_plane, keeps_what_cameras_see, zigzag_world
+from .pvs_cases import (MODES, in_cell_cameras, in_face_plane, keeps_what_cameras_see,
+                        near_boundary_cameras, zigzag_world)
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +55,7 @@ def test_the_view_cells_are_the_leaves(baked):
 
 @pytest.mark.parametrize("mode", MODES)
 def test_bsp_leaves_pvs_keeps_what_cameras_in_them_see(kit, baked, mode):
-    cams = in_cell_cameras(baked, 40, 11)
+    cams = in_cell_cameras(baked, 40, 11) + near_boundary_cameras(baked, 24, 12)
     used = keeps_what_cameras_see(baked, ("pvs,vfc",), cams, mode, kit.PROFILE)
     assert used == sum(not in_face_plane(baked, cam) for cam in cams) > 0
 

@@ -16,7 +16,9 @@ from vismobile.partition import partition
 from vismobile.partition.pvs_codec import cell_mask, decode
 from vismobile.world.tjunctions import repair_tjunctions
 
-from .pvs_cases import MODES, in_cell_cameras, in_face_plane, keeps_what_cameras_see
+from .pvs_cases import (MODES, in_cell_cameras, in_face_plane, keeps_what_cameras_see,
+                        near_boundary_cameras)
+
 WIDE, DEEP, WALL, SLAB, HIGH = 8.2, 4.0, (4.0, 4.2), (3.0, 3.2), 6.2
 
 
@@ -80,6 +82,7 @@ def test_cells_split_at_both_slab_faces(storeys):
 
 @pytest.mark.parametrize("mode", MODES)
 def test_storey_cells_keep_what_cameras_see(kit, storeys, mode):
-    cams = in_cell_cameras(storeys, 40, 3)  # inside, on a face, an edge, a corner
+    # inside, on a face, an edge, a corner, and just inside them
+    cams = in_cell_cameras(storeys, 40, 3) + near_boundary_cameras(storeys, 24, 4)
     used = keeps_what_cameras_see(storeys, ("pvs,vfc",), cams, mode, kit.PROFILE)
     assert used == sum(not in_face_plane(storeys, cam) for cam in cams) > 0  # in one: fell back
