@@ -42,6 +42,15 @@ def _to_camera(p, eye, rot, out):
         out[r] = rot[r, 0] * x + rot[r, 1] * y + rot[r, 2] * z
 
 
+@njit(cache=True, nogil=True)
+def _row_to_camera(points, i, eye, rot, out, row):
+    """_to_camera of points[i] into out[row] (the same arithmetic). Takes no row views: a view
+    costs numba two reference-count updates (atomic), more than the arithmetic here."""
+    x, y, z = points[i, 0] - eye[0], points[i, 1] - eye[1], points[i, 2] - eye[2]
+    for r in range(3):
+        out[row, r] = rot[r, 0] * x + rot[r, 1] * y + rot[r, 2] * z
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _box_to_camera(lo, hi, node, eye, rot, cam):
     """Node's 8 box corners into cam (8, 3) in camera space (corner k takes hi on axis a when
@@ -75,16 +84,16 @@ def _clip_triangle(tri, clip, poly, cut):
     cut[k] is True for points made by the cut. Returns the point count (0 or 3..4)."""
     n = 0
     for k in range(3):
-        a, b = tri[k], tri[(k + 1) % 3]
-        ina, inb = a[2] >= clip, b[2] >= clip
+        a, b = k, (k + 1) % 3  # rows of tri (no row views: _row_to_camera)
+        ina, inb = tri[a, 2] >= clip, tri[b, 2] >= clip
         if ina:
-            poly[n, 0], poly[n, 1], poly[n, 2] = a[0], a[1], a[2]
+            poly[n, 0], poly[n, 1], poly[n, 2] = tri[a, 0], tri[a, 1], tri[a, 2]
             cut[n] = False
             n += 1
         if ina != inb:
-            t = (clip - a[2]) / (b[2] - a[2])
-            poly[n, 0] = a[0] + t * (b[0] - a[0])
-            poly[n, 1] = a[1] + t * (b[1] - a[1])
+            t = (clip - tri[a, 2]) / (tri[b, 2] - tri[a, 2])
+            poly[n, 0] = tri[a, 0] + t * (tri[b, 0] - tri[a, 0])
+            poly[n, 1] = tri[a, 1] + t * (tri[b, 1] - tri[a, 1])
             poly[n, 2] = clip
             cut[n] = True
             n += 1
@@ -97,7 +106,7 @@ def _clipped_occluder(t, points, tri_points, eye, rot, clip, tri, poly, cut):
     z >= clip into poly (_clip_triangle); returns the point count. The rasteriser and
     stamp_near read the same polygon. Contract: exact (the same arithmetic everywhere)."""
     for c in range(3):
-        _to_camera(points[tri_points[t, c]], eye, rot, tri[c])
+        _row_to_camera(points, tri_points[t, c], eye, rot, tri, c)
     return _clip_triangle(tri, clip, poly, cut)
 
 
@@ -112,7 +121,7 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half
     boundary mark of the group sets piece_of to `line` (the segment's edge record, or -1),
     any other mark to -1 (hiz.edges: only a pixel one piece meets keeps a record). marked
     (H * W + 1,) int32 lists the group's pixels with a piece mark: marked[0] of them after it,
-    each once (its first piece mark appends it)."""
+    each once (its group's first piece mark appends it)."""
     steep = abs(by - ay) > abs(bx - ax)
     if steep:
         ax, ay, bx, by = ay, ax, by, bx
@@ -158,37 +167,24 @@ def _mark_segment(ax, ay, bx, by, width, height, mask, bit, row_lo, row_hi, half
         if steep:  # row c, columns r0..r1
             row_lo[c] = min(row_lo[c], int(r0))
             row_hi[c] = max(row_hi[c], int(r1))
-            for r in range(int(r0), int(r1) + 1):
-                if keep:
-                    _keep_piece(mask, piece_of, c * width + r, line)
-                _mark(mask, c * width + r, bit, marked)
-        else:  # column c, rows r0..r1
-            for r in range(int(r0), int(r1) + 1):
-                if keep:
-                    _keep_piece(mask, piece_of, r * width + c, line)
-                _mark(mask, r * width + c, bit, marked)
+        for r in range(int(r0), int(r1) + 1):
+            q = c * width + r if steep else r * width + c
+            if not steep:  # column c, rows r0..r1
                 row_lo[r] = min(row_lo[r], c)
                 row_hi[r] = max(row_hi[r], c)
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _mark(mask, p, bit, marked):
-    """Sets a piece `bit` on pixel p, listing p in marked (after its count marked[0]) at the
-    group's first piece mark there."""
-    if mask[p] < _BOUNDARY:
-        marked[0] += 1
-        marked[marked[0]] = p
-    mask[p] |= bit
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _keep_piece(mask, piece_of, p, line):
-    """_mark_segment's piece count of pixel p: the group's first boundary piece sets it."""
-    if mask[p] & _BOUNDARY:
-        if piece_of[p] != line:
-            piece_of[p] = -1
-    else:
-        piece_of[p] = line
+            # the piece count (hiz.edges: a group's first boundary piece sets it, another
+            # clears it), the list of pixels pieces meet, the bit (written out here: an
+            # inlined helper taking the arrays costs numba reference counts per pixel)
+            m = mask[q]
+            if keep:
+                if not m & _BOUNDARY:
+                    piece_of[q] = line
+                elif piece_of[q] != line:
+                    piece_of[q] = -1
+            if m < _BOUNDARY:
+                marked[0] += 1
+                marked[marked[0]] = q
+            mask[q] = m | bit
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -217,6 +213,22 @@ def _far(a, b, c0_, low, i, rr, width, height, half, dd, num):
     if i == 0 or rr == 0 or i == width - 1 or rr == height - 1:
         inv = _guarded_low(a, i, width, half) + _guarded_low(b, rr, height, half) + c0_
     return num / inv if inv > 0 else np.inf
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _edge_rows(row_l, row_r, e0, e1, xa, ya, xb, yb):
+    """Step 1: widens [row_l, row_r] of rows e0..e1 to the crossing of the edge a -> b (ya !=
+    yb, buffer pixels) with each row's centre line it crosses. Branch-free (LLVM vectorises
+    it); the crossing's arithmetic is the one-by-one loop's (the same bits)."""
+    dx, dy = xb - xa, yb - ya
+    y0, y1 = min(ya, yb), max(ya, yb)
+    ls, rs = row_l[e0:e1 + 1], row_r[e0:e1 + 1]
+    for k in range(len(ls)):
+        yc = (e0 + k) + 0.5
+        x = xa + (yc - ya) * dx / dy
+        inside = (y0 <= yc) & (yc <= y1)
+        ls[k] = min(ls[k], x) if inside else ls[k]
+        rs[k] = max(rs[k], x) if inside else rs[k]
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -293,8 +305,7 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
     tri = np.empty((3, 3))
     poly = np.empty((4, 3))
     cut = np.empty(4, dtype=np.bool_)
-    pa = np.empty(3)
-    pb = np.empty(3)
+    ends = np.empty((2, 3))  # a piece's ends in camera space
     xs = np.empty(4)
     ys = np.empty(4)
     cn = np.empty(3)
@@ -356,8 +367,11 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 u, v = (xs[1] - xs[0]) * (ys[2] - ys[0]), (ys[1] - ys[0]) * (xs[2] - xs[0])
                 if abs(u - v) > 1e-6 * (abs(u) + abs(v)):  # else too thin to orient surely
                     orient[k] = 1.0 if u > v else -1.0
-            r0 = max(np.ceil(ys[:n].min() - 0.5), 0.0)
-            r1 = min(np.floor(ys[:n].max() - 0.5), height - 1.0)
+            y_lo, y_hi = ys[0], ys[0]
+            for c in range(1, n):
+                y_lo, y_hi = min(y_lo, ys[c]), max(y_hi, ys[c])
+            r0 = max(np.ceil(y_lo - 0.5), 0.0)
+            r1 = min(np.floor(y_hi - 0.5), height - 1.0)
             if not r0 <= r1:
                 continue
             ir0, ir1 = int(r0), int(r1)
@@ -371,16 +385,13 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                 e1 = min(np.floor(max(ya, yb) - 0.5) + 1.0, r1)
                 if not e0 <= e1:
                     continue
-                for rr in range(int(e0), int(e1) + 1):
-                    yc = rr + 0.5
-                    if (ya <= yc <= yb) or (yb <= yc <= ya):
-                        if ya == yb:
+                if ya == yb:
+                    for rr in range(int(e0), int(e1) + 1):
+                        if rr + 0.5 == ya:
                             row_l[rr] = min(row_l[rr], xa, xb)
                             row_r[rr] = max(row_r[rr], xa, xb)
-                        else:
-                            x = xa + (yc - ya) * (xb - xa) / (yb - ya)
-                            row_l[rr] = min(row_l[rr], x)
-                            row_r[rr] = max(row_r[rr], x)
+                else:
+                    _edge_rows(row_l, row_r, int(e0), int(e1), xa, ya, xb, yb)
             for rr in range(ir0, ir1 + 1):
                 c0 = max(np.ceil(row_l[rr] - 0.5), 0.0)
                 c1 = min(np.floor(row_r[rr] - 0.5), width - 1.0)
@@ -429,20 +440,20 @@ def rasterise(ids, groups, tri_points, points, normals, offsets, piece_start, pi
                     f = (e + 1) % 3
                     ax, ay, bx, by = proj[k, e, 0], proj[k, e, 1], proj[k, f, 0], proj[k, f, 1]
                 else:
-                    _to_camera(points[piece_a[s]], eye, rot, pa)
-                    _to_camera(points[piece_b[s]], eye, rot, pb)
-                    if pa[2] < clip and pb[2] < clip:
+                    _row_to_camera(points, piece_a[s], eye, rot, ends, 0)
+                    _row_to_camera(points, piece_b[s], eye, rot, ends, 1)
+                    if ends[0, 2] < clip and ends[1, 2] < clip:
                         continue
-                    if pa[2] < clip or pb[2] < clip:
-                        u = (clip - pa[2]) / (pb[2] - pa[2])
-                        cx = pa[0] + u * (pb[0] - pa[0])
-                        cy = pa[1] + u * (pb[1] - pa[1])
-                        if pa[2] < clip:
-                            pa[0], pa[1], pa[2] = cx, cy, clip
-                        else:
-                            pb[0], pb[1], pb[2] = cx, cy, clip
-                    ax, ay = pa[0] / pa[2] * sx + 0.5 * width, pa[1] / pa[2] * sy + 0.5 * height
-                    bx, by = pb[0] / pb[2] * sx + 0.5 * width, pb[1] / pb[2] * sy + 0.5 * height
+                    if ends[0, 2] < clip or ends[1, 2] < clip:
+                        u = (clip - ends[0, 2]) / (ends[1, 2] - ends[0, 2])
+                        cx = ends[0, 0] + u * (ends[1, 0] - ends[0, 0])
+                        cy = ends[0, 1] + u * (ends[1, 1] - ends[0, 1])
+                        w = 0 if ends[0, 2] < clip else 1
+                        ends[w, 0], ends[w, 1], ends[w, 2] = cx, cy, clip
+                    ax = ends[0, 0] / ends[0, 2] * sx + 0.5 * width
+                    ay = ends[0, 1] / ends[0, 2] * sy + 0.5 * height
+                    bx = ends[1, 0] / ends[1, 2] * sx + 0.5 * width
+                    by = ends[1, 1] / ends[1, 2] * sy + 0.5 * height
                 line = -1  # the piece's edge record: uncut triangles' boundary pieces only
                 if records and edge and bit == _BOUNDARY and dd > 0 and orient[k] != 0:
                     line = add_record(depth, pixels, half, a * scale, b * scale, c0_ * scale,
