@@ -16,11 +16,12 @@ near plane nearer than the bake's NEAR_MIN, counted apart), dropped triangles, a
 times; then the random cameras' checks, fallbacks and drops per kind. With --out, appends
 the lines' figures as JSON lines. With --repair tjunctions each world is repaired first
 (world/tjunctions.py, as `partition --repair` does: the bake seals its thin cells) and judged on
-the repaired world's item buffer.
+the repaired world's item buffer. With --budget F each PVS is coarsened to F x the OBJ's
+bytes (partition/pvs_coarsen.py), as `pvs=conservative,budget=F` bakes it.
 
 Usage: .venv/bin/python tools/pvs_sweep.py [--worlds w1,w5] [--structures portal:2,bsp]
        [--cameras 2000] [--path-stride 10] [--seed 0] [--cache out/pvs_sweep] [--out F.jsonl]
-       [--jobs 1] [--repair tjunctions]
+       [--jobs 1] [--repair tjunctions] [--budget 0.25]
 Run one world per call to stay within a few minutes on a shared machine. Exit status 0 when
 nothing was dropped, 1 otherwise.
 """
@@ -43,6 +44,7 @@ from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.files.loader import repaired  # noqa: E402
 from vismobile.partition import load_partition, partition, save_partition  # noqa: E402
 from vismobile.partition.pvs import bake  # noqa: E402
+from vismobile.partition.pvs_coarsen import budget_option  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
 from vismobile.world.camera import Camera  # noqa: E402
@@ -60,17 +62,23 @@ def bake_key(world, spec) -> str:
     return digest.hexdigest()[:16]
 
 
-def baked(world, spec, cache, jobs=1) -> tuple:
-    """(partition with pvs=conservative, bake seconds or None when loaded from the cache)."""
+def baked(world, spec, cache, jobs=1, budget=None) -> tuple:
+    """(partition with pvs=conservative, bake seconds or None when loaded from the cache);
+    with a budget, the sets coarsened to that share of the OBJ's bytes (pvs_coarsen.py)."""
     tag = "-repaired" if getattr(world, "repair", None) else ""
-    path = Path(cache) / f"{world.name}{tag}-{spec.replace(':', '')}-{bake_key(world, spec)}.vmp"
+    if budget is not None:
+        spec, tag = spec + f",budget={budget!r}", tag + f"-budget{budget:g}"
+    name = spec.split(",")[0].replace(":", "")
+    path = Path(cache) / f"{world.name}{tag}-{name}-{bake_key(world, spec)}.vmp"
     if path.is_file():
         try:
             return load_partition(path), None
         except Exception as error:  # an older .vmp layout (store.py): baked again below
             print(f"{path.name}: {error}; baking again", flush=True)
     start = time.perf_counter()
-    part = partition(world, spec)
+    part = partition(world, spec.split(",")[0])
+    if budget is not None:
+        part.params["budget"] = budget  # as partition(..., budget=) sets it for the bake
     extras, _ = bake(part, "conservative", jobs=jobs)  # as partition(..., pvs=) does
     part.extras.update(extras)
     part.params["pvs"] = "conservative"
@@ -167,10 +175,10 @@ def check(world, part, cameras) -> dict:
     return out
 
 
-def sweep(name, spec, cameras, stride, seed, cache, jobs=1, repair="none") -> dict:
+def sweep(name, spec, cameras, stride, seed, cache, jobs=1, repair="none", budget=None) -> dict:
     began = time.perf_counter()
     world = repaired(build_world(name), repair, name)
-    part, seconds = baked(world, spec, cache, jobs)
+    part, seconds = baked(world, spec, cache, jobs, budget)
     began_random = time.perf_counter()
     randoms = check(world, part, in_cell_cameras(part, cameras, seed, world))
     path = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
@@ -178,14 +186,15 @@ def sweep(name, spec, cameras, stride, seed, cache, jobs=1, repair="none") -> di
     frames = range(0, len(path), stride)
     began_path = time.perf_counter()
     along = check(world, part, (("path", path.camera(f, PROFILE.aspect)) for f in frames))
-    row = {"world": name, "structure": spec, "repair": repair,
+    row = {"world": name, "structure": spec, "repair": repair, "budget": budget,
            "cells": int(len(part.extras["pvs_cells"])),
            "bake_seconds": seconds, "random": randoms, "path": along,
            "path_frames": len(frames), "seconds": time.perf_counter() - began,
            "random_seconds": began_path - began_random,
            "path_seconds": time.perf_counter() - began_path}
     bake = "cached" if seconds is None else f"{seconds:.1f} s"
-    tag = "" if repair == "none" else f" (repaired {repair})"
+    tag = ("" if repair == "none" else f" (repaired {repair})") + \
+        ("" if budget is None else f" (budget {budget:g})")
     print(f"{name}{tag} {spec}+pvs: {row['cells']} cells, bake {bake} | random {cameras} cameras x "
           f"3 modes: {randoms['checks']} checks, {randoms['fallbacks']} fell back "
           f"({randoms['near_fallbacks']} for a near plane nearer than the bake's), dropped "
@@ -212,14 +221,21 @@ def main(argv=None) -> int:
     parser.add_argument("--jobs", type=int, default=1, help="bake processes")
     parser.add_argument("--repair", choices=("none", "tjunctions"), default="none",
                         help="repair each world first (world/tjunctions.py)")
+    parser.add_argument("--budget", default=None,
+                        help="coarsen each PVS to this share of the OBJ's bytes (pvs_coarsen.py, "
+                             "as pvs=conservative,budget=F)")
     args = parser.parse_args(argv)
     if args.cameras < 0 or args.path_stride < 1 or args.jobs < 1:
         parser.error("--cameras >= 0, --path-stride >= 1 and --jobs >= 1")
+    try:
+        budget = None if args.budget is None else budget_option(args.budget)
+    except ValueError as error:
+        parser.error(str(error))
     dropped = 0
     for name in filter(None, args.worlds.split(",")):
         for spec in filter(None, args.structures.split(",")):
             row = sweep(name.strip(), spec.strip(), args.cameras, args.path_stride, args.seed,
-                        args.cache, args.jobs, args.repair)
+                        args.cache, args.jobs, args.repair, budget)
             dropped += row["random"]["dropped"] + row["path"]["dropped"]
             if args.out:
                 with open(args.out, "a") as handle:
