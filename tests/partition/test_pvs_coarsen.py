@@ -39,7 +39,7 @@ def test_coarser_sets_only_grow_and_fit_the_budget(sets):
         got = decoded(extras, masks.shape[1], len(boxes))
         assert (got >= masks).all()  # a superset: conservative sets stay conservative
         assert done["groups"] < len(boxes) and done["merges"] > 0
-        assert done["groups"] == len(np.unique(got, axis=0))  # a group's cells share one set
+        assert len(np.unique(got, axis=0)) <= done["groups"]  # a group's cells share one set
         growth.append(done["mean_set_after"])
         assert "budget" in describe(done) and "not met" not in describe(done)
     assert report["mean_set_before"] < growth[0] <= growth[1] <= growth[2]

@@ -9,8 +9,9 @@ column of K pattern bits, and the patterns themselves get fewer (rows equal over
 
 The merges are greedy: at each step the two face-neighbouring groups whose union adds the
 fewest triangles, weighted by how likely an eye is in each (its volume; merge_order), merge.
-The budget fixes how many merges: the fewest whose encoded PVS fits (found by bisection on
-the merge count, each probe a full encode, so the bytes are exact). Measured on the thesis
+The budget fixes how many merges: about the fewest whose encoded PVS fits (within V / SLACK
+merges; found by interpolation and bisection in turn on the merge count, each probe a full
+encode, so the bytes are exact). Measured on the thesis
 worlds (docs/partition.md, "A size budget"), merging cells costs less sent per byte saved
 than setting rarely-differing bits (a majority of neighbours) and about the same as merging
 triangle patterns.
@@ -28,12 +29,13 @@ import numpy as np
 from numba import njit
 
 from . import pvs_coder
-from .pvs_codec import DERIVED, encode
+from .pvs_codec import DERIVED, encode, encode_columns
 
 # budget= : a share of the OBJ's bytes in (0, BUDGET_MAX] (commands/options.py STRUCTURE
 # mirrors it; tests/test_cli_options.py checks they agree)
 BUDGET_MAX = 64.0
 NEIGHBOURS = 16  # earlier face neighbours per cell taken as merge candidates
+SLACK = 256  # the merge count is found to within V / SLACK of the fewest that fit
 # the .vmp's section entries and padding for the PVS's extras, counted with their bytes
 # (measured: 1,176 bytes beyond store.stored_bytes on W5)
 HEADER = 1536
@@ -109,13 +111,17 @@ def _bitsets(bits) -> np.ndarray:
 
 
 def facing(boxes, corners) -> np.ndarray:
-    """(V, T) bool: triangles whose plane has some point of the cell in front (a triangle
-    facing away from a whole cell costs nothing sent there: back-face culling drops it)."""
+    """(V, ceil(T / 64)) uint64 bitsets: the triangles whose plane has some point of the cell
+    in front (a triangle facing away from a whole cell costs nothing sent there: back-face
+    culling drops it), a few cells at a time."""
     corners = np.asarray(corners, dtype=np.float64)
     normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     offset = np.einsum("ij,ij->i", normal, corners[:, 0])
     centre, half = boxes.mean(axis=1), 0.5 * (boxes[:, 1] - boxes[:, 0])
-    return centre @ normal.T + half @ np.abs(normal).T >= offset[None, :]
+    step = max(1, (1 << 22) // max(len(corners), 1))
+    return np.concatenate([_bitsets(centre[c:c + step] @ normal.T
+                                    + half[c:c + step] @ np.abs(normal).T >= offset[None, :])
+                           for c in range(0, len(boxes), step)])
 
 
 def merge_order(boxes, masks, corners=None) -> tuple:
@@ -127,7 +133,7 @@ def merge_order(boxes, masks, corners=None) -> tuple:
     cells = len(boxes)
     masks = np.asarray(masks, dtype=bool).reshape(cells, -1)
     sets = _bitsets(masks)
-    front = _bitsets(facing(boxes, corners)) if corners is not None and masks.shape[1] \
+    front = facing(boxes, corners) if corners is not None and masks.shape[1] \
         else np.full_like(sets, np.uint64(0xFFFFFFFFFFFFFFFF))
     volume = np.prod(np.maximum(boxes[:, 1] - boxes[:, 0], 0.0), axis=1)
     chance = np.maximum(volume, 1e-12 * max(volume.max(initial=0.0), 1e-300))
@@ -147,16 +153,20 @@ def groups_after(cells: int, merges, count: int) -> np.ndarray:
     return root
 
 
-def merged_masks(patterns, ids, group) -> np.ndarray:
-    """(V, T) bool each cell's set: the union of its group's cells' sets."""
-    cells = len(group)
-    bits = np.unpackbits(patterns, axis=1, count=cells)  # (K, V)
+def merged_columns(cell_bits, ids, weight, root) -> tuple:
+    """(group (V,) int64 numbered by first cells, columns (T, ceil(G / 8)) uint8 each
+    triangle's groups (pvs_codec.encode_columns), sizes (G,) triangles in each group's set):
+    every cell of a group (root: its lowest cell, groups_after) takes the union of their sets.
+    cell_bits (V, ceil(K / 8)) uint8 each cell's patterns, packed; weight (K,) triangles per
+    pattern."""
+    firsts, group = np.unique(root, return_inverse=True)  # the lowest cells ascend
+    group = np.asarray(group, dtype=np.int64).ravel()
     order = np.argsort(group, kind="stable")
     starts = np.flatnonzero(np.r_[True, np.diff(group[order]) != 0])
-    union = np.maximum.reduceat(bits[:, order], starts, axis=1) if len(bits) else \
-        np.zeros((0, len(starts)), np.uint8)
-    column = np.searchsorted(group[order][starts], group)  # each cell's group's column
-    return union[:, column][np.asarray(ids, dtype=np.int64)].T.astype(bool)
+    union = np.bitwise_or.reduceat(cell_bits[order], starts, axis=0)
+    bits = np.unpackbits(union, axis=1, count=len(weight))  # (G, K)
+    columns = np.packbits(bits.T, axis=1)[np.asarray(ids, dtype=np.int64)]
+    return group, columns, bits @ weight
 
 
 def stored_size(extras) -> int:
@@ -168,8 +178,9 @@ def stored_size(extras) -> int:
 
 
 def fit(boxes, masks, budget_bytes, others=None, corners=None) -> tuple:
-    """(encoded extras, report): the sets coarsened by the fewest greedy merges (merge_order)
-    whose encoding, with the others extras beside it, takes at most budget_bytes (None: exact).
+    """(encoded extras, report): the sets coarsened by about the fewest greedy merges
+    (merge_order; within V / SLACK) whose encoding, with the others extras beside it, takes at
+    most budget_bytes (None: exact).
 
     boxes  : (V, 2, 3) float64 view cells; masks: V (T,) bool conservative sets
     corners: (T, 3, 3) float64 the triangles (a merge's cost counts only those facing the
@@ -196,32 +207,45 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None) -> tuple:
     from .pvs_codec import decode_all, _CACHE
 
     _, patterns, ids = decode_all(exact, masks.shape[1])
+    ids = np.asarray(ids, dtype=np.int64)
+    cell_bits = np.packbits(np.unpackbits(patterns, axis=1, count=cells).T, axis=1)
+    weight = np.bincount(ids, minlength=len(patterns)).astype(np.int64)
     merges, _ = merge_order(boxes, masks, corners)
     probes = {}
 
     def probe(count):
         if count not in probes:
-            extras = encode(boxes, merged_masks(patterns, ids, groups_after(cells, merges,
-                                                                             count)))
+            group, columns, _ = merged_columns(cell_bits, ids, weight,
+                                               groups_after(cells, merges, count))
+            extras = encode_columns(boxes, group, columns)
             probes[count] = (stored_size({**extras, **others}), extras)
         return probes[count]
 
-    low, high = 0, len(merges)  # low does not fit; find the fewest merges that fit
+    probes[0] = (before, exact)
+    low, high = 0, len(merges)  # low does not fit; find about the fewest merges that fit
     if probe(high)[0] > budget_bytes:
         count = high
     else:
-        while high - low > 1:
-            middle = (low + high) // 2
+        close = max(1, cells // SLACK)
+        for step in range(64):
+            if high - low <= close:
+                break
+            if step % 2 == 0:  # bytes fall about linearly with the merges: interpolate
+                over, under = probes[low][0] - budget_bytes, budget_bytes - probes[high][0]
+                middle = low + int(round((high - low) * over / max(over + under, 1e-9)))
+                middle = min(max(middle, low + 1), high - 1)
+            else:  # and halve, so that the bracket closes whatever the curve
+                middle = (low + high) // 2
             if probe(middle)[0] <= budget_bytes:
                 high = middle
             else:
                 low = middle
         count = high
     size, extras = probe(count)
-    sets = merged_masks(patterns, ids, groups_after(cells, merges, count))
+    group, _, sizes = merged_columns(cell_bits, ids, weight, groups_after(cells, merges, count))
     _CACHE.clear()
     report.update(after=size, groups=int(extras["pvs_shape"][9]), merges=int(count),
-                  mean_set_after=float(share @ sets.sum(axis=1)) / triangles,
+                  mean_set_after=float(share @ sizes[group]) / triangles,
                   met=size <= budget_bytes, seconds=time.perf_counter() - began)
     return extras, report
 

@@ -68,7 +68,15 @@ def encode(boxes, masks) -> dict:
     if len(masks) != cells:
         raise ValueError(f"expected {cells} cell masks")
     group, unique = column_groups(masks)
-    columns = _columns([masks[c] for c in unique], len(unique))
+    return encode_columns(boxes, group, _columns([masks[c] for c in unique], len(unique)))
+
+
+def encode_columns(boxes, group, columns) -> dict:
+    """encode's result from the column groups: group (V,) int64 each cell's, numbered in the
+    order of their first cells (0, then at most one more than any before), and columns
+    (T, ceil(G / 8)) uint8 each triangle's groups, packed (numpy.packbits order)."""
+    boxes = np.ascontiguousarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
+    cells, groups = len(boxes), int(group.max()) + 1
     triangles, width = columns.shape
     if triangles:
         rows = np.ascontiguousarray(columns).view(np.dtype((np.void, width))).ravel()
@@ -91,10 +99,9 @@ def encode(boxes, masks) -> dict:
                      refs.T.astype("<u4").tobytes(),
                      (np.diff(ids, prepend=0) % (1 << 8 * size)).astype(f"<u{size}").tobytes()])
     packed = lzma.compress(side, format=lzma.FORMAT_RAW, filters=SIDE_FILTERS)
-    bits = pvs_coder.encode_rows(patterns, len(unique), refs, _parents(boxes, group,
-                                                                       len(unique)))
+    bits = pvs_coder.encode_rows(patterns, groups, refs, _parents(boxes, group, groups))
     shape = [LAYOUT, cells, len(patterns), triangles, size, *(len(t) for t in tables),
-             len(packed), len(unique)]
+             len(packed), groups]
     return {"pvs_shape": np.array(shape, dtype=np.int64),
             "pvs_pack": np.concatenate([np.frombuffer(packed, np.uint8), bits])}
 
