@@ -108,3 +108,19 @@ def test_the_cli_refuses_a_bad_budget_in_one_line(tmp_path, capsys, text):
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1 and "budget=" in err
     assert not out.exists()
+
+
+def test_the_budget_counts_the_obj_given(tmp_path):
+    # a world read from an OBJ: that file's bytes, also after a repair; else to_obj's text
+    from vismobile.world.tjunctions import repair_tjunctions
+    from vismobile.world.world import World
+
+    world = town()
+    assert world.obj_bytes() == len(world.obj_text())
+    path = tmp_path / "town.obj"
+    world.to_obj(path)
+    text = path.read_text()
+    path.write_text("# a comment the loader skips\n" + text)
+    loaded = World.from_obj(path)
+    assert loaded.obj_bytes() == path.stat().st_size == len(text) + 29
+    assert repair_tjunctions(loaded)[0].obj_bytes() == path.stat().st_size

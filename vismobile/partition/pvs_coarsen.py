@@ -8,17 +8,18 @@ group's set once (pvs_codec.py: cells with one set share a column), so a merge r
 column of K pattern bits, and the patterns themselves get fewer (rows equal over the groups).
 
 The merges are greedy: at each step the two face-neighbouring groups whose union adds the
-fewest triangles, weighted by how likely an eye is in each (its volume; merge_order), merge.
-The budget fixes how many merges: about the fewest whose encoded PVS fits (within V / SLACK
-merges; found by interpolation and bisection in turn on the merge count, each probe a full
-encode, so the bytes are exact). Measured on the thesis
-worlds (docs/partition.md, "A size budget"), merging cells costs less sent per byte saved
-than setting rarely-differing bits (a majority of neighbours) and about the same as merging
-triangle patterns.
+fewest triangles facing them (one that faces away from a whole cell is culled with the back
+faces at run time), weighted by how likely an eye is in each (its share of the cells' volume;
+merge_order), merge. The budget fixes how many merges: about the fewest whose encoded PVS
+fits (within V / SLACK merges; found by interpolation and bisection in turn on the merge
+count, each probe an encode of the groups' columns, so the bytes are exact). Measured on the
+thesis worlds (docs/partition.md, "A size budget"), merging cells costs less sent per byte
+saved than setting rarely-differing bits (a majority of neighbours) and about the same as
+merging triangle patterns.
 
 The bytes counted are the PVS's sections as the .vmp stores them (store.stored_bytes of each
-stored extra), the OBJ's bytes those of the world's OBJ text (World.obj_bytes, the file
-build_world writes for a thesis world).
+stored extra) plus HEADER for their entries; the OBJ's bytes are World.obj_bytes (the file
+the world was read from, else what World.to_obj writes).
 """
 from __future__ import annotations
 
