@@ -4,7 +4,7 @@ kept, nothing dropped), measured on saved exact bakes (pvs_bytes.py's cache), co
 
     .venv/bin/python tools/pvs_budget.py [--worlds w5,w6] [--repair tjunctions]
                                          [--budgets 0.25] [--frames 80] [--cameras 300]
-                                         [--cache DIR] [--jobs 2]
+                                         [--cache DIR] [--jobs 2] [--power 1] [--uniform 0]
 
 Per world and budget: the PVS's bytes in the .vmp against the OBJ before and after, the view
 cells and how many sets they keep, the volume-weighted mean set, the coarsening's seconds
@@ -12,8 +12,9 @@ cells and how many sets they keep, the volume-weighted mean set, the coarsening'
 the triangles pvs+vfc+tbfc sends against vfc+tbfc with the exact and the coarsened sets; and
 dropped triangles of the coarsened sets (pvs+vfc against each mode's item buffer without
 back-face culling) on those frames and on --cameras random in-cell cameras, each in float64,
-float32 and fixed16.16 (pvs_sweep.py's cameras of each kind, and its check). Exit status 1
-if any was dropped.
+float32 and fixed16.16 (pvs_sweep.py's cameras of each kind, and its check). With --uniform
+N, also the sent ratio from N cameras drawn uniformly by volume in the cells (by_volume); with
+--power P, merges weigh the cells' volumes raised to P. Exit status 1 if any was dropped.
 """
 from __future__ import annotations
 
@@ -57,7 +58,23 @@ def sent(part, cameras) -> tuple:
             sum(len(base.cull(c).triangles) for c in cameras))
 
 
-def run(name, repair, budgets, frames, cameras, cache, jobs) -> int:
+def by_volume(part, count, seed) -> list:
+    """count cameras drawn uniformly by volume in the view cells (5-95% of each side), yaw
+    any, pitch +-10, fov 60: an eye anywhere in the cells alike."""
+    from vismobile.world.camera import Camera
+
+    rng = np.random.default_rng(seed)
+    boxes = part.extras["pvs_cells"]
+    volume = np.prod(boxes[:, 1] - boxes[:, 0], axis=1)
+    out = []
+    for c in rng.choice(len(boxes), count, p=volume / volume.sum()):
+        lo, hi = boxes[c]
+        out.append(Camera(lo + rng.uniform(0.05, 0.95, 3) * (hi - lo), yaw=rng.uniform(0, 360),
+                          pitch=rng.uniform(-10, 10), fov=60.0, aspect=PROFILE.aspect))
+    return out
+
+
+def run(name, repair, budgets, frames, cameras, cache, jobs, power=1.0, uniform=0) -> int:
     world, part = baked(name, repair, cache, jobs)
     triangles = world.triangle_count
     obj = os.path.getsize(ROOT / "worlds" / f"{name}.obj")
@@ -72,17 +89,21 @@ def run(name, repair, budgets, frames, cameras, cache, jobs) -> int:
     path = [traj.camera(int(f), PROFILE.aspect)
             for f in np.linspace(0, len(traj) - 1, frames).astype(int)]
     exact_sent, base_sent = sent(part, path)
+    spread = by_volume(part, uniform, 7)
+    exact_spread, base_spread = sent(part, spread)
     exact_bytes = pvs_bytes(part)
     label = name + (" (repaired)" if repair == "tjunctions" else "")
     dropped = 0
     for share in budgets:
         began = time.perf_counter()
-        extras, report = fit(boxes, masks, share * world.obj_bytes(), others, world.corners)
+        extras, report = fit(boxes, masks, share * world.obj_bytes(), others, world.corners,
+                             power)
         seconds = time.perf_counter() - began
         coarse = copy.copy(part)
         coarse.extras = {**part.extras, **extras}
         size = pvs_bytes(coarse)
         coarse_sent, _ = sent(coarse, path)
+        coarse_spread, _ = sent(coarse, spread)
         randoms = check(world, coarse, in_cell_cameras(coarse, cameras, 0, world))
         along = check(world, coarse, (("path", c) for c in path))
         dropped += randoms["dropped"] + along["dropped"]
@@ -92,7 +113,9 @@ def run(name, repair, budgets, frames, cameras, cache, jobs) -> int:
               f"{report['cells']} cells in {report['groups']} sets, mean set (by volume) "
               f"{report['mean_set_before']:.3f} -> {report['mean_set_after']:.3f}, coarsening "
               f"{seconds:.1f} s | path {frames} frames: pvs+vfc+tbfc / vfc+tbfc "
-              f"{exact_sent / base_sent:.3f}x -> {coarse_sent / base_sent:.3f}x | dropped: "
+              f"{exact_sent / base_sent:.3f}x -> {coarse_sent / base_sent:.3f}x"
+              + (f" | {uniform} cameras by volume: {exact_spread / base_spread:.3f}x -> "
+                 f"{coarse_spread / base_spread:.3f}x" if uniform else "") + " | dropped: "
               f"{cameras} in-cell cameras x 3 modes {randoms['dropped']} "
               f"({randoms['fallbacks']} of {randoms['checks']} fell back), path x 3 modes "
               f"{along['dropped']}", flush=True)
@@ -109,10 +132,15 @@ def main(argv=None) -> int:
     parser.add_argument("--cache", default=os.path.join(os.environ.get("TMPDIR", "/tmp"),
                                                         "vismobile-pvs-bytes"))
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--power", type=float, default=1.0,
+                        help="cells' volumes raised to it to weigh merges (pvs_coarsen.fit)")
+    parser.add_argument("--uniform", type=int, default=0,
+                        help="also sent from this many cameras drawn uniformly by volume")
     args = parser.parse_args(argv)
     budgets = [float(b) for b in args.budgets.split(",") if b]
     dropped = sum(run(w.strip(), args.repair, budgets, args.frames, args.cameras, args.cache,
-                      args.jobs) for w in args.worlds.split(",") if w.strip())
+                      args.jobs, args.power, args.uniform)
+                  for w in args.worlds.split(",") if w.strip())
     return 1 if dropped else 0
 
 

@@ -125,11 +125,11 @@ def facing(boxes, corners) -> np.ndarray:
                            for c in range(0, len(boxes), step)])
 
 
-def merge_order(boxes, masks, corners=None) -> tuple:
+def merge_order(boxes, masks, corners=None, power=1.0) -> tuple:
     """((M, 2) int64 merges, (M,) float64 added) of the view cells (boxes (V, 2, 3)) with the
     sets masks (V, T) bool: the greedy order, cheapest first (a merge's cost: the triangles
     each group gains that face it, by the corners (T, 3, 3); None: all, times the group's
-    share of the cells' volume)."""
+    share of the cells' volume, each cell's raised to `power`: how likely an eye is there)."""
     boxes = np.ascontiguousarray(boxes, dtype=np.float64)
     cells = len(boxes)
     masks = np.asarray(masks, dtype=bool).reshape(cells, -1)
@@ -138,6 +138,7 @@ def merge_order(boxes, masks, corners=None) -> tuple:
         else np.full_like(sets, np.uint64(0xFFFFFFFFFFFFFFFF))
     volume = np.prod(np.maximum(boxes[:, 1] - boxes[:, 0], 0.0), axis=1)
     chance = np.maximum(volume, 1e-12 * max(volume.max(initial=0.0), 1e-300))
+    chance = (chance / chance.max()) ** power
     chance = chance / chance.sum()
     near, _ = pvs_coder.neighbours(boxes, pvs_coder.CELL_WINDOW, NEIGHBOURS)
     v = np.repeat(np.arange(cells), near.shape[1])
@@ -178,7 +179,7 @@ def stored_size(extras) -> int:
     return HEADER + int(sum(stored_bytes(v) for k, v in extras.items() if k not in DERIVED))
 
 
-def fit(boxes, masks, budget_bytes, others=None, corners=None) -> tuple:
+def fit(boxes, masks, budget_bytes, others=None, corners=None, power=1.0) -> tuple:
     """(encoded extras, report): the sets coarsened by about the fewest greedy merges
     (merge_order; within V / SLACK) whose encoding, with the others extras beside it, takes at
     most budget_bytes (None: exact).
@@ -186,6 +187,8 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None) -> tuple:
     boxes  : (V, 2, 3) float64 view cells; masks: V (T,) bool conservative sets
     corners: (T, 3, 3) float64 the triangles (a merge's cost counts only those facing the
              cells, merge_order); None: every triangle counts
+    power  : the cells' volumes are raised to it to weigh merges (merge_order; 1: an eye
+             anywhere in the cells alike, docs/partition.md)
     report : dict(budget, before, after bytes; cells, groups; merges; mean_set before and
              after (volume-weighted share of the triangles); met (bool); seconds)
     """
@@ -211,7 +214,7 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None) -> tuple:
     ids = np.asarray(ids, dtype=np.int64)
     cell_bits = np.packbits(np.unpackbits(patterns, axis=1, count=cells).T, axis=1)
     weight = np.bincount(ids, minlength=len(patterns)).astype(np.int64)
-    merges, _ = merge_order(boxes, masks, corners)
+    merges, _ = merge_order(boxes, masks, corners, power)
     probes = {}
 
     def probe(count):
