@@ -9,8 +9,8 @@ import numpy as np
 from vismobile.culling import Culler
 from vismobile.culling import occlusion_tests
 from vismobile.culling.hiz import cull_nodes, frustum_cull_nodes
-from vismobile.culling.hiz.walks import NO_BUDGET
-from vismobile.culling.occlusion import ZBUFFER_MARGIN
+from vismobile.culling.hiz.walks import NO_BUDGET, walk_child_counts
+from vismobile.culling.occlusion import ZBUFFER_MARGIN, DepthBufferOcclusion
 from vismobile.partition import partition
 from vismobile.world.trajectory import Trajectory
 
@@ -107,3 +107,37 @@ def test_the_stage_refines_deferred_nodes_and_drops_nothing_visible(kit, monkeyp
     assert visited["one round", 8] == visited["one round", None]
     assert visited["two rounds", 8] != visited["two rounds", None]
     assert visited["screen", 8] != visited["screen", None]
+
+
+def test_small_subtrees_are_walked_whole_and_nothing_visible_is_dropped(kit, monkeypatch):
+    # walk_child_counts makes a subtree of at most whole_refs references a leaf for the walks:
+    # the stage visits fewer nodes, keeps such subtrees whole (their triangles go to the
+    # triangle tests) and still sends every triangle the item buffer shows.
+    world = kit.world("w2")
+    part = partition(world, "octree", depth=5)
+    traj = Trajectory.load(TRAJECTORY)
+    cullers = {}
+    for whole in (0, 32):
+        monkeypatch.setattr(DepthBufferOcclusion, "whole_refs", whole)
+        cullers[whole] = Culler(part, "vfc,occlusion,tbfc", occlusion={"screen": (240, 320)})
+    tree, stage = cullers[32].tree, cullers[32].stages[1]
+    refs = tree.ref_end - tree.ref_start
+    small = (refs <= 32) & (tree.child_count > 0)
+    assert small.any() and np.array_equal(cullers[0].stages[1].walk_children, tree.child_count)
+    assert np.array_equal(stage.walk_children, np.where(refs <= 32, 0, tree.child_count))
+    assert np.array_equal(walk_child_counts(tree.child_count, tree.ref_start, tree.ref_end, 0),
+                          tree.child_count)
+    visited = {whole: 0 for whole in cullers}
+    whole_kept = 0
+    for f in range(300, 340, 4):
+        camera = traj.camera(f, kit.ASPECT)
+        visible = kit.visible_ids(world, camera, True)
+        for whole, culler in cullers.items():
+            result = culler.cull(camera)
+            missing = np.setdiff1d(visible, result.triangles)
+            assert not len(missing), (f, whole, missing[:5])
+            visited[whole] += result.stats["nodes_visited"]
+            if whole:
+                whole_kept += int(small[result.nodes].sum())
+    assert visited[32] < 0.8 * visited[0], visited
+    assert whole_kept > 0

@@ -92,12 +92,12 @@ class OccluderChoice:
             if len(roots) + tree.node_count > len(self._later):
                 self._later = np.empty(len(roots) + tree.node_count, dtype=np.int64)
             found, visited, self.reach = gather_shell_candidates(
-                tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots,
+                tree.lo, tree.hi, tree.first_child, self.walk_children, tree.nonempty, roots,
                 planes, tree.tol, eye, self.detail, self.lists, history, skip, self.bits,
                 self._cands, self._stack, self._later, self.shell, limit, SHELL_GROWTH)
         else:
             found, visited = gather_candidates(tree.lo, tree.hi, tree.first_child,
-                                               tree.child_count, tree.nonempty, roots, planes,
+                                               self.walk_children, tree.nonempty, roots, planes,
                                                tree.tol, eye, self.detail, self.lists, history,
                                                skip, self.bits, self._cands, self._stack)
         state.count(f"{self.name}.candidates", found)

@@ -82,6 +82,7 @@ from .hiz import (DEPTH_SLACK, GUARD_PX, SAMPLE_HALF, SLACK_PX, build_tiles, ras
                   shift_table_size, stamp_near, tile_shifts)
 from .hiz.edges import buffer_length
 from .hiz.frame import FRAME_SLOTS, occluder_shift, occlusion_frame, sample_clip
+from .hiz.walks import WHOLE_REFS, walk_child_counts
 from .occluder_choice import GRAZING, SHELL_GROWTH, OccluderChoice
 from .occluder_mesh import world_tables
 from .occluder_rows import occluder_mesh_of
@@ -167,6 +168,8 @@ class DepthBufferOcclusion(BufferTests, OccluderChoice):
     # The usual frame (vfc deferred, in-memory World, shells) in one compiled call with the same
     # decisions (hiz.frame); False runs the Python path it mirrors (tests compare the two).
     compiled = True
+    # Subtrees of at most this many references are walked as one node (hiz.walks).
+    whole_refs = WHOLE_REFS
     arithmetic = "float64"  # the Culler sets its mode: the device-rounding margin follows it
 
     def __init__(self, width: int = 120, height: int = 160, tile=(8, 4), occluders: int = 256,
@@ -285,6 +288,9 @@ class DepthBufferOcclusion(BufferTests, OccluderChoice):
         self.parent[gather_ranges(np.arange(tree.node_count), tree.first_child[inner],
                                   tree.first_child[inner] + tree.child_count[inner])] = \
             np.repeat(inner, tree.child_count[inner])
+        # The walks' child counts: small subtrees taken whole (hiz.walks.walk_child_counts).
+        self.walk_children = walk_child_counts(tree.child_count, tree.ref_start, tree.ref_end,
+                                               self.whole_refs)
         self.draw_mark = np.full(tree.node_count, -1, dtype=np.int64)
         self.up_mark = np.full(tree.node_count, -1, dtype=np.int64)
         self._out = np.empty(tree.node_count + 64, dtype=np.int64)
@@ -494,7 +500,7 @@ class DepthBufferOcclusion(BufferTests, OccluderChoice):
         margin, recede = ZBUFFER_MARGIN / camera.near, np.sqrt(3.0) * move
         delta = DEVICE_RELATIVE * max(self.magnitude, *map(abs, eye)) + DEVICE_ABSOLUTE
         arguments = (
-            tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,
+            tree.lo, tree.hi, tree.first_child, self.walk_children, tree.nonempty, self.parent,
             tree.tol, self.vertices, self.triangles_, self.normals, self.v0, self.centroids,
             self.radius, self.areas, self.groups, self.tri_points, self.points, self.offsets,
             self.piece_start, self.piece_end, self.piece_a, self.piece_b, self.partner,

@@ -156,7 +156,7 @@ def chain_tables(stage, tbfc) -> tuple:
     groups, bitmap = tree.groups, tree._bitmap
     absolute = device_move(tbfc.arithmetic, 0.0) if tbfc.absolute is None else tbfc.absolute
     tables = _pack((
-        tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, stage.parent,
+        tree.lo, tree.hi, tree.first_child, stage.walk_children, tree.nonempty, stage.parent,
         float(tree.tol), stage.vertices, stage.triangles_, stage.normals, stage.v0,
         stage.centroids, stage.radius, stage.areas, stage.groups, stage.tri_points,
         stage.points, stage.offsets, stage.piece_start, stage.piece_end, stage.piece_a,

@@ -59,7 +59,7 @@ class BufferTests:
         if fused:
             budget = WALK_BUDGET if self.rounds > 1 else NO_BUDGET
             kept, visited, tests, outside, culled, tested, deferred = frustum_cull_nodes(
-                tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, roots,
+                tree.lo, tree.hi, tree.first_child, self.walk_children, tree.nonempty, roots,
                 np.ascontiguousarray(state.planes, dtype=np.float64), tree.tol, eye, rotation,
                 camera.near, tx, ty, self.width, self.height, move, self.shift(camera, move),
                 margin, recede, self.depth, self.tile_max, self.tile_any, self.tile_shift,
@@ -75,7 +75,7 @@ class BufferTests:
             return deferred
         self._frame += 1
         kept, visited, culled = cull_nodes(
-            tree.lo, tree.hi, tree.first_child, tree.child_count, tree.nonempty, self.parent,
+            tree.lo, tree.hi, tree.first_child, self.walk_children, tree.nonempty, self.parent,
             roots, self.draw_mark, self.up_mark, self._frame, eye, rotation, camera.near, tx, ty,
             self.width, self.height, move, self.shift(camera, move), margin, recede, self.depth,
             self.tile_max, self.tile_any, self.tile_shift, *self.tile, self._out, self._stack,
