@@ -24,8 +24,10 @@ Each frame:
    ancestors of the frame's nodes, so hidden regions go at a coarse level: hidden when the
    box's nearest depth is beyond the largest depth over its screen rectangle (plus the 24-bit
    depth buffer's resolution there), or the rectangle is off screen with the box in front.
-   Visible inner nodes touching covered tiles are expanded (with `rounds` > 1 the fused walk
-   stops expanding after hiz.frame.WALK_BUDGET nodes; the nodes it kept unexpanded are
+   Visible inner nodes touching covered tiles are expanded, except subtrees of at most
+   `whole_refs` triangle references, kept whole for the triangle test (hiz.walks.
+   walk_child_counts). With `rounds` > 1 the fused walk stops expanding after
+   hiz.frame.WALK_BUDGET nodes (the nodes it kept unexpanded are
    refined after the rounds, never dropped untested). With `rounds` > 1, the surviving
    nodes (what is seen through doors and windows) offer occluders again, they are added to the
    buffer and the nodes are tested again.
