@@ -84,7 +84,7 @@ def run(name, count, samples):
         row = []
         for g in models.values():
             s = index_of(g["cell_bounds"], boxes[c])
-            (runs, _, _), = pvs.bake_cells(world, g, [s], grow, tol)
+            (runs, _, _, _), = pvs.bake_cells(world, g, [s], grow, tol)
             row.append(len(pvs.ids_of(runs)) / world.triangle_count)
         row.append(sampled_share(world, boxes[c, 0], boxes[c, 1], samples, rng))
         rows.append(row)

@@ -45,10 +45,12 @@ SLABS = ((4 / 20.2, 4 / 20.2, 4 / 20.2, 4 / 20.2, 4.2 / 20.2), 1, 1)
 
 
 def in_face_plane(part, cam) -> bool:
-    """Whether the eye lies in the plane of a view cell's face, where the stage falls back
-    (culling/pvs.py on_face): a wall there is edge-on."""
+    """Whether the stage falls back for this eye as lying in the plane of a view cell's face
+    (culling/pvs.py on_face: a wall there is edge-on): only when the bake did not walk the
+    lines in those planes (no pvs_plane, partition/pvs_planes.py)."""
     cells = part.extras["pvs_cells"]
-    return on_face([np.unique(cells[:, :, a]) for a in range(3)], cam.position, 1e-6)
+    return "pvs_plane" not in part.extras and \
+        on_face([np.unique(cells[:, :, a]) for a in range(3)], cam.position, 1e-6)
 
 
 def in_cell_cameras(part, count, seed):

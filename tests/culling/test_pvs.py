@@ -7,7 +7,9 @@ import pytest
 from vismobile.culling import Culler
 from vismobile.device.profile import get_profile
 from vismobile.partition import load_partition, partition
+from vismobile.partition.pvs import bake
 from vismobile.partition.pvs_codec import cell_mask, decode
+from vismobile.partition.pvs_planes import face_sets
 from vismobile.render import SENTINEL, item_buffer
 from vismobile.world.camera import Camera
 
@@ -33,33 +35,42 @@ def cell_of(part, point):
     return int(inside[0])
 
 
+def wall_planes(world, ids):
+    """Sorted x of the walls (x-facing triangles) among ids."""
+    walls = ids[np.abs(world.normals[ids, 0]) > 0.9]
+    return np.unique(np.round(world.centroids[walls, 0], 3))
+
+
 def test_first_room_does_not_see_the_fourth(zigzag):
-    x = zigzag.extras
     world = zigzag.world
     c = cell_of(zigzag, np.array([2.0, 1.5, 2.0]))
-    ids = cell_ids(x, c, world.triangle_count)
-    walls = ids[np.abs(world.normals[ids, 0]) > 0.9]
-    seen = np.unique(np.round(world.centroids[walls, 0], 3))
+    seen = wall_planes(world, cell_ids(zigzag.extras, c, world.triangle_count))
     assert seen.max() <= 12.2 and 12.0 in seen  # walls at 16 and beyond (rooms 4, 5) hidden
 
 
-def test_thick_walls_get_cells_of_their_own(zigzag):
-    # both faces of every hollow wall bound the view cells (pvs_cells.paired_edges)
-    xs = np.unique(zigzag.extras["pvs_cells"][:, :, 0])
-    for k in range(1, 5):
-        assert np.isclose(xs, 4.0 * k).any() and np.isclose(xs, 4.0 * k + 0.2).any()
-
-
-def test_any_structure_takes_a_pvs(zigzag):
-    for spec in ("octree:2", "bsp", "grid:2"):
-        part = partition(zigzag.world, spec, pvs="conservative")
-        if spec != "bsp":  # the BSP tree's leaves are its view cells (test_pvs_leaves.py)
-            assert np.array_equal(part.extras["pvs_pack"], zigzag.extras["pvs_pack"])
-        culler = Culler(part, "pvs,vfc")
-        cam = Camera((2.0, 1.5, 2.0), yaw=-90.0, aspect=4 / 3)
-        truth = np.unique(item_buffer(zigzag.world, None, cam, get_profile("desktop")))
-        truth = truth[truth != SENTINEL]
-        assert not len(np.setdiff1d(truth, culler.cull(cam).triangles))
+def test_lines_in_the_floor_plane_pass_under_every_wall(zigzag):
+    # an eye in the floor's plane y = 0 sees the floor edge-on, and a line lying in it meets
+    # each wall's bottom edge with nothing below the floor: the fill rule may leave the pixel
+    # open, so such lines pass under every wall (partition/pvs_planes.py). They reach the far
+    # walls' bottom rows, which the doorways hide: the room's face set holds them (the stage
+    # adds it for eyes in a face plane walked), its set does not
+    world, x = zigzag.world, zigzag.extras
+    c = cell_of(zigzag, np.array([2.0, 1.5, 2.0]))
+    face = cell_ids(face_sets(x), c, world.triangle_count)
+    far = np.flatnonzero((world.bounds[:, 0, 0] >= 16.0) & (world.bounds[:, 0, 1] == 0.0)
+                         & (np.abs(world.normals[:, 0]) > 0.9))
+    assert len(far) and np.isin(far, face).all()
+    assert not np.isin(far, cell_ids(x, c, world.triangle_count)).any()
+    # the face set holds only what touches the slab of a plane walked near the room
+    lo, hi = x["pvs_cells"][c]
+    reach = 2.0 * float(x["pvs_plane"][0])
+    touch = np.zeros(len(face), dtype=bool)
+    for a, v in x["pvs_face_planes"]:
+        a = int(a)
+        if lo[a] - reach <= v <= hi[a] + reach:
+            touch |= ((world.bounds[face, 0, a] <= v + reach)
+                      & (world.bounds[face, 1, a] >= v - reach))
+    assert touch.all()
 
 
 @pytest.mark.parametrize("mode", MODES)
@@ -81,6 +92,26 @@ def test_w1_pvs_keeps_what_cameras_in_the_cells_see(kit):
         assert not len(missing), f"dropped {missing}: {cam}"
         sent, visible = sent + len(result.triangles), visible + len(shown)
     assert sent >= visible
+
+
+def test_an_eye_in_face_planes_keeps_what_lines_lying_in_them_show(kit, zigzag):
+    # the eye in the world's corner lies in three cell faces' planes, the floor's among them;
+    # what its item buffer shows, lines lying in those planes reach past walls they take edge
+    # on: the sets hold it, and the stage uses them (pvs_plane). The bake without those walks
+    # (as before partition/pvs_planes.py) lacks it in every cell the eye touches.
+    cam = Camera((0.0, 0.0, 0.0), yaw=239.59496060307262, pitch=-25.818476035701813,
+                 fov=66.66237728272296, near=0.1, aspect=4 / 3)
+    shown = kit.visible_ids(zigzag.world, cam, False)
+    result = Culler(zigzag, "pvs,vfc", arithmetic="float64").cull(cam)
+    assert "pvs.fallbacks" not in result.stats
+    assert not len(np.setdiff1d(shown, result.triangles))
+    part = partition(zigzag.world, "portal", depth=1, slabs=SLABS)
+    extras, _ = bake(part, planes=False)
+    boxes, world = extras["pvs_cells"], zigzag.world
+    touching = np.flatnonzero(((boxes[:, 0] <= 1e-9) & (boxes[:, 1] >= -1e-9)).all(axis=1))
+    held = np.unique(np.concatenate([cell_ids(extras, c, world.triangle_count)
+                                     for c in touching]))
+    assert len(np.setdiff1d(shown, held))
 
 
 def test_vmp_keeps_the_pvs_and_refuses_a_corrupt_one(zigzag, tmp_path):
@@ -124,6 +155,17 @@ def test_vmp_keeps_the_pvs_and_refuses_a_corrupt_one(zigzag, tmp_path):
         check_pvs({**x, "pvs_shape": np.array([3, triangles, 1])}, triangles)
     with pytest.raises(ValueError, match="older layout"):
         check_pvs({"pvs_runs": np.zeros(2, np.int32)}, triangles)
+    # the face sets (partition/pvs_planes.py): kept, and refused when inconsistent
+    for name in ("pvs_plane", "pvs_face_planes", "pvs_face_shape", "pvs_face_pack"):
+        assert np.array_equal(loaded.extras[name], zigzag.extras[name])
+        with pytest.raises(ValueError, match="go together"):
+            check_pvs({k: v for k, v in x.items() if k != name}, triangles)
+    with pytest.raises(ValueError, match="pvs_face_planes must be"):
+        check_pvs({**x, "pvs_face_planes": np.array([[3.0, 1.0]])}, triangles)
+    with pytest.raises(ValueError, match="pvs_plane must be"):
+        check_pvs({**x, "pvs_plane": np.array([-1.0])}, triangles)
+    with pytest.raises(ValueError, match="pattern stream"):
+        check_pvs({**x, "pvs_face_pack": x["pvs_face_pack"][:-3]}, triangles)
 
 
 def test_back_faces_go_back_in_without_a_backface_stage(zigzag):

@@ -16,7 +16,8 @@ put the inside of every solid near a cell in its set (partition/pvs.py).
 Hands on everything when the cells see the whole world (`pvs.everything`); falls back (hands
 on everything, counted in `pvs.fallbacks`) when the partition holds no PVS, the eye is in no
 view cell, its near plane is within the device's move, or the device's reach exceeds the
-bake's growth; and with street-level cells (partition/pvs_street.py, `pvs_cover`: they cover
+bake's growth, or (a bake without pvs_plane) the eye lies in a cell face's plane (on_face);
+and with street-level cells (partition/pvs_street.py, `pvs_cover`: they cover
 only where a camera walks), when the near plane is nearer than the bake assumed or reaches
 farther from the eye than it assumed, or may leave the cells (an eye near the top of the
 layer, above it, or by a building's inside: `covered`).
@@ -49,6 +50,7 @@ import numpy as np
 from ..partition.pvs import back_delta, ids_of
 from ..partition.pvs_back import region_backfacing, triangle_terms
 from ..partition.pvs_codec import cell_mask, decode
+from ..partition.pvs_planes import face_sets
 from .doors import closed_doors, shut
 from .precision import device_move, world_scale
 from .pvs_frame import TABLE_FIELDS, keep_bits, locate_walk_gather, pack_tables
@@ -82,7 +84,7 @@ class PVSStage:
             raise ValueError(f"pvs fuse must be True or False, got {fuse!r}")
         self.fuse = bool(fuse)
         self.walker = None
-        self.last = None  # the fused path's (drop_back, cells, entry) of the frame before
+        self.last = None  # the fused path's ((drop_back, face), cells, entry) of the frame before
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -99,9 +101,20 @@ class PVSStage:
         if not self.available:
             return
         self.cells = np.ascontiguousarray(extras["pvs_cells"], dtype=np.float64)
-        # portal-walk cells: the coordinates of their faces, per axis (on_face)
+        # portal-walk cells: the coordinates of their faces, per axis (on_face), unless the
+        # bake walked the lines in the grid's face planes (pvs_planes.py) for eyes within
+        # pvs_plane: an eye that near one of the planes walked takes the cells' face sets too
         self.faces = None if "pvs_cover" in extras else \
             [np.unique(self.cells[:, :, a]) for a in range(3)]
+        self.plane = self.face_planes = self.face_patterns = None
+        if "pvs_plane" in extras:
+            self.plane = float(np.asarray(extras["pvs_plane"])[0])
+            rows = np.asarray(extras["pvs_face_planes"], dtype=np.float64).reshape(-1, 2)
+            self.face_planes = [np.sort(rows[rows[:, 0] == a, 1]) for a in range(3)]
+            sets = face_sets(extras)
+            if sets is not None:
+                self.face_patterns, self.face_ids = decode(sets, len(self.cells),
+                                                           tree.world.triangle_count)
         self.index = cell_index(self.cells)  # x-z buckets: a frame tests the cells near the eye
         self.tested = 0
         # inflated once, here (the load checked it): K pattern bitsets, a pattern per triangle
@@ -158,19 +171,21 @@ class PVSStage:
                                   self.tree.tol + grow)
         return found
 
-    def visible(self, cells, drop_back=True, doors=()) -> tuple:
+    def visible(self, cells, drop_back=True, doors=(), face=False) -> tuple:
         """(keep (T,) bool, draw nodes (D,) int64, everything: bool) of the union of the
         cells' sets, cached; with drop_back (and a pvs_back) each cell's set loses the
         triangles facing away from the whole cell grown by pvs_back (partition/pvs_back.py);
-        and what each door of `doors` (shut) hides from it (door sets)."""
-        return self.entry(cells, drop_back, doors)[:3]
+        and what each door of `doors` (shut) hides from it (door sets); with face, each cell's
+        face set joins it (what lines lying in a face's plane add: pvs_planes.py)."""
+        return self.entry(cells, drop_back, doors, face)[:3]
 
-    def entry(self, cells, drop_back=True, doors=()) -> tuple:
+    def entry(self, cells, drop_back=True, doors=(), face=False) -> tuple:
         """visible's three, plus what the fused walk reads (pvs_frame.walk_gather): allow (N,)
         bool, the nodes whose subtree holds a kept triangle, and the kept bits (T // 64 + 1,)
         uint64; cached together (KEEP combinations)."""
         drop = self.back is not None and drop_back
-        key = (np.asarray(cells, dtype=np.int64).tobytes(), drop, tuple(doors))
+        face = bool(face) and self.face_patterns is not None
+        key = (np.asarray(cells, dtype=np.int64).tobytes(), drop, tuple(doors), face)
         hit = self.cache.get(key)
         if hit is not None:
             return hit
@@ -181,6 +196,9 @@ class PVSStage:
         for c in cells:
             mask = cell_mask(self.patterns, self.ids, int(c))
             self.decoded += len(self.ids)
+            if face:
+                mask |= cell_mask(self.face_patterns, self.face_ids, int(c))
+                self.decoded += len(self.face_ids)
             if drop:
                 if self.terms is None:
                     self.terms = triangle_terms(tree.world.corners)
@@ -211,7 +229,8 @@ class PVSStage:
         found, span = found
         drop_back = self.back_culled and self.back is not None and span <= self.back
         doors = self.shut_doors(camera, self.reach(camera), near_reach(camera))
-        keep, nodes, everything, allow, bits = self.entry(found, drop_back, doors)
+        face = self.in_face(camera, self.reach(camera))
+        keep, nodes, everything, allow, bits = self.entry(found, drop_back, doors, face)
         state.count(f"{self.name}.cells", len(found))
         if doors:
             state.count(f"{self.name}.doors_shut", len(doors))
@@ -245,9 +264,10 @@ class PVSStage:
             return
         pad = self.tree.tol + reaches[0] + reaches[1]
         drop = self.back_culled and self.back is not None and pad <= self.back
+        face = self.in_face(camera, reaches[0])
         last = self.last
         self.decoded = 0
-        if last is not None and last[0] == drop:
+        if last is not None and last[0] == (drop, face):
             found = self.frame(state, pad, last[1], last[2])
         else:
             found = self.frame(state, pad, _NONE, None)
@@ -256,8 +276,8 @@ class PVSStage:
                 state.count("pvs.fallbacks", 1)
                 self.walker.walk(state)
                 return
-            entry = self.entry(found, drop, ())
-            self.last = (drop, found, entry)
+            entry = self.entry(found, drop, (), face)
+            self.last = ((drop, face), found, entry)
             self.frame(state, pad, found, entry)
 
     def frame(self, state: CullState, pad: float, expect, entry):
@@ -306,10 +326,21 @@ class PVSStage:
         cells) a near plane their depth slack does not cover, or (portal-walk cells) an eye in
         the plane of a cell face (on_face)."""
         found = self.camera_reaches(camera)
-        if found is not None and self.faces is not None and \
-                on_face(self.faces, camera.position, FACE_REACH * found[0] + self.tree.tol):
+        if found is None or self.faces is None:
+            return found
+        near = FACE_REACH * found[0] + self.tree.tol
+        if (self.plane is None or near > self.plane) and \
+                on_face(self.faces, camera.position, near):
             return None
         return found
+
+    def in_face(self, camera, grow: float) -> bool:
+        """Whether the cells' face sets join this frame's: the eye within FACE_REACH x the
+        device's reach (plus the tree's slack) of a face plane the bake walked (pvs_plane;
+        reaches fell back before, when that exceeds pvs_plane). The sets hold what lines lying
+        in those planes add (pvs_planes.py), which only such an eye's lines can be."""
+        return self.face_patterns is not None and on_face(
+            self.face_planes, camera.position, FACE_REACH * grow + self.tree.tol)
 
     def camera_reaches(self, camera):
         """reaches without the face test."""

@@ -12,6 +12,8 @@ conservative). The result is stored with the partition as extras, so it travels 
     pvs_grow   (1,)      float64  how far eyes and portals were grown (device rounding)
     pvs_back   (1,)      float64  the stage may leave out what faces away from the whole cell
                                   grown by this much (pvs_back.py), when back faces are culled
+    pvs_plane  (1,)      float64  optional: the sets hold what lines lying in a view grid face's
+                                  plane see from eyes within this much of it (pvs_planes.py)
     pvs_door_boxes (D, 2, 3) float64, pvs_door_start (V D + 1,) int64, pvs_door_runs (R,)
                                   int32: optional (bake(doors=...)), per (cell, door) the
                                   runs of what the door shut hides from the cell (door_sets)
@@ -28,7 +30,9 @@ cell's set (the stage leaves out what faces away from every eye in the cell grow
 only when back faces are culled: pvs_back.py's bound), provided the portals cover every
 opening (portal.py) and the rasteriser's cracks lie within pvs_cracks.py's width of the
 edges two triangles do not share by both corners (T-junctions, creases, borders: each is a
-crack portal the walk passes, any number per line). Errs toward visible: separating planes
+crack portal the walk passes, any number per line), and lines lying within pvs_plane of a view
+grid face's plane pass every edge there with no triangles on both sides of the plane (a wall in
+the plane is edge-on: pvs_planes.py, walked per source cell and plane). Errs toward visible: separating planes
 only remove lines that cannot exist, a triangle facing out of the cell it is marked from is
 left to the cells in front of it when every source point is in front of it
 (pvs_kernels._behind_cell), sides within the tolerance count, and a source whose walk
@@ -43,6 +47,7 @@ import numpy as np
 
 from . import pvs_cracks, pvs_kernels
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
+from .pvs_planes import SLAB, face_extras, source_slabs
 
 MODES = ("conservative",)
 EXECUTOR_CHUNKS = 32  # source-cell chunks handed to a given executor (a progress step each)
@@ -120,46 +125,71 @@ def ids_of(runs) -> np.ndarray:
 
 
 def bake_cells(world, g, sources, grow, tol, budget=BUDGET, door_portals=()):
-    """[(runs (2R,) int64, walks or -1, hidden {door: runs (2H,) int64})] for the given source
-    cells of the view grid g (pvs_cells.view_grid). hidden[d]: what the source's walk reaches
-    with every portal open but not with door d's portals (door_portals[d], (k,) int64 ids)
-    blocked; only doors with a portal the open walk crossed are walked again."""
+    """[(runs (2R,) int64, walks or -1, hidden {door: runs (2H,) int64}, face runs (2F,)
+    int64)] for the given source cells of the view grid g (pvs_cells.view_grid). hidden[d]:
+    what the source's walk reaches with every portal open but not with door d's portals
+    (door_portals[d], (k,) int64 ids) blocked; only doors with a portal the open walk crossed
+    are walked again. face: what only the lines lying in a face's plane reach (pvs_planes.py,
+    the walks in its slab; none when the walk overflowed: every connected cell is whole)."""
     cells = len(g["cell_bounds"])
     quads = np.asarray(g["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3)
     pcells, cps, cp = g["portal_cells"], g["cell_portal_start"], g["cell_portals"]
     bounds, start, tris = g["cell_bounds"], g["cell_start"], g["cell_tris"]
     corners = world.corners
     crack = np.zeros(len(pcells), dtype=np.bool_)
-    crack[len(pcells) - int(g.get("cracks", 0)):] = True  # pvs_cracks appends them last
+    planes = int(g.get("planes", 0))  # pvs_planes appends them after the cracks
+    crack[len(pcells) - int(g.get("cracks", 0)) - planes:] = True  # pvs_cracks: last
+    in_plane = np.zeros(len(pcells), dtype=np.bool_)
+    in_plane[len(pcells) - planes:] = True  # walked only in their plane's slab
+    plane_of = np.full(len(pcells), -1, dtype=np.int64)
+    plane_of[len(pcells) - planes:] = g.get("plane_of", np.zeros(0, np.int64))
+    plane_cells = {int(p): np.unique(pcells[plane_of == p])
+                   for p in np.unique(plane_of[plane_of >= 0])}
     slope = pvs_cracks.CRACK_SLOPE
     out = []
 
     def walk(s, blocked):
+        """The source's walk with the plane portals shut, then one per face plane it meets
+        with that plane's open, over the lines in its slab (pvs_planes.py): skipped when the
+        first walk reached no cell of that plane's portals (a line in the slab is a line from
+        the source until it passes one)."""
         visible = np.zeros(world.triangle_count, dtype=np.bool_)
         crossed = np.zeros(len(pcells), dtype=np.bool_)
-        steps = pvs_kernels.flow_from_cell(int(s), bounds[s, 0], bounds[s, 1], bounds, pcells,
-                                           quads, cps, cp, start[:-1], start[1:], tris, corners,
-                                           grow, tol, budget, visible,
-                                           np.zeros(cells, dtype=np.bool_), crack, slope,
-                                           blocked, crossed)
-        return visible, crossed, int(steps)
+        seen = np.zeros(cells, dtype=np.bool_)
+        args = (bounds, pcells, quads, cps, cp, start[:-1], start[1:], tris, corners, grow,
+                tol, budget)
+        steps = pvs_kernels.flow_from_cell(int(s), bounds[s, 0], bounds[s, 1], *args, visible,
+                                           seen, crack, slope, blocked | in_plane, crossed)
+        reached = seen.copy()
+        more_visible = visible.copy()  # and what the lines in a face's plane add
+        for p, slab, lo, hi in source_slabs(g, bounds[s, 0], bounds[s, 1], grow):
+            if steps < 0:
+                break
+            if not reached[plane_cells[p]].any():
+                continue
+            more = pvs_kernels.flow_in_slab(int(s), lo, hi, *args, more_visible, seen, crack,
+                                            slope, blocked | (in_plane & (plane_of != p)),
+                                            crossed, slab)
+            steps = -1 if more < 0 else steps + more
+        return visible, crossed, int(steps), more_visible & ~visible
 
     none = np.zeros(len(pcells), dtype=np.bool_)
     for s in sources:
-        visible, crossed, steps = walk(s, none)
+        visible, crossed, steps, face = walk(s, none)
         if steps < 0:  # too many walks: every connected cell, whole
             for c in np.flatnonzero(_connected(int(s), pcells, cps, cp, cells)):
                 visible[tris[start[c]:start[c + 1]]] = True
+            face[:] = False
         hidden = {}
         for d, ports in enumerate(door_portals):
             if steps < 0 or not crossed[ports].any():  # no line from the source crosses it
                 continue
             blocked = none.copy()
             blocked[ports] = True
-            shut, _, shut_steps = walk(s, blocked)
+            shut, _, shut_steps, _ = walk(s, blocked)
             if shut_steps >= 0 and (visible & ~shut).any():
                 hidden[d] = visible & ~shut
-        out.append((runs_of(visible), steps, hidden))
+        out.append((runs_of(visible), steps, hidden, runs_of(face)))
     return out
 
 
@@ -188,7 +218,7 @@ def with_solids(world, boxes, masks, grow) -> list:
 
 
 def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
-         cells=None, executor=None, doors=None) -> tuple:
+         cells=None, executor=None, doors=None, planes=True) -> tuple:
     """The PVS extras (module docstring) of a partition of any kind, and bake statistics.
 
     The view cells are a portal grid of the PVS's own (pvs_cells.view_grid: about `cells`
@@ -204,6 +234,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
                Dask Client: world and view grid scattered to its workers once)
     doors    : optional (D, 2, 3) closed boxes of doors (world/doors.py): per view cell and
                door, what the door shut hides from the cell (door_sets; not for a BSP)
+    planes   : False: no walks of the lines lying in a face's plane (pvs_planes.py; a
+               diagnostic: the stage then falls back for eyes in those planes, no pvs_plane)
     partition.params["fly"] "on": fly-over cells over an outdoor world's street cells
                (pvs_fly.py; ValueError when the world gets no street cells)
     partition.params["budget"]: a share of the OBJ's bytes the PVS may take; the sets are
@@ -248,7 +280,7 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     # which stay crack portals: without them W1's sealed bake dropped 1 of 2,000 cameras
     # (docs/partition.md, "T-junctions repaired")
     sealed = getattr(world, "repair", None) == "tjunctions"
-    g = view_grid(world, cells, grow=grow, split=sealed)
+    g = view_grid(world, cells, grow=grow, split=sealed, planes=planes)
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
     count = len(g["cell_bounds"])
     sources = np.arange(count)
@@ -279,26 +311,30 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
             results.extend(bake_cells(world, g, [s], grow, tol, budget, door_portals))
             if progress is not None:
                 progress(len(results), count)
-    masks = []
-    for r, _, _ in results:
-        mask = np.zeros(world.triangle_count, dtype=bool)
-        mask[ids_of(r)] = True
-        masks.append(mask)
+    masks, faces = [], []
+    for r, _, _, f in results:
+        for runs, out in ((r, masks), (f, faces)):
+            mask = np.zeros(world.triangle_count, dtype=bool)
+            mask[ids_of(runs)] = True
+            out.append(mask)
     masks, boxes = with_solids(world, g["cell_bounds"], masks, grow), g["cell_bounds"]
     door_extras = {} if doors is None else door_sets(results, masks, doors)
     if partition.kind == "bsp":  # the BSP tree's leaves are the view cells (pvs_leaves.py)
         from .pvs_leaves import leaf_sets
 
+        _, faces = leaf_sets(partition, boxes, faces, tol)
         boxes, masks = leaf_sets(partition, boxes, masks, tol)
     boxes = np.asarray(boxes, dtype=np.float64).copy()
     extras = {"pvs_grow": np.array([grow], dtype=np.float64),
               "pvs_back": np.array([back_reach(world)], dtype=np.float64), **door_extras}
     sets, report = stored_sets(partition, boxes, masks, extras)
     extras = {"pvs_cells": boxes, **sets, **extras}
+    if planes:
+        extras.update(face_extras(g, boxes, faces, SLAB * grow))
     stats = {"budget": report, "seconds": time.perf_counter() - began, "cells": len(boxes),
-             "overflowed": int(sum(s < 0 for _, s, _ in results)),
-             "walks": int(sum(max(s, 0) for _, s, _ in results)),
-             "door_sets": int(sum(len(h) for _, _, h in results))}
+             "overflowed": int(sum(r[1] < 0 for r in results)),
+             "walks": int(sum(max(r[1], 0) for r in results)),
+             "door_sets": int(sum(len(r[2]) for r in results))}
     return extras, stats
 
 
@@ -334,7 +370,7 @@ def door_sets(results, masks, doors) -> dict:
     besides its walk (with_solids: the insides of solids near it)."""
     doors = np.asarray(doors, dtype=np.float64).reshape(-1, 2, 3)
     runs = []
-    for (r, _, hidden), mask in zip(results, masks):
+    for (r, _, hidden, _), mask in zip(results, masks):
         walked = np.zeros(len(mask), dtype=bool)
         walked[ids_of(r)] = True
         extra = mask & ~walked  # the solids' insides the cell keeps whatever the doors do

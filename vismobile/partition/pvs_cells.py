@@ -23,6 +23,7 @@ import numpy as np
 from . import grid, portal
 from .portal_edges import WALL_SHARE, _plane_areas, thin_walls
 from .pvs_cracks import crack_reach, with_cracks
+from .pvs_planes import with_plane_cracks
 from .pvs_refine import refine
 
 # A second face is looked for this far (a fraction of the world's extent along the axis).
@@ -132,7 +133,8 @@ def paired_edges(world, cells) -> list:
     return edges
 
 
-def view_grid(world, cells=None, thickness=None, split=False, grow=0.0, cracks=True) -> dict:
+def view_grid(world, cells=None, thickness=None, split=False, grow=0.0, cracks=True,
+              planes=False) -> dict:
     """The PVS's own cells and portals: {'edges', 'cell_bounds' (C, 2, 3), 'cell_start'
     (C + 1,) int64 and 'cell_tris' (R,) int64 (CSR cell -> triangles within thickness),
     'portal_cells', 'portal_start', 'portal_vertices' (portal.find_portals), 'cell_portal_start'
@@ -140,7 +142,9 @@ def view_grid(world, cells=None, thickness=None, split=False, grow=0.0, cracks=T
     rasteriser's cracks (pvs_cracks.with_cracks, reach from `grow`, the bake's growth)}; with
     split, thin cells are split at the walls inside them (pvs_refine.refine: the cells no
     longer form a grid, 'parent' names each one's grid cell); without cracks (a diagnostic,
-    tools/pvs_slack.py: not conservative) no crack portals."""
+    tools/pvs_slack.py: not conservative) no crack portals; with planes, the portals of edges a
+    line lying in a face's plane passes appended after them (pvs_planes.with_plane_cracks:
+    'planes', 'plane_of', 'plane_table')."""
     target = int(np.clip(round(np.sqrt(world.triangle_count) / 2), 8, 256)) if cells is None \
         else int(cells)
     edges = paired_edges(world, target)
@@ -161,4 +165,6 @@ def view_grid(world, cells=None, thickness=None, split=False, grow=0.0, cracks=T
          "cell_portal_start": cps, "cell_portals": ids[order].astype(np.int64)}
     if split:
         g = refine(world, g, thickness)
-    return with_cracks(world, g, thickness, crack_reach(world, grow)) if cracks else g
+    if cracks:
+        g = with_cracks(world, g, thickness, crack_reach(world, grow))
+    return with_plane_cracks(world, g, thickness, grow) if planes else g

@@ -35,6 +35,34 @@ def check_pvs(x, triangles) -> None:
     if "pvs_cells" not in x or not np.array_equal(np.asarray(x["pvs_cells"]), boxes):
         raise ValueError("pvs_cells must be the view-cell boxes pvs_pack holds")
     check_door_sets(x, len(boxes), triangles)
+    check_face_sets(x, boxes, triangles)
+
+
+def check_face_sets(x, boxes, triangles) -> None:
+    """The optional sets of lines lying in a face's plane (pvs_planes.face_extras): pvs_plane
+    and pvs_face_planes together, pvs_face_shape and pvs_face_pack together and only with some
+    plane, over the same view-cell boxes."""
+    names = ("pvs_plane", "pvs_face_planes", "pvs_face_shape", "pvs_face_pack")
+    present = [n in x for n in names]
+    if not any(present):
+        return
+    if not (present[0] and present[1]) or present[2] != present[3]:
+        raise ValueError("pvs face extras: pvs_plane and pvs_face_planes go together, and so do "
+                         "pvs_face_shape and pvs_face_pack")
+    plane = np.asarray(x["pvs_plane"])
+    if plane.shape != (1,) or not np.isfinite(plane).all() or plane[0] < 0:
+        raise ValueError("pvs_plane must be one finite non-negative value")
+    planes = np.asarray(x["pvs_face_planes"])
+    if planes.ndim != 2 or planes.shape[1] != 2 or not np.isfinite(planes).all() \
+            or not np.isin(planes[:, 0], (0.0, 1.0, 2.0)).all():
+        raise ValueError("pvs_face_planes must be (P, 2) finite rows (axis 0-2, coordinate)")
+    if present[2] != (len(planes) > 0):
+        raise ValueError("pvs_face_shape and pvs_face_pack go with some pvs_face_planes")
+    if present[2]:
+        face = decode_all({"pvs_shape": x["pvs_face_shape"], "pvs_pack": x["pvs_face_pack"]},
+                          int(triangles))[0]
+        if not np.array_equal(face, boxes):
+            raise ValueError("pvs_face_pack must hold the view cells pvs_pack holds")
 
 
 def check_door_sets(x, cells, triangles) -> None:

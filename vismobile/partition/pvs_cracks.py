@@ -94,6 +94,15 @@ def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
     is watertight (the fill rule), whatever other triangle's edge lies on them (a ramp's side
     standing against a wall does not open the wall)."""
     seg, owner = unshared_edge_triangles(world)
+    pairs, quads, _ = edge_portals(world, seg, owner, boxes, eps, reach)
+    return pairs, quads
+
+
+def edge_portals(world, seg, owner, boxes, eps, reach=0.0, tags=None) -> tuple:
+    """crack_portals' (pairs, quads) for the edges seg (E, 2, 3) of the triangles owner (E,),
+    plus each portal's tag (K,) int64 (its edge's tags[e], -1 without tags; pieces of
+    different tags are not merged)."""
+    tags = np.full(len(seg), -1, dtype=np.int64) if tags is None else np.asarray(tags)
     tri_lo, tri_hi = world.bounds[owner, 0], world.bounds[owner, 1]
     lo_b, hi_b = boxes[:, 0], boxes[:, 1]
     near = eps + reach
@@ -139,11 +148,12 @@ def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
                     if a0 > a1:
                         continue
                     q0, q1 = p + a0 * d, p + a1 * d
+                    tag = int(tags[t])
                     if len(axis) == 1:  # axis-aligned: merge along its line
                         k = int(axis[0])
-                        key = (a, b, k) + tuple(np.round(np.delete(q0, k), 9))
+                        key = (a, b, k) + tuple(np.round(np.delete(q0, k), 9)) + (tag,)
                     else:
-                        key = (a, b, -1, len(pieces))
+                        key = (a, b, -1, len(pieces), tag)
                     old = pieces.get(key)
                     lo, hi = np.minimum(q0, q1), np.maximum(q0, q1)
                     if key[2] < 0:
@@ -154,7 +164,7 @@ def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
     pairs = np.array([k[:2] for k in pieces], dtype=np.int64).reshape(-1, 2)
     quads = np.array([[q0, q1, q1, q0] for q0, q1 in pieces.values()],
                      dtype=np.float64).reshape(-1, 4, 3)
-    return pairs, quads
+    return pairs, quads, np.array([k[-1] for k in pieces], dtype=np.int64)
 
 
 def with_cracks(world, g, eps, reach=0.0) -> dict:

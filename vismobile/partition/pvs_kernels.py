@@ -24,6 +24,7 @@ MAX_PLANES = 192    # separating planes kept per sequence step (more are dropped
 # portal's face): the walk's fixed point is reached in fewer, larger steps (the axis planes
 # let boxes in thin cells creep by a crack's width per round; W1 overflowed the budget).
 STEP = 2.0 ** -10
+NO_SLAB = np.array([-1.0, 0.0, 0.0])  # flow_in_slab: every line
 
 
 @njit(cache=True, inline="always")
@@ -362,10 +363,36 @@ def grow_box_step(box, d, cand, n, step, face, pad):
 
 
 @njit(cache=True)
+def slab_planes(slab, out, count):
+    """Append to out[count:] the two planes of the slab (axis, lo, hi) = slab[0], slab[1],
+    slab[2] (positive side: lo <= x[axis] <= hi); none when slab[0] < 0. Returns the count."""
+    if slab[0] < 0.0:
+        return count
+    a = int(slab[0])
+    for k in range(2):
+        out[count + k, 0], out[count + k, 1], out[count + k, 2] = 0.0, 0.0, 0.0
+    out[count, a], out[count, 3] = 1.0, -slab[1]
+    out[count + 1, a], out[count + 1, 3] = -1.0, slab[2]
+    return count + 2
+
+
+@njit(cache=True)
 def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
                    cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
                    corners, grow, tol, budget, visible, cell_seen, crack, slope, blocked,
                    crossed):
+    """flow_in_slab without a slab: every line from the source (the docstring there)."""
+    return flow_in_slab(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
+                        cell_portal_start, cell_portals, cell_ref_start, cell_ref_end,
+                        tri_refs, corners, grow, tol, budget, visible, cell_seen, crack, slope,
+                        blocked, crossed, NO_SLAB)
+
+
+@njit(cache=True)
+def flow_in_slab(source, src_lo, src_hi, cell_bounds, portal_cells, portal_quads,
+                 cell_portal_start, cell_portals, cell_ref_start, cell_ref_end, tri_refs,
+                 corners, grow, tol, budget, visible, cell_seen, crack, slope, blocked,
+                 crossed, slab):
     """Each portal crossing (portal, direction) keeps one box holding every
     point where a line from the source may cross it (the union over all sequences), so the walk
     is a fixed point instead of an enumeration. The eyes are the box [src_lo, src_hi] (grown
@@ -388,6 +415,9 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     cut to the two cells' common face or line, and a line may pass any number of them.
     Portals with blocked[p] (a shut door's, pvs.py's door sets) are never crossed; crossed[p]
     is set for every portal some line from the source may cross.
+    With a slab (axis, lo, hi) (slab[0] >= 0; pvs_planes.py), only the lines lying within it
+    are walked: its two planes bound every crossing and every mark, so the walk stays in the
+    slab (the lines within a device's rounding of a cell face's plane).
     Returns the crossings walked, or -1 past `budget` (the caller keeps every connected cell).
     """
     states = 2 * len(portal_cells)
@@ -417,14 +447,14 @@ def flow_from_cell(source, src_lo, src_hi, cell_bounds, portal_cells, portal_qua
     current = -1  # the crossing being walked; -1: the source itself
     while True:
         if current < 0:
-            cell, count, came = source, 0, -1
+            cell, count, came = source, slab_planes(slab, planes, 0), -1
         else:
             p = current // 2
             cell = portal_cells[p, 1] if current % 2 == 0 else portal_cells[p, 0]
             came = p
             ne = _flat_rectangle(box[current, 0], box[current, 1], entry)
             count = axis_planes(src_lo - grow, src_hi + grow, box[current, 0], box[current, 1],
-                                planes, 0)
+                                planes, slab_planes(slab, planes, 0))
             count = separators(src, 8, True, entry, ne, planes, count, ne == 8)
             if not done[cell]:  # a cell wholly marked needs no more marking
                 done[cell] = _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners,
