@@ -28,7 +28,7 @@ THIN = 0.1
 PLANE_DIGITS = 6
 
 
-def _plane_areas(world, axis: int, facing: bool = False) -> tuple:
+def plane_areas(world, axis: int, facing: bool = False) -> tuple:
     """(positions (K,), areas (K,)) float64: each distinct plane x[axis] = position holding
     axis-aligned triangles (|normal| within 0.999 of the axis), their total area; positions are
     a triangle's own coordinate, grouped at PLANE_DIGITS decimals. facing=True adds (K,)
@@ -67,7 +67,7 @@ def auto_edges(world, cells):
         e = edges[axis]
         if len(e) <= 2:
             continue
-        actual, area = _plane_areas(world, axis)
+        actual, area = plane_areas(world, axis)
         if not len(actual):
             continue
         keys = np.round(actual, PLANE_DIGITS)
@@ -118,7 +118,7 @@ def thin_walls(world, axis: int) -> np.ndarray:
     area apart (the nearest such plane); area is the smaller of the two. A closed box's
     opposite sides (a tower's) are far apart for their size; the two sides of a doorway's or
     window's reveal face each other."""
-    pos, area, facing, lo, hi = _plane_areas(world, axis, facing=True)
+    pos, area, facing, lo, hi = plane_areas(world, axis, facing=True)
     rows = []
     for k in np.flatnonzero(facing < 0):
         gap = pos - pos[k]

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import grid, portal
-from .portal_edges import WALL_SHARE, _plane_areas, thin_walls
+from .portal_edges import WALL_SHARE, plane_areas, thin_walls
 from .pvs_cracks import crack_reach, with_cracks
 from .pvs_planes import with_plane_cracks
 from .pvs_refine import refine
@@ -60,7 +60,7 @@ def building_edges(world) -> list | None:
         faces = faces[(faces > low[axis]) & (faces < high[axis])]
         walled += bool(len(faces))
         if len(faces):
-            pos, area = _plane_areas(world, axis)
+            pos, area = plane_areas(world, axis)
             reach = PAIR_REACH * float(high[axis] - low[axis])
             for side in (low[axis], high[axis]):
                 near = np.flatnonzero((np.abs(pos - side) <= reach) & (pos > low[axis])
