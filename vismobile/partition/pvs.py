@@ -48,6 +48,7 @@ import numpy as np
 from . import pvs_cracks, pvs_kernels
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
 from .pvs_planes import SLAB, face_extras, source_slabs
+from .pvs_pool import fan_out
 
 MODES = ("conservative",)
 EXECUTOR_CHUNKS = 32  # source-cell chunks handed to a given executor (a progress step each)
@@ -287,30 +288,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     if doors is not None and partition.kind == "bsp":
         doors = None  # the leaves' sets are unions of grid cells' (pvs_leaves.py): not kept
     door_portals = door_portal_sets(world, g, doors, grow) if doors is not None else []
-    results = []
-    if executor is not None or (jobs > 1 and count > 1):
-        from concurrent.futures import ProcessPoolExecutor
-
-        parts = 4 * max(jobs, 1) if executor is None else EXECUTOR_CHUNKS
-        chunks = np.array_split(sources, max(1, min(count, parts)))
-        pool = executor or ProcessPoolExecutor(jobs)
-        shared = (pool.scatter([world, g], broadcast=True) if hasattr(pool, "scatter")
-                  else (world, g))
-        try:
-            futures = [pool.submit(bake_cells, *shared, c, grow, tol, budget, door_portals)
-                       for c in chunks]
-            for f in futures:
-                results.extend(f.result())
-                if progress is not None:
-                    progress(len(results), count)
-        finally:
-            if executor is None:
-                pool.shutdown()
-    else:
-        for s in sources:
-            results.extend(bake_cells(world, g, [s], grow, tol, budget, door_portals))
-            if progress is not None:
-                progress(len(results), count)
+    results = fan_out(bake_cells, (world, g), sources, (grow, tol, budget, door_portals), jobs,
+                      executor, EXECUTOR_CHUNKS, progress)
     masks, faces = [], []
     for r, _, _, f in results:
         for runs, out in ((r, masks), (f, faces)):

@@ -43,6 +43,7 @@ import numpy as np
 
 from .pvs_columns import find_columns
 from .pvs_fly import face_triangles, fly_cells, usable
+from .pvs_pool import fan_out
 from .pvs_shadow import cell_hidden, erode, triangle_groups
 from .pvs_squares import near, polygon_table, square_cells
 
@@ -180,28 +181,8 @@ def bake_street(world, grow, tol, progress=None, jobs=1, executor=None, chunks=3
     tops = np.asarray(top, dtype=np.float64) - tol
     slack = depth_slack(world, grow)
     args = (world, polys, starts, valid, tops, footprints, grow, tol, slack, street_top)
-    masks = []
     count = len(boxes)
-    if executor is not None or (jobs > 1 and count > 1):
-        from concurrent.futures import ProcessPoolExecutor
-
-        parts = 4 * max(jobs, 1) if executor is None else chunks
-        split = np.array_split(np.arange(count), max(1, min(count, parts)))
-        pool = executor or ProcessPoolExecutor(jobs)
-        try:
-            futures = [pool.submit(_chunk, args, boxes[c]) for c in split]
-            for f in futures:
-                masks.extend(f.result())
-                if progress is not None:
-                    progress(len(masks), count)
-        finally:
-            if executor is None:
-                pool.shutdown()
-    else:
-        for c in range(count):
-            masks.extend(_chunk(args, boxes[c:c + 1]))
-            if progress is not None:
-                progress(len(masks), count)
+    masks = fan_out(_chunk, (args,), boxes, (), jobs, executor, chunks, progress)
     stats = {"seconds": time.perf_counter() - began, "cells": count, "overflowed": 0,
              "walks": 0, "door_sets": 0, "columns": int(valid.sum()),
              "fly_cells": count - street}
