@@ -8,7 +8,9 @@ and MOC with the occluders our stage rasterised that frame, in an order that alt
 frame (ours first, then MOC first), and then the item buffer of the whole world with back faces
 culled (the truth, and a render between culls as in a real frame). Times are medians over the
 frames after a warm-up (numba compiled, MOC built); ours is the whole Culler.cull, MOC's the sum
-of its C++ calls (walks, render, triangle tests; MOC+driver adds the numpy work around them).
+of its C++ calls (walks, render, triangle tests; MOC+driver adds the numpy work around them),
+by wall clock; the thread's CPU time of each whole call is given too (on a loaded machine a
+preempted call's wall time counts the other processes' slices: compare the CPU columns).
 """
 from __future__ import annotations
 
@@ -62,27 +64,28 @@ def compare(world, tree, cameras, profile) -> dict:
     renderer = item_buffer_renderer(world, profile)
     everything = np.arange(world.triangle_count)
     names = ["ours"] + list(mocs)
-    rec = {n: {"t": [], "cpp": [], "sent": [], "drop": [], "steps": {s: [] for s in STEPS},
+    rec = {n: {"t": [], "cpu": [], "cpp": [], "sent": [], "drop": [], "steps": {s: [] for s in STEPS},
                "occluders": [], "tested": []} for n in names}
     visible = []
     for i, cam in enumerate(cameras[:WARMUP] + cameras):
         order = names if i % 2 == 0 else names[1:2] + names[:1] + names[2:]
         sent = {}
         for n in order:
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.thread_time()
             if n == "ours":
                 result = ours.cull(cam)
-                took = time.perf_counter() - t
+                took, cpu = time.perf_counter() - t, time.thread_time() - c
                 sent[n] = result.triangles
                 occluders = np.array(stage.frame_occluders, dtype=np.int64)
                 cpp = took
             else:
                 moc = mocs[n]
                 sent[n] = moc.cull(cam, occluders if moc.occluders == "ours" else None)
-                took = time.perf_counter() - t
+                took, cpu = time.perf_counter() - t, time.thread_time() - c
                 cpp = sum(moc.times[s] for s in STEPS)
             if i >= WARMUP:
                 rec[n]["t"].append(took)
+                rec[n]["cpu"].append(cpu)
                 rec[n]["cpp"].append(cpp)
                 if n != "ours":
                     for s in STEPS:
@@ -106,14 +109,17 @@ def rows(label, triangles, data) -> list:
     rec, visible = data["rec"], data["visible"]
     shown = float(np.mean(visible))
     lines = []
-    base = np.array(rec["ours"]["t"])
+    base, base_cpu = np.array(rec["ours"]["t"]), np.array(rec["ours"]["cpu"])
     for n, r in rec.items():
         t, cpp = np.array(r["t"]) * 1e3, np.array(r["cpp"]) * 1e3
         paired = float(np.median(base / np.array(r["t"]))) if n != "ours" else 1.0
+        cpu = np.array(r["cpu"])
+        paired_cpu = float(np.median(base_cpu / cpu)) if n != "ours" else 1.0
         drops = np.array(r["drop"])
         lines.append(
             f"| {label} ({triangles:,}) | {n} | {np.median(cpp):.2f} | {np.median(t):.2f} | "
             f"{np.percentile(t, 90):.2f} | {t.max():.1f} | {paired:.2f} | "
+            f"{1e3 * np.median(cpu):.2f} | {paired_cpu:.2f} | "
             f"{np.mean(r['sent']):,.0f} | {shown:,.0f} | {np.mean(r['sent']) / max(shown, 1):.2f} | "
             f"{int((drops > 0).sum())} of {len(drops)} | {int(drops.sum())} | "
             f"{np.mean(r['occluders']):,.0f} | {np.mean(r['tested']):,.0f} |")
@@ -142,9 +148,10 @@ def moc_main(worlds: str, start: int, frames: int, out: Path) -> int:
     load0 = os.getloadavg()
     table = ["| world (triangles) | method | median ms (ours: cull; MOC: C++) | median ms "
              "(MOC: + driver) | p90 ms | max ms | ours' time / its time (per frame, median) "
+             "| thread CPU ms, median (MOC: + driver) | ours' CPU / its CPU (per frame, median) "
              "| sent | visible | sent / visible | frames dropping | triangles dropped "
              "| occluders | triangles tested |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     notes, impl = [], "?"
     for name in [w for w in worlds.split(",") if w]:
         try:
