@@ -84,7 +84,8 @@ def test_the_cache_hints_take_any_ids_and_change_no_send(kit):
     stage, tbfc = culler._chained
     tables = chain_tables(stage, tbfc)[0]
     wild = np.array([-7, 0, part.node_count - 1, part.node_count, 10 ** 12], dtype=np.int64)
-    warm_caches(tables, wild, wild)
+    warm_caches(tables, wild, wild, np.array([-3, 0, part.world.triangle_count, 10 ** 12],
+                                            dtype=np.int64))
     cold = Culler(part, "vfc,occlusion,tbfc", "float32", occlusion={"screen": (240, 320)})
     empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     lo, hi = part.world.extent

@@ -211,14 +211,17 @@ def chain_view(t, x, y, z, yaw, pitch, near, tx, ty):
 
 
 @njit(cache=True, nogil=True)
-def warm_caches(t, nodes, ids):
+def warm_caches(t, nodes, ids, occluders):
     """Hints (culling/prefetch.py: no effect on any value) for what the frame is likely to read
     cold after a render: the tree records of last frame's draw nodes `nodes`, their neighbours
     and three levels of ancestors (the fused walk's), and the rows of last frame's sent
     triangles `ids` (the triangle test's), asked for before the rasteriser's work so their
-    misses overlap it. Only hints: node ids out of range (a caller may have changed its
-    result) are skipped, and a prefetch never faults. (Also reading those rows to prefetch
-    their corners measured no gain: the reads are demand misses.)"""
+    misses overlap it; and the occluder-table rows of the first round's history `occluders`
+    (the candidates the choice scores first and the rasteriser draws: their plane, group,
+    pieces, stamp, corners' indices and scores' inputs), asked for before the shells' walk.
+    Only hints: ids out of range (a caller may have changed its result) are skipped, and a
+    prefetch never faults. (Also reading those rows to prefetch their corners measured no
+    gain: the reads are demand misses.)"""
     count = len(t.lo)
     for k in range(len(nodes)):
         node = nodes[k]
@@ -235,6 +238,21 @@ def warm_caches(t, nodes, ids):
             node = t.parent[node]
     for k in range(len(ids)):
         prefetch(t.triangles, ids[k])
+    rows = len(t.groups)
+    for k in range(len(occluders)):
+        h = occluders[k]
+        if not 0 <= h < rows:
+            continue
+        prefetch(t.tri_points, h)
+        prefetch(t.groups, h)
+        prefetch(t.normals, h)
+        prefetch(t.offsets, h)
+        prefetch(t.piece_start, h)
+        prefetch(t.stamp, h)
+        prefetch(t.centroids, h)
+        prefetch(t.v0, h)
+        prefetch(t.radius, h)
+        prefetch(t.areas, h)
 
 
 @njit(cache=True, nogil=True)
@@ -256,7 +274,7 @@ def chained_frame(t, history, stack, out, below, g_ranges, given, x, y, z, yaw, 
     counters (chain_counters; kept < 0: occlusion_frame's FRAME_SLOTS), the planes and a
     copy of the draw nodes. kept is -2 when the device cannot order depths (nothing run but
     the planes and the view): the caller culls stage by stage."""
-    warm_caches(t, warm_nodes, warm_ids)
+    warm_caches(t, warm_nodes, warm_ids, history)
     planes = given
     if len(given) == 0:
         ch, sh, cv, sv = half_angles[0], half_angles[1], half_angles[2], half_angles[3]
