@@ -107,3 +107,18 @@ def test_tampered_world_with_valid_checksums_rejected(saved, tmp_path):
     forged = data[:12] + struct.pack("<II", text_len, zlib.crc32(header)) + header + data[20 + text_len:]
     with pytest.raises(PartitionError, match="digest"):
         vismobile.load_partition(_write(tmp_path, forged))
+
+
+@pytest.mark.parametrize("value", ['"<f2"', "true", "-1.0", "NaN", "Infinity"])
+def test_params_of_the_wrong_type_rejected(saved, tmp_path, value):
+    """A header param a reader uses (here the portal stage's thickness) of the wrong type, sign
+    or finiteness is refused at load, not met later as a ValueError in the culler."""
+    import zlib
+    data = saved[1].read_bytes()
+    _, _, text_len, _ = struct.unpack_from("<8sIII", data)
+    header = json.loads(data[20:20 + text_len])
+    header["params"]["thickness"] = "@@"
+    text = json.dumps(header).replace('"@@"', value).encode()
+    forged = data[:12] + struct.pack("<II", len(text), zlib.crc32(text)) + text + data[20 + text_len:]
+    with pytest.raises(PartitionError, match="bad.vmp.*params.thickness"):
+        vismobile.load_partition(_write(tmp_path, forged))

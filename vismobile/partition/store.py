@@ -293,6 +293,10 @@ MAX_JSON_DEPTH = 16
 MAX_EXPANSION = 64
 MAX_DECODED_BYTES = 1 << 32
 NUMERIC_DTYPES = frozenset(INT_DTYPES + ("|u1", "|i1", "|b1", "<f4", "<f8", "<u8"))
+# params a loaded file's readers use (culling/portals.py, culling/pvs.py, partition/pvs.py):
+# their JSON types, and for numbers that they are finite and not negative
+PARAM_KINDS = {"thickness": (int, float), "budget": (int, float), "walls": bool, "pvs": str,
+               "fly": str}
 
 
 def _json_depth(text: bytes) -> int:
@@ -319,7 +323,14 @@ def _header(text: bytes) -> dict:
 
     need(header, dict, "")
     need(header.get("kind"), str, "kind")
-    need(header.get("params"), dict, "params")
+    for key, value in need(header.get("params"), dict, "params").items():
+        if key in PARAM_KINDS:
+            kind = PARAM_KINDS[key]
+            if kind is not bool and isinstance(value, bool):
+                raise ValueError(f"header params.{key} must be a number")
+            need(value, kind, f"params.{key}")
+            if kind is not bool and kind is not str and not 0 <= value < float("inf"):
+                raise ValueError(f"header params.{key} must be finite and not negative")
     info = need(header.get("world"), dict, "world")
     need(info.get("digest"), str, "world.digest")
     need(info.get("name"), str, "world.name")
