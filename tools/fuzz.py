@@ -247,6 +247,11 @@ def mutate_main(targets, cases, seed):
         for target in targets:
             counts = {"ok": 0, "error": 0, "fail": 0}
             shown = []
+            for data in originals[target]:  # numba compiles here, outside the time limit: an
+                try:                        # alarm inside a compile leaves its library broken
+                    run_case(target, data, folder)
+                except Exception:  # noqa: BLE001 - warm-up only; the cases report failures
+                    pass
             for case in range(cases):
                 rng = random.Random(f"{seed}:{target}:{case}")
                 pick = rng.randrange
