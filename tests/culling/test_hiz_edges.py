@@ -5,11 +5,11 @@ centre it may cover, and triangles along an occluder's outline that the bare buf
 hidden."""
 import numpy as np
 
-from vismobile.culling.hiz import build_tiles, hidden_triangles, rasterise, shift_table_size
+from vismobile.culling.hiz import rasterise
 from vismobile.culling.hiz.edges import buffer_length
 from vismobile.culling.occluder_mesh import occluder_mesh
 
-from .test_hiz import TILE, TX, TY, H, W, camera_triangle, nearest_hit, random_occluders
+from .test_hiz import TX, TY, H, W, camera_triangle, nearest_hit, random_occluders, shape_test
 
 SCREEN = (2 * W, 2 * H)
 
@@ -33,18 +33,9 @@ def buffer_of(tris, clip=0.1, records=True, half=0.5):
 
 
 def hidden_of(tested, depth, shift=0.0):
-    """hidden of camera-space triangles (K, 3, 3) against a flat buffer of any layout, with the
-    centre test of the 2x screen."""
-    cols, rows = W // TILE[0], H // TILE[1]
-    tmax, tany, tmin = np.empty(rows * cols), np.empty(rows * cols, bool), np.empty(rows * cols)
-    build_tiles(depth, W, H, *TILE, tmax, tany, tmin)
-    table = np.full(shift_table_size(rows, cols), np.inf)
-    n = len(tested)
-    hidden, subpixel, zmin = np.empty(n, bool), np.empty(n, bool), np.empty(n)
-    hidden_triangles(np.arange(n), tested.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3),
-                     np.zeros(3), np.eye(3), 0.1, TX, TY, W, H, 0.0, shift, 0.0, 0.0, depth,
-                     tmax, table, *TILE, True, *SCREEN, 0.0, hidden, subpixel, zmin)
-    return hidden
+    """hidden of camera-space triangles (K, 3, 3) against a flat buffer of any layout (edge
+    records or not), with the centre test of the 2x screen."""
+    return shape_test(tested, depth, shift=shift, screen=SCREEN)
 
 
 def fragments_in_front(tri, occluders, clip):
