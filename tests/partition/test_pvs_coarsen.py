@@ -9,8 +9,10 @@ from .test_pvs_fly import masks_of
 from .test_pvs_street import in_cell_checks, town
 from vismobile.app.cli import main
 from vismobile.partition import partition, pvs_codec
-from vismobile.partition.pvs_coarsen import (HEADER, budget_option, describe, fit,
-                                             merge_order, stored_size)
+from vismobile.culling import Culler
+from vismobile.partition.pvs_coarsen import (HEADER, budget_option, describe, facing, fill_back,
+                                             fit, merge_order, stored_size)
+from vismobile.world.camera import Camera
 
 
 def decoded(extras, triangles, cells):
@@ -80,6 +82,60 @@ def test_a_budgeted_bake_holds_the_exact_sets(town_bakes):
 def test_in_cell_cameras_on_a_coarsened_bake_drop_nothing(town_bakes):
     _, coarse, _ = town_bakes
     assert in_cell_checks(coarse, 60, 21) > 40
+
+
+def pvs_others(extras):
+    return {k: v for k, v in extras.items()
+            if k.startswith("pvs_") and k not in ("pvs_shape", "pvs_pack", "pvs_cells")}
+
+
+def test_filled_bits_face_away_from_the_whole_grown_cell_and_shrink_the_pvs(town_bakes):
+    exact = town_bakes[0]
+    world, boxes = exact.world, exact.extras["pvs_cells"]
+    masks, back = masks_of(exact.extras, world), float(exact.extras["pvs_back"][0])
+    filled = fill_back(boxes, masks, world.corners, back)
+    added = filled & ~masks
+    assert (filled >= masks).all() and added.any()
+    grown = boxes + np.array([-back, back])[None, :, None]
+    front = np.unpackbits(facing(grown, world.corners).view(np.uint8), axis=1,
+                          count=masks.shape[1], bitorder="little").astype(bool)
+    assert not (added & front).any()  # only triangles every eye there sees from behind
+    # the same shape as the others: an added triangle's plane has all 8 corners behind it
+    cell, tri = np.argwhere(added)[0]
+    c = world.corners[tri]
+    normal = np.cross(c[1] - c[0], c[2] - c[0])
+    ends = np.array([[grown[cell, k >> a & 1, a] for a in range(3)] for k in range(8)])
+    assert ((ends - c[0]) @ normal < 0).all()
+    assert len(np.unique(filled.T, axis=0)) < len(np.unique(masks.T, axis=0))
+    others = pvs_others(exact.extras)
+    assert stored_size({**pvs_codec.encode(boxes, filled), **others}) \
+        < stored_size({**pvs_codec.encode(boxes, masks), **others})
+
+
+def test_a_budget_met_by_filling_sends_the_same_with_back_faces_culled(town_bakes):
+    exact = town_bakes[0]
+    world = exact.world
+    boxes, masks = exact.extras["pvs_cells"], masks_of(exact.extras, world)
+    others = pvs_others(exact.extras)
+    _, report = fit(boxes, masks, HEADER, others, world.corners)
+    assert report["filled"] < report["before"]
+    share = (report["filled"] + report["before"]) / 2 / world.obj_bytes()
+    filled = partition(world, "portal", depth=1, pvs="conservative", budget=share)
+    got = masks_of(filled.extras, world)
+    assert (got >= masks).all() and (got > masks).any()
+    assert len(np.unique(got, axis=0)) == len(boxes)  # no cells merged: each its own set
+    rng = np.random.default_rng(5)
+    one, two = Culler(exact, "pvs+vfc+tbfc"), Culler(filled, "pvs+vfc+tbfc")
+    used = 0
+    for c in rng.integers(len(boxes), size=40):
+        lo, hi = boxes[c]
+        cam = Camera(lo + rng.uniform(0.1, 0.9, 3) * (hi - lo), yaw=rng.uniform(0, 360),
+                     pitch=rng.uniform(-30, 30), fov=60.0)
+        a, b = one.cull(cam), two.cull(cam)
+        assert np.array_equal(np.sort(a.triangles), np.sort(b.triangles))
+        used += "pvs.fallbacks" not in b.stats
+    assert used > 30
+    assert in_cell_checks(filled, 30, 22) > 20
 
 
 @pytest.mark.parametrize("value", [0, -0.25, "nan", "inf", 65, "quarter", True])
