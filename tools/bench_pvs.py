@@ -150,8 +150,7 @@ def w2_timing(part, traj, count, reps=3, misses=20):
     stage = cullers["pvs+vfc"].stages[0]
     missed = []
     for c in cams[:: max(1, count // misses)][:misses]:
-        stage.cache.clear()
-        stage.last = None
+        stage.forget()
         t = time.perf_counter()
         cullers["pvs+vfc"].cull(c)
         missed.append(time.perf_counter() - t)

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from vismobile.culling import Culler, device_options
-from vismobile.culling.pvs_frame import keep_bits
+from vismobile.culling.pvs import on_face, packed_planes
+from vismobile.culling.pvs_frame import keep_bits, near_plane
 from vismobile.device.profile import get_profile
 from vismobile.partition import partition
 from vismobile.world.camera import Camera
@@ -89,3 +90,41 @@ def test_the_set_bits_follow_the_bitmap_layout():
         ids = np.arange(count)
         held = (bits[ids >> 6] >> (ids & 63).astype(np.uint64)) & np.uint64(1)
         assert np.array_equal(held.astype(bool), keep)
+
+
+@pytest.mark.parametrize("keep", [2, 64])
+def test_slots_hold_the_sets_walked_without_a_decode(baked, kit, keep):
+    # eyes in turn in cells far apart (as bench_pvs interleaves path frames): with keep slots
+    # or more, a combination met again is walked from its slot (nothing decoded); with fewer
+    # (keep=2, round robin) the oldest is overwritten; the same triangles as staged either way
+    part = baked["portal"]
+    fused, staged = Culler(part, "pvs+vfc"), Culler(part, "pvs+vfc", pvs={"fuse": False})
+    stage = fused.stages[0]
+    stage.keep = keep
+    cams = [c for c in in_cell_cameras(part, 40, 21) if not in_face_plane(part, c)][:6]
+    decoded = []
+    for rep in range(3):
+        for cam in cams:
+            a, b = fused.cull(cam), staged.cull(cam)
+            assert np.array_equal(a.triangles, b.triangles)
+            if "pvs.fallbacks" not in a.stats:
+                decoded.append(a.stats["pvs.ids_decoded"])
+    combos = {tuple(stage.eye_cells(c, sum(stage.reaches(c)))) for c in cams}
+    assert len(stage.slot_key) == min(keep, 8) and stage.filled >= len(combos) > 2
+    late = decoded[len(decoded) // 3:]  # the second and third rounds
+    if keep >= len(combos):
+        assert not any(late) and stage.filled == len(combos)
+    else:
+        assert all(late) and stage.filled == len(decoded)
+    stage.forget()
+    assert fused.cull(cams[0]).stats["pvs.ids_decoded"] > 0 and stage.filled == 1
+
+
+def test_the_compiled_face_test_is_on_face():
+    rng = np.random.default_rng(3)
+    faces = [np.sort(rng.uniform(-5, 5, n)) for n in (0, 1, 7)]
+    coords, start = packed_planes(faces)
+    for eye in rng.uniform(-6, 6, (300, 3)):
+        for reach in (1e-9, 0.05, 0.5):
+            eye[2] = faces[2][rng.integers(7)] + rng.choice([0.0, reach, 1.01 * reach])
+            assert near_plane(coords, start, eye, reach) == on_face(faces, eye, reach)

@@ -7,8 +7,10 @@ set (or none at all), and a triangle filter keeps the set's triangles. The store
 one gather of its pattern bits, done per combination of cells (on a boundary) and kept (KEEP
 combinations); a frame's own work is the cell lookup and the filter over what is gathered,
 nothing proportional to the world. When vfc is the only node stage after it (static
-partition), lookup, vfc's walk over the set's subtrees, gather and filter run in one compiled
-call instead (pvs_frame.py, apply_fused): the same triangles. No free-space
+partition), lookup, the face-plane test, vfc's walk over the set's subtrees, gather and filter
+run in one compiled call instead (pvs_frame.py, apply_fused), which finds the set in the last
+KEEP combinations' slots (allow bytes and kept bits), so a frame on a combination met before
+runs no Python past the call: the same triangles. No free-space
 test: the cells taken are all those within the near plane's reach (plus the device's) of the
 eye, since sight lines start on the near plane, perhaps beyond a wall next to the eye; the bake
 put the inside of every solid near a cell in its set (partition/pvs.py).
@@ -53,17 +55,17 @@ from ..partition.pvs_codec import cell_mask, decode
 from ..partition.pvs_planes import face_sets
 from .doors import closed_doors, shut
 from .precision import device_move, world_scale
-from .pvs_frame import TABLE_FIELDS, keep_bits, locate_walk_gather, pack_tables
+from .pvs_frame import (KEY_CELLS, TABLE_FIELDS, keep_bits, locate_walk_gather, near_plane,
+                        pack_tables)
 from .pvs_lookup import cell_index, find
 from .state import CullState
 from .tree import Tree
 
 EXTRAS = ("pvs_cells", "pvs_shape", "pvs_pack", "pvs_grow")
-KEEP = 64  # decoded cell combinations kept
+KEEP = 64  # decoded cell combinations kept (and slots of the fused call's)
 # how far from a cell face's plane (in the device's reach) an eye falls back: past the
 # device's rounding of the eye, a wall in the plane shows a sliver (on_face)
 FACE_REACH = 4.0
-_NONE = np.zeros(0, dtype=np.int64)  # no cells expected: the fused call only looks them up
 
 
 class PVSStage:
@@ -84,7 +86,7 @@ class PVSStage:
             raise ValueError(f"pvs fuse must be True or False, got {fuse!r}")
         self.fuse = bool(fuse)
         self.walker = None
-        self.last = None  # the fused path's ((drop_back, face), cells, entry) of the frame before
+        self.keep = KEEP  # the fused call's slots at most (sets it walks without Python)
 
     def prepare(self, tree: Tree) -> None:
         self.tree = tree
@@ -93,11 +95,13 @@ class PVSStage:
         self.ranges = np.empty((tree.node_count + 1, 2), dtype=np.int64)
         self.counts = np.zeros(9, dtype=np.int64)
         self.tables = None  # the fused call's FrameTables, packed on its first frame
+        self.forget()
         self.memo = (None, None)  # reaches' last (near, fov, aspect) and result
         extras = tree.partition.extras or {}
         self.available = all(k in extras for k in EXTRAS)
         self.cache = {}
         self.faces = None
+        self.face_coords, self.face_start = np.zeros(0), np.zeros(4, dtype=np.int64)
         if not self.available:
             return
         self.cells = np.ascontiguousarray(extras["pvs_cells"], dtype=np.float64)
@@ -105,7 +109,7 @@ class PVSStage:
         # bake walked the lines in the grid's face planes (pvs_planes.py) for eyes within
         # pvs_plane: an eye that near one of the planes walked takes the cells' face sets too
         self.faces = None if "pvs_cover" in extras else \
-            [np.unique(self.cells[:, :, a]) for a in range(3)]
+            packed_planes([np.unique(self.cells[:, :, a]) for a in range(3)])
         self.plane = self.face_planes = self.face_patterns = None
         if "pvs_plane" in extras:
             self.plane = float(np.asarray(extras["pvs_plane"])[0])
@@ -115,6 +119,8 @@ class PVSStage:
             if sets is not None:
                 self.face_patterns, self.face_ids = decode(sets, len(self.cells),
                                                            tree.world.triangle_count)
+                # the planes walked, per axis, for the compiled test (pvs_frame.near_plane)
+                self.face_coords, self.face_start = packed_planes(self.face_planes)
         self.index = cell_index(self.cells)  # x-z buckets: a frame tests the cells near the eye
         self.tested = 0
         # inflated once, here (the load checked it): K pattern bitsets, a pattern per triangle
@@ -189,6 +195,13 @@ class PVSStage:
         hit = self.cache.get(key)
         if hit is not None:
             return hit
+        if len(self.cache) >= KEEP:
+            self.cache.pop(next(iter(self.cache)))
+        self.cache[key] = self.make_entry(cells, drop, doors, face)
+        return self.cache[key]
+
+    def make_entry(self, cells, drop, doors, face) -> tuple:
+        """entry's five, made (not cached); self.decoded: the pattern ids gathered."""
         tree = self.tree
         keep = np.zeros(tree.world.triangle_count, dtype=bool)
         self.decoded = 0  # pattern ids gathered (the device model prices a cache miss by them)
@@ -212,10 +225,44 @@ class PVSStage:
                 mask[ids_of(extras["pvs_door_runs"][start[k]:start[k + 1]])] = False
             keep |= mask
         nodes, allow = set_nodes(tree, keep)
-        if len(self.cache) >= KEEP:
-            self.cache.pop(next(iter(self.cache)))
-        self.cache[key] = (keep, nodes, bool(keep.all()), allow, keep_bits(keep))
-        return self.cache[key]
+        return keep, nodes, bool(keep.all()), allow, keep_bits(keep)
+
+    def forget(self) -> None:
+        """Drop every decoded set: entry's cache and the fused call's slots."""
+        self.cache = {}
+        self.slot_key = self.slot_allow = self.slot_kept = None
+        self.filled = 0  # slots written so far (round robin once all self.keep are)
+        self.tables = None
+
+    def fill(self, found, drop: bool, face: bool) -> None:
+        """Make the set of the cells found (drop_back drop, face sets face) and write it in
+        the fused call's next slot (pvs_frame.find_slot's key row, allow and kept bits):
+        slots grow 8, 16, .. up to self.keep, then the oldest is overwritten; wider key rows
+        when more cells are found than they hold. Costs a decode (make_entry), once per new
+        combination, not per frame."""
+        _, _, everything, allow, bits = self.make_entry(found, drop, (), face)
+        key = self.slot_key if self.filled else None  # (frame's placeholder: no slot)
+        cap, width = (0, 0) if key is None else (len(key), key.shape[1] - KEY_CELLS)
+        grow = self.filled >= cap and cap < self.keep
+        if grow or len(found) > width:
+            size = min(self.keep, max(8, 2 * cap)) if grow else cap
+            wide = max(width, len(found), 4)
+            new_key = np.zeros((size, KEY_CELLS + wide), dtype=np.int64)
+            new_allow = np.zeros((size, len(allow)), dtype=bool)
+            new_kept = np.zeros((size, len(bits)), dtype=np.uint64)
+            if key is not None:  # the slots so far keep their rows
+                new_key[:cap, :key.shape[1]] = key
+                new_allow[:cap], new_kept[:cap] = self.slot_allow, self.slot_kept
+            self.slot_key, self.slot_allow, self.slot_kept = new_key, new_allow, new_kept
+            self.tables = None  # repacked with the new arrays
+        slot = self.filled % len(self.slot_key)
+        self.filled += 1
+        row = self.slot_key[slot]
+        row[:] = 0
+        row[:KEY_CELLS] = len(found), drop, face, everything
+        row[KEY_CELLS:KEY_CELLS + len(found)] = found
+        if not everything:
+            self.slot_allow[slot], self.slot_kept[slot] = allow, bits
 
     def apply(self, state: CullState) -> None:
         if self.walker is not None:
@@ -251,9 +298,10 @@ class PVSStage:
 
     def apply_fused(self, state: CullState) -> None:
         """apply with vfc's walk (the Culler set walker): one compiled call finds the eye's
-        cells and, when they are the frame before's (cached entry at hand), walks, gathers and
-        filters (pvs_frame.locate_walk_gather); else the entry is found or made and the call
-        made again. The same fallbacks, cells and triangles as apply then vfc."""
+        cells and, when a slot holds their set (the last self.keep combinations made), walks,
+        gathers and filters (pvs_frame.locate_walk_gather); else the set is made into a slot
+        (fill) and the call made again. The same fallbacks, cells and triangles as apply then
+        vfc."""
         camera = state.camera
         reaches = self.reaches(camera)
         if reaches is not None and self.cover is not None and self.lookup(camera) is None:
@@ -264,41 +312,44 @@ class PVSStage:
             return
         pad = self.tree.tol + reaches[0] + reaches[1]
         drop = self.back_culled and self.back is not None and pad <= self.back
-        face = self.in_face(camera, reaches[0])
-        last = self.last
+        # in_face's reach, tested in the compiled call (-1: no face sets)
+        face_reach = FACE_REACH * reaches[0] + self.tree.tol \
+            if self.face_patterns is not None else -1.0
         self.decoded = 0
-        if last is not None and last[0] == (drop, face):
-            found = self.frame(state, pad, last[1], last[2])
-        else:
-            found = self.frame(state, pad, _NONE, None)
-        if found is not None:  # other cells than the frame before's
+        found = self.frame(state, pad, face_reach, drop)
+        if found is not None:  # no slot holds the set of these cells (and face sets)
+            found, face = found
             if not len(found):
                 state.count("pvs.fallbacks", 1)
                 self.walker.walk(state)
                 return
-            entry = self.entry(found, drop, (), face)
-            self.last = ((drop, face), found, entry)
-            self.frame(state, pad, found, entry)
+            self.fill(found, drop, face)
+            self.frame(state, pad, face_reach, drop)
 
-    def frame(self, state: CullState, pad: float, expect, entry):
-        """One locate_walk_gather call: None when the eye's cells are expect (the frame is
-        culled: state.nodes, state.gathered and the counters set), else the cells found."""
+    def frame(self, state: CullState, pad: float, face_reach: float, drop: bool):
+        """One locate_walk_gather call: None when a slot holds the set of the eye's cells (the
+        frame is culled: state.nodes, state.gathered and the counters set), else (the cells
+        found, the face test's answer)."""
         vfc = self.walker
+        if self.slot_key is None:  # no slot yet: an empty one, which no cells match
+            self.slot_key = np.zeros((1, KEY_CELLS + 4), dtype=np.int64)
+            self.slot_allow = np.zeros((1, 1), dtype=bool)
+            self.slot_kept = np.zeros((1, 1), dtype=np.uint64)
         if self.tables is None:  # the Culler set walker and its options after prepare
             tree = self.tree
             b, g = tree._bitmap, tree.groups
             fields = (self.cells, *self.index, tree._box, tree._links, tree.read_size,
                       int(vfc.whole_below), tree._inner, tree._inner_links, bool(vfc.covering),
                       float(tree.tol), self.scratch, g.words, g.masks, g.span, b.bits,
-                      b.summary, b.tops, self.ranges, self.counts)
+                      b.summary, b.tops, self.ranges, self.counts, self.face_coords,
+                      self.face_start, self.slot_key, self.slot_allow, self.slot_kept)
             assert len(fields) == len(TABLE_FIELDS)
             self.tables = pack_tables(fields)
-        allow, bits = (None, None) if entry is None or entry[2] else (entry[3], entry[4])
         x, y, z = state.camera.position
-        hit, found, ids = locate_walk_gather(self.tables, x, y, z, pad, expect,
-                                             state.planes[None], allow, bits)
-        if not hit:
-            return found
+        slot, found, face, ids = locate_walk_gather(self.tables, x, y, z, pad, face_reach,
+                                                    bool(drop), state.planes[None])
+        if slot < 0:
+            return found, face
         tested, runs, count, visited, tests, culled, straddling, covered, masked = \
             self.counts.tolist()
         state.nodes = self.scratch[0, :count].copy()
@@ -314,7 +365,7 @@ class PVSStage:
             stats["vfc.nodes_straddling"] = straddling
         if vfc.covering:
             stats["vfc.nodes_covered"] = covered
-        if entry[2]:
+        if self.slot_key[slot, 3]:
             stats["pvs.everything"] = 1
         else:  # what the staged filter tests: each gathered triangle's keep byte
             stats["pvs.triangles_tested"] = masked
@@ -330,7 +381,7 @@ class PVSStage:
             return found
         near = FACE_REACH * found[0] + self.tree.tol
         if (self.plane is None or near > self.plane) and \
-                on_face(self.faces, camera.position, near):
+                near_plane(*self.faces, np.asarray(camera.position, np.float64), near):
             return None
         return found
 
@@ -339,8 +390,9 @@ class PVSStage:
         device's reach (plus the tree's slack) of a face plane the bake walked (pvs_plane;
         reaches fell back before, when that exceeds pvs_plane). The sets hold what lines lying
         in those planes add (pvs_planes.py), which only such an eye's lines can be."""
-        return self.face_patterns is not None and on_face(
-            self.face_planes, camera.position, FACE_REACH * grow + self.tree.tol)
+        return self.face_patterns is not None and near_plane(
+            self.face_coords, self.face_start, np.asarray(camera.position, np.float64),
+            FACE_REACH * grow + self.tree.tol)
 
     def camera_reaches(self, camera):
         """reaches without the face test."""
@@ -413,6 +465,14 @@ def on_face(faces, eye, reach: float) -> bool:
             if 0 <= j < len(coords) and abs(coords[j] - eye[axis]) <= reach:
                 return True
     return False
+
+
+def packed_planes(faces) -> tuple:
+    """(coords (F,) float64, start (4,) int64) of three sorted per-axis coordinate arrays
+    (on_face's faces) laid end to end, axis a's at coords[start[a]:start[a + 1]]
+    (pvs_frame.near_plane's layout)."""
+    coords = np.concatenate([np.asarray(f, dtype=np.float64) for f in faces])
+    return coords, np.concatenate([[0], np.cumsum([len(f) for f in faces])]).astype(np.int64)
 
 
 def near_reach(camera) -> float:

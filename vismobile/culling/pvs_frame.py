@@ -99,7 +99,8 @@ class FrameTables(structref.StructRefProxy):
 
 TABLE_FIELDS = ("cells", "x0", "z0", "size", "nx", "nz", "start", "index", "box", "links",
                 "size_of", "whole_below", "inner", "inner_links", "covering", "tol", "scratch",
-                "words", "masks", "span", "bits", "summary", "tops", "ranges", "counts")
+                "words", "masks", "span", "bits", "summary", "tops", "ranges", "counts",
+                "face_coords", "face_start", "slot_key", "slot_allow", "slot_kept")
 structref.define_constructor(FrameTables, FrameTablesType, TABLE_FIELDS)
 structref.define_boxing(FrameTablesType, FrameTables)
 
@@ -111,29 +112,76 @@ def pack_tables(fields):
 
 
 @njit(cache=True, nogil=True)
-def locate_walk_gather(t, x, y, z, pad, expect, planes, allow, kept):
-    """The eye (x, y, z)'s view cells (pvs_lookup.find in t's cells, grown by pad) and, when
-    they are `expect` (the cells allow and kept were made for: the frame before's, mostly),
-    walk_gather's frame over t (FrameTables). Returns (hit, found (K,) int64, ids (S,) int64;
-    empty on a miss: nothing walked); t.counts (>= 9,) int64 receives the boxes tested, then
-    walk_gather's runs, accepted, visited, plane tests, culled, straddling, covered and
-    masked; t.scratch (4, >= N + 1) int64 is the walk's out and stacks (accepted nodes are
+def near_plane(coords, start, eye, reach):
+    """Whether eye (3,) lies within reach of a plane of coords: per axis a, the sorted (F_a,)
+    float64 coordinates coords[start[a]:start[a + 1]] (culling/pvs.py on_face, compiled)."""
+    for a in range(3):
+        lo, hi = start[a], start[a + 1]
+        i = lo + np.searchsorted(coords[lo:hi], eye[a])
+        if i > lo and abs(coords[i - 1] - eye[a]) <= reach:
+            return True
+        if i < hi and abs(coords[i] - eye[a]) <= reach:
+            return True
+    return False
+
+
+# a slot's key row (FrameTables.slot_key): cells taken, drop_back, face sets, everything, then
+# the cells (ascending); 0 cells: an empty slot
+KEY_CELLS = 4
+
+
+@njit(cache=True, nogil=True)
+def find_slot(key, found, drop, face):
+    """The row of key (S, KEY_CELLS + C) int64 made for the cells found with drop_back drop
+    and face sets face, or -1."""
+    n = len(found)
+    if n > key.shape[1] - KEY_CELLS:
+        return -1
+    for s in range(key.shape[0]):
+        if key[s, 0] != n or key[s, 1] != drop or key[s, 2] != face:
+            continue
+        same = True
+        for k in range(n):
+            if key[s, KEY_CELLS + k] != found[k]:
+                same = False
+                break
+        if same:
+            return s
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def locate_walk_gather(t, x, y, z, pad, face_reach, drop, planes):
+    """The eye (x, y, z)'s view cells (pvs_lookup.find in t's cells, grown by pad) and whether
+    it lies within face_reach of a face plane the bake walked (near_plane over t.face_coords;
+    face_reach < 0: never), and, when a slot holds the set made for them (find_slot: the
+    cells, drop_back drop, the face sets; its allow and kept bits in t.slot_allow[slot],
+    t.slot_kept[slot], or the whole world), walk_gather's frame over t (FrameTables).
+    Returns (slot, found (K,) int64, face, ids (S,) int64; slot -1 on a miss: nothing
+    walked, ids empty); t.counts (>= 9,) int64 receives the boxes tested, then walk_gather's
+    runs, accepted, visited, plane tests, culled, straddling, covered and masked; t.scratch
+    (4, >= N + 1) int64 is the walk's out and stacks (accepted nodes are
     scratch[0, :accepted])."""
     eye = np.empty(3, dtype=np.float64)
     eye[0], eye[1], eye[2] = x, y, z
     found, tested = find(t.cells, t.x0, t.z0, t.size, t.nx, t.nz, t.start, t.index, eye, pad)
+    face = face_reach >= 0.0 and near_plane(t.face_coords, t.face_start, eye, face_reach)
     counts, scratch = t.counts, t.scratch
     counts[0] = tested
-    hit = len(found) == len(expect) and len(found) > 0
-    if hit:
-        for k in range(len(found)):
-            if found[k] != expect[k]:
-                hit = False
-    if not hit:
-        return False, found, np.empty(0, dtype=np.int64)
-    ids, counts[1], counts[2], counts[3], counts[4], counts[5], counts[6], counts[7], \
-        counts[8] = walk_gather(t.box, t.links, t.size_of, t.whole_below, t.inner,
-                                t.inner_links, t.covering, planes, t.tol, scratch[0],
-                                scratch[1], scratch[2], scratch[3], allow, t.words, t.masks,
-                                t.span, t.bits, t.summary, t.tops, t.ranges, kept)
-    return True, found, ids
+    slot = find_slot(t.slot_key, found, drop, face) if len(found) else -1
+    if slot < 0:
+        return slot, found, face, np.empty(0, dtype=np.int64)
+    if t.slot_key[slot, 3]:  # the cells see the whole world: vfc's walk and gather
+        ids, counts[1], counts[2], counts[3], counts[4], counts[5], counts[6], counts[7], \
+            counts[8] = walk_gather(t.box, t.links, t.size_of, t.whole_below, t.inner,
+                                    t.inner_links, t.covering, planes, t.tol, scratch[0],
+                                    scratch[1], scratch[2], scratch[3], None, t.words,
+                                    t.masks, t.span, t.bits, t.summary, t.tops, t.ranges, None)
+    else:
+        ids, counts[1], counts[2], counts[3], counts[4], counts[5], counts[6], counts[7], \
+            counts[8] = walk_gather(t.box, t.links, t.size_of, t.whole_below, t.inner,
+                                    t.inner_links, t.covering, planes, t.tol, scratch[0],
+                                    scratch[1], scratch[2], scratch[3], t.slot_allow[slot],
+                                    t.words, t.masks, t.span, t.bits, t.summary, t.tops,
+                                    t.ranges, t.slot_kept[slot])
+    return slot, found, face, ids
