@@ -5,6 +5,7 @@ kept, nothing dropped), measured on saved exact bakes (pvs_bytes.py's cache), co
     .venv/bin/python tools/pvs_budget.py [--worlds w5,w6] [--repair tjunctions]
                                          [--budgets 0.25] [--frames 80] [--cameras 300]
                                          [--cache DIR] [--jobs 2] [--power 1] [--uniform 0]
+                                         [--sent-frames N] [--no-fill]
 
 Per world and budget: the PVS's bytes in the .vmp against the OBJ before and after, the view
 cells and how many sets they keep, the volume-weighted mean set, the coarsening's seconds
@@ -14,7 +15,10 @@ dropped triangles of the coarsened sets (pvs+vfc against each mode's item buffer
 back-face culling) on those frames and on --cameras random in-cell cameras, each in float64,
 float32 and fixed16.16 (pvs_sweep.py's cameras of each kind, and its check). With --uniform
 N, also the sent ratio from N cameras drawn uniformly by volume in the cells (by_volume); with
---power P, merges weigh the cells' volumes raised to P. Exit status 1 if any was dropped.
+--power P, merges weigh the cells' volumes raised to P. With --sent-frames N the sent ratios
+along the path are taken over N evenly spaced frames instead (0: every frame), the drop checks
+staying on --frames; --no-fill merges the sets as baked (pvs_coarsen.fit's fill=False: the
+free bits, fill_back, left as they are). Exit status 1 if any was dropped.
 """
 from __future__ import annotations
 
@@ -74,7 +78,8 @@ def by_volume(part, count, seed) -> list:
     return out
 
 
-def run(name, repair, budgets, frames, cameras, cache, jobs, power=1.0, uniform=0) -> int:
+def run(name, repair, budgets, frames, cameras, cache, jobs, power=1.0, uniform=0,
+        sent_frames=None, fill=True) -> int:
     world, part = baked(name, repair, cache, jobs)
     triangles = world.triangle_count
     obj = os.path.getsize(ROOT / "worlds" / f"{name}.obj")
@@ -88,7 +93,11 @@ def run(name, repair, budgets, frames, cameras, cache, jobs, power=1.0, uniform=
                                                     else "indoor.csv"))
     path = [traj.camera(int(f), PROFILE.aspect)
             for f in np.linspace(0, len(traj) - 1, frames).astype(int)]
-    exact_sent, base_sent = sent(part, path)
+    count = frames if sent_frames is None else (sent_frames or len(traj))
+    along_path = path if count == frames else [
+        traj.camera(int(f), PROFILE.aspect)
+        for f in np.linspace(0, len(traj) - 1, count).astype(int)]
+    exact_sent, base_sent = sent(part, along_path)
     spread = by_volume(part, uniform, 7)
     exact_spread, base_spread = sent(part, spread)
     exact_bytes = pvs_bytes(part)
@@ -97,12 +106,12 @@ def run(name, repair, budgets, frames, cameras, cache, jobs, power=1.0, uniform=
     for share in budgets:
         began = time.perf_counter()
         extras, report = fit(boxes, masks, share * world.obj_bytes(), others, world.corners,
-                             power)
+                             power, fill)
         seconds = time.perf_counter() - began
         coarse = copy.copy(part)
         coarse.extras = {**part.extras, **extras}
         size = pvs_bytes(coarse)
-        coarse_sent, _ = sent(coarse, path)
+        coarse_sent, _ = sent(coarse, along_path)
         coarse_spread, _ = sent(coarse, spread)
         randoms = check(world, coarse, in_cell_cameras(coarse, cameras, 0, world))
         along = check(world, coarse, (("path", c) for c in path))
@@ -112,7 +121,7 @@ def run(name, repair, budgets, frames, cameras, cache, jobs, power=1.0, uniform=
               f"{stored_size({**extras, **others}) / 1e3:.1f} KB, met {report['met']}), "
               f"{report['cells']} cells in {report['groups']} sets, mean set (by volume) "
               f"{report['mean_set_before']:.3f} -> {report['mean_set_after']:.3f}, coarsening "
-              f"{seconds:.1f} s | path {frames} frames: pvs+vfc+tbfc / vfc+tbfc "
+              f"{seconds:.1f} s | path {count} frames: pvs+vfc+tbfc / vfc+tbfc "
               f"{exact_sent / base_sent:.3f}x -> {coarse_sent / base_sent:.3f}x"
               + (f" | {uniform} cameras by volume: {exact_spread / base_spread:.3f}x -> "
                  f"{coarse_spread / base_spread:.3f}x" if uniform else "") + " | dropped: "
@@ -136,10 +145,14 @@ def main(argv=None) -> int:
                         help="cells' volumes raised to it to weigh merges (pvs_coarsen.fit)")
     parser.add_argument("--uniform", type=int, default=0,
                         help="also sent from this many cameras drawn uniformly by volume")
+    parser.add_argument("--sent-frames", type=int, default=None,
+                        help="path frames for the sent ratios (0: every frame; default --frames)")
+    parser.add_argument("--no-fill", action="store_true",
+                        help="merge the sets as baked, free bits not filled (fit's fill=False)")
     args = parser.parse_args(argv)
     budgets = [float(b) for b in args.budgets.split(",") if b]
     dropped = sum(run(w.strip(), args.repair, budgets, args.frames, args.cameras, args.cache,
-                      args.jobs, args.power, args.uniform)
+                      args.jobs, args.power, args.uniform, args.sent_frames, not args.no_fill)
                   for w in args.worlds.split(",") if w.strip())
     return 1 if dropped else 0
 

@@ -239,7 +239,8 @@ def stored_size(extras) -> int:
     return HEADER + int(sum(stored_bytes(v) for k, v in extras.items() if k not in DERIVED))
 
 
-def fit(boxes, masks, budget_bytes, others=None, corners=None, power=1.0) -> tuple:
+def fit(boxes, masks, budget_bytes, others=None, corners=None, power=1.0,
+        fill=True) -> tuple:
     """(encoded extras, report): the sets coarsened by about the fewest greedy merges
     (merge_order; within V / SLACK) whose encoding, with the others extras beside it, takes at
     most budget_bytes (None: exact).
@@ -250,7 +251,7 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=1.0) -> tup
     power  : the cells' volumes are raised to it to weigh merges (merge_order; 1: an eye
              anywhere in the cells alike, docs/partition.md)
     others : the PVS's other extras (their bytes count); with corners and a pvs_back among
-             them, free bits are filled before merging (fill_back)
+             them (and fill), free bits are filled before merging (fill_back)
     report : dict(budget, before, after bytes; filled: bytes after fill_back, when it ran;
              cells, groups; merges; mean_set before and after (volume-weighted share of the
              triangles stored, filled ones too); met (bool); seconds)
@@ -274,7 +275,7 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=1.0) -> tup
     from .pvs_codec import decode_all, _CACHE
 
     back = others.get("pvs_back")
-    if corners is not None and back is not None:  # free bits first: nothing more sent
+    if fill and corners is not None and back is not None:  # free bits first: no more sent
         masks = fill_back(boxes, masks, corners, float(np.asarray(back).ravel()[0]))
         exact = encode(boxes, masks)
         size = stored_size({**exact, **others})
