@@ -18,9 +18,10 @@ saved than setting rarely-differing bits (a majority of neighbours) and about th
 merging triangle patterns.
 
 Before merging, free bits are filled (fill_back): a triangle facing away from a whole cell
-grown by pvs_back is left out by the stage when back faces are culled (culling/pvs.py; else
-tbfc culls it for every eye there), so adding it to that cell's set costs nothing sent with
-back-face culling, and any superset stays conservative. Each triangle copies those bits from
+grown by pvs_back is left out by the stage when back faces are culled (culling/pvs.py, when
+the eye's reach fits in pvs_back; else tbfc culls it for every eye in the grown cell), so
+adding it to that cell's set costs nothing sent with back-face culling, and any superset
+stays conservative. Each triangle copies those bits from
 the earlier triangle whose cells match its own best (its other bits kept), so patterns repeat
 and the coder's references fit better: W5's exact PVS 1.303x -> 1.102x the OBJ, W6's 0.665x ->
 0.590x, with the same triangles sent by pvs+vfc+tbfc (pvs+vfc, without back faces culled,
