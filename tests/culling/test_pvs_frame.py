@@ -13,7 +13,8 @@ from vismobile.device.profile import get_profile
 from vismobile.partition import partition
 from vismobile.world.camera import Camera
 
-from .pvs_cases import MODES, SLABS, in_cell_cameras, in_face_plane, zigzag_world
+from .pvs_cases import (MODES, SLABS, in_cell_cameras, in_face_plane, keeps_what_cameras_see,
+                        zigzag_world)
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +74,11 @@ def test_the_fused_call_hands_on_what_the_staged_path_did(baked, kit, kind, mode
 def test_the_fused_call_only_where_vfc_is_the_one_node_stage(baked):
     part = baked["portal"]
     assert Culler(part, "pvs+vfc+cbfc").stages[0].walker is not None
-    for stages in ("pvs", "pvs+vfc+occlusion", "pvs+vfc+cone", "pvs+portals+vfc"):
+    assert Culler(part, "pvs+vfc+cbfc").stages[0].gather
+    # occlusion after vfc: the call walks, occlusion tests the nodes and gathers
+    stage = Culler(part, "pvs+vfc+occlusion+tbfc").stages[0]
+    assert stage.walker is not None and not stage.gather
+    for stages in ("pvs", "pvs+vfc+cone", "pvs+portals+vfc"):
         culler = Culler(part, stages)
         assert culler.stages[0].walker is None, stages
         assert not any(getattr(s, "absorbed", False) for s in culler.stages), stages
@@ -128,3 +133,27 @@ def test_the_compiled_face_test_is_on_face():
         for reach in (1e-9, 0.05, 0.5):
             eye[2] = faces[2][rng.integers(7)] + rng.choice([0.0, reach, 1.01 * reach])
             assert near_plane(coords, start, eye, reach) == on_face(faces, eye, reach)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_with_occlusion_after_the_call_walks_and_occlusion_gathers(baked, kit, mode):
+    # pvs+vfc+occlusion: the call's walk (the set's subtrees only) hands occlusion vfc's
+    # accepted nodes and the set's bits as a filter: conservative against the unculled item
+    # buffer, within what pvs+vfc sends, fewer nodes walked than the staged path
+    part = baked["portal"]
+    cams = in_cell_cameras(part, 30, 31) + path_cameras(part, 30, 32)
+    assert keeps_what_cameras_see(part, ("pvs+vfc+occlusion",), cams, mode, kit.PROFILE) > 0
+    options = {"arithmetic": "float64"} if mode == "float64" else \
+        device_options(get_profile(kit.PROFILE, mode))
+    fused = Culler(part, "pvs+vfc+occlusion", **options)
+    staged = Culler(part, "pvs+vfc+occlusion", pvs={"fuse": False}, **options)
+    alone = Culler(part, "pvs+vfc", **options)
+    walked = staged_walked = hidden = 0
+    for cam in cams:
+        a, b, c = fused.cull(cam), staged.cull(cam), alone.cull(cam)
+        assert not len(np.setdiff1d(a.triangles, c.triangles)), cam
+        assert a.stats.get("pvs.fallbacks") == b.stats.get("pvs.fallbacks")
+        walked += a.stats["vfc.nodes_accepted"] + a.stats["vfc.nodes_culled"]
+        staged_walked += b.stats["vfc.nodes_accepted"] + b.stats["vfc.nodes_culled"]
+        hidden += len(c.triangles) - len(a.triangles)
+    assert walked <= staged_walked and hidden > 0

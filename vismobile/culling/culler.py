@@ -167,11 +167,14 @@ class Culler:
             vfc.deferred = True
         # pvs then vfc alone among the node stages, on a static partition: pvs walks the
         # frustum over its set's subtrees, gathers and filters in one compiled call
-        # (culling/pvs_frame.py), the same triangles as pvs's nodes walked by vfc and filtered
+        # (culling/pvs_frame.py), the same triangles as pvs's nodes walked by vfc and filtered;
+        # with occlusion after them, the call only walks (occlusion tests the accepted nodes,
+        # the gather follows, the set's bits filter it)
         pvs = by_name.get("pvs")
         if vfc is not None and pvs is not None and getattr(pvs, "fuse", False) \
-                and occlusion is None and self.animated is None and not others - {"pvs"}:
+                and self.animated is None and not others - {"pvs"}:
             pvs.walker = vfc
+            pvs.gather = occlusion is None
             vfc.absorbed = True
 
     def _chain(self) -> None:

@@ -46,6 +46,7 @@ hollow wall or slab sees through the backs of its faces).
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 
@@ -86,6 +87,8 @@ class PVSStage:
             raise ValueError(f"pvs fuse must be True or False, got {fuse!r}")
         self.fuse = bool(fuse)
         self.walker = None
+        self.gather = True  # the fused call gathers (vfc the last node stage); the Culler sets
+        # False when occlusion follows: the call then walks, occlusion tests and gathers
         self.keep = KEEP  # the fused call's slots at most (sets it walks without Python)
 
     def prepare(self, tree: Tree) -> None:
@@ -347,13 +350,17 @@ class PVSStage:
             self.tables = pack_tables(fields)
         x, y, z = state.camera.position
         slot, found, face, ids = locate_walk_gather(self.tables, x, y, z, pad, face_reach,
-                                                    bool(drop), state.planes[None])
+                                                    bool(drop), state.planes[None], self.gather)
         if slot < 0:
             return found, face
         tested, runs, count, visited, tests, culled, straddling, covered, masked = \
             self.counts.tolist()
         state.nodes = self.scratch[0, :count].copy()
-        state.gathered = (ids, runs)
+        everything = bool(self.slot_key[slot, 3])
+        if self.gather:
+            state.gathered = (ids, runs)
+        elif not everything:  # the node stage after gathers; the set's bits filter it
+            state.filters.append(partial(bits_filter, state, self.slot_kept[slot].copy()))
         stats = state.stats
         stats["nodes_visited"] = stats.get("nodes_visited", 0) + visited
         stats["plane_tests"] = stats.get("plane_tests", 0) + tests
@@ -365,9 +372,9 @@ class PVSStage:
             stats["vfc.nodes_straddling"] = straddling
         if vfc.covering:
             stats["vfc.nodes_covered"] = covered
-        if self.slot_key[slot, 3]:
+        if everything:
             stats["pvs.everything"] = 1
-        else:  # what the staged filter tests: each gathered triangle's keep byte
+        elif self.gather:  # what the staged filter tests: each gathered triangle's keep byte
             stats["pvs.triangles_tested"] = masked
         return None
 
@@ -465,6 +472,13 @@ def on_face(faces, eye, reach: float) -> bool:
             if 0 <= j < len(coords) and abs(coords[j] - eye[axis]) <= reach:
                 return True
     return False
+
+
+def bits_filter(state, kept, ids) -> np.ndarray:
+    """(n,) bool: which of ids (n,) int64 the set's bits kept (T // 64 + 1,) uint64 hold
+    (pvs_frame.keep_bits' layout); counts them in pvs.triangles_tested."""
+    state.count("pvs.triangles_tested", len(ids))
+    return ((kept[ids >> 6] >> (ids & 63).astype(np.uint64)) & np.uint64(1)).astype(bool)
 
 
 def packed_planes(faces) -> tuple:

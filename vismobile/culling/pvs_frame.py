@@ -151,15 +151,17 @@ def find_slot(key, found, drop, face):
 
 
 @njit(cache=True, nogil=True)
-def locate_walk_gather(t, x, y, z, pad, face_reach, drop, planes):
+def locate_walk_gather(t, x, y, z, pad, face_reach, drop, planes, gather=True):
     """The eye (x, y, z)'s view cells (pvs_lookup.find in t's cells, grown by pad) and whether
     it lies within face_reach of a face plane the bake walked (near_plane over t.face_coords;
     face_reach < 0: never), and, when a slot holds the set made for them (find_slot: the
     cells, drop_back drop, the face sets; its allow and kept bits in t.slot_allow[slot],
-    t.slot_kept[slot], or the whole world), walk_gather's frame over t (FrameTables).
+    t.slot_kept[slot], or the whole world), walk_gather's frame over t (FrameTables); without
+    gather, its walk only (a node stage follows: it gathers and filters the accepted nodes).
     Returns (slot, found (K,) int64, face, ids (S,) int64; slot -1 on a miss: nothing
-    walked, ids empty); t.counts (>= 9,) int64 receives the boxes tested, then walk_gather's
-    runs, accepted, visited, plane tests, culled, straddling, covered and masked; t.scratch
+    walked; ids empty then and without gather); t.counts (>= 9,) int64 receives the boxes
+    tested, then walk_gather's runs, accepted, visited, plane tests, culled, straddling,
+    covered and masked (runs and masked 0 without gather); t.scratch
     (4, >= N + 1) int64 is the walk's out and stacks (accepted nodes are
     scratch[0, :accepted])."""
     eye = np.empty(3, dtype=np.float64)
@@ -170,6 +172,20 @@ def locate_walk_gather(t, x, y, z, pad, face_reach, drop, planes):
     counts[0] = tested
     slot = find_slot(t.slot_key, found, drop, face) if len(found) else -1
     if slot < 0:
+        return slot, found, face, np.empty(0, dtype=np.int64)
+    if not gather:
+        counts[1] = counts[8] = 0
+        roots = np.zeros(1, dtype=np.int64)
+        if t.slot_key[slot, 3]:
+            counts[2], counts[3], counts[4], counts[5], counts[6], counts[7] = frustum_walk(
+                t.box, t.links, t.size_of, t.whole_below, t.inner, t.inner_links, t.covering,
+                roots, roots, planes, t.tol, scratch[0], scratch[1], scratch[2], scratch[3],
+                None)
+        else:
+            counts[2], counts[3], counts[4], counts[5], counts[6], counts[7] = frustum_walk(
+                t.box, t.links, t.size_of, t.whole_below, t.inner, t.inner_links, t.covering,
+                roots, roots, planes, t.tol, scratch[0], scratch[1], scratch[2], scratch[3],
+                t.slot_allow[slot])
         return slot, found, face, np.empty(0, dtype=np.int64)
     if t.slot_key[slot, 3]:  # the cells see the whole world: vfc's walk and gather
         ids, counts[1], counts[2], counts[3], counts[4], counts[5], counts[6], counts[7], \
