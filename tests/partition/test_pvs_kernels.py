@@ -105,3 +105,63 @@ def test_a_growing_box_steps_beyond_its_points_within_the_face():
     assert grow_box_step(box, 0, grown, 2, 0.5, face, 0.0)
     # x steps 0.5 past the new points, kept within the face; y stays flat; z did not move
     assert np.allclose(box[0], [[0.3, 1.0, 1.0], [4.0, 1.0, 2.0]])
+
+
+BOX_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5),
+             (2, 6), (3, 7)]
+
+
+def _plain_separators(a, a_box, b, b_box, limit):
+    """separators without the probes, in plain Python (the same float operations in the same
+    order): every candidate plane's sides over all of both sets."""
+    out = []
+
+    def attempt(p, q, r):
+        e = [q[c] - p[c] for c in range(3)]
+        w = [r[c] - p[c] for c in range(3)]
+        n = [e[1] * w[2] - e[2] * w[1], e[2] * w[0] - e[0] * w[2], e[0] * w[1] - e[1] * w[0]]
+        length = float(np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]))
+        scale = float(np.sqrt((e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+                              * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2])))
+        if length <= 1e-9 * scale or length == 0.0:
+            return
+        n = [n[0] / length, n[1] / length, n[2] / length]
+        d = -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2])
+        fa = [n[0] * x[0] + n[1] * x[1] + n[2] * x[2] + d for x in a]
+        fb = [n[0] * x[0] + n[1] * x[1] + n[2] * x[2] + d for x in b]
+        if max(fa) <= min(fb):
+            out.append([n[0], n[1], n[2], d - 0.5 * (max(fa) + min(fb))])
+        elif max(fb) <= min(fa):
+            out.append([-n[0], -n[1], -n[2], -d + 0.5 * (min(fa) + max(fb))])
+
+    for first, second, box in ((a, b, a_box), (b, a, b_box)):
+        edges = BOX_EDGES if box else [(k, (k + 1) % len(first)) for k in range(len(first))]
+        for i, j in edges:
+            for r in second:
+                if len(out) < limit:
+                    attempt(first[i], first[j], r)
+    return np.array(out).reshape(-1, 4)
+
+
+@settings(max_examples=120)
+@given(seed=st.integers(0, 2 ** 32 - 1), box_b=st.booleans(), snap=st.booleans())
+def test_separators_probed_keep_exactly_the_plain_search_planes(seed, box_b, snap):
+    """The probes (pvs_kernels._try) only drop planes the full test drops: the planes kept,
+    and their order, are bit for bit those of the plain search, also for sets that touch,
+    share a face's plane or sit on a grid of coordinates (snap: ties between the sides)."""
+    rng = np.random.default_rng(seed)
+    pick = (lambda n: rng.integers(-4, 5, n) * 0.5) if snap else (lambda n: rng.uniform(-4, 4, n))
+    lo = pick(3)
+    a = np.empty((8, 3))
+    box_vertices(lo, lo + np.abs(pick(3)) + 0.5, a)
+    blo = pick(3)
+    bhi = blo + np.abs(pick(3)) + 0.25
+    if not box_b:  # a crossing box lying in its portal's plane: a rectangle
+        axis = rng.integers(3)
+        bhi[axis] = blo[axis]
+    b = np.empty((8, 3))
+    b = b[:_flat_rectangle(blo, bhi, b)]
+    limit = 192 if rng.random() < 0.8 else int(rng.integers(1, 12))
+    planes = np.empty((limit, 4))
+    count = separators(a, 8, True, b.copy(), len(b), planes, 0, len(b) == 8)
+    assert np.array_equal(planes[:count], _plain_separators(a, True, b, len(b) == 8, limit))

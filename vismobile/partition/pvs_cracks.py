@@ -101,12 +101,13 @@ def crack_portals(world, boxes, eps, reach=0.0) -> tuple:
 def edge_portals(world, seg, owner, boxes, eps, reach=0.0, tags=None) -> tuple:
     """crack_portals' (pairs, quads) for the edges seg (E, 2, 3) of the triangles owner (E,),
     plus each portal's tag (K,) int64 (its edge's tags[e], -1 without tags; pieces of
-    different tags are not merged)."""
+    different tags are not merged). Portals in the order of their first piece (edges in
+    order, then the pairs of their cells in ascending order)."""
     tags = np.full(len(seg), -1, dtype=np.int64) if tags is None else np.asarray(tags)
     tri_lo, tri_hi = world.bounds[owner, 0], world.bounds[owner, 1]
     lo_b, hi_b = boxes[:, 0], boxes[:, 1]
     near = eps + reach
-    pieces = {}
+    found = []  # per chunk: (a, b, edge ids, q0, q1) of the pieces kept, in order
     for s in range(0, len(seg), CHUNK):
         part = seg[s:s + CHUNK]
         slo, shi = part.min(axis=1), part.max(axis=1)
@@ -114,57 +115,66 @@ def edge_portals(world, seg, owner, boxes, eps, reach=0.0, tags=None) -> tuple:
         e, c = np.nonzero(hit)
         t0, t1 = clip_segments(part[e], lo_b[c], hi_b[c], near)
         ok = t0 <= t1
-        e, c, t0, t1 = e[ok], c[ok], t0[ok], t1[ok]
+        e, c = e[ok], c[ok]
         if not len(e):
             continue
-        # cells per edge: every pair of them touching along a face (or a line) the edge lies in
+        # cells per edge (ascending), and every pair of them, edge by edge
         order = np.argsort(e, kind="stable")
         e, c = e[order], c[order]
-        starts = np.flatnonzero(np.r_[True, e[1:] != e[:-1]])
-        ends = np.r_[starts[1:], len(e)]
-        for i0, i1 in zip(starts, ends):
-            if i1 - i0 < 2:
-                continue
-            edge = part[e[i0]]
-            p, d = edge[0], edge[1] - edge[0]
-            axis = np.flatnonzero(np.abs(d) > 0)
-            for i in range(i0, i1):
-                for j in range(i + 1, i1):
-                    a, b = sorted((int(c[i]), int(c[j])))
-                    lo = np.maximum(lo_b[a], lo_b[b])
-                    hi = np.minimum(hi_b[a], hi_b[b])
-                    flat = hi - lo <= eps
-                    if np.any(hi < lo - eps) or not flat.any():
-                        continue  # the boxes do not touch (or overlap: not cells)
-                    mid = 0.5 * (lo + hi)
-                    if np.any(np.abs(edge[:, flat] - mid[flat]) > eps):
-                        continue  # the edge does not lie in their common face or line
-                    t = s + e[i0]
-                    if not np.any(flat & (np.abs(tri_lo[t] - mid) <= eps)
-                                  & (np.abs(tri_hi[t] - mid) <= eps)):
-                        continue  # its triangle lies in none of the face's (line's) planes
-                    u0, u1 = clip_segments(edge[None], lo[None], hi[None], near)
-                    a0, a1 = float(u0[0]), float(u1[0])
-                    if a0 > a1:
-                        continue
-                    q0, q1 = p + a0 * d, p + a1 * d
-                    tag = int(tags[t])
-                    if len(axis) == 1:  # axis-aligned: merge along its line
-                        k = int(axis[0])
-                        key = (a, b, k) + tuple(np.round(np.delete(q0, k), 9)) + (tag,)
-                    else:
-                        key = (a, b, -1, len(pieces), tag)
-                    old = pieces.get(key)
-                    lo, hi = np.minimum(q0, q1), np.maximum(q0, q1)
-                    if key[2] < 0:
-                        pieces[key] = (q0, q1)
-                    else:  # the bounding segment of the pieces on this line
-                        pieces[key] = (lo, hi) if old is None else (np.minimum(old[0], lo),
-                                                                    np.maximum(old[1], hi))
-    pairs = np.array([k[:2] for k in pieces], dtype=np.int64).reshape(-1, 2)
-    quads = np.array([[q0, q1, q1, q0] for q0, q1 in pieces.values()],
-                     dtype=np.float64).reshape(-1, 4, 3)
-    return pairs, quads, np.array([k[-1] for k in pieces], dtype=np.int64)
+        last = np.r_[np.flatnonzero(e[1:] != e[:-1]), len(e) - 1]  # each edge's last row
+        end = np.repeat(last + 1, np.diff(np.r_[0, last + 1]))
+        later = end - np.arange(len(e)) - 1
+        i = np.repeat(np.arange(len(e)), later)
+        j = i + 1 + np.arange(len(i)) - np.repeat(np.cumsum(later) - later, later)
+        a, b = np.minimum(c[i], c[j]), np.maximum(c[i], c[j])
+        lo = np.maximum(lo_b[a], lo_b[b])
+        hi = np.minimum(hi_b[a], hi_b[b])
+        flat = hi - lo <= eps
+        keep = ~(hi < lo - eps).any(axis=1) & flat.any(axis=1)  # touching, not overlapping
+        mid = 0.5 * (lo + hi)
+        edge = part[e[i]]
+        # the edge lies in their common face or line ...
+        keep &= ~((np.abs(edge - mid[:, None]) > eps) & flat[:, None]).any(axis=(1, 2))
+        t = s + e[i]
+        # ... and its triangle in one of that face's (line's) planes
+        keep &= (flat & (np.abs(tri_lo[t] - mid) <= eps) & (np.abs(tri_hi[t] - mid) <= eps)
+                 ).any(axis=1)
+        rows = np.flatnonzero(keep)
+        u0, u1 = clip_segments(edge[rows], lo[rows], hi[rows], near)
+        inside = u0 <= u1
+        rows, u0, u1 = rows[inside], u0[inside], u1[inside]
+        p = edge[rows, 0]
+        d = edge[rows, 1] - edge[rows, 0]
+        found.append((a[rows], b[rows], t[rows], p + u0[:, None] * d, p + u1[:, None] * d))
+    if not found:
+        return np.zeros((0, 2), np.int64), np.zeros((0, 4, 3)), np.zeros(0, np.int64)
+    a, b, t, q0, q1 = (np.concatenate(x) for x in zip(*found))
+    d = seg[t, 1] - seg[t, 0]
+    moving = np.abs(d) > 0
+    aligned = moving.sum(axis=1) == 1  # axis-aligned: merged along its line
+    axis = np.argmax(moving, axis=1)
+    rounded = np.round(q0, 9)
+    slot_of, slots, keys = {}, np.empty(len(a), dtype=np.int64), []
+    for r in range(len(a)):
+        if aligned[r]:
+            k = int(axis[r])
+            u, v = rounded[r, (k + 1) % 3], rounded[r, (k + 2) % 3]
+            key = (int(a[r]), int(b[r]), k) + ((u, v) if k != 1 else (v, u)) \
+                + (int(tags[t[r]]),)
+        else:
+            key = r  # a piece of its own
+        slots[r] = slot_of.setdefault(key, len(slot_of))
+        if slots[r] == len(keys):
+            keys.append(r)
+    first = np.asarray(keys, dtype=np.int64)
+    out0 = np.where(aligned[first, None], np.inf, q0[first])
+    out1 = np.where(aligned[first, None], -np.inf, q1[first])
+    merge = np.flatnonzero(aligned)
+    np.minimum.at(out0, slots[merge], np.minimum(q0[merge], q1[merge]))
+    np.maximum.at(out1, slots[merge], np.maximum(q0[merge], q1[merge]))
+    pairs = np.stack([a[first], b[first]], axis=1).astype(np.int64).reshape(-1, 2)
+    quads = np.stack([out0, out1, out1, out0], axis=1).astype(np.float64).reshape(-1, 4, 3)
+    return pairs, quads, tags[t[first]].astype(np.int64)
 
 
 def with_cracks(world, g, eps, reach=0.0) -> dict:

@@ -28,8 +28,18 @@ NO_SLAB = np.array([-1.0, 0.0, 0.0])  # flow_in_slab: every line
 
 
 @njit(cache=True, inline="always")
-def _side(plane, p):
-    return plane[0] * p[0] + plane[1] * p[1] + plane[2] * p[2] + plane[3]
+def _side_at(planes, k, points, i):
+    """planes[k]'s side of points[i] (by index: no row views in the walk's loops)."""
+    return (planes[k, 0] * points[i, 0] + planes[k, 1] * points[i, 1]
+            + planes[k, 2] * points[i, 2] + planes[k, 3])
+
+
+@njit(cache=True, inline="always")
+def _side_corner(planes, k, corners, t, i):
+    """planes[k]'s side of corners[t, i] (by index (corners (T, V, 3): a triangle's or a
+    portal's)."""
+    return (planes[k, 0] * corners[t, i, 0] + planes[k, 1] * corners[t, i, 1]
+            + planes[k, 2] * corners[t, i, 2] + planes[k, 3])
 
 
 @njit(cache=True)
@@ -41,20 +51,35 @@ def box_vertices(lo, hi, out):
         out[k, 2] = hi[2] if k & 4 else lo[2]
 
 
-@njit(cache=True)
-def _try(p, q, r, a, na, b, nb, out, count):
-    """Plane through p, q, r kept when it separates a[:na] (negative) from b[:nb] (positive),
-    moved to the middle of the gap; returns the new count."""
-    e0, e1, e2 = q[0] - p[0], q[1] - p[1], q[2] - p[2]
-    w0, w1, w2 = r[0] - p[0], r[1] - p[1], r[2] - p[2]
+@njit(cache=True, inline="always")
+def _try(e, i, j, v, k, a, na, b, nb, out, count, a0, a1, a2, b0, b1):
+    """Plane through e[i], e[j], v[k] kept when it separates a[:na] (negative) from b[:nb]
+    (positive), moved to the middle of the gap; returns the new count. Points by index, not
+    row views: no view per call in the separators' loops (the bake's hottest call).
+    a0, a1, a2 / b0, b1: indices into a / b (-1: none) probed first: when the probes' sides
+    already overlap (some a beyond some b either way), neither test can hold and the plane is
+    dropped before the full loops; the sides are the same numbers the loops compute, so the
+    planes kept are exactly those without probes."""
+    e0, e1, e2 = e[j, 0] - e[i, 0], e[j, 1] - e[i, 1], e[j, 2] - e[i, 2]
+    w0, w1, w2 = v[k, 0] - e[i, 0], v[k, 1] - e[i, 1], v[k, 2] - e[i, 2]
     n0, n1, n2 = e1 * w2 - e2 * w1, e2 * w0 - e0 * w2, e0 * w1 - e1 * w0
     length = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     scale = np.sqrt((e0 * e0 + e1 * e1 + e2 * e2) * (w0 * w0 + w1 * w1 + w2 * w2))
     if length <= 1e-9 * scale or length == 0.0:
         return count
     n0, n1, n2 = n0 / length, n1 / length, n2 / length
-    d = -(n0 * p[0] + n1 * p[1] + n2 * p[2])
+    d = -(n0 * e[i, 0] + n1 * e[i, 1] + n2 * e[i, 2])
     amin, amax, bmin, bmax = np.inf, -np.inf, np.inf, -np.inf
+    for q in (a0, a1, a2):
+        if q >= 0:
+            f = n0 * a[q, 0] + n1 * a[q, 1] + n2 * a[q, 2] + d
+            amin, amax = min(amin, f), max(amax, f)
+    for q in (b0, b1):
+        if q >= 0:
+            f = n0 * b[q, 0] + n1 * b[q, 1] + n2 * b[q, 2] + d
+            bmin, bmax = min(bmin, f), max(bmax, f)
+    if amax > bmin and amin < bmax:
+        return count
     for i in range(na):
         f = n0 * a[i, 0] + n1 * a[i, 1] + n2 * a[i, 2] + d
         amin, amax = min(amin, f), max(amax, f)
@@ -85,23 +110,50 @@ def separators(a, na, a_box, b, nb, out, count, b_box=False):
     for k in range(ea):
         if a_box:
             i, j = BOX_EDGES[k, 0], BOX_EDGES[k, 1]
-        else:
+            p0, p1 = _beside(i, j)  # on both sides of a plane through the edge unless it
+        else:                        # supports the box
             i, j = k, (k + 1) % na
+            p0, p1 = (j + 1) % na, (i + na - 1) % na
         for r in range(nb):
             if count >= limit:
                 return count
-            count = _try(a[i], a[j], b[r], a, na, b, nb, out, count)
+            count = _try(a, i, j, b, r, a, na, b, nb, out, count, p0, p1, -1, r,
+                         _far(r, nb, b_box))
     eb = 12 if b_box else nb
     for k in range(eb):
         if b_box:
             i, j = BOX_EDGES[k, 0], BOX_EDGES[k, 1]
+            p0, p1 = _beside(i, j)
         else:
             i, j = k, (k + 1) % nb
+            p0, p1 = (j + 1) % nb, (i + nb - 1) % nb
         for r in range(na):
             if count >= limit:
                 return count
-            count = _try(b[i], b[j], a[r], a, na, b, nb, out, count)
+            if a_box:
+                count = _try(b, i, j, a, r, a, na, b, nb, out, count, r ^ 1, r ^ 2, r ^ 4,
+                             p0, p1)
+            else:
+                count = _try(b, i, j, a, r, a, na, b, nb, out, count, r, (r + 1) % na,
+                             (r + na - 1) % na, p0, p1)
     return count
+
+
+@njit(cache=True, inline="always")
+def _beside(i, j):
+    """The two corners of a box next to corner i off the edge i-j (box_vertices' order)."""
+    along = i ^ j
+    if along == 1:
+        return i ^ 2, i ^ 4
+    if along == 2:
+        return i ^ 1, i ^ 4
+    return i ^ 1, i ^ 2
+
+
+@njit(cache=True, inline="always")
+def _far(r, n, box):
+    """A vertex far from vertex r of a box (its opposite corner) or convex polygon of n."""
+    return r ^ 7 if box else (r + n // 2) % n
 
 
 @njit(cache=True)
@@ -135,23 +187,22 @@ def clip_polygon(poly, n, planes, np_, tol, scratch):
     vertex count (0: nothing left). A polygon that would outgrow MAX_VERTS is left as it was
     before that plane (larger: sound)."""
     for k in range(np_):
-        plane = planes[k]
         m = 0
         inside_all = True
         for i in range(n):
-            if _side(plane, poly[i]) < -tol:
+            if _side_at(planes, k, poly, i) < -tol:
                 inside_all = False
                 break
         if inside_all:
             continue
         for i in range(n):
-            p, q = poly[i], poly[(i + 1) % n]
-            fp, fq = _side(plane, p) + tol, _side(plane, q) + tol
+            j = (i + 1) % n
+            fp, fq = _side_at(planes, k, poly, i) + tol, _side_at(planes, k, poly, j) + tol
             if fp >= 0.0:
                 if m >= MAX_VERTS:
                     m = -1
                     break
-                scratch[m] = p
+                scratch[m, 0], scratch[m, 1], scratch[m, 2] = poly[i, 0], poly[i, 1], poly[i, 2]
                 m += 1
             if (fp >= 0.0) != (fq >= 0.0):
                 if m >= MAX_VERTS:
@@ -159,14 +210,14 @@ def clip_polygon(poly, n, planes, np_, tol, scratch):
                     break
                 t = fp / (fp - fq)
                 for c in range(3):
-                    scratch[m, c] = p[c] + t * (q[c] - p[c])
+                    scratch[m, c] = poly[i, c] + t * (poly[j, c] - poly[i, c])
                 m += 1
         if m < 0:
             continue
         if m < 3:
             return 0
         for i in range(m):
-            poly[i] = scratch[i]
+            poly[i, 0], poly[i, 1], poly[i, 2] = scratch[i, 0], scratch[i, 1], scratch[i, 2]
         n = m
     return n
 
@@ -177,15 +228,15 @@ def _behind_cell(t, corners, lo, hi, src, tol):
     every source point strictly in front (beyond tol): a line from the source can then reach t
     from inside the cell only through t's front half-space (it crosses the plane once), never
     from the cell's side, so another cell on the line, in front of t, marks it if anything."""
-    v0, v1, v2 = corners[t, 0], corners[t, 1], corners[t, 2]
-    a0, a1, a2 = v1[0] - v0[0], v1[1] - v0[1], v1[2] - v0[2]
-    b0, b1, b2 = v2[0] - v0[0], v2[1] - v0[1], v2[2] - v0[2]
+    x0, y0, z0 = corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2]
+    a0, a1, a2 = corners[t, 1, 0] - x0, corners[t, 1, 1] - y0, corners[t, 1, 2] - z0
+    b0, b1, b2 = corners[t, 2, 0] - x0, corners[t, 2, 1] - y0, corners[t, 2, 2] - z0
     n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
     length = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     if length == 0.0:
         return False
     n0, n1, n2 = n0 / length, n1 / length, n2 / length
-    d = -(n0 * v0[0] + n1 * v0[1] + n2 * v0[2])
+    d = -(n0 * x0 + n1 * y0 + n2 * z0)
     # the cell's farthest corner toward the normal
     top = d + (n0 * (hi[0] if n0 > 0 else lo[0]) + n1 * (hi[1] if n1 > 0 else lo[1])
                + n2 * (hi[2] if n2 > 0 else lo[2]))
@@ -212,7 +263,7 @@ def _mark(cell, cell_ref_start, cell_ref_end, tri_refs, corners, planes, np_, to
         for k in range(np_):
             best = -np.inf
             for i in range(3):
-                best = max(best, _side(planes[k], corners[t, i]))
+                best = max(best, _side_corner(planes, k, corners, t, i))
             if best < -tol:
                 seen = False
                 break
@@ -269,18 +320,19 @@ def _crack_candidate(portal_quads, p, src, grow, slope, planes, np_, tol, lo_i, 
     source-to-segment distance) of the part of the segment whose w-box reaches every plane's
     side >= -tol, and on the cells' common face or line [lo_i, hi_i] (within tol). Returns 4,
     or 0 when no such point is left."""
-    q0, q1 = portal_quads[p, 0], portal_quads[p, 1]
     far = 0.0
     for i in range(8):  # the farthest pair of two convex sets is a pair of their vertices
-        for q in (q0, q1):
-            d0, d1, d2 = src[i, 0] - q[0], src[i, 1] - q[1], src[i, 2] - q[2]
+        for e in range(2):
+            d0 = src[i, 0] - portal_quads[p, e, 0]
+            d1 = src[i, 1] - portal_quads[p, e, 1]
+            d2 = src[i, 2] - portal_quads[p, e, 2]
             far = max(far, d0 * d0 + d1 * d1 + d2 * d2)
     w = grow + slope * np.sqrt(far)
     t0, t1 = 0.0, 1.0
     for k in range(np_):
-        plane = planes[k]
-        slack = tol + w * (abs(plane[0]) + abs(plane[1]) + abs(plane[2]))
-        f0, f1 = _side(plane, q0) + slack, _side(plane, q1) + slack
+        slack = tol + w * (abs(planes[k, 0]) + abs(planes[k, 1]) + abs(planes[k, 2]))
+        f0 = _side_corner(planes, k, portal_quads, p, 0) + slack
+        f1 = _side_corner(planes, k, portal_quads, p, 1) + slack
         if f0 < 0.0 and f1 < 0.0:
             return 0
         if f0 < 0.0:
@@ -290,8 +342,9 @@ def _crack_candidate(portal_quads, p, src, grow, slope, planes, np_, tol, lo_i, 
         if t0 > t1:
             return 0
     for a in range(3):
-        a0 = q0[a] + t0 * (q1[a] - q0[a])
-        a1 = q0[a] + t1 * (q1[a] - q0[a])
+        q0, q1 = portal_quads[p, 0, a], portal_quads[p, 1, a]
+        a0 = q0 + t0 * (q1 - q0)
+        a1 = q0 + t1 * (q1 - q0)
         lo = max(min(a0, a1) - w, lo_i[a] - tol)
         hi = min(max(a0, a1) + w, hi_i[a] + tol)
         if lo > hi:
