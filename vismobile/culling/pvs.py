@@ -96,7 +96,7 @@ class PVSStage:
         # the fused call's scratch (pvs_frame.locate_walk_gather): walk, gather, counters
         self.scratch = np.empty((4, tree.node_count + 1), dtype=np.int64)
         self.ranges = np.empty((tree.node_count + 1, 2), dtype=np.int64)
-        self.counts = np.zeros(9, dtype=np.int64)
+        self.counts = np.zeros(12, dtype=np.int64)
         self.tables = None  # the fused call's FrameTables, packed on its first frame
         self.forget()
         self.memo = (None, None)  # reaches' last (near, fov, aspect) and result
@@ -340,21 +340,23 @@ class PVSStage:
             self.slot_kept = np.zeros((1, 1), dtype=np.uint64)
         if self.tables is None:  # the Culler set walker and its options after prepare
             tree = self.tree
+            self.found = np.empty(len(self.cells), dtype=np.int64)  # the call's cells found
             b, g = tree._bitmap, tree.groups
             fields = (self.cells, *self.index, tree._box, tree._links, tree.read_size,
                       int(vfc.whole_below), tree._inner, tree._inner_links, bool(vfc.covering),
                       float(tree.tol), self.scratch, g.words, g.masks, g.span, b.bits,
                       b.summary, b.tops, self.ranges, self.counts, self.face_coords,
-                      self.face_start, self.slot_key, self.slot_allow, self.slot_kept)
+                      self.face_start, self.slot_key, self.slot_allow, self.slot_kept,
+                      self.found)
             assert len(fields) == len(TABLE_FIELDS)
             self.tables = pack_tables(fields)
         x, y, z = state.camera.position
-        slot, found, face, ids = locate_walk_gather(self.tables, x, y, z, pad, face_reach,
-                                                    bool(drop), state.planes[None], self.gather)
+        ids = locate_walk_gather(self.tables, x, y, z, pad, face_reach, bool(drop),
+                                 state.planes[None], self.gather)
+        tested, runs, count, visited, tests, culled, straddling, covered, masked, slot, face, \
+            cells = self.counts.tolist()
         if slot < 0:
-            return found, face
-        tested, runs, count, visited, tests, culled, straddling, covered, masked = \
-            self.counts.tolist()
+            return self.found[:cells].copy(), bool(face)
         state.nodes = self.scratch[0, :count].copy()
         everything = bool(self.slot_key[slot, 3])
         if self.gather:
@@ -366,7 +368,7 @@ class PVSStage:
         stats["plane_tests"] = stats.get("plane_tests", 0) + tests
         # keys no other stage writes (vfc is absorbed; pvs runs once a frame)
         stats.update({"vfc.nodes_culled": culled, "vfc.nodes_accepted": count,
-                      "pvs.cells": len(found), "pvs.cells_tested": tested,
+                      "pvs.cells": cells, "pvs.cells_tested": tested,
                       "pvs.ids_decoded": self.decoded})
         if vfc.whole_below >= 0:
             stats["vfc.nodes_straddling"] = straddling

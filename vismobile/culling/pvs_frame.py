@@ -100,7 +100,7 @@ class FrameTables(structref.StructRefProxy):
 TABLE_FIELDS = ("cells", "x0", "z0", "size", "nx", "nz", "start", "index", "box", "links",
                 "size_of", "whole_below", "inner", "inner_links", "covering", "tol", "scratch",
                 "words", "masks", "span", "bits", "summary", "tops", "ranges", "counts",
-                "face_coords", "face_start", "slot_key", "slot_allow", "slot_kept")
+                "face_coords", "face_start", "slot_key", "slot_allow", "slot_kept", "found")
 structref.define_constructor(FrameTables, FrameTablesType, TABLE_FIELDS)
 structref.define_boxing(FrameTablesType, FrameTables)
 
@@ -158,10 +158,11 @@ def locate_walk_gather(t, x, y, z, pad, face_reach, drop, planes, gather=True):
     cells, drop_back drop, the face sets; its allow and kept bits in t.slot_allow[slot],
     t.slot_kept[slot], or the whole world), walk_gather's frame over t (FrameTables); without
     gather, its walk only (a node stage follows: it gathers and filters the accepted nodes).
-    Returns (slot, found (K,) int64, face, ids (S,) int64; slot -1 on a miss: nothing
-    walked; ids empty then and without gather); t.counts (>= 9,) int64 receives the boxes
-    tested, then walk_gather's runs, accepted, visited, plane tests, culled, straddling,
-    covered and masked (runs and masked 0 without gather); t.scratch
+    Returns ids (S,) int64 (empty on a miss, when nothing is walked, and without gather; one
+    array: a tuple's boxing costs the call a microsecond more); t.counts (>= 12,) int64
+    receives the boxes tested, then walk_gather's runs, accepted, visited, plane tests,
+    culled, straddling, covered and masked (runs and masked 0 without gather), the slot (-1:
+    a miss), the face test's answer and K, the cells found, in t.found[:K]; t.scratch
     (4, >= N + 1) int64 is the walk's out and stacks (accepted nodes are
     scratch[0, :accepted])."""
     eye = np.empty(3, dtype=np.float64)
@@ -170,9 +171,11 @@ def locate_walk_gather(t, x, y, z, pad, face_reach, drop, planes, gather=True):
     face = face_reach >= 0.0 and near_plane(t.face_coords, t.face_start, eye, face_reach)
     counts, scratch = t.counts, t.scratch
     counts[0] = tested
+    t.found[:len(found)] = found
     slot = find_slot(t.slot_key, found, drop, face) if len(found) else -1
+    counts[9], counts[10], counts[11] = slot, face, len(found)
     if slot < 0:
-        return slot, found, face, np.empty(0, dtype=np.int64)
+        return np.empty(0, dtype=np.int64)
     if not gather:
         counts[1] = counts[8] = 0
         roots = np.zeros(1, dtype=np.int64)
@@ -186,7 +189,7 @@ def locate_walk_gather(t, x, y, z, pad, face_reach, drop, planes, gather=True):
                 t.box, t.links, t.size_of, t.whole_below, t.inner, t.inner_links, t.covering,
                 roots, roots, planes, t.tol, scratch[0], scratch[1], scratch[2], scratch[3],
                 t.slot_allow[slot])
-        return slot, found, face, np.empty(0, dtype=np.int64)
+        return np.empty(0, dtype=np.int64)
     if t.slot_key[slot, 3]:  # the cells see the whole world: vfc's walk and gather
         ids, counts[1], counts[2], counts[3], counts[4], counts[5], counts[6], counts[7], \
             counts[8] = walk_gather(t.box, t.links, t.size_of, t.whole_below, t.inner,
@@ -200,4 +203,4 @@ def locate_walk_gather(t, x, y, z, pad, face_reach, drop, planes, gather=True):
                                     scratch[1], scratch[2], scratch[3], t.slot_allow[slot],
                                     t.words, t.masks, t.span, t.bits, t.summary, t.tops,
                                     t.ranges, t.slot_kept[slot])
-    return slot, found, face, ids
+    return ids
