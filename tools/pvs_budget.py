@@ -4,7 +4,7 @@ kept, nothing dropped), measured on saved exact bakes (pvs_bytes.py's cache), co
 
     .venv/bin/python tools/pvs_budget.py [--worlds w5,w6] [--repair tjunctions]
                                          [--budgets 0.25] [--frames 80] [--cameras 300]
-                                         [--cache DIR] [--jobs 2] [--power 1] [--uniform 0]
+                                         [--cache DIR] [--jobs 2] [--power 2] [--uniform 0]
                                          [--sent-frames N] [--no-fill]
 
 Per world and budget: the PVS's bytes in the .vmp against the OBJ before and after, the view
@@ -40,7 +40,7 @@ from pvs_sweep import check, in_cell_cameras  # noqa: E402
 from vismobile.culling import Culler  # noqa: E402
 from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.partition import pvs_codec  # noqa: E402
-from vismobile.partition.pvs_coarsen import fit, stored_size  # noqa: E402
+from vismobile.partition.pvs_coarsen import POWER, fit, stored_size  # noqa: E402
 from vismobile.partition.store import to_bytes  # noqa: E402
 from vismobile.world.trajectory import Trajectory  # noqa: E402
 
@@ -78,7 +78,7 @@ def by_volume(part, count, seed) -> list:
     return out
 
 
-def run(name, repair, budgets, frames, cameras, cache, jobs, power=1.0, uniform=0,
+def run(name, repair, budgets, frames, cameras, cache, jobs, power=POWER, uniform=0,
         sent_frames=None, fill=True) -> int:
     world, part = baked(name, repair, cache, jobs)
     triangles = world.triangle_count
@@ -141,7 +141,7 @@ def main(argv=None) -> int:
     parser.add_argument("--cache", default=os.path.join(os.environ.get("TMPDIR", "/tmp"),
                                                         "vismobile-pvs-bytes"))
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--power", type=float, default=1.0,
+    parser.add_argument("--power", type=float, default=POWER,
                         help="cells' volumes raised to it to weigh merges (pvs_coarsen.fit)")
     parser.add_argument("--uniform", type=int, default=0,
                         help="also sent from this many cameras drawn uniformly by volume")

@@ -9,8 +9,8 @@ column of K pattern bits, and the patterns themselves get fewer (rows equal over
 
 The merges are greedy: at each step the two face-neighbouring groups whose union adds the
 fewest triangles facing them (one that faces away from a whole cell is culled with the back
-faces at run time), weighted by how likely an eye is in each (its share of the cells' volume;
-merge_order), merge. The budget fixes how many merges: about the fewest whose encoded PVS
+faces at run time), weighted by how likely an eye is in each (its cells' volumes raised to
+POWER, as a share; merge_order), merge. The budget fixes how many merges: about the fewest whose encoded PVS
 fits (within V / SLACK merges; found by interpolation and bisection in turn on the merge
 count, each probe an encode of the groups' columns, so the bytes are exact). Measured on the
 thesis worlds (docs/partition.md, "A size budget"), merging cells costs less sent per byte
@@ -21,8 +21,8 @@ Before merging, free bits are filled (fill_back): a triangle facing away from a 
 grown by pvs_back is left out by the stage when back faces are culled (culling/pvs.py, when
 the eye's reach fits in pvs_back; else tbfc culls it for every eye in the grown cell), so
 adding it to that cell's set costs nothing sent with back-face culling, and any superset
-stays conservative. Each triangle copies those bits from
-the earlier triangle whose cells match its own best (its other bits kept), so patterns repeat
+stays conservative. Each triangle copies those bits from the earlier triangle whose cells
+match its own best (its other bits kept), so patterns repeat
 and the coder's references fit better: W5's exact PVS 1.303x -> 1.102x the OBJ, W6's 0.665x ->
 0.590x, with the same triangles sent by pvs+vfc+tbfc (pvs+vfc, without back faces culled,
 sends the added ones when vfc keeps them).
@@ -47,6 +47,11 @@ from .pvs_codec import DERIVED, encode, encode_columns
 BUDGET_MAX = 64.0
 NEIGHBOURS = 16  # earlier face neighbours per cell taken as merge candidates
 FILL_WINDOW = 2048  # earlier triangles a triangle's free bits may be copied from (fill_back)
+# how likely an eye is in a cell, for the merges' cost: its volume to this power. 2: a cell
+# twice as wide (the open street's 8 m cells against the 4 m ones lining buildings) is more
+# than twice as likely, as cameras keep clear of walls (docs/partition.md: W5, W6 at 0.25x
+# meet 0.7x sent on their paths, 1-1.4% more sent than power 1 from cameras spread by volume)
+POWER = 2.0
 SLACK = 256  # the merge count is found to within V / SLACK of the fewest that fit
 # the .vmp's section entries and padding for the PVS's extras, counted with their bytes
 # (measured: 1,176 bytes beyond store.stored_bytes on W5)
@@ -186,7 +191,7 @@ def fill_back(boxes, masks, corners, back, window=FILL_WINDOW) -> np.ndarray:
     return filled.T.astype(bool)
 
 
-def merge_order(boxes, masks, corners=None, power=1.0) -> tuple:
+def merge_order(boxes, masks, corners=None, power=POWER) -> tuple:
     """((M, 2) int64 merges, (M,) float64 added) of the view cells (boxes (V, 2, 3)) with the
     sets masks (V, T) bool: the greedy order, cheapest first (a merge's cost: the triangles
     each group gains that face it, by the corners (T, 3, 3); None: all, times the group's
@@ -240,7 +245,7 @@ def stored_size(extras) -> int:
     return HEADER + int(sum(stored_bytes(v) for k, v in extras.items() if k not in DERIVED))
 
 
-def fit(boxes, masks, budget_bytes, others=None, corners=None, power=1.0,
+def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
         fill=True) -> tuple:
     """(encoded extras, report): the sets coarsened by about the fewest greedy merges
     (merge_order; within V / SLACK) whose encoding, with the others extras beside it, takes at
@@ -250,7 +255,7 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=1.0,
     corners: (T, 3, 3) float64 the triangles (a merge's cost counts only those facing the
              cells, merge_order); None: every triangle counts
     power  : the cells' volumes are raised to it to weigh merges (merge_order; 1: an eye
-             anywhere in the cells alike, docs/partition.md)
+             anywhere in the cells alike; POWER: the open cells more, docs/partition.md)
     others : the PVS's other extras (their bytes count); with corners and a pvs_back among
              them (and fill), free bits are filled before merging (fill_back)
     report : dict(budget, before, after bytes; filled: bytes after fill_back, when it ran;
