@@ -25,3 +25,27 @@ def test_only_edges_of_triangles_in_the_face_open_it(literal):
     d = seg[:, 1] - seg[:, 0]
     t = np.clip(((mid - seg[:, 0]) * d).sum(1) / np.maximum((d * d).sum(1), 1e-300), 0, 1)
     assert np.linalg.norm(seg[:, 0] + t[:, None] * d - mid, axis=1).min() > 0.1
+
+
+def test_edges_spanning_many_cells_give_the_same_portals_in_any_batch(literal, monkeypatch):
+    """edge_portals tests an edge's cell pairs in batches of PAIRS: a floor's border edges that
+    run through a row of cells give the same portals, in the same order, whatever the batch
+    (and each piece lies on its pair's common face)."""
+    from vismobile.partition import pvs_cracks
+
+    floor = literal.rect(1, 0.0, (0.0, 1.0), (0.0, 6.0), 1)  # y = 0, x 0-6, z 0-1
+    world = literal.world([floor])
+    cuts = np.linspace(0.0, 6.0, 7)  # cells below and above the floor, 6 along x, 2 along z
+    boxes = np.array([[[x0, y0, z0], [x1, y0 + 1.0, z0 + 0.5]] for x0, x1 in zip(cuts, cuts[1:])
+                      for y0 in (-1.0, 0.0) for z0 in (0.0, 0.5)])
+    whole = crack_portals(world, boxes, 1e-9)
+    monkeypatch.setattr(pvs_cracks, "PAIRS", 3)
+    pieces = crack_portals(world, boxes, 1e-9)
+    assert len(whole[0]) == 16  # 6 columns x 2 borders along x, 2 x 2 along z
+    assert all(np.array_equal(x, y) for x, y in zip(whole, pieces))
+    a, b = whole[0][:, 0], whole[0][:, 1]
+    seg = whole[1][:, :2]
+    for k in range(3):  # each piece within its two cells' common box (grown by eps)
+        lo = np.maximum(boxes[a, 0, k], boxes[b, 0, k])[:, None] - 2e-9
+        hi = np.minimum(boxes[a, 1, k], boxes[b, 1, k])[:, None] + 2e-9
+        assert ((seg[:, :, k] >= lo) & (seg[:, :, k] <= hi)).all()

@@ -28,6 +28,7 @@ CRACK_PIXELS = 1.0 / 16.0  # gap width in pixels (module docstring)
 PIXEL_SLOPE = 2.0 ** -6  # pixel width per unit of depth the contract covers
 CRACK_SLOPE = CRACK_PIXELS * PIXEL_SLOPE  # crack width per unit of distance from the eye
 CHUNK = 2048  # edges tested against every cell at once
+PAIRS = 1 << 18  # pairs of an edge's cells tested at once
 
 
 def unshared_edges(world) -> np.ndarray:
@@ -124,28 +125,31 @@ def edge_portals(world, seg, owner, boxes, eps, reach=0.0, tags=None) -> tuple:
         last = np.r_[np.flatnonzero(e[1:] != e[:-1]), len(e) - 1]  # each edge's last row
         end = np.repeat(last + 1, np.diff(np.r_[0, last + 1]))
         later = end - np.arange(len(e)) - 1
-        i = np.repeat(np.arange(len(e)), later)
-        j = i + 1 + np.arange(len(i)) - np.repeat(np.cumsum(later) - later, later)
-        a, b = np.minimum(c[i], c[j]), np.maximum(c[i], c[j])
-        lo = np.maximum(lo_b[a], lo_b[b])
-        hi = np.minimum(hi_b[a], hi_b[b])
-        flat = hi - lo <= eps
-        keep = ~(hi < lo - eps).any(axis=1) & flat.any(axis=1)  # touching, not overlapping
-        mid = 0.5 * (lo + hi)
-        edge = part[e[i]]
-        # the edge lies in their common face or line ...
-        keep &= ~((np.abs(edge - mid[:, None]) > eps) & flat[:, None]).any(axis=(1, 2))
-        t = s + e[i]
-        # ... and its triangle in one of that face's (line's) planes
-        keep &= (flat & (np.abs(tri_lo[t] - mid) <= eps) & (np.abs(tri_hi[t] - mid) <= eps)
-                 ).any(axis=1)
-        rows = np.flatnonzero(keep)
-        u0, u1 = clip_segments(edge[rows], lo[rows], hi[rows], near)
-        inside = u0 <= u1
-        rows, u0, u1 = rows[inside], u0[inside], u1[inside]
-        p = edge[rows, 0]
-        d = edge[rows, 1] - edge[rows, 0]
-        found.append((a[rows], b[rows], t[rows], p + u0[:, None] * d, p + u1[:, None] * d))
+        pair_i = np.repeat(np.arange(len(e)), later)
+        pair_j = pair_i + 1 + np.arange(len(pair_i)) - np.repeat(np.cumsum(later) - later, later)
+        for k in range(0, len(pair_i), PAIRS):  # bounded memory: an edge may span many cells
+            i, j = pair_i[k:k + PAIRS], pair_j[k:k + PAIRS]
+            a, b = np.minimum(c[i], c[j]), np.maximum(c[i], c[j])
+            lo = np.maximum(lo_b[a], lo_b[b])
+            hi = np.minimum(hi_b[a], hi_b[b])
+            flat = hi - lo <= eps
+            keep = ~(hi < lo - eps).any(axis=1) & flat.any(axis=1)  # touching, not overlapping
+            mid = 0.5 * (lo + hi)
+            edge = part[e[i]]
+            # the edge lies in their common face or line ...
+            keep &= ~((np.abs(edge - mid[:, None]) > eps) & flat[:, None]).any(axis=(1, 2))
+            t = s + e[i]
+            # ... and its triangle in one of that face's (line's) planes
+            keep &= (flat & (np.abs(tri_lo[t] - mid) <= eps)
+                     & (np.abs(tri_hi[t] - mid) <= eps)).any(axis=1)
+            rows = np.flatnonzero(keep)
+            u0, u1 = clip_segments(edge[rows], lo[rows], hi[rows], near)
+            inside = u0 <= u1
+            rows, u0, u1 = rows[inside], u0[inside], u1[inside]
+            p = edge[rows, 0]
+            d = edge[rows, 1] - edge[rows, 0]
+            found.append((a[rows], b[rows], t[rows], p + u0[:, None] * d,
+                          p + u1[:, None] * d))
     if not found:
         return np.zeros((0, 2), np.int64), np.zeros((0, 4, 3)), np.zeros(0, np.int64)
     a, b, t, q0, q1 = (np.concatenate(x) for x in zip(*found))
