@@ -141,3 +141,29 @@ def test_small_subtrees_are_walked_whole_and_nothing_visible_is_dropped(kit, mon
                 whole_kept += int(small[result.nodes].sum())
     assert visited[32] < 0.8 * visited[0], visited
     assert whole_kept > 0
+
+
+def test_the_compiled_frame_defers_at_its_budget_and_drops_nothing_visible(kit):
+    # W2 at octree 5 is the smallest world with frames visiting more than hiz.frame.WALK_BUDGET
+    # (1,024) nodes: there the compiled frame (the Culler's usual path) may keep nodes whole for
+    # the refinement after the rounds; it sends what the stage-by-stage path sends (the same
+    # budget) and drops nothing.
+    from vismobile.culling.hiz.frame import WALK_BUDGET
+
+    world = kit.world("w2")
+    part = partition(world, "octree", depth=5)
+    traj = Trajectory.load(TRAJECTORY)
+    compiled = Culler(part, "vfc,occlusion,tbfc", occlusion={"screen": (240, 320)})
+    staged = Culler(part, "vfc,occlusion,tbfc", occlusion={"screen": (240, 320)})
+    staged._chained = None
+    staged.stages[1].compiled = False
+    over = 0
+    for f in range(300, 345, 3):
+        camera = traj.camera(f, kit.ASPECT)
+        visible = kit.visible_ids(world, camera, True)
+        result = compiled.cull(camera)
+        assert np.array_equal(result.triangles, staged.cull(camera).triangles), f
+        missing = np.setdiff1d(visible, result.triangles)
+        assert not len(missing), (f, missing[:5])
+        over += result.stats["nodes_visited"] > WALK_BUDGET
+    assert over > 0

@@ -81,7 +81,7 @@ from ..world.world import World
 from .backface import half_tangents
 from .frustum import frustum_refine
 from .hiz import (DEPTH_SLACK, GUARD_PX, SAMPLE_HALF, SLACK_PX, build_tiles, rasterise,
-                  shift_table_size, stamp_near, tile_shifts)
+                  shift_table_size, stamp_near, tile_max_size, tile_shifts)
 from .hiz.edges import buffer_length
 from .hiz.frame import FRAME_SLOTS, occluder_shift, occlusion_frame, sample_clip
 from .hiz.walks import WHOLE_REFS, walk_child_counts
@@ -272,7 +272,7 @@ class DepthBufferOcclusion(BufferTests, OccluderChoice):
         self.mask = np.zeros(pixels, dtype=np.uint8)
         self.centre = np.zeros(pixels, dtype=np.uint8)
         self.crease_far = np.zeros(pixels)
-        self.tile_max = np.full(self.tiles, np.inf)
+        self.tile_max = np.full(tile_max_size(self._rows, self._cols), np.inf)  # + blocks
         self.tile_any = np.zeros(self.tiles, dtype=np.bool_)
         self.tile_min = np.full(self.tiles, np.inf)
         # Per tile the nearest rasterised occluder depth over it and the largest screen shift

@@ -16,7 +16,8 @@ root: cull_nodes, frustum_cull_nodes), candidates.py (which occluders: gather, s
 frame.py (the stage's usual frame calling them in one compiled call: occlusion_frame).
 """
 from .buffer import (SAMPLE_SLACK_PX, build_tiles, covers_no_sample, hidden_triangles,
-                     screen_rect, shift_table_size, tile_shift_bound, tile_shifts)
+                     screen_rect, shift_table_size, tile_max_size, tile_shift_bound,
+                     tile_shifts)
 from .candidates import (facing_occluders, gather_candidates, gather_shell_candidates,
                          lod_ancestors, score_candidates)
 from .raster import DEPTH_SLACK, GUARD_PX, SAMPLE_HALF, SLACK_PX, rasterise, stamp_near
@@ -26,4 +27,5 @@ __all__ = ["CENTRE_SPAN", "DEPTH_SLACK", "GUARD_PX", "SAMPLE_HALF", "SAMPLE_SLAC
            "build_tiles", "covers_no_sample", "cull_nodes", "facing_occluders",
            "frustum_cull_nodes", "gather_candidates", "gather_shell_candidates",
            "hidden_triangles", "lod_ancestors", "rasterise", "score_candidates", "screen_rect",
-           "shift_table_size", "stamp_near", "tile_shift_bound", "tile_shifts"]
+           "shift_table_size", "stamp_near", "tile_max_size", "tile_shift_bound",
+           "tile_shifts"]

@@ -49,6 +49,19 @@ def shift_table_size(rows: int, cols: int) -> int:
     return _levels(rows) * _levels(cols) * rows * cols
 
 
+# Tiles per block of the tile maxima's second level (columns, rows: 8 x 4-pixel tiles make
+# 16 x 16-pixel blocks): a tested rectangle wholly behind a block's maximum skips its tiles.
+BLOCK_COLS, BLOCK_ROWS = 2, 4
+
+
+@njit(cache=True, nogil=True)
+def tile_max_size(rows, cols):
+    """Entries of a tile_max with its block level: rows x cols tiles, then per block of
+    BLOCK_COLS x BLOCK_ROWS tiles (row-major, partial blocks at the edges) their maximum
+    (build_tiles fills it, _behind reads it). A tile_max of rows x cols entries has none."""
+    return rows * cols + (-(-rows // BLOCK_ROWS)) * (-(-cols // BLOCK_COLS))
+
+
 @njit(cache=True, nogil=True)
 def tile_shifts(tile_near, reach, tangent, rows, cols, out):
     """out: a 2D sparse table of the largest screen shift (x / z units) of an occluder point
@@ -93,7 +106,8 @@ def tile_shift_bound(c0, c1, r0, r1, table, rows, cols):
 @njit(cache=True, nogil=True)
 def build_tiles(depth, width, height, tw, th, tile_max, tile_any, tile_min):
     """Per tile of tw x th pixels: tile_max the largest depth bound (inf when any pixel is not
-    covered), tile_any whether any pixel is covered, tile_min the smallest bound. Exact."""
+    covered), tile_any whether any pixel is covered, tile_min the smallest bound; with room
+    for them (tile_max_size), the blocks' maxima after the tiles' (nan when a tile is). Exact."""
     cols = (width + tw - 1) // tw
     rows = (height + th - 1) // th
     for ty_ in range(rows):
@@ -107,6 +121,26 @@ def build_tiles(depth, width, height, tw, th, tile_max, tile_any, tile_min):
             tile_max[ty_ * cols + tx_] = m
             tile_any[ty_ * cols + tx_] = low < np.inf
             tile_min[ty_ * cols + tx_] = low
+    if len(tile_max) >= tile_max_size(rows, cols):
+        _block_maxima(tile_max, rows, cols)
+
+
+@njit(cache=True, nogil=True)
+def _block_maxima(tile_max, rows, cols):
+    """tile_max's block level (tile_max_size) from its tiles' maxima: nan when one is nan (a
+    block's maximum is never below a tile's, so a test it passes every tile passes)."""
+    base, bcols = rows * cols, -(-cols // BLOCK_COLS)
+    for by in range(-(-rows // BLOCK_ROWS)):
+        for bx in range(bcols):
+            m = -np.inf
+            for ty_ in range(by * BLOCK_ROWS, min(by * BLOCK_ROWS + BLOCK_ROWS, rows)):
+                for tx_ in range(bx * BLOCK_COLS, min(bx * BLOCK_COLS + BLOCK_COLS, cols)):
+                    v = tile_max[ty_ * cols + tx_]
+                    if v > m or v != v:
+                        m = v
+                    if m != m:
+                        break
+            tile_max[base + by * bcols + bx] = m
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -238,11 +272,37 @@ def _centre_rect(cam, m, tx, ty, width, height, move, rect_move, shift, tile_shi
 
 
 @njit(cache=True, nogil=True)
-def _behind(x0, x1, y0, y1, zmin, depth, width, tile_max, cols, tw, th, margin, recede):
+def _behind(x0, x1, y0, y1, zmin, depth, width, tile_max, rows, cols, tw, th, margin, recede):
     """True when zmin > D + margin D^2 + recede for the largest D over the inclusive pixel
-    rectangle (tiles first, pixels of partly covered tiles only when their maximum fails)."""
-    for ty_ in range(y0 // th, y1 // th + 1):
-        for tx_ in range(x0 // tw, x1 // tw + 1):
+    rectangle (blocks first when tile_max has them (tile_max_size), then the tiles of a block
+    whose maximum fails, pixels of partly covered tiles only when their maximum fails). The
+    same answer with or without blocks: D + margin D^2 + recede grows with D >= 0 (margin >= 0,
+    each rounded operation monotone), so a block's maximum passing means each tile's does."""
+    r0, r1, c0, c1 = y0 // th, y1 // th, x0 // tw, x1 // tw
+    if len(tile_max) < tile_max_size(rows, cols) or (r1 - r0 + 1) * (c1 - c0 + 1) <= 2:
+        return _behind_tiles(x0, x1, y0, y1, r0, r1, c0, c1, zmin, depth, width, tile_max,
+                             cols, tw, th, margin, recede)
+    base, bcols = rows * cols, -(-cols // BLOCK_COLS)
+    for by in range(r0 // BLOCK_ROWS, r1 // BLOCK_ROWS + 1):
+        for bx in range(c0 // BLOCK_COLS, c1 // BLOCK_COLS + 1):
+            d = tile_max[base + by * bcols + bx]
+            if zmin > d + margin * d * d + recede:
+                continue
+            if not _behind_tiles(x0, x1, y0, y1, max(r0, by * BLOCK_ROWS),
+                                 min(r1, by * BLOCK_ROWS + BLOCK_ROWS - 1),
+                                 max(c0, bx * BLOCK_COLS),
+                                 min(c1, bx * BLOCK_COLS + BLOCK_COLS - 1), zmin, depth, width,
+                                 tile_max, cols, tw, th, margin, recede):
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _behind_tiles(x0, x1, y0, y1, tr0, tr1, tc0, tc1, zmin, depth, width, tile_max, cols, tw,
+                  th, margin, recede):
+    """_behind over tiles tr0..tr1 x tc0..tc1 (inclusive) of the pixel rectangle."""
+    for ty_ in range(tr0, tr1 + 1):
+        for tx_ in range(tc0, tc1 + 1):
             d = tile_max[ty_ * cols + tx_]
             if zmin > d + margin * d * d + recede:
                 continue
@@ -514,8 +574,8 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
         if use and (_behind_shape(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th,
                                   margin, recede, edges, gx, gy, reach, wmax, centres, first)
                     if shaped else
-                    _behind(x0, x1, y0, y1, r[4], depth, width, tile_max, cols, tw, th, margin,
-                            recede)):
+                    _behind(x0, x1, y0, y1, r[4], depth, width, tile_max,
+                            (height + th - 1) // th, cols, tw, th, margin, recede)):
             hidden[k] = True
             continue
         if use and sw > 0:  # the wide rectangle failed: the pixels under the centres
@@ -528,8 +588,8 @@ def hidden_triangles(ids, vertices, triangles, eye, rot, near, tx, ty, width, he
                     _behind_shape(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th,
                                   margin, recede, edges, gx, gy, reach, wmax, centres, first)
                     if shaped else
-                    _behind(a0, a1, b0, b1, r[4], depth, width, tile_max, cols, tw, th, margin,
-                            recede)):
+                    _behind(a0, a1, b0, b1, r[4], depth, width, tile_max,
+                            (height + th - 1) // th, cols, tw, th, margin, recede)):
                 hidden[k] = True
                 continue
         if sw > 0:

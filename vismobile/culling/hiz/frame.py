@@ -17,11 +17,13 @@ from .raster import DEPTH_SLACK, SLACK_PX, rasterise, stamp_near
 from .walks import NO_BUDGET, cull_nodes, frustum_cull_nodes
 
 # The fused walk expands at most about this many nodes when later rounds follow; the rest is
-# kept whole and refined by cull_nodes after them (walks.frustum_cull_nodes). Tiled W2 at 5.0M,
-# frames 301-329 played in order: the frames whose first-round buffer leaves holes onto the
-# far tiles visited up to 59,633 nodes (median 16,477); with it up to 36,235, sending 224.1
-# triangles a frame against 223.7 (docs/culling-performance.md). Thesis worlds stay below it.
-WALK_BUDGET = 16384
+# kept whole and refined by cull_nodes after them (walks.frustum_cull_nodes), against the
+# fuller buffer of the later rounds, where more of it goes at a coarse level. Tiled W2, frames
+# from 300 (docs/culling-performance.md, issue 32): 16,384 -> 1,024 took 0.92x the time at
+# 923k (sent 1.341x -> 1.393x the visible set; MOC 1.54x) and 0.84x at 5.0M (1.373x -> 1.424x;
+# MOC 1.59x); W2 (at most ~1,100 nodes a frame) sends the same. 16,384 was set for 5.0M's
+# worst frames (59,633 nodes unbounded); 1,024 bounds them further.
+WALK_BUDGET = 1024
 
 
 # Slots of occlusion_frame's counters (occlusion.FRAME_COUNTERS names them).

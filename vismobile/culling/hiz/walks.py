@@ -64,8 +64,9 @@ def _box_hidden(cam, near, tx, ty, width, height, move, shift, sample_move, tile
             sw, sh, r):
         return True
     return r[6] == 0 or (r[6] == 1 and _behind(int(r[0]), int(r[1]), int(r[2]), int(r[3]),
-                                               r[4], depth, width, tile_max, cols, tw, th,
-                                               margin, recede))
+                                               r[4], depth, width, tile_max,
+                                               (height + th - 1) // th, cols, tw, th, margin,
+                                               recede))
 
 
 @njit(cache=True, nogil=True)
