@@ -1,10 +1,11 @@
-"""The tile maxima's block level (culling/hiz/buffer.py: tile_max_size, build_tiles, _behind):
+"""The tile maxima's block level (culling/hiz/tiles.py: tile_max_size, build_tiles; buffer._behind):
 a block holds the largest of its tiles' maxima, and a rectangle test reads blocks first yet
 answers exactly as the pixel-by-pixel comparison does, with or without the blocks."""
 import numpy as np
 
 from vismobile.culling.hiz import build_tiles, tile_max_size
-from vismobile.culling.hiz.buffer import BLOCK_COLS, BLOCK_ROWS, _behind
+from vismobile.culling.hiz.buffer import _behind
+from vismobile.culling.hiz.tiles import BLOCK_COLS, BLOCK_ROWS
 
 CASES = ((120, 160, 8, 4), (24, 32, 8, 4), (20, 13, 8, 4), (9, 5, 2, 2))
 

@@ -1,6 +1,7 @@
-"""The tiled depth buffer's tests (numba, cached on disk): its tiles and the occluders' screen
-shift per tile, the conservative pixel rectangle of tested points, the comparison with the
-buffer, and the per-triangle test (package docstring: the buffer and its screen).
+"""The tiled depth buffer's tests (numba, cached on disk): the conservative pixel rectangle of
+tested points, the comparison with the buffer (its blocks, tiles and pixels: tiles.py holds
+those tables and the occluders' screen shift per tile), and the per-triangle test (package
+docstring: the buffer and its screen).
 
 Tests. A box (8 corners) or triangle (3 corners), each corner moved by up to `move` per
 coordinate (device rounding), gives a pixel rectangle grown by SLACK_PX plus `shift` and a
@@ -25,6 +26,7 @@ from numba import njit
 
 from .edges import edge_bound
 from .raster import DEPTH_SLACK, GUARD_PX, SLACK_PX, _to_camera
+from .tiles import BLOCK_COLS, BLOCK_ROWS, tile_max_size, tile_shift_bound
 
 SAMPLE_SLACK_PX = 1.0 / 64  # screen pixels: GPU vertex snapping (8 subpixel bits) is 1/512
 # Relative to the corners' largest 1 / z: the plane's 1 / z fitted in float64 from a projection
@@ -33,114 +35,6 @@ PLANE_SLACK = 1e-6
 # Screen centres per tested triangle that edge records (hiz.edges) may hide: beyond it the
 # triangle is kept (a visible triangle along an occluder's outline stops scanning sooner).
 EDGE_RESCUES = 6
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _levels(n):
-    """floor(log2(n)) + 1 for n >= 1: the sparse table's levels over n entries."""
-    k = 1
-    while (1 << k) <= n:
-        k += 1
-    return k
-
-
-def shift_table_size(rows: int, cols: int) -> int:
-    """Entries of tile_shifts' table for rows x cols tiles."""
-    return _levels(rows) * _levels(cols) * rows * cols
-
-
-# Tiles per block of the tile maxima's second level (columns, rows: 8 x 4-pixel tiles make
-# 16 x 16-pixel blocks): a tested rectangle wholly behind a block's maximum skips its tiles.
-BLOCK_COLS, BLOCK_ROWS = 2, 4
-
-
-@njit(cache=True, nogil=True)
-def tile_max_size(rows, cols):
-    """Entries of a tile_max with its block level: rows x cols tiles, then per block of
-    BLOCK_COLS x BLOCK_ROWS tiles (row-major, partial blocks at the edges) their maximum
-    (build_tiles fills it, _behind reads it). A tile_max of rows x cols entries has none."""
-    return rows * cols + (-(-rows // BLOCK_ROWS)) * (-(-cols // BLOCK_COLS))
-
-
-@njit(cache=True, nogil=True)
-def tile_shifts(tile_near, reach, tangent, rows, cols, out):
-    """out: a 2D sparse table of the largest screen shift (x / z units) of an occluder point
-    over each tile of tile_near (rows * cols,): reach / z (1 + tangent near / z + reach / z),
-    z = near - reach, for reach = sqrt(3) move (inf when z <= 0, 0 over tiles no occluder
-    meets); level (a, b) at ((a * levels(cols) + b) * rows + r) * cols + c holds the maximum
-    over rows r..r+2^a-1 and columns c..c+2^b-1 (tile_shift_bound). Exact."""
-    la, lb = _levels(rows), _levels(cols)
-    for k in range(rows * cols):
-        near = tile_near[k]
-        s = 0.0
-        if near < np.inf:
-            z = near - reach
-            s = reach / z * (1.0 + (tangent * near / z + reach / z)) if z > 0 else np.inf
-        out[k] = s
-    for a in range(la):
-        for b in range(lb):
-            if a == 0 and b == 0:
-                continue
-            base = (a * lb + b) * rows * cols
-            if b > 0:  # from level (a, b - 1): two column halves
-                src, step, rstep = (a * lb + b - 1) * rows * cols, 1 << (b - 1), 0
-            else:      # from level (a - 1, 0): two row halves
-                src, step, rstep = ((a - 1) * lb) * rows * cols, 0, 1 << (a - 1)
-            for r in range(rows - (1 << a) + 1):
-                for c in range(cols - (1 << b) + 1):
-                    k = r * cols + c
-                    out[base + k] = max(out[src + k], out[src + k + rstep * cols + step])
-
-
-@njit(cache=True, nogil=True, inline="always")
-def tile_shift_bound(c0, c1, r0, r1, table, rows, cols):
-    """The largest per-tile value of tile_shifts' table over tiles c0..c1 x r0..r1 (inclusive,
-    non-empty): four look-ups. Exact."""
-    a, b = _levels(r1 - r0 + 1) - 1, _levels(c1 - c0 + 1) - 1
-    base = (a * _levels(cols) + b) * rows * cols
-    r2, c2 = r1 - (1 << a) + 1, c1 - (1 << b) + 1
-    return max(max(table[base + r0 * cols + c0], table[base + r0 * cols + c2]),
-               max(table[base + r2 * cols + c0], table[base + r2 * cols + c2]))
-
-
-@njit(cache=True, nogil=True)
-def build_tiles(depth, width, height, tw, th, tile_max, tile_any, tile_min):
-    """Per tile of tw x th pixels: tile_max the largest depth bound (inf when any pixel is not
-    covered), tile_any whether any pixel is covered, tile_min the smallest bound; with room
-    for them (tile_max_size), the blocks' maxima after the tiles' (nan when a tile is). Exact."""
-    cols = (width + tw - 1) // tw
-    rows = (height + th - 1) // th
-    for ty_ in range(rows):
-        for tx_ in range(cols):
-            m, low = -np.inf, np.inf
-            for r in range(ty_ * th, min((ty_ + 1) * th, height)):
-                for c in range(tx_ * tw, min((tx_ + 1) * tw, width)):
-                    v = depth[r * width + c]
-                    m = max(m, v)
-                    low = min(low, v)
-            tile_max[ty_ * cols + tx_] = m
-            tile_any[ty_ * cols + tx_] = low < np.inf
-            tile_min[ty_ * cols + tx_] = low
-    if len(tile_max) >= tile_max_size(rows, cols):
-        _block_maxima(tile_max, rows, cols)
-
-
-@njit(cache=True, nogil=True)
-def _block_maxima(tile_max, rows, cols):
-    """tile_max's block level (tile_max_size) from its tiles' maxima: nan when one is nan (a
-    block's maximum is never below a tile's, so a test it passes every tile passes)."""
-    base, bcols = rows * cols, -(-cols // BLOCK_COLS)
-    for by in range(-(-rows // BLOCK_ROWS)):
-        for bx in range(bcols):
-            m = -np.inf
-            for ty_ in range(by * BLOCK_ROWS, min(by * BLOCK_ROWS + BLOCK_ROWS, rows)):
-                for tx_ in range(bx * BLOCK_COLS, min(bx * BLOCK_COLS + BLOCK_COLS, cols)):
-                    v = tile_max[ty_ * cols + tx_]
-                    if v > m or v != v:
-                        m = v
-                    if m != m:
-                        break
-            tile_max[base + by * bcols + bx] = m
 
 
 @njit(cache=True, nogil=True, inline="always")

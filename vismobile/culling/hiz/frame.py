@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .buffer import build_tiles, tile_shifts
+from .tiles import build_tiles, tile_shifts
 from .candidates import (facing_occluders, gather_candidates, gather_shell_candidates,
                          lod_ancestors, score_candidates)
 from .raster import DEPTH_SLACK, SLACK_PX, rasterise, stamp_near
