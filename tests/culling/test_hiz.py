@@ -549,3 +549,41 @@ def test_plane_depth_keeps_every_moved_point_behind_uneven_buffers():
             checked += 1
     assert checked > 50 and by_plane > 0
 
+
+
+def test_screen_rect_holds_every_moved_points_exact_projection():
+    # _projected_bounds divides once per point (reciprocal depth) instead of four times (issue
+    # 32): the rectangle must still hold, to the pixel, the exact (rational) projection of each
+    # point moved by up to `move` per coordinate (the projection of a box of moves is extreme
+    # at its corners), for points near and far, central and grazing, and sit within a pixel of
+    # it (grown only by the slack and the move's bound, not by the rounding).
+    import math
+    from fractions import Fraction as F
+
+    rng = np.random.default_rng(32)
+    w, h = 240, 320
+    checked = 0
+    for case in range(300):
+        tx, ty = rng.choice([0.0175, 0.75, 11.4]), rng.choice([0.0175, 0.75, 11.4])
+        z = 10.0 ** rng.uniform(-2, 5, 4)
+        pts = np.stack([rng.uniform(-1.2, 1.2, 4) * z * tx, rng.uniform(-1.2, 1.2, 4) * z * ty,
+                        z], axis=1)
+        move = [0.0, 1e-6, 1e-3][case % 3] * float(z.min())
+        x0, x1, y0, y1, zmin, testable, onscreen = screen_rect(pts, 1e-3, tx, ty, w, h, move)
+        if not (testable and onscreen):
+            continue
+        px, py = [], []
+        for p in pts:
+            for k in range(8):
+                q = [F(float(p[a])) + F(move) * (1 if k >> a & 1 else -1) for a in range(3)]
+                px.append((q[0] / (q[2] * F(float(tx))) + 1) * F(w, 2))
+                py.append((q[1] / (q[2] * F(float(ty))) + 1) * F(h, 2))
+        fx = [math.floor(v) for v in px if 0 <= v < w]
+        fy = [math.floor(v) for v in py if 0 <= v < h]
+        assert all(x0 <= v <= x1 for v in fx), case
+        assert all(y0 <= v <= y1 for v in fy), case
+        if move == 0.0 and len(fx) == len(px) and len(fy) == len(py):  # whole on screen
+            assert x0 >= min(fx) - 1 and x1 <= max(fx) + 1, case
+            assert y0 >= min(fy) - 1 and y1 <= max(fy) + 1, case
+            checked += 1
+    assert checked > 20
