@@ -6,9 +6,9 @@ Per world and structure (each with pvs=conservative baked, or loaded from --cach
 bake's code and the world are unchanged): --cameras random cameras inside random view cells
 (in_cell_cameras: an eighth each uniform; exactly on a face, an edge, a corner of the cell, which
 take the face sets of a bake with pvs_plane, partition/pvs_planes.py, and fall back on an older
-bake's, culling/pvs.py on_face; 1 mm to 10 cm inside a face, an edge, a corner; in the plane
-of a world triangle crossing the cell; yaw any, pitch up to +-89, fov 10-120, near 0.1 or
-0.01), each culled by pvs+vfc in all three arithmetic modes and judged against that mode's
+bake's, culling/pvs_frame.py near_plane; 1 mm to 10 cm inside a face, an edge, a corner; in the
+plane of a world triangle crossing the cell; yaw any, pitch up to +-89, fov 10-120, near 0.1
+or 0.01), each culled by pvs+vfc in all three arithmetic modes and judged against that mode's
 item buffer without back-face culling; and every --path-stride-th frame of the world's
 thesis path, likewise. Prints one line per world and structure: view cells, bake
 seconds, checks, cameras that fell back (eye outside every cell, within the device's move of
@@ -98,7 +98,7 @@ def in_cell_cameras(part, count, seed, world=None):
     """(kind, camera) pairs inside random view cells (module docstring), the KINDS in turn:
     uniform inside; exactly on a face, an edge or a corner of the cell (1-3 coordinates on its
     boundary; a bake with pvs_plane adds its face sets, an older bake falls back); just inside
-    a face, an edge or a corner, 1 mm to 10 cm in from each snapped side (past on_face's
+    a face, an edge or a corner, 1 mm to 10 cm in from each snapped side (past near_plane's
     reach: the cell's own set next to its boundary); and in the plane of a world triangle
     crossing the cell (the projection of a random point of the cell, when it stays inside: an
     eye in a wall's or an object's plane sees it edge-on; without a world, or with none

@@ -5,7 +5,8 @@ drops nothing the item buffer shows from them. Imported as `from .pvs_cases impo
 import numpy as np
 
 from vismobile.culling import Culler, device_options
-from vismobile.culling.pvs import on_face
+from vismobile.culling.pvs import packed_planes
+from vismobile.culling.pvs_frame import near_plane
 from vismobile.device.profile import get_profile
 from vismobile.render import SENTINEL, item_buffer
 from vismobile.world.camera import Camera
@@ -46,11 +47,12 @@ SLABS = ((4 / 20.2, 4 / 20.2, 4 / 20.2, 4 / 20.2, 4.2 / 20.2), 1, 1)
 
 def in_face_plane(part, cam) -> bool:
     """Whether the stage falls back for this eye as lying in the plane of a view cell's face
-    (culling/pvs.py on_face: a wall there is edge-on): only when the bake did not walk the
+    (culling/pvs_frame.py near_plane: a wall there is edge-on): only when the bake did not walk the
     lines in those planes (no pvs_plane, partition/pvs_planes.py)."""
     cells = part.extras["pvs_cells"]
     return "pvs_plane" not in part.extras and \
-        on_face([np.unique(cells[:, :, a]) for a in range(3)], cam.position, 1e-6)
+        near_plane(*packed_planes([np.unique(cells[:, :, a]) for a in range(3)]),
+                   np.asarray(cam.position, np.float64), 1e-6)
 
 
 def in_cell_cameras(part, count, seed):
@@ -74,8 +76,8 @@ def in_cell_cameras(part, count, seed):
 def near_boundary_cameras(part, count, seed):
     """Cameras 1 mm to 10 cm (at most a quarter of the cell) inside a face, an edge or a
     corner of random view cells (each a third), the rest as in_cell_cameras: past the stage's
-    on_face reach, so they use the cell's set right next to its boundary (tools/pvs_sweep.py's
-    "near" kinds), where those exactly on it fall back."""
+    face reach (near_plane), so they use the cell's set right next to its boundary
+    (tools/pvs_sweep.py's "near" kinds), where those exactly on it fall back."""
     rng = np.random.default_rng(seed)
     boxes = part.extras["pvs_cells"]
     cams = []

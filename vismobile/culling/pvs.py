@@ -18,7 +18,8 @@ put the inside of every solid near a cell in its set (partition/pvs.py).
 Hands on everything when the cells see the whole world (`pvs.everything`); falls back (hands
 on everything, counted in `pvs.fallbacks`) when the partition holds no PVS, the eye is in no
 view cell, its near plane is within the device's move, or the device's reach exceeds the
-bake's growth, or (a bake without pvs_plane) the eye lies in a cell face's plane (on_face);
+bake's growth, or (a bake without pvs_plane) the eye lies in a cell face's plane
+(pvs_frame.near_plane);
 and with street-level cells (partition/pvs_street.py, `pvs_cover`: they cover
 only where a camera walks), when the near plane is nearer than the bake assumed or reaches
 farther from the eye than it assumed, or may leave the cells (an eye near the top of the
@@ -65,7 +66,7 @@ from .tree import Tree
 EXTRAS = ("pvs_cells", "pvs_shape", "pvs_pack", "pvs_grow")
 KEEP = 64  # decoded cell combinations kept (and slots of the fused call's)
 # how far from a cell face's plane (in the device's reach) an eye falls back: past the
-# device's rounding of the eye, a wall in the plane shows a sliver (on_face)
+# device's rounding of the eye, a wall in the plane shows a sliver (pvs_frame.near_plane)
 FACE_REACH = 4.0
 
 
@@ -108,7 +109,7 @@ class PVSStage:
         if not self.available:
             return
         self.cells = np.ascontiguousarray(extras["pvs_cells"], dtype=np.float64)
-        # portal-walk cells: the coordinates of their faces, per axis (on_face), unless the
+        # portal-walk cells: the coordinates of their faces, per axis (near_plane), unless the
         # bake walked the lines in the grid's face planes (pvs_planes.py) for eyes within
         # pvs_plane: an eye that near one of the planes walked takes the cells' face sets too
         self.faces = None if "pvs_cover" in extras else \
@@ -384,7 +385,7 @@ class PVSStage:
         """(grow, reach): the device's reach and the near plane's, or None (fall back): no
         PVS, the device's reach beyond the bake's growth or the near plane within it, (street
         cells) a near plane their depth slack does not cover, or (portal-walk cells) an eye in
-        the plane of a cell face (on_face)."""
+        the plane of a cell face (pvs_frame.near_plane)."""
         found = self.camera_reaches(camera)
         if found is None or self.faces is None:
             return found
@@ -456,26 +457,6 @@ class PVSStage:
         return bool(inside.any(axis=1).all())
 
 
-def on_face(faces, eye, reach: float) -> bool:
-    """Whether the eye lies within reach of a plane holding a view cell's face.
-
-    A wall closing a cell face lies in the face's plane; from an eye in that plane it is
-    edge-on and draws nothing, and a line running in the plane slips through the creases it
-    shares with slabs and lintels, which the walk from the face's cells took as closed (W2, eye
-    (19.18, 1.55, 8.1)). Such eyes fall back. Errs toward falling back: every cell's faces are
-    taken, not only the eye's cells'.
-
-    faces : three sorted (F,) float64 arrays, the face coordinates per axis
-    """
-    for axis in range(3):
-        coords = faces[axis]
-        i = int(np.searchsorted(coords, eye[axis]))
-        for j in (i - 1, i):
-            if 0 <= j < len(coords) and abs(coords[j] - eye[axis]) <= reach:
-                return True
-    return False
-
-
 def bits_filter(state, kept, ids) -> np.ndarray:
     """(n,) bool: which of ids (n,) int64 the set's bits kept (T // 64 + 1,) uint64 hold
     (pvs_frame.keep_bits' layout); counts them in pvs.triangles_tested."""
@@ -484,8 +465,8 @@ def bits_filter(state, kept, ids) -> np.ndarray:
 
 
 def packed_planes(faces) -> tuple:
-    """(coords (F,) float64, start (4,) int64) of three sorted per-axis coordinate arrays
-    (on_face's faces) laid end to end, axis a's at coords[start[a]:start[a + 1]]
+    """(coords (F,) float64, start (4,) int64) of three sorted (F_a,) arrays of view cells'
+    face coordinates, one per axis, laid end to end: axis a's at coords[start[a]:start[a + 1]]
     (pvs_frame.near_plane's layout)."""
     coords = np.concatenate([np.asarray(f, dtype=np.float64) for f in faces])
     return coords, np.concatenate([[0], np.cumsum([len(f) for f in faces])]).astype(np.int64)

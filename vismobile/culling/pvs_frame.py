@@ -114,7 +114,13 @@ def pack_tables(fields):
 @njit(cache=True, nogil=True)
 def near_plane(coords, start, eye, reach):
     """Whether eye (3,) lies within reach of a plane of coords: per axis a, the sorted (F_a,)
-    float64 coordinates coords[start[a]:start[a + 1]] (culling/pvs.py on_face, compiled)."""
+    float64 coordinates coords[start[a]:start[a + 1]] (culling/pvs.py packed_planes).
+
+    A wall closing a cell face lies in the face's plane; from an eye in that plane it is
+    edge-on and draws nothing, and a line running in the plane slips through the creases it
+    shares with slabs and lintels, which the walk from the face's cells took as closed (W2, eye
+    (19.18, 1.55, 8.1)). Such eyes fall back, or take the face sets of a bake that walked the
+    planes. Errs toward True: every cell's faces are taken, not only the eye's cells'."""
     for a in range(3):
         lo, hi = start[a], start[a + 1]
         i = lo + np.searchsorted(coords[lo:hi], eye[a])

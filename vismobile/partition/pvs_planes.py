@@ -14,8 +14,8 @@ tagged with P. The bake (pvs.py) walks them only in a walk of the lines lying in
 P within SLAB grow of it (pvs_kernels.flow_in_slab), one per face plane with such portals that
 the source cell meets; every other walk has them shut. What those walks add is stored apart,
 as each cell's face set (face_extras): the runtime stage (culling/pvs.py in_face) adds it only
-for an eye within its on_face reach of a plane walked, where it fell back before, so the sets
-of every other eye stay as they were.
+for an eye within its face reach (culling/pvs_frame.near_plane) of a plane walked, where it
+fell back before, so the sets of every other eye stay as they were.
 
 Contract: errs toward visible. The planes are every face plane of the view grid; an edge is
 open unless two triangles sharing it lie on opposite sides of P; the slab walk is the portal
