@@ -163,8 +163,7 @@ def edge_portals(world, seg, owner, boxes, eps, reach=0.0, tags=None) -> tuple:
         if aligned[r]:
             k = int(axis[r])
             u, v = rounded[r, (k + 1) % 3], rounded[r, (k + 2) % 3]
-            key = (int(a[r]), int(b[r]), k) + ((u, v) if k != 1 else (v, u)) \
-                + (int(tags[t[r]]),)
+            key = (int(a[r]), int(b[r]), k, u, v, int(tags[t[r]]))
         else:
             key = r  # a piece of its own
         slots[r] = slot_of.setdefault(key, len(slot_of))
