@@ -39,7 +39,7 @@ def test_the_table_and_the_parser_agree():
 
 def test_structure_ranges_mirror_the_checks_partition_makes():
     # partition() checks budget= itself (it cannot import commands/): the same range
-    from vismobile.partition.pvs_coarsen import BUDGET_MAX, budget_option
+    from vismobile.partition.pvs_coarsen import BUDGET_MAX, DEFAULT_BUDGET, budget_option
 
     limit = options.STRUCTURE["budget"]
     assert (limit.low, limit.high, limit.above) == (0.0, BUDGET_MAX, True)
@@ -50,6 +50,9 @@ def test_structure_ranges_mirror_the_checks_partition_makes():
             assert not refused, value
         except ValueError:
             assert refused, value
+    # not given: the default share; none/off: the exact sets (no range to check)
+    assert budget_option(None) == DEFAULT_BUDGET and limit.problem(DEFAULT_BUDGET) is None
+    assert budget_option("none") is None and budget_option(" Off ") is None
 
 
 def test_help_shows_the_range(capsys):

@@ -64,9 +64,10 @@ def stored(extras) -> int:
 
 
 def baked(part, fly, jobs):
-    """(a copy of part with its PVS baked, bake stats)."""
+    """(a copy of part with its PVS baked, exact sets (budget=none), bake stats)."""
     out = copy.copy(part)
-    out.params = {**part.params, "pvs": "conservative", **({"fly": "on"} if fly else {})}
+    out.params = {**part.params, "pvs": "conservative", "budget": "none",  # the exact sets
+                  **({"fly": "on"} if fly else {})}
     extras, stats = bake(out, jobs=jobs)
     out.extras = {**part.extras, **extras}
     return out, stats, extras

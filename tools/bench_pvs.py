@@ -3,10 +3,11 @@
     .venv/bin/python tools/bench_pvs.py [--worlds w1,w2] [--frames 40] [--random 2000]
                                         [--sampled 4,16 [--only-sampled]]
                                         [--repair tjunctions] [--timing-frames 150]
-                                        [--structure bsp]
+                                        [--structure bsp] [--budget none]
 
 Per world: the --structure (default portal:2; any kind in the CLI grammar) with
-pvs=conservative; bake seconds; the PVS's bytes
+pvs=conservative at --budget (default: the bake's default, 0.25 of the OBJ; none: the exact
+sets; partition/pvs_coarsen.py); bake seconds (of which coarsening); the PVS's bytes
 in the .vmp (file with minus file without) against the OBJ; the mean share of the world in a
 cell's set; along the world's thesis path (--frames evenly spaced frames) the triangles sent by
 vfc+tbfc and pvs+vfc+tbfc and the frames that fell back; dropped triangles (pvs+vfc against the
@@ -37,6 +38,7 @@ from vismobile.culling import Culler, device_options  # noqa: E402
 from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.partition import partition, save_partition  # noqa: E402
 from vismobile.partition.pvs import bake  # noqa: E402
+from vismobile.partition.pvs_coarsen import budget_param  # noqa: E402
 from vismobile.partition.pvs_codec import cell_sizes, decode  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
@@ -160,7 +162,7 @@ def w2_timing(part, traj, count, reps=3, misses=20):
 
 
 def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="none",
-        timing_frames=150, structure="portal:2"):
+        timing_frames=150, structure="portal:2", budget=None):
     world = build_world(name)
     if repair == "tjunctions":  # the bake then seals the thin cells, no crack portals
         from vismobile.world.tjunctions import repair_tjunctions
@@ -174,6 +176,7 @@ def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="no
         picks = np.linspace(0, len(traj) - 1, frames).astype(int)
         return sampled(name, world, partition(world, "portal", depth=2), traj, picks, counts)
     part = partition(world, structure)
+    part.params["budget"] = budget_param(budget)  # as partition(..., pvs=, budget=) sets it
     extras, stats = bake(part, jobs=jobs)
     with tempfile.TemporaryDirectory() as tmp:
         save_partition(part, Path(tmp) / "a.vmp")
@@ -200,8 +203,9 @@ def run(name, frames, randoms, counts=(), only_sampled=False, jobs=1, repair="no
         dropped_path += len(np.setdiff1d(shown(world, cam, PROFILE), check.cull(cam).triangles))
     used, dropped_random = random_checks(part, world, in_cell_cameras(part, randoms, 1))
     timing = f" | {w2_timing(part, traj, timing_frames)}" if name == "w2" else ""
-    print(f"{name} {structure}: cells {stats['cells']}, bake {stats['seconds']:.1f} s "
-          f"(overflowed {stats['overflowed']}), PVS {pvs_bytes / 1024:.0f} KB = "
+    print(f"{name} {structure},budget={part.params['budget']}: cells {stats['cells']}, bake "
+          f"{stats['seconds']:.1f} s (coarsening {stats['budget']['seconds']:.1f} s, overflowed "
+          f"{stats.get('overflowed', 0)}), PVS {pvs_bytes / 1024:.0f} KB = "
           f"{pvs_bytes / obj:.3f}x OBJ ({pvs_bytes / stats['cells']:.0f} B/cell), mean set "
           f"{100 * share:.1f}% of the world | path {frames} frames: vfc+tbfc {sent_base}, "
           f"pvs+vfc+tbfc {sent_pvs} ({sent_pvs / max(sent_base, 1):.3f}x), fallbacks "
@@ -225,11 +229,14 @@ def main():
                         help="W2 path frames timed (vfc against pvs+vfc)")
     parser.add_argument("--structure", default="portal:2",
                         help="the structure the PVS is baked on (partition's grammar)")
+    parser.add_argument("--budget", default=None,
+                        help="budget=F of the bake (default the bake's, 0.25; none: exact)")
     args = parser.parse_args()
+    budget_param(args.budget)  # a bad value refused before the first bake
     counts = [int(n) for n in args.sampled.split(",") if n]
     for name in args.worlds.split(","):
         run(name.strip(), args.frames, args.random, counts, args.only_sampled, args.jobs,
-            args.repair, args.timing_frames, args.structure)
+            args.repair, args.timing_frames, args.structure, args.budget)
 
 
 if __name__ == "__main__":

@@ -64,6 +64,7 @@ TRAJECTORY = ROOT / "trajectories" / "indoor.csv"
 STRUCTURES = (("grid", {}), ("octree", {"depth": 3}), ("portal", {"depth": 1}),
               ("portal", {"depth": 1, "pvs": "conservative"}), ("portal", {"depth": 1, "walls": True}),
               ("portal", {"depth": 1, "pvs": "conservative", "budget": 0.02}),
+              ("portal", {"depth": 1, "pvs": "conservative", "budget": "none"}),
               ("bsp", {"min_leaf": 16}), ("kdtree", {}))
 EXTREMES = (b"1e308", b"-1e308", b"nan", b"inf", b"-0", b"0", b"1e30", b"1e31", b"9" * 400,
             b"-1", b"2147483648", b"1" + b"0" * 40, b"0x10", b"1_0", b"\xa0", b"\xc2\xa0")
@@ -82,7 +83,7 @@ def seeds(folder: Path) -> dict:
     for kind, params in STRUCTURES:
         path = folder / f"seed-{kind}{'-pvs' if 'pvs' in params else ''}" \
                         f"{'-walls' if 'walls' in params else ''}" \
-                        f"{'-budget' if 'budget' in params else ''}.vmp"
+                        f"{'-budget' + str(params['budget']) if 'budget' in params else ''}.vmp"
         save_partition(partition(world, kind, **params), path)
         vmps.append(path.read_bytes())
     # A PVS baked from an animated world with a door (extras pvs_door_*, checked on load): the

@@ -11,10 +11,12 @@ CULL_TEXTS = [b"vfc+bfc;vfc+occlusion", b"thesis,ours", b"vfc,bfc",
               b"vfc+cbfc+tbfc none; portals+vfc"]
 # The structure grammar's seeds: every kind, its parameters and the PVS bake (fly=on is
 # refused on the cube, a world without street cells: tests/partition/test_pvs_fly.py; budget=
-# a share of the OBJ's bytes in (0, 64], partition/pvs_coarsen.py).
+# a share of the OBJ's bytes in (0, 64], 0.25 when not given, or none/off for the exact sets,
+# partition/pvs_coarsen.py).
 STRUCTURE_TEXTS = [b"grid:4", b"octree:3", b"portal:depth=1,pvs=conservative",
                    b"portal:1,pvs=conservative,fly=off",
                    b"portal:1,pvs=conservative,budget=0.25", b"bsp:pvs=conservative,budget=1e-3",
+                   b"portal:1,pvs=conservative,budget=none", b"bsp:pvs=conservative,budget=OFF",
                    b"portal:1,walls=true", b"bsp:min_leaf=16",
                    b"kdtree:split=median,max_depth=6,min_leaf=4", b"kdtree:ratio=8,bins=16"]
 CUBE_OBJ = ("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"

@@ -3,12 +3,14 @@
 
     .venv/bin/python tools/pvs_bake_time.py [--worlds w1,w2,w3,w4] [--repair none,tjunctions]
                                             [--jobs 2] [--sources 0] [--save DIR]
-                                            [--against DIR]
+                                            [--against DIR] [--budget none]
 
-Per world and repair (`--structure portal:depth=2,pvs=conservative`): one bake (pvs.bake over
+Per world and repair (`--structure portal:depth=2,pvs=conservative`, at --budget: default the
+bake's, 0.25 of the OBJ; none the exact sets, as revisions before the default baked them):
+one bake (pvs.bake over
 --jobs processes), each phase of the parent timed: cells (pvs_cells.view_grid, and inside it
 refine, crack portals, face-plane portals), walks (pvs_pool.fan_out), solids, coding (the
-sets and face sets encoded); wall seconds, the CPU seconds of the parent and of the pool's
+sets, coarsened to the budget, and face sets encoded); wall seconds, the CPU seconds of the parent and of the pool's
 workers, and the load average before and after. "alone" = parent CPU + workers' CPU / jobs:
 what the bake would take with the machine to itself (the parts are strided, so the workers
 finish together); on a shared machine wall seconds follow the load.
@@ -30,6 +32,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from vismobile.partition import partition, pvs, pvs_cells, pvs_kernels  # noqa: E402
+from vismobile.partition.pvs_coarsen import budget_param  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
 
 PHASES = ((pvs_cells, "view_grid", "cells"), (pvs_cells, "refine", "refine"),
@@ -110,7 +113,10 @@ def main():
     parser.add_argument("--sources", type=int, default=0)
     parser.add_argument("--save", type=Path)
     parser.add_argument("--against", type=Path)
+    parser.add_argument("--budget", default=None,
+                        help="budget=F of the bakes (default the bake's, 0.25; none: exact)")
     args = parser.parse_args()
+    budget = budget_param(args.budget)
     repairs = args.repair.split(",")
     if any(r not in ("none", "tjunctions") for r in repairs):
         parser.error(f"--repair {args.repair}: expected none and/or tjunctions")
@@ -120,6 +126,7 @@ def main():
         for repair in repairs:
             world = load(name, repair)
             part = partition(world, "portal", depth=2)
+            part.params["budget"] = budget  # as partition(..., pvs=, budget=) sets it
             spent.clear()
             began, before, load0 = time.perf_counter(), os.times(), os.getloadavg()[0]
             extras, stats = pvs.bake(part, jobs=args.jobs)

@@ -37,7 +37,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def baked(name, repair, cache, jobs):
-    """The world and its portal:2 partition with a conservative PVS, from cache or baked."""
+    """The world and its portal:2 partition with a conservative PVS of the exact sets
+    (budget=none: the codec and pvs_budget.py's coarsening start from them), from cache or
+    baked."""
     world = build_world(name)
     if repair == "tjunctions":
         from vismobile.world.tjunctions import repair_tjunctions
@@ -46,12 +48,16 @@ def baked(name, repair, cache, jobs):
     path = Path(cache) / f"{name}{'-repaired' if repair == 'tjunctions' else ''}.vmp"
     if path.exists():
         try:
-            return world, load_partition(path, world)
+            part = load_partition(path, world)
+            if part.params.get("budget") == "none":  # older files: their sets may be coarsened
+                return world, part
+            print(f"{path}: not an exact bake (budget=none); baking again", flush=True)
         except Exception as error:  # an older layout: bake again
             print(f"{path}: {error}; baking again", flush=True)
     from vismobile.partition.pvs import bake
 
     part = partition(world, "portal", depth=2)
+    part.params["budget"] = "none"  # the exact sets, as partition(..., budget="none") bakes
     began = time.perf_counter()
     extras, _ = bake(part, jobs=jobs)
     print(f"{name}: baked in {time.perf_counter() - began:.1f} s", flush=True)

@@ -17,12 +17,13 @@ near plane nearer than the bake's NEAR_MIN, counted apart), dropped triangles, a
 times; then the random cameras' checks, fallbacks and drops per kind. With --out, appends
 the lines' figures as JSON lines. With --repair tjunctions each world is repaired first
 (world/tjunctions.py, as `partition --repair` does: the bake seals its thin cells) and judged on
-the repaired world's item buffer. With --budget F each PVS is coarsened to F x the OBJ's
-bytes (partition/pvs_coarsen.py), as `pvs=conservative,budget=F` bakes it.
+the repaired world's item buffer. Each PVS is coarsened to --budget F x the OBJ's bytes
+(partition/pvs_coarsen.py), as `pvs=conservative,budget=F` bakes it: by default the bake's
+default, 0.25, as `pvs=conservative` bakes it; --budget none keeps the exact sets.
 
 Usage: .venv/bin/python tools/pvs_sweep.py [--worlds w1,w5] [--structures portal:2,bsp]
        [--cameras 2000] [--path-stride 10] [--seed 0] [--cache out/pvs_sweep] [--out F.jsonl]
-       [--jobs 1] [--repair tjunctions] [--budget 0.25]
+       [--jobs 1] [--repair tjunctions] [--budget none]
 Run one world per call to stay within a few minutes on a shared machine. Exit status 0 when
 nothing was dropped, 1 otherwise.
 """
@@ -45,7 +46,7 @@ from vismobile.device.profile import get_profile  # noqa: E402
 from vismobile.files.loader import repaired  # noqa: E402
 from vismobile.partition import load_partition, partition, save_partition  # noqa: E402
 from vismobile.partition.pvs import bake  # noqa: E402
-from vismobile.partition.pvs_coarsen import budget_option  # noqa: E402
+from vismobile.partition.pvs_coarsen import budget_param  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
 from vismobile.world.camera import Camera  # noqa: E402
@@ -65,9 +66,11 @@ def bake_key(world, spec) -> str:
 
 def baked(world, spec, cache, jobs=1, budget=None) -> tuple:
     """(partition with pvs=conservative, bake seconds or None when loaded from the cache);
-    with a budget, the sets coarsened to that share of the OBJ's bytes (pvs_coarsen.py)."""
+    the sets coarsened to `budget` x the OBJ's bytes (pvs_coarsen.py; None: the bake's
+    default, 0.25), or exact for budget "none" (cached under the key exact bakes had)."""
+    budget = budget_param(budget)
     tag = "-repaired" if getattr(world, "repair", None) else ""
-    if budget is not None:
+    if budget != "none":
         spec, tag = spec + f",budget={budget!r}", tag + f"-budget{budget:g}"
     name = spec.split(",")[0].replace(":", "")
     path = Path(cache) / f"{world.name}{tag}-{name}-{bake_key(world, spec)}.vmp"
@@ -78,8 +81,7 @@ def baked(world, spec, cache, jobs=1, budget=None) -> tuple:
             print(f"{path.name}: {error}; baking again", flush=True)
     start = time.perf_counter()
     part = partition(world, spec.split(",")[0])
-    if budget is not None:
-        part.params["budget"] = budget  # as partition(..., budget=) sets it for the bake
+    part.params["budget"] = budget  # as partition(..., pvs=, budget=) sets it for the bake
     extras, _ = bake(part, "conservative", jobs=jobs)  # as partition(..., pvs=) does
     part.extras.update(extras)
     part.params["pvs"] = "conservative"
@@ -179,6 +181,7 @@ def check(world, part, cameras) -> dict:
 
 def sweep(name, spec, cameras, stride, seed, cache, jobs=1, repair="none", budget=None) -> dict:
     began = time.perf_counter()
+    budget = budget_param(budget)  # None: the bake's default
     world = repaired(build_world(name), repair, name)
     part, seconds = baked(world, spec, cache, jobs, budget)
     began_random = time.perf_counter()
@@ -196,7 +199,7 @@ def sweep(name, spec, cameras, stride, seed, cache, jobs=1, repair="none", budge
            "path_seconds": time.perf_counter() - began_path}
     bake = "cached" if seconds is None else f"{seconds:.1f} s"
     tag = ("" if repair == "none" else f" (repaired {repair})") + \
-        ("" if budget is None else f" (budget {budget:g})")
+        (" (budget none: exact sets)" if budget == "none" else f" (budget {budget:g})")
     print(f"{name}{tag} {spec}+pvs: {row['cells']} cells, bake {bake} | random {cameras} cameras x "
           f"3 modes: {randoms['checks']} checks, {randoms['fallbacks']} fell back "
           f"({randoms['near_fallbacks']} for a near plane nearer than the bake's), dropped "
@@ -225,12 +228,13 @@ def main(argv=None) -> int:
                         help="repair each world first (world/tjunctions.py)")
     parser.add_argument("--budget", default=None,
                         help="coarsen each PVS to this share of the OBJ's bytes (pvs_coarsen.py, "
-                             "as pvs=conservative,budget=F)")
+                             "as pvs=conservative,budget=F; default the bake's, 0.25; none: "
+                             "the exact sets)")
     args = parser.parse_args(argv)
     if args.cameras < 0 or args.path_stride < 1 or args.jobs < 1:
         parser.error("--cameras >= 0, --path-stride >= 1 and --jobs >= 1")
     try:
-        budget = None if args.budget is None else budget_option(args.budget)
+        budget = budget_param(args.budget)
     except ValueError as error:
         parser.error(str(error))
     dropped = 0

@@ -1,6 +1,7 @@
-"""A PVS coarsened to a size budget (partition/pvs_coarsen.py, pvs=conservative,budget=F): the
-coarsened sets hold the exact ones, the budget is met or the report says it was not, random
-in-cell cameras lose nothing, and a bad budget is refused in one line."""
+"""A PVS coarsened to a size budget (partition/pvs_coarsen.py, pvs=conservative,budget=F; by
+default 0.25, budget=none the exact sets): the coarsened sets hold the exact ones, the budget
+is met or the report says it was not, random in-cell cameras lose nothing, and a bad budget is
+refused in one line."""
 import numpy as np
 import pytest
 
@@ -8,10 +9,10 @@ from .test_pvs_codec import grid_boxes, spatial_masks
 from .test_pvs_fly import masks_of
 from .test_pvs_street import in_cell_checks, town
 from vismobile.app.cli import main
-from vismobile.partition import partition, pvs_codec
+from vismobile.partition import load_partition, partition, pvs_codec, save_partition
 from vismobile.culling import Culler
-from vismobile.partition.pvs_coarsen import (HEADER, budget_option, describe, facing, fill_back,
-                                             fit, merge_order, stored_size)
+from vismobile.partition.pvs_coarsen import (DEFAULT_BUDGET, HEADER, budget_option, describe,
+                                             facing, fill_back, fit, merge_order, stored_size)
 from vismobile.world.camera import Camera
 
 
@@ -61,7 +62,7 @@ def test_an_unreachable_budget_says_so(sets):
 @pytest.fixture(scope="module")
 def town_bakes():
     world = town()
-    exact = partition(world, "portal", depth=1, pvs="conservative")
+    exact = partition(world, "portal", depth=1, pvs="conservative", budget="none")
     before = stored_size({k: v for k, v in exact.extras.items()
                           if k.startswith("pvs_") and k != "pvs_cells"})
     share = (HEADER + 0.5 * (before - HEADER)) / world.obj_bytes()
@@ -77,6 +78,66 @@ def test_a_budgeted_bake_holds_the_exact_sets(town_bakes):
     assert (got >= want).all() and (got > want).any()
     size = stored_size({k: v for k, v in coarse.extras.items() if k.startswith("pvs_")})
     assert size <= share * world.obj_bytes()
+
+
+def test_the_default_bake_takes_the_default_budget_and_none_keeps_the_exact_sets(town_bakes):
+    exact, _, _ = town_bakes
+    world = exact.world
+    assert exact.params["budget"] == "none"
+    default = partition(world, "portal", depth=1, pvs="conservative")
+    assert default.params["budget"] == DEFAULT_BUDGET == budget_option(None) == 0.25
+    want, got = masks_of(exact.extras, world), masks_of(default.extras, world)
+    assert (got >= want).all() and (got > want).any()  # the town's exact PVS is 0.27x its OBJ
+    size = stored_size({k: v for k, v in default.extras.items() if k.startswith("pvs_")})
+    assert size <= DEFAULT_BUDGET * world.obj_bytes()
+    for word in ("none", "off", "None", "OFF"):
+        assert budget_option(word) is None
+    off = partition(world, "portal:1,pvs=conservative,budget=off")
+    assert off.params["budget"] == "none"
+    assert np.array_equal(masks_of(off.extras, world), want)
+
+
+def test_budget_params_round_trip_and_a_file_baked_before_still_loads(town_bakes, tmp_path):
+    exact, coarse, share = town_bakes
+    for part, want in ((exact, "none"), (coarse, share)):
+        save_partition(part, tmp_path / "p.vmp")
+        assert load_partition(tmp_path / "p.vmp").params["budget"] == want
+    old = exact.__class__.__new__(exact.__class__)
+    old.__dict__.update(exact.__dict__)
+    old.params = {k: v for k, v in exact.params.items() if k != "budget"}  # before the default
+    save_partition(old, tmp_path / "old.vmp")
+    loaded = load_partition(tmp_path / "old.vmp")
+    assert "budget" not in loaded.params and loaded.params["pvs"] == "conservative"
+    assert np.array_equal(masks_of(loaded.extras, exact.world), masks_of(exact.extras, exact.world))
+    import json
+    import struct
+    import zlib
+
+    from vismobile.errors import PartitionError
+
+    data = (tmp_path / "p.vmp").read_bytes()
+    _, _, length, _ = struct.unpack_from("<8sIII", data)
+    header = json.loads(data[20:20 + length])
+    for value in ('"exact"', "true", "-0.5", "NaN"):  # the header's budget: a share or "none"
+        header["params"]["budget"] = "@@"
+        text = json.dumps(header).replace('"@@"', value).encode()
+        (tmp_path / "bad.vmp").write_bytes(data[:12] + struct.pack("<II", len(text), zlib.crc32(
+            text)) + text + data[20 + length:])
+        with pytest.raises(PartitionError, match="params.budget"):
+            load_partition(tmp_path / "bad.vmp")
+
+
+def test_the_cli_prints_the_budget_it_baked_with(tmp_path, capsys):
+    path = tmp_path / "town.obj"
+    town().to_obj(path)
+    for text, want, line in (("", "budget=0.25", "pvs budget  budget "),
+                             (",budget=none", "budget=none", "pvs budget  none: the exact sets")):
+        out = tmp_path / f"t{len(text)}.vmp"
+        assert main(["partition", str(path), f"--structure=portal:1,pvs=conservative{text}",
+                     "-o", str(out)]) == 0
+        printed = capsys.readouterr().out
+        assert want in printed.split("structure")[1].splitlines()[0] and line in printed
+        assert str(load_partition(out).params["budget"]) == want.split("=")[1]
 
 
 def test_in_cell_cameras_on_a_coarsened_bake_drop_nothing(town_bakes):
@@ -138,7 +199,7 @@ def test_a_budget_met_by_filling_sends_the_same_with_back_faces_culled(town_bake
     assert in_cell_checks(filled, 30, 22) > 20
 
 
-@pytest.mark.parametrize("value", [0, -0.25, "nan", "inf", 65, "quarter", True])
+@pytest.mark.parametrize("value", [0, -0.25, "nan", "inf", 65, "quarter", True, "", "exact"])
 def test_a_bad_budget_is_refused(value):
     with pytest.raises(ValueError, match="budget="):
         budget_option(value)
@@ -152,7 +213,8 @@ def test_a_budget_without_a_pvs_is_refused():
         partition(town(), "portal", depth=1, budget=0.25)
 
 
-@pytest.mark.parametrize("text", ["budget=0", "budget=-1", "budget=1e9", "budget=x"])
+@pytest.mark.parametrize("text", ["budget=0", "budget=-1", "budget=1e9", "budget=x",
+                                  "budget=", "budget=nonee"])
 def test_the_cli_refuses_a_bad_budget_in_one_line(tmp_path, capsys, text):
     obj = tmp_path / "cube.obj"
     obj.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"

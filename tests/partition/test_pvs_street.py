@@ -127,6 +127,7 @@ def street_masks(world, **overrides):
         for k, v in overrides.items():
             setattr(pvs_street, k, v)
         part = partition(world, "portal", depth=1)
+        part.params["budget"] = "none"  # the walk's exact sets, not the default budget's
         extras, _ = bake(part)
     finally:
         for k, v in saved.items():

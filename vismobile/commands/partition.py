@@ -112,13 +112,13 @@ def run(args) -> int:
             raise ValueError("fly=on bakes fly-over cells into a conservative PVS: add "
                              ",pvs=conservative")
         budget = params.pop("budget", None)
-        if budget is not None:
-            from ..partition.pvs_coarsen import budget_option
+        if budget is not None and mode != "conservative":
+            raise ValueError("budget= coarsens a conservative PVS to a share of the "
+                             "OBJ's bytes: add ,pvs=conservative")
+        if mode == "conservative":  # budget=0.25 unless given (budget=none: exact sets)
+            from ..partition.pvs_coarsen import budget_param
 
-            budget = budget_option(budget)
-            if mode != "conservative":
-                raise ValueError("budget= coarsens a conservative PVS to a share of the "
-                                 "OBJ's bytes: add ,pvs=conservative")
+            budget = budget_param(budget)
         if args.scheduler is not None:
             from ..study.distributed import scheduler_address
 
@@ -177,7 +177,7 @@ def run(args) -> int:
         print(f"pvs         {mode}: {bake['cells']:,} view cells, bake {bake['seconds']:.1f} s, "
               f"{bake['bytes'] / 1024:,.1f} KB ({bake['bytes'] / args.world.stat().st_size:.2f} "
               f"x the {_input_kind(args.world)}), mean set {bake['mean_set']:.1%} of the world")
-        if bake.get("budget") and bake["budget"].get("budget") is not None:
+        if bake.get("budget"):  # a conservative bake's budget (budget=none: exact sets)
             from ..partition.pvs_coarsen import describe
 
             print(f"pvs budget  {describe(bake['budget'])}")

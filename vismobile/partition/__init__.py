@@ -25,8 +25,10 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                with pvs_doors=True (an AnimatedWorld), also what each of its doors shut
                hides from each cell (the bake walks again per door a cell's lines cross);
                with fly="on" too, fly-over cells over an outdoor world's street cells
-               (pvs_fly.py); with budget=F too, the sets coarsened (cells merged, sets only
-               grow) until the PVS takes at most F x the OBJ's bytes (pvs_coarsen.py)
+               (pvs_fly.py); budget=F: the sets coarsened (cells merged, sets only grow)
+               until the PVS takes at most F x the OBJ's bytes (pvs_coarsen.py); not given
+               (None), pvs_coarsen.DEFAULT_BUDGET (0.25); budget="none" keeps the exact sets.
+               A conservative bake's params record it: the share, or "none"
     progress : optional callable(done, total) for long builds
     An AnimatedWorld (world/animated.py) gives a dynamic.AnimatedPartition: its static
     triangles partitioned as asked (none: a one-node octree), its moving objects left to the
@@ -86,13 +88,13 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
         if fly_option(fly) and pvs_mode != "conservative":
             raise ValueError("fly=on bakes fly-over cells into a conservative PVS: give "
                              "pvs=conservative too")
-    if budget is not None:
-        from .pvs_coarsen import budget_option
+    if budget is not None and pvs_mode != "conservative":
+        raise ValueError("budget= coarsens a conservative PVS to a share of the OBJ's "
+                         "bytes: give pvs=conservative too")
+    if pvs_mode == "conservative":  # the default budget when none is given (pvs_coarsen.py)
+        from .pvs_coarsen import budget_param
 
-        budget = budget_option(budget)
-        if pvs_mode != "conservative":
-            raise ValueError("budget= coarsens a conservative PVS to a share of the OBJ's "
-                             "bytes: give pvs=conservative too")
+        budget = budget_param(budget)
     result = build(world, progress=progress, **params)
     if fly is not None and fly_option(fly):
         result.params["fly"] = "on"

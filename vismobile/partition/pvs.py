@@ -241,7 +241,7 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
                (pvs_fly.py; ValueError when the world gets no street cells)
     partition.params["budget"]: a share of the OBJ's bytes the PVS may take; the sets are
                coarsened until they fit (pvs_coarsen.py; stats["budget"] says how, and
-               whether they did)
+               whether they did); not there: pvs_coarsen.DEFAULT_BUDGET; "none": exact sets
     returns  : (extras dict, stats dict: seconds, cells, overflowed cells, walks, budget)
     """
     from .pvs_cells import view_grid
@@ -319,12 +319,13 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
 
 def stored_sets(partition, boxes, masks, others) -> tuple:
     """(pvs_shape and pvs_pack of the sets, the budget's report): coarsened until the PVS
-    (with the others extras) fits partition.params["budget"] x the OBJ's bytes when a budget
-    is given (pvs_coarsen.py: cells merged, sets only grow), else exact."""
+    (with the others extras) fits partition.params["budget"] x the OBJ's bytes
+    (pvs_coarsen.py: cells merged, sets only grow; DEFAULT_BUDGET when the params name none),
+    exact for budget "none"."""
     from .pvs_coarsen import budget_option, fit
 
-    share = partition.params.get("budget")
-    budget = None if share is None else budget_option(share) * partition.world.obj_bytes()
+    share = budget_option(partition.params.get("budget"))
+    budget = None if share is None else share * partition.world.obj_bytes()
     return fit(boxes, masks, budget, others, partition.world.corners)
 
 

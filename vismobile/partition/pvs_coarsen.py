@@ -1,5 +1,6 @@
-"""A PVS coarsened to a size budget (`pvs=conservative,budget=0.25`: at most a quarter of the
-world's OBJ bytes), as shipping bakes trade data size against accuracy.
+"""A PVS coarsened to a size budget (`pvs=conservative` bakes with budget=DEFAULT_BUDGET: at
+most a quarter of the world's OBJ bytes, issue 29's target; `budget=F` another share,
+`budget=none` the exact sets), as shipping bakes trade data size against accuracy.
 
 Coarsening only ever adds triangles to a cell's set, so a coarsened PVS stays conservative
 (a superset of a conservative set is conservative): it merges neighbouring view cells, and
@@ -43,8 +44,11 @@ from . import pvs_coder
 from .pvs_codec import DERIVED, encode, encode_columns
 
 # budget= : a share of the OBJ's bytes in (0, BUDGET_MAX] (commands/options.py STRUCTURE
-# mirrors it; tests/test_cli_options.py checks they agree)
+# mirrors it; tests/test_cli_options.py checks they agree), or EXACT's words (no coarsening)
 BUDGET_MAX = 64.0
+# a conservative bake's share when budget= is not given (issue 29: PVS bytes <= 0.25x the OBJ)
+DEFAULT_BUDGET = 0.25
+EXACT = ("none", "off")
 NEIGHBOURS = 16  # earlier face neighbours per cell taken as merge candidates
 FILL_WINDOW = 2048  # earlier triangles a triangle's free bits may be copied from (fill_back)
 # how likely an eye is in a cell, for the merges' cost: its volume to this power. 2: a cell
@@ -58,16 +62,30 @@ SLACK = 256  # the merge count is found to within V / SLACK of the fewest that f
 HEADER = 1536
 
 
-def budget_option(value) -> float:
-    """The budget= option: a finite number in (0, BUDGET_MAX]; ValueError in one line else."""
+def budget_option(value):
+    """The budget= option as a share of the OBJ's bytes, or None for the exact sets: not given
+    (None) -> DEFAULT_BUDGET; "none" or "off" (any case) -> None; else a finite number in
+    (0, BUDGET_MAX]. ValueError in one line otherwise."""
+    if value is None:
+        return DEFAULT_BUDGET
+    if isinstance(value, str) and value.strip().lower() in EXACT:
+        return None
     try:
         number = float(value)
     except (TypeError, ValueError):
         number = math.nan
     if isinstance(value, bool) or not (0.0 < number <= BUDGET_MAX):
         raise ValueError(f"budget={value}: expected a share of the OBJ's bytes in "
-                         f"(0, {BUDGET_MAX:g}], e.g. budget=0.25")
+                         f"(0, {BUDGET_MAX:g}] (e.g. budget=0.25), or budget=none for the "
+                         "exact sets")
     return number
+
+
+def budget_param(value):
+    """What a partition's params record of budget= (the .vmp header, the structure text): the
+    share, or "none" for the exact sets (budget_option)."""
+    share = budget_option(value)
+    return "none" if share is None else share
 
 
 @njit(cache=True)
@@ -338,9 +356,9 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
 
 def describe(report) -> str:
     """One line of what a budget did (the partition command's pvs line)."""
-    if report.get("budget") is None:
-        return ""
     kb = lambda n: f"{n / 1024:,.1f} KB"  # noqa: E731
+    if report.get("budget") is None:
+        return f"none: the exact sets, {kb(report['before'])}"
     filled = f" (free bits filled {kb(report['filled'])})" if "filled" in report else ""
     head = (f"budget {kb(report['budget'])}: {kb(report['before'])}{filled} -> "
             f"{kb(report['after'])}, "

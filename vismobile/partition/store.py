@@ -294,7 +294,8 @@ MAX_EXPANSION = 64
 MAX_DECODED_BYTES = 1 << 32
 NUMERIC_DTYPES = frozenset(INT_DTYPES + ("|u1", "|i1", "|b1", "<f4", "<f8", "<u8"))
 # params a loaded file's readers use (culling/portals.py, culling/pvs.py, partition/pvs.py):
-# their JSON types, and for numbers that they are finite and not negative
+# their JSON types, and for numbers that they are finite and not negative (budget: a number,
+# or "none" for exact sets; a file baked before the default budget has none)
 PARAM_KINDS = {"thickness": (int, float), "budget": (int, float), "walls": bool, "pvs": str,
                "fly": str}
 
@@ -324,6 +325,8 @@ def _header(text: bytes) -> dict:
     need(header, dict, "")
     need(header.get("kind"), str, "kind")
     for key, value in need(header.get("params"), dict, "params").items():
+        if key == "budget" and value == "none":  # a conservative bake that kept exact sets
+            continue
         if key in PARAM_KINDS:
             kind = PARAM_KINDS[key]
             if kind is not bool and isinstance(value, bool):

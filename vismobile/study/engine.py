@@ -129,7 +129,10 @@ def load_structure(world, label: str, cache_dir=None, executor=None, progress=No
     if path is not None and path.is_file():
         try:
             loaded = load_partition(path)
-            if loaded.world.digest() == world.digest():
+            # a conservative bake cached before the default budget (no budget in its
+            # params) holds the exact sets: baked again below
+            stale = loaded.params.get("pvs") == "conservative" and "budget" not in loaded.params
+            if loaded.world.digest() == world.digest() and not stale:
                 return _remember(_PARTITIONS, key, loaded), 0.0
         except Exception:  # unreadable or stale cache file: rebuild it below
             pass
@@ -190,6 +193,10 @@ def bake_pvs(base, mode: str, progress=None, jobs: int = 1, executor=None) -> tu
     built = copy.copy(base)
     built.extras = {**base.extras, **extras}
     built.params = {**base.params, "pvs": mode}
+    if mode == "conservative":  # the budget the bake used (pvs.stored_sets: default 0.25)
+        from ..partition.pvs_coarsen import budget_param
+
+        built.params["budget"] = budget_param(base.params.get("budget"))
     cells = len(extras["pvs_cells"])
     sizes = cell_sizes(*decode(extras, cells, base.world.triangle_count), cells)
     summary = {"mode": mode, "seconds": float(stats["seconds"]), "cells": int(len(sizes)),
