@@ -5,7 +5,15 @@ kept, nothing dropped), measured on saved exact bakes (pvs_bytes.py's cache), co
     .venv/bin/python tools/pvs_budget.py [--worlds w5,w6] [--repair tjunctions]
                                          [--budgets 0.25] [--frames 80] [--cameras 300]
                                          [--cache DIR] [--jobs 2] [--power 2] [--uniform 0]
-                                         [--sent-frames N] [--no-fill]
+                                         [--sent-frames N] [--no-fill] [--default]
+
+--default measures the default bake instead (`--structure portal:2,pvs=conservative`, which
+takes budget=0.25), baked here through study.engine.bake_pvs over --jobs processes (the
+partition command's path): the PVS's bytes against the OBJ (and the face sets' bytes, exact
+and as stored), the cells and sets kept, the bake's and the coarsening's seconds with the load
+before and after, and over every path frame (--sent-frames N: N evenly spaced) pvs+vfc+tbfc
+against vfc+tbfc and the frames that fell back; --cameras in-cell cameras x 3 modes and
+--frames path frames x 3 modes checked for drops (0 cameras: none).
 
 Per world and budget: the PVS's bytes in the .vmp against the OBJ before and after, the view
 cells and how many sets they keep, the volume-weighted mean set, the coarsening's seconds
@@ -39,8 +47,9 @@ from pvs_sweep import check, in_cell_cameras  # noqa: E402
 
 from vismobile.culling import Culler  # noqa: E402
 from vismobile.device.profile import get_profile  # noqa: E402
-from vismobile.partition import pvs_codec  # noqa: E402
-from vismobile.partition.pvs_coarsen import POWER, fit, stored_size  # noqa: E402
+from vismobile.partition import partition, pvs_codec  # noqa: E402
+from vismobile.partition.pvs_coarsen import (FACE_KEYS, HEADER, POWER, fit,  # noqa: E402
+                                             stored_size)
 from vismobile.partition.store import to_bytes  # noqa: E402
 from vismobile.world.trajectory import Trajectory  # noqa: E402
 
@@ -131,6 +140,57 @@ def run(name, repair, budgets, frames, cameras, cache, jobs, power=POWER, unifor
     return dropped
 
 
+def run_default(name, repair, frames, cameras, jobs, sent_frames=None) -> int:
+    """One line for the default bake of a world (module docstring, --default)."""
+    from vismobile.files.loader import repaired
+    from vismobile.scenes import build_world
+    from vismobile.study.engine import bake_pvs
+
+    world = repaired(build_world(name), repair, name)
+    obj = os.path.getsize(ROOT / "worlds" / f"{name}.obj")
+    load0 = os.getloadavg()[0]
+    began = time.perf_counter()
+    part, stats = bake_pvs(partition(world, "portal", depth=2), "conservative", jobs=jobs)
+    seconds, load1 = time.perf_counter() - began, os.getloadavg()[0]
+    report = stats["budget"]
+    size = pvs_bytes(part)
+    face = stored_size({k: part.extras[k] for k in FACE_KEYS if k in part.extras}) - HEADER
+    traj = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
+                                                    else "indoor.csv"))
+    count = sent_frames or len(traj)
+    picks = np.linspace(0, len(traj) - 1, count).astype(int)
+    pvs, base = Culler(part, "pvs+vfc+tbfc"), Culler(part, "vfc+tbfc")
+    sent_pvs = sent_base = fallbacks = 0
+    for f in picks:
+        cam = traj.camera(int(f), PROFILE.aspect)
+        r = pvs.cull(cam)
+        sent_pvs += len(r.triangles)
+        fallbacks += r.stats.get("pvs.fallbacks", 0)
+        sent_base += len(base.cull(cam).triangles)
+    dropped, checked = 0, ""
+    if cameras:
+        randoms = check(world, part, in_cell_cameras(part, cameras, 0, world))
+        path = [traj.camera(int(f), PROFILE.aspect)
+                for f in np.linspace(0, len(traj) - 1, frames).astype(int)]
+        along = check(world, part, (("path", c) for c in path))
+        dropped = randoms["dropped"] + along["dropped"]
+        checked = (f" | dropped: {cameras} in-cell cameras x 3 modes {randoms['dropped']} "
+                   f"({randoms['fallbacks']} of {randoms['checks']} fell back), {frames} path "
+                   f"frames x 3 modes {along['dropped']}")
+    label = name + (" (repaired)" if repair == "tjunctions" else "")
+    faces = report.get("faces", [0, 0])
+    print(f"{label} default (budget {part.params['budget']}): PVS {size / obj:.3f}x the OBJ "
+          f"({size / 1e3:.1f} KB; counted before {report['before'] / 1e3:.1f} KB, met "
+          f"{report['met']}), face sets {faces[0] / 1e3:.1f} -> {face / 1e3:.1f} KB"
+          f"{' (collapsed)' if report.get('faces_collapsed') else ''}, {report['cells']} cells "
+          f"in {report['groups']} sets ({report['merges']} merges), mean set (by volume) "
+          f"{report['mean_set_before']:.3f} -> {report['mean_set_after']:.3f} | bake "
+          f"{seconds:.1f} s (coarsening {report['seconds']:.1f} s), load {load0:.1f}-{load1:.1f}"
+          f" | path {count} frames: pvs+vfc+tbfc / vfc+tbfc {sent_pvs / max(sent_base, 1):.3f}x"
+          f" ({sent_pvs} / {sent_base}), fallbacks {fallbacks}{checked}", flush=True)
+    return dropped
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--worlds", default="w5,w6")
@@ -149,7 +209,14 @@ def main(argv=None) -> int:
                         help="path frames for the sent ratios (0: every frame; default --frames)")
     parser.add_argument("--no-fill", action="store_true",
                         help="merge the sets as baked, free bits not filled (fit's fill=False)")
+    parser.add_argument("--default", action="store_true",
+                        help="measure the default bake (budget=0.25), baked here (docstring)")
     args = parser.parse_args(argv)
+    if args.default:
+        dropped = sum(run_default(w.strip(), args.repair, args.frames, args.cameras, args.jobs,
+                                  args.sent_frames)
+                      for w in args.worlds.split(",") if w.strip())
+        return 1 if dropped else 0
     budgets = [float(b) for b in args.budgets.split(",") if b]
     dropped = sum(run(w.strip(), args.repair, budgets, args.frames, args.cameras, args.cache,
                       args.jobs, args.power, args.uniform, args.sent_frames, not args.no_fill)

@@ -10,6 +10,7 @@ from vismobile.partition import load_partition, partition
 from vismobile.partition.pvs import bake
 from vismobile.partition.pvs_codec import cell_mask, decode
 from vismobile.partition.pvs_planes import face_sets
+from vismobile.partition.store import to_bytes
 from vismobile.render import SENTINEL, item_buffer
 from vismobile.world.camera import Camera
 
@@ -113,6 +114,54 @@ def test_an_eye_in_face_planes_keeps_what_lines_lying_in_them_show(kit, zigzag):
     held = np.unique(np.concatenate([cell_ids(extras, c, world.triangle_count)
                                      for c in touching]))
     assert len(np.setdiff1d(shown, held))
+
+
+def set_masks(extras, triangles):
+    """(V, T) bool the cells' sets and (V, T) bool their face sets."""
+    cells = len(extras["pvs_cells"])
+    out = []
+    for x in (extras, {**face_sets(extras), "pvs_cells": extras["pvs_cells"]}):
+        patterns, ids = decode(x, cells, triangles)
+        out.append(np.unpackbits(patterns, axis=1, count=cells)[ids.astype(np.int64)].T > 0)
+    return out
+
+
+def test_a_tight_budget_collapses_the_face_sets_first_and_drops_nothing(kit, zigzag):
+    # a budget the exact sets miss (the zigzag's fit the default): the face sets go first,
+    # one set for every cell (pvs_coarsen.collapsed_faces), each cell's set and its face set
+    # together hold the exact ones', and eyes in face planes take it
+    from vismobile.partition.pvs_coarsen import stored_size
+
+    world = zigzag.world
+    exact = partition(world, "portal", depth=1, slabs=SLABS)
+    exact.params["budget"] = "none"
+    extras, stats = bake(exact)
+    report = stats["budget"]
+    assert report["faces"][0] > 0 and not report["faces_collapsed"]
+    part = partition(world, "portal", depth=1, slabs=SLABS)
+    entries = stored_size({k: np.zeros(0, np.uint8) for k in extras if k != "pvs_cells"})
+    part.params["budget"] = (entries + 0.8 * (report["before"] - entries)) / world.obj_bytes()
+    squeezed, stats = bake(part)
+    report = stats["budget"]
+    assert report["met"] and report["faces_collapsed"] and report["faces"][1] < report["faces"][0]
+    plain = partition(world, "portal", depth=1, slabs=SLABS)
+    part.extras.update(squeezed)
+    part.params["pvs"] = "conservative"
+    # the bytes the budget counts hold what the .vmp grows by (8 sections with the face sets)
+    grown = len(to_bytes(part)) - len(to_bytes(plain))
+    assert grown <= report["after"] <= part.params["budget"] * world.obj_bytes()
+    (want, want_face), (got, got_face) = (set_masks(x, world.triangle_count)
+                                          for x in (extras, squeezed))
+    assert (got >= want).all() and ((got | got_face) >= (want | want_face)).all()
+    assert len(np.unique(got_face, axis=0)) == 1 and (got_face > got_face & want_face).any()
+    cam = Camera((0.0, 0.0, 0.0), yaw=239.59496060307262, pitch=-25.818476035701813,
+                 fov=66.66237728272296, near=0.1, aspect=4 / 3)
+    result = Culler(part, "pvs,vfc", arithmetic="float64").cull(cam)
+    assert "pvs.fallbacks" not in result.stats
+    assert not len(np.setdiff1d(kit.visible_ids(world, cam, False), result.triangles))
+    cams = in_cell_cameras(part, 40, 9) + near_boundary_cameras(part, 16, 10)
+    for mode in ("float32", "fixed16.16"):
+        assert keeps_what_cameras_see(part, ("pvs,vfc",), cams, mode, kit.PROFILE) == len(cams)
 
 
 def test_vmp_keeps_the_pvs_and_refuses_a_corrupt_one(zigzag, tmp_path):

@@ -11,8 +11,9 @@ from .test_pvs_street import in_cell_checks, town
 from vismobile.app.cli import main
 from vismobile.partition import load_partition, partition, pvs_codec, save_partition
 from vismobile.culling import Culler
-from vismobile.partition.pvs_coarsen import (DEFAULT_BUDGET, HEADER, budget_option, describe,
-                                             facing, fill_back, fit, merge_order, stored_size)
+from vismobile.partition.pvs_coarsen import (DEFAULT_BUDGET, HEADER, budget_option,
+                                             collapsed_faces, describe, facing, fill_back, fit,
+                                             merge_order, stored_size)
 from vismobile.world.camera import Camera
 
 
@@ -57,6 +58,34 @@ def test_an_unreachable_budget_says_so(sets):
     # every merge made: the grid's cells are connected, so one set, the union of all
     assert (got == masks.any(axis=0)).all()
     assert report["merges"] == len(merge_order(boxes, masks)[0]) == len(boxes) - 1
+
+
+def test_face_sets_count_and_collapse_first(sets):
+    # the face sets' bytes count (pvs_planes.py; the stage adds a cell's face set for eyes in
+    # a walked face plane): a budget the exact PVS misses collapses them to one set first
+    boxes, masks = sets
+    rng = np.random.default_rng(4)
+    faces = spatial_masks(rng, boxes, masks.shape[1], 0.05) & ~masks
+    coded = pvs_codec.encode(boxes, faces)
+    others = {"pvs_face_shape": coded["pvs_shape"], "pvs_face_pack": coded["pvs_pack"]}
+    exact, report = fit(boxes, masks, None, others, faces=faces)
+    assert all(np.array_equal(exact[k], others[k]) for k in others)
+    assert report["before"] == stored_size(exact) and not report["faces_collapsed"]
+    one = collapsed_faces(boxes, masks, faces)
+    middle = (stored_size({**pvs_codec.encode(boxes, masks), **one}) + report["before"]) / 2
+    done, report = fit(boxes, masks, middle, others, faces=faces)
+    assert report["met"] and report["faces_collapsed"] and report["merges"] == 0
+    assert report["faces"][1] < report["faces"][0] and report["after"] <= middle
+    got = decoded(done, masks.shape[1], len(boxes))
+    face = decoded({"pvs_shape": done["pvs_face_shape"], "pvs_pack": done["pvs_face_pack"]},
+                   masks.shape[1], len(boxes))
+    assert np.array_equal(got, masks) and (face == face[0]).all()  # one face set for all
+    assert ((got | face) >= (masks | faces)).all()
+    assert "face sets" in describe(report)
+    tight, report = fit(boxes, masks, HEADER + 0.3 * (report["before"] - HEADER), others,
+                        faces=faces)  # merges too: the face set stays the one set
+    assert report["merges"] > 0 and report["faces_collapsed"]
+    assert all(np.array_equal(tight[k], one[k]) for k in one)
 
 
 @pytest.fixture(scope="module")

@@ -306,10 +306,12 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     boxes = np.asarray(boxes, dtype=np.float64).copy()
     extras = {"pvs_grow": np.array([grow], dtype=np.float64),
               "pvs_back": np.array([back_reach(world)], dtype=np.float64), **door_extras}
-    sets, report = stored_sets(partition, boxes, masks, extras)
-    extras = {"pvs_cells": boxes, **sets, **extras}
-    if planes:
-        extras.update(face_extras(g, boxes, faces, SLAB * grow))
+    # the face sets' bytes count too, and go coarse first when the sets do not fit
+    plane = face_extras(g, boxes, faces, SLAB * grow) if planes else {}
+    sets, report = stored_sets(partition, boxes, masks, {**extras, **plane},
+                               faces if "pvs_face_pack" in plane else None)
+    extras = {"pvs_cells": boxes, **{k: sets[k] for k in ("pvs_shape", "pvs_pack")}, **extras,
+              **plane, **{k: v for k, v in sets.items() if k in plane}}
     stats = {"budget": report, "seconds": time.perf_counter() - began, "cells": len(boxes),
              "overflowed": int(sum(r[1] < 0 for r in results)),
              "walks": int(sum(max(r[1], 0) for r in results)),
@@ -317,16 +319,18 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     return extras, stats
 
 
-def stored_sets(partition, boxes, masks, others) -> tuple:
+def stored_sets(partition, boxes, masks, others, faces=None) -> tuple:
     """(pvs_shape and pvs_pack of the sets, the budget's report): coarsened until the PVS
     (with the others extras) fits partition.params["budget"] x the OBJ's bytes
     (pvs_coarsen.py: cells merged, sets only grow; DEFAULT_BUDGET when the params name none),
-    exact for budget "none"."""
+    exact for budget "none". With faces ((V, T) bool face sets, others holding their exact
+    coding), also their coding, collapsed to one set when the exact PVS does not fit
+    (pvs_coarsen.fit)."""
     from .pvs_coarsen import budget_option, fit
 
     share = budget_option(partition.params.get("budget"))
     budget = None if share is None else share * partition.world.obj_bytes()
-    return fit(boxes, masks, budget, others, partition.world.corners)
+    return fit(boxes, masks, budget, others, partition.world.corners, faces=faces)
 
 
 def door_portal_sets(world, g, doors, grow) -> list:

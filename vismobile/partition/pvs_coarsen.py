@@ -43,6 +43,8 @@ from numba import njit
 from . import pvs_coder
 from .pvs_codec import DERIVED, encode, encode_columns
 
+FACE_KEYS = ("pvs_face_shape", "pvs_face_pack")  # the face sets' sections (pvs_planes.py)
+
 # budget= : a share of the OBJ's bytes in (0, BUDGET_MAX] (commands/options.py STRUCTURE
 # mirrors it; tests/test_cli_options.py checks they agree), or EXACT's words (no coarsening)
 BUDGET_MAX = 64.0
@@ -57,9 +59,13 @@ FILL_WINDOW = 2048  # earlier triangles a triangle's free bits may be copied fro
 # meet 0.7x sent on their paths, 1-1.4% more sent than power 1 from cameras spread by volume)
 POWER = 2.0
 SLACK = 256  # the merge count is found to within V / SLACK of the fewest that fit
-# the .vmp's section entries and padding for the PVS's extras, counted with their bytes
-# (measured: 1,176 bytes beyond store.stored_bytes on W5)
+# the .vmp's section entries and padding for the PVS's extras, counted with their bytes:
+# HEADER for up to SECTIONS stored sections (measured: 1,176 bytes beyond store.stored_bytes
+# on W5, 5 sections), SECTION more for each beyond (W1 repaired with its face sets, 8
+# sections: 1,909 measured; HEADER alone let its default bake take 0.251x the OBJ)
 HEADER = 1536
+SECTIONS = 5
+SECTION = 256
 
 
 def budget_option(value):
@@ -257,14 +263,28 @@ def merged_columns(cell_bits, ids, weight, root) -> tuple:
 
 def stored_size(extras) -> int:
     """Bytes the PVS adds to a .vmp, as the budget counts them: its sections
-    (store.stored_bytes) plus HEADER for their entries."""
+    (store.stored_bytes) plus HEADER and SECTION per section past SECTIONS for their
+    entries."""
     from .store import stored_bytes
 
-    return HEADER + int(sum(stored_bytes(v) for k, v in extras.items() if k not in DERIVED))
+    stored = [v for k, v in extras.items() if k not in DERIVED]
+    return HEADER + SECTION * max(0, len(stored) - SECTIONS) \
+        + int(sum(stored_bytes(v) for v in stored))
+
+
+def collapsed_faces(boxes, masks, faces) -> dict:
+    """FACE_KEYS of one face set shared by every cell: the union of the cells' face sets
+    (faces (V, T) bool) less the triangles every cell's set holds (masks (V, T) bool, or any
+    superset of each). Each cell's set with it then holds its set with its own face set: the
+    face sets only grow, so it stays conservative."""
+    union = np.asarray(faces, dtype=bool).any(axis=0) & ~np.asarray(masks, dtype=bool).all(axis=0)
+    coded = encode_columns(boxes, np.zeros(len(boxes), dtype=np.int64),
+                           np.packbits(union[:, None], axis=1))
+    return dict(zip(FACE_KEYS, (coded["pvs_shape"], coded["pvs_pack"])))
 
 
 def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
-        fill=True) -> tuple:
+        fill=True, faces=None) -> tuple:
     """(encoded extras, report): the sets coarsened by about the fewest greedy merges
     (merge_order; within V / SLACK) whose encoding, with the others extras beside it, takes at
     most budget_bytes (None: exact).
@@ -276,26 +296,43 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
              anywhere in the cells alike; POWER: the open cells more, docs/partition.md)
     others : the PVS's other extras (their bytes count); with corners and a pvs_back among
              them (and fill), free bits are filled before merging (fill_back)
-    report : dict(budget, before, after bytes; filled: bytes after fill_back, when it ran;
+    faces  : optional (V, T) bool the cells' face sets (pvs_planes.py), whose exact coding is
+             others' FACE_KEYS: when the exact PVS does not fit they are the first to go
+             coarse, collapsed to one set (collapsed_faces: only eyes within a device's rounding
+             of a walked face plane take them, so the bytes go to the sets every eye takes);
+             the extras returned then hold FACE_KEYS too
+    report : dict(budget, before, after bytes; faces: the face sets' bytes before and after,
+             faces_collapsed: whether they were; filled: bytes after fill_back, when it ran;
              cells, groups; merges; mean_set before and after (volume-weighted share of the
              triangles stored, filled ones too); met (bool); seconds)
     """
     began = time.perf_counter()
-    others = others or {}
+    others = dict(others or {})
     exact = encode(boxes, masks)
     before = stored_size({**exact, **others})
     cells = len(boxes)
     masks = np.asarray(masks, dtype=bool).reshape(cells, -1)
+    face = {k: others.pop(k) for k in FACE_KEYS if k in others}
+    face_bytes = stored_size(face) - HEADER if face else 0
     volume = np.prod(np.maximum(boxes[:, 1] - boxes[:, 0], 0.0), axis=1)
     share = volume / volume.sum() if volume.sum() > 0 else np.full(cells, 1.0 / cells)
     triangles = max(masks.shape[1], 1)
     mean_before = float(share @ masks.sum(axis=1)) / triangles
     report = {"budget": budget_bytes, "before": before, "after": before, "cells": cells,
               "groups": int(exact["pvs_shape"][9]), "merges": 0, "mean_set_before": mean_before,
-              "mean_set_after": mean_before, "met": budget_bytes is None or before <= budget_bytes}
+              "mean_set_after": mean_before, "met": budget_bytes is None or before <= budget_bytes,
+              "faces": [face_bytes, face_bytes], "faces_collapsed": False}
     if report["met"]:
         report["seconds"] = time.perf_counter() - began
-        return exact, report
+        return {**exact, **face}, report
+    if faces is not None and face:  # the face sets first: one set for every cell
+        face = collapsed_faces(boxes, masks, faces)
+        report["faces"][1], report["faces_collapsed"] = stored_size(face) - HEADER, True
+        size = stored_size({**exact, **face, **others})
+        if size <= budget_bytes:
+            report.update(after=size, met=True, seconds=time.perf_counter() - began)
+            return {**exact, **face}, report
+    others = {**others, **face}  # counted beside the sets from here on
     from .pvs_codec import decode_all, _CACHE
 
     back = others.get("pvs_back")
@@ -308,7 +345,7 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
             report.update(after=size, groups=int(exact["pvs_shape"][9]), met=True,
                           mean_set_after=float(share @ masks.sum(axis=1)) / triangles,
                           seconds=time.perf_counter() - began)
-            return exact, report
+            return {**exact, **face}, report
 
     _, patterns, ids = decode_all(exact, masks.shape[1])
     ids = np.asarray(ids, dtype=np.int64)
@@ -325,7 +362,7 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
             probes[count] = (stored_size({**extras, **others}), extras)
         return probes[count]
 
-    probes[0] = (report.get("filled", before), exact)
+    probes[0] = (stored_size({**exact, **others}), exact)  # filled, face sets collapsed
     low, high = 0, len(merges)  # low does not fit; find about the fewest merges that fit
     if probe(high)[0] > budget_bytes:
         count = high
@@ -351,7 +388,7 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
     report.update(after=size, groups=int(extras["pvs_shape"][9]), merges=int(count),
                   mean_set_after=float(share @ sizes[group]) / triangles,
                   met=size <= budget_bytes, seconds=time.perf_counter() - began)
-    return extras, report
+    return {**extras, **face}, report
 
 
 def describe(report) -> str:
@@ -360,6 +397,9 @@ def describe(report) -> str:
     if report.get("budget") is None:
         return f"none: the exact sets, {kb(report['before'])}"
     filled = f" (free bits filled {kb(report['filled'])})" if "filled" in report else ""
+    if report.get("faces_collapsed"):
+        filled = (f" (face sets {kb(report['faces'][0])} -> one set "
+                  f"{kb(report['faces'][1])})") + filled
     head = (f"budget {kb(report['budget'])}: {kb(report['before'])}{filled} -> "
             f"{kb(report['after'])}, "
             f"{report['cells']:,} cells in {report['groups']:,} sets, mean set "
