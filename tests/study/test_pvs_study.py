@@ -60,6 +60,24 @@ def test_the_bake_is_cached_with_its_statistics(world, baked):
     assert stats["seconds"] > 0 and 0 < stats["mean_set"] <= 1
 
 
+def test_the_study_bakes_at_the_default_budget_and_not_from_older_exact_files(world, baked):
+    # a +pvs candidate is the default bake (budget 0.25, recorded); a cached file without a
+    # budget in its params was baked exact before the default, and is baked again
+    from vismobile.partition import load_partition, save_partition
+
+    part, cache = baked
+    assert part.params["budget"] == 0.25
+    path = engine._structure_path(world, "portal:1+pvs", cache)
+    old = engine.load_structure(world, "portal:1", cache)[0]
+    old.extras = {**old.extras, "pvs_unread": np.zeros(1)}  # a mark the bake would not make
+    old.params = {**old.params, "pvs": "conservative"}
+    save_partition(old, path)
+    assert "budget" not in load_partition(path).params  # it loads: stale, not unreadable
+    engine._PARTITIONS.clear()
+    again, seconds = engine.load_structure(world, "portal:1+pvs", cache)
+    assert seconds > 0 and again.params["budget"] == 0.25 and "pvs_unread" not in again.extras
+
+
 def test_the_device_model_prices_the_lookup_and_the_memory(world, baked, trajectory, profile):
     part, _ = baked
     camera = trajectory.camera(3, profile.aspect)
