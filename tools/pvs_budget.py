@@ -64,6 +64,19 @@ def pvs_bytes(part) -> int:
     return len(to_bytes(part)) - len(to_bytes(plain))
 
 
+def face_masks(part, triangles):
+    """(V, T) bool the bake's face sets (partition/pvs_planes.py), or None without them."""
+    from vismobile.partition.pvs_planes import face_sets
+
+    sets = face_sets(part.extras)
+    if sets is None:
+        return None
+    pvs_codec._CACHE.clear()
+    boxes, patterns, ids = pvs_codec.decode_all(sets, triangles)
+    pvs_codec._CACHE.clear()
+    return np.unpackbits(patterns, axis=1, count=len(boxes))[ids.astype(np.int64)].T > 0
+
+
 def sent(part, cameras) -> tuple:
     """(pvs+vfc+tbfc, vfc+tbfc) triangles sent over the cameras."""
     pvs, base = Culler(part, "pvs+vfc+tbfc"), Culler(part, "vfc+tbfc")
@@ -98,6 +111,7 @@ def run(name, repair, budgets, frames, cameras, cache, jobs, power=POWER, unifor
     masks = masks.astype(bool)
     others = {k: v for k, v in part.extras.items()
               if k.startswith("pvs_") and k not in ("pvs_shape", "pvs_pack", "pvs_cells")}
+    faces = face_masks(part, triangles)  # counted, and collapsed first, as the bake does
     traj = Trajectory.load(ROOT / "trajectories" / ("outdoor.csv" if name in ("w5", "w6")
                                                     else "indoor.csv"))
     path = [traj.camera(int(f), PROFILE.aspect)
@@ -115,7 +129,7 @@ def run(name, repair, budgets, frames, cameras, cache, jobs, power=POWER, unifor
     for share in budgets:
         began = time.perf_counter()
         extras, report = fit(boxes, masks, share * world.obj_bytes(), others, world.corners,
-                             power, fill)
+                             power, fill, faces=faces)
         seconds = time.perf_counter() - began
         coarse = copy.copy(part)
         coarse.extras = {**part.extras, **extras}
@@ -127,7 +141,7 @@ def run(name, repair, budgets, frames, cameras, cache, jobs, power=POWER, unifor
         dropped += randoms["dropped"] + along["dropped"]
         print(f"{label} budget={share:g}: PVS {exact_bytes / obj:.3f}x -> {size / obj:.3f}x the "
               f"OBJ ({exact_bytes / 1e3:.1f} -> {size / 1e3:.1f} KB; counted "
-              f"{stored_size({**extras, **others}) / 1e3:.1f} KB, met {report['met']}), "
+              f"{stored_size({**others, **extras}) / 1e3:.1f} KB, met {report['met']}), "
               f"{report['cells']} cells in {report['groups']} sets, mean set (by volume) "
               f"{report['mean_set_before']:.3f} -> {report['mean_set_after']:.3f}, coarsening "
               f"{seconds:.1f} s | path {count} frames: pvs+vfc+tbfc / vfc+tbfc "

@@ -13,8 +13,10 @@ def add_parser(sub):
                         "(tools/make_big_world.py) for the out-of-core octree build (streamed, "
                         "memory-mapped)")
     parser.add_argument("--structure", "-s", default="octree",
-                        help=f"{STRUCTURE_HELP} (default octree, depth 5); the options below set "
-                             "the same parameters")
+                        help=f"{STRUCTURE_HELP} (default octree, depth 5); ,pvs=conservative "
+                             "bakes a PVS coarsened to budget=0.25 of the OBJ's bytes unless "
+                             "budget=F or budget=none (the exact sets) is given; the options "
+                             "below set the same parameters")
     parser.add_argument("-o", "--out", "--output", dest="out", type=Path, required=True,
                         help=".vmp file to write")
     parser.add_argument("--depth", type=int, help="octree depth 1..8 (default 5); portal 1..3 (2)")
