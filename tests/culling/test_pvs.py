@@ -126,7 +126,7 @@ def set_masks(extras, triangles):
     return out
 
 
-def test_a_tight_budget_collapses_the_face_sets_first_and_drops_nothing(kit, zigzag):
+def test_a_tight_budget_collapses_the_face_sets_first_and_drops_nothing(kit, zigzag, tmp_path):
     # a budget the exact sets miss (the zigzag's fit the default): the face sets go first,
     # one set for every cell (pvs_coarsen.collapsed_faces), each cell's set and its face set
     # together hold the exact ones', and eyes in face planes take it
@@ -150,6 +150,11 @@ def test_a_tight_budget_collapses_the_face_sets_first_and_drops_nothing(kit, zig
     # the bytes the budget counts hold what the .vmp grows by (8 sections with the face sets)
     grown = len(to_bytes(part)) - len(to_bytes(plain))
     assert grown <= report["after"] <= part.params["budget"] * world.obj_bytes()
+    from vismobile.partition import save_partition
+
+    save_partition(part, tmp_path / "squeezed.vmp")  # the load's checks take the one face set
+    loaded = load_partition(tmp_path / "squeezed.vmp")
+    assert np.array_equal(loaded.extras["pvs_face_pack"], squeezed["pvs_face_pack"])
     (want, want_face), (got, got_face) = (set_masks(x, world.triangle_count)
                                           for x in (extras, squeezed))
     assert (got >= want).all() and ((got | got_face) >= (want | want_face)).all()
