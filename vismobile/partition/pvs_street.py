@@ -121,17 +121,17 @@ def boundary_samples(a, b) -> np.ndarray:
 
 
 def bake_street_cells(world, boxes, polys, starts, valid, tops, footprints, grow, tol, slack,
-                      street_top=np.inf):
+                      street_top=np.inf, prepared=None):
     """[(T,) bool visible] per cell box (B, 2, 3): what the shadows from the cell do not hide.
 
     polys, starts : the shrunk footprints' corners (V, 2) and offsets (N + 1,); valid (N,) bool
                     the columns that survived shrinking; tops (N,) lowered by the tolerance
     street_top    : boxes from this height up are fly-over cells (pvs_fly.py's occluders)
+    prepared      : prepare(world, footprints), if made once for all the bake's boxes
     """
     r = reach()
-    table = polygon_table(footprints)
-    corners = np.ascontiguousarray(world.corners, dtype=np.float64)
-    groups, order, gboxes = triangle_groups(world, GROUP_TILE)
+    table, corners, (groups, order, gboxes) = prepare(world, footprints) if prepared is None \
+        else prepared
     out = []
     for box in boxes:
         a, b = box[0] - grow, box[1] + grow
@@ -151,6 +151,13 @@ def bake_street_cells(world, boxes, polys, starts, valid, tops, footprints, grow
                         slack * 2.0 * (COVER + r), corners, groups, order, gboxes, tol, hidden)
         out.append(~hidden)
     return out
+
+
+def prepare(world, footprints) -> tuple:
+    """What every box of a bake reads: the footprints' polygon_table, the corners (T, 3, 3)
+    float64 and triangle_groups (made once a bake, not once a cell)."""
+    return (polygon_table(footprints), np.ascontiguousarray(world.corners, dtype=np.float64),
+            triangle_groups(world, GROUP_TILE))
 
 
 def bake_street(world, grow, tol, progress=None, jobs=1, executor=None, chunks=32,
@@ -180,7 +187,8 @@ def bake_street(world, grow, tol, progress=None, jobs=1, executor=None, chunks=3
     starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     tops = np.asarray(top, dtype=np.float64) - tol
     slack = depth_slack(world, grow)
-    args = (world, polys, starts, valid, tops, footprints, grow, tol, slack, street_top)
+    args = (world, polys, starts, valid, tops, footprints, grow, tol, slack, street_top,
+            prepare(world, footprints))
     count = len(boxes)
     masks = fan_out(_chunk, (args,), boxes, (), jobs, executor, chunks, progress)
     stats = {"seconds": time.perf_counter() - began, "cells": count, "overflowed": 0,
