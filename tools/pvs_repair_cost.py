@@ -32,9 +32,8 @@ from vismobile.errors import VisMobileError  # noqa: E402
 from vismobile.files.loader import repaired  # noqa: E402
 from vismobile.partition import load_partition, partition, pvs, save_partition  # noqa: E402
 from vismobile.render import SENTINEL, item_buffer  # noqa: E402
-from vismobile.render.pvs_sampled import FACES, RESOLUTION  # noqa: E402
+from vismobile.render.pvs_sampled import RESOLUTION, seen_from  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
-from vismobile.world.camera import Camera  # noqa: E402
 from vismobile.world.trajectory import Trajectory  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,13 +59,7 @@ def baked(world, path, jobs):
 def seen_from_cell(world, lo, hi, samples, rng) -> np.ndarray:
     """(T,) bool: what item buffers from `samples` jittered points in [lo, hi] show."""
     cube = dataclasses.replace(PROFILE, resolution=(RESOLUTION, RESOLUTION))
-    seen = np.zeros(world.triangle_count, dtype=bool)
-    for point in lo + rng.uniform(0.0, 1.0, (samples, 3)) * (hi - lo):
-        for yaw, pitch in FACES:
-            cam = Camera(point, yaw=yaw, pitch=pitch, fov=90.0, aspect=1.0, near=0.01)
-            ids = np.unique(item_buffer(world, None, cam, cube, cull_back=False))
-            seen[ids[ids != SENTINEL].astype(np.int64)] = True
-    return seen
+    return seen_from(world, lo + rng.uniform(0.0, 1.0, (samples, 3)) * (hi - lo), cube)
 
 
 def run(name, stride, jobs, cache, samples):

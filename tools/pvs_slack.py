@@ -33,10 +33,8 @@ from vismobile.partition import portal, pvs  # noqa: E402
 from vismobile.partition.pvs_cells import view_grid  # noqa: E402
 from vismobile.partition.pvs_cracks import crack_reach, unshared_edges, with_cracks  # noqa: E402
 from vismobile.partition.pvs_refine import refine  # noqa: E402
-from vismobile.render import SENTINEL, item_buffer  # noqa: E402
-from vismobile.render.pvs_sampled import FACES, RESOLUTION  # noqa: E402
+from vismobile.render.pvs_sampled import RESOLUTION, seen_from  # noqa: E402
 from vismobile.scenes import build_world  # noqa: E402
-from vismobile.world.camera import Camera  # noqa: E402
 
 PROFILE = get_profile("ipaq-hx2490b")
 
@@ -44,13 +42,7 @@ PROFILE = get_profile("ipaq-hx2490b")
 def sampled_share(world, lo, hi, samples, rng):
     """Share of the world the item buffers from `samples` jittered points in [lo, hi] show."""
     cube = dataclasses.replace(PROFILE, resolution=(RESOLUTION, RESOLUTION))
-    seen = np.zeros(world.triangle_count, dtype=bool)
-    for point in lo + rng.uniform(0.0, 1.0, (samples, 3)) * (hi - lo):
-        for yaw, pitch in FACES:
-            cam = Camera(point, yaw=yaw, pitch=pitch, fov=90.0, aspect=1.0, near=0.01)
-            ids = np.unique(item_buffer(world, None, cam, cube, cull_back=False))
-            seen[ids[ids != SENTINEL].astype(np.int64)] = True
-    return seen.mean()
+    return seen_from(world, lo + rng.uniform(0.0, 1.0, (samples, 3)) * (hi - lo), cube).mean()
 
 
 def index_of(boxes, box):

@@ -40,6 +40,19 @@ def view_cells(partition) -> np.ndarray:
     return np.stack([lo.reshape(-1, 3), hi.reshape(-1, 3)], axis=1)
 
 
+def seen_from(world, points, cube) -> np.ndarray:
+    """(T,) bool: the triangles the item buffers of the cube profile show from the points (P, 3),
+    six 90-degree faces each, no back-face culling; what sampling sees, so it errs toward
+    missing what no point shows."""
+    seen = np.zeros(world.triangle_count, dtype=bool)
+    for point in points:
+        for yaw, pitch in FACES:
+            cam = Camera(point, yaw=yaw, pitch=pitch, fov=90.0, aspect=1.0, near=0.01)
+            ids = np.unique(item_buffer(world, None, cam, cube, cull_back=False))
+            seen[ids[ids != SENTINEL].astype(np.int64)] = True
+    return seen
+
+
 def bake_sampled(partition, samples: int, profile, seed: int = 0, progress=None) -> tuple:
     """(extras, stats) of the sampled PVS with `samples` jittered points per view cell.
 
@@ -55,19 +68,12 @@ def bake_sampled(partition, samples: int, profile, seed: int = 0, progress=None)
     rng = np.random.default_rng(seed)
     masks = []
     for c, (lo, hi) in enumerate(cells):
-        seen = np.zeros(world.triangle_count, dtype=bool)
         # stratified along the cell's longest axis, jittered in all three
         points = lo + rng.uniform(0.0, 1.0, (int(samples), 3)) * (hi - lo)
         longest = int(np.argmax(hi - lo))
         points[:, longest] = lo[longest] + (np.arange(samples) + rng.uniform(0, 1, samples)) \
             / samples * (hi[longest] - lo[longest])
-        for point in points:
-            for yaw, pitch in FACES:
-                cam = Camera(point, yaw=yaw, pitch=pitch, fov=90.0, aspect=1.0, near=0.01)
-                ids = item_buffer(world, None, cam, cube, cull_back=False)
-                ids = np.unique(ids)
-                seen[ids[ids != SENTINEL].astype(np.int64)] = True
-        masks.append(seen)
+        masks.append(seen_from(world, points, cube))
         if progress is not None:
             progress(c + 1, len(cells))
     extras = {"pvs_cells": cells.copy(), **encode(cells, masks),
