@@ -304,7 +304,8 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
     report : dict(budget, before, after bytes; faces: the face sets' bytes before and after,
              faces_collapsed: whether they were; filled: bytes after fill_back, when it ran;
              cells, groups; merges; mean_set before and after (volume-weighted share of the
-             triangles stored, filled ones too); met (bool); seconds)
+             triangles stored, filled ones too); met (bool); unreachable: True when even every
+             merge would not fit, and the exact sets are returned; seconds)
     """
     began = time.perf_counter()
     others = dict(others or {})
@@ -325,6 +326,7 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
     if report["met"]:
         report["seconds"] = time.perf_counter() - began
         return {**exact, **face}, report
+    kept = {**exact, **face}  # the exact sets, returned when no merging can fit
     if faces is not None and face:  # the face sets first: one set for every cell
         face = collapsed_faces(boxes, masks, faces)
         report["faces"][1], report["faces_collapsed"] = stored_size(face) - HEADER, True
@@ -365,7 +367,12 @@ def fit(boxes, masks, budget_bytes, others=None, corners=None, power=POWER,
     probes[0] = (stored_size({**exact, **others}), exact)  # filled, face sets collapsed
     low, high = 0, len(merges)  # low does not fit; find about the fewest merges that fit
     if probe(high)[0] > budget_bytes:
-        count = high
+        # out of reach (the cells' boxes alone take more: W4's 4,560 BSP leaves): merging
+        # everything would send the whole world and still not fit, so the exact sets stay
+        _CACHE.clear()
+        report.update(after=before, faces=[face_bytes, face_bytes], faces_collapsed=False,
+                      unreachable=True, seconds=time.perf_counter() - began)
+        return kept, report
     else:
         close = max(1, cells // SLACK)
         for step in range(64):
@@ -396,7 +403,8 @@ def describe(report) -> str:
     kb = lambda n: f"{n / 1024:,.1f} KB"  # noqa: E731
     if report.get("budget") is None:
         return f"none: the exact sets, {kb(report['before'])}"
-    filled = f" (free bits filled {kb(report['filled'])})" if "filled" in report else ""
+    filled = f" (free bits filled {kb(report['filled'])})" \
+        if "filled" in report and not report.get("unreachable") else ""
     if report.get("faces_collapsed"):
         filled = (f" (face sets {kb(report['faces'][0])} -> one set "
                   f"{kb(report['faces'][1])})") + filled
@@ -406,4 +414,6 @@ def describe(report) -> str:
             f"{report['mean_set_before']:.1%} -> {report['mean_set_after']:.1%} (by volume)")
     if report["met"]:
         return head
+    if report.get("unreachable"):
+        return head + " - not met: every cell merged would still be larger, so the exact sets stay"
     return head + " - not met: every neighbouring cell merged is still larger"
