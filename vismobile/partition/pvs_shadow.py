@@ -266,39 +266,36 @@ def _wrap(r):
 
 
 @njit(cache=True, inline="always")
+def _clip(xs, zs, start, n, nx, nz, ox, oz, out):
+    """Sutherland-Hodgman: the convex polygon (xs, zs)[start:start + n] clipped to the half-plane
+    nx x + nz z >= 0, written to (ox, oz)[out:]; returns the new corner count."""
+    m = out
+    for i in range(start, start + n):
+        j = i + 1 if i + 1 < start + n else start
+        a = nx * xs[i] + nz * zs[i]
+        b = nx * xs[j] + nz * zs[j]
+        if a >= 0.0:
+            ox[m], oz[m] = xs[i], zs[i]
+            m += 1
+        if (a >= 0.0) != (b >= 0.0):
+            t = a / (a - b)
+            ox[m], oz[m] = xs[i] + t * (xs[j] - xs[i]), zs[i] + t * (zs[j] - zs[i])
+            m += 1
+    return m - out
+
+
+@njit(cache=True, inline="always")
 def _wedge_reach(xs, zs, n, c0, s0, c1, s1, cx, cz):
     """(dmin, dmax) x-z distances from the origin of the convex polygon (xs, zs)[:n] clipped to
     the wedge from direction (c0, s0) counter-clockwise to (c1, s1) (less than pi wide), or
     (inf, 0) when nothing is left; cx, cz (>= 2 n + 4) scratch. The clip's rounding is a few
     ulps of the coordinates, which the callers' relative margin covers."""
-    m = 0
     h = len(cx) // 2  # the first clip's corners in cx[:h], the second's in cx[h:]
-    for i in range(n):  # left of the first direction: c0 z - s0 x >= 0
-        j = (i + 1) % n
-        a = c0 * zs[i] - s0 * xs[i]
-        b = c0 * zs[j] - s0 * xs[j]
-        if a >= 0.0:
-            cx[m], cz[m] = xs[i], zs[i]
-            m += 1
-        if (a >= 0.0) != (b >= 0.0):
-            t = a / (a - b)
-            cx[m], cz[m] = xs[i] + t * (xs[j] - xs[i]), zs[i] + t * (zs[j] - zs[i])
-            m += 1
+    m = _clip(xs, zs, 0, n, -s0, c0, cx, cz, 0)  # left of the first direction
     if m == 0:
         return np.inf, 0.0
+    k = h + _clip(cx, cz, 0, m, s1, -c1, cx, cz, h)  # right of the second
     dmin, dmax = np.inf, 0.0
-    k = h
-    for i in range(m):  # right of the second direction: s1 x - c1 z >= 0
-        j = (i + 1) % m
-        a = s1 * cx[i] - c1 * cz[i]
-        b = s1 * cx[j] - c1 * cz[j]
-        if a >= 0.0:
-            cx[k], cz[k] = cx[i], cz[i]
-            k += 1
-        if (a >= 0.0) != (b >= 0.0):
-            t = a / (a - b)
-            cx[k], cz[k] = cx[i] + t * (cx[j] - cx[i]), cz[i] + t * (cz[j] - cz[i])
-            k += 1
     for i in range(h, k):
         j = i + 1 if i + 1 < k else h
         dmin = min(dmin, _edge_distance(cx[i], cz[i], cx[j], cz[j]))
