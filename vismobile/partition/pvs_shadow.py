@@ -266,12 +266,12 @@ def _wrap(r):
 
 
 @njit(cache=True, inline="always")
-def _clip(xs, zs, start, n, nx, nz, ox, oz, out):
-    """Sutherland-Hodgman: the convex polygon (xs, zs)[start:start + n] clipped to the half-plane
+def _clip(xs, zs, n, nx, nz, ox, oz, out):
+    """Sutherland-Hodgman: the convex polygon (xs, zs)[:n] clipped to the half-plane
     nx x + nz z >= 0, written to (ox, oz)[out:]; returns the new corner count."""
     m = out
-    for i in range(start, start + n):
-        j = i + 1 if i + 1 < start + n else start
+    for i in range(n):
+        j = i + 1 if i + 1 < n else 0
         a = nx * xs[i] + nz * zs[i]
         b = nx * xs[j] + nz * zs[j]
         if a >= 0.0:
@@ -291,10 +291,10 @@ def _wedge_reach(xs, zs, n, c0, s0, c1, s1, cx, cz):
     (inf, 0) when nothing is left; cx, cz (>= 2 n + 4) scratch. The clip's rounding is a few
     ulps of the coordinates, which the callers' relative margin covers."""
     h = len(cx) // 2  # the first clip's corners in cx[:h], the second's in cx[h:]
-    m = _clip(xs, zs, 0, n, -s0, c0, cx, cz, 0)  # left of the first direction
+    m = _clip(xs, zs, n, -s0, c0, cx, cz, 0)  # left of the first direction
     if m == 0:
         return np.inf, 0.0
-    k = h + _clip(cx, cz, 0, m, s1, -c1, cx, cz, h)  # right of the second
+    k = h + _clip(cx, cz, m, s1, -c1, cx, cz, h)  # right of the second
     dmin, dmax = np.inf, 0.0
     for i in range(h, k):
         j = i + 1 if i + 1 < k else h
