@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from vismobile.device.profile import get_profile
 from vismobile.partition.pvs_cracks import unshared_edges
 from vismobile.render import item_buffer
-from vismobile.world.tjunctions import find_tjunctions, repair_tjunctions
+from vismobile.world.tjunctions import ear_clip, find_tjunctions, repair_tjunctions
 from vismobile.world.world import World
 
 MODES = ("float64", "float32", "fixed16.16")
@@ -50,6 +50,52 @@ def vertex_on_edge_interior(world, tol):
     return find_tjunctions(points, np.unique(np.sort(edges, axis=1), axis=0), tol)[0]
 
 
+def junctions_per_triangle(world, tol):
+    """(T,) int: vertices lying strictly inside each triangle's edges (brute force)."""
+    points = np.unique(world.vertices, axis=0)
+    out = np.zeros(world.triangle_count, dtype=np.int64)
+    for t, corners in enumerate(world.corners):
+        for a, b in ((corners[0], corners[1]), (corners[1], corners[2]), (corners[2], corners[0])):
+            d = b - a
+            s = (points - a) @ d / (d @ d)
+            off = np.linalg.norm(points - a - s[:, None] * d, axis=1)
+            length = np.linalg.norm(d)
+            out[t] += int(((s * length > tol) & ((1 - s) * length > tol) & (off <= tol)).sum())
+    return out
+
+
+def cross2(a, b):
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+@settings(max_examples=60)
+@given(st.integers(0, 2**32 - 1), st.lists(st.integers(0, 6), min_size=3, max_size=3))
+def test_ear_clip_covers_a_ring_with_the_fewest_triangles(seed, counts):
+    """Any junctions on any edges: len - 2 triangles, none degenerate, all wound as the
+    parent, their areas summing to its area (so they tile it: a convex polygon)."""
+    rng = np.random.default_rng(seed)
+    corners = rng.uniform(-5, 5, (3, 2))
+    if abs(cross2(corners[1] - corners[0], corners[2] - corners[0])) < 0.5:
+        return
+    points, lines = [], []
+    for k in range(3):
+        a, b = corners[k], corners[(k + 1) % 3]
+        points.append(a)
+        lines.append({(k + 2) % 3, k})
+        for s in np.sort(rng.choice(np.arange(1, 64), counts[k], replace=False)) / 64.0:
+            points.append(a + s * (b - a))
+            lines.append({k})
+    points = np.array(points)
+    triangles = np.array(ear_clip(lines))
+    assert len(triangles) == len(points) - 2
+    p = points[triangles]
+    area = cross2(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) / 2
+    parent = cross2(corners[1] - corners[0], corners[2] - corners[0]) / 2
+    assert (np.sign(area) == np.sign(parent)).all()
+    assert np.abs(area).min() > 1e-9
+    np.testing.assert_allclose(area.sum(), parent, rtol=1e-9)
+
+
 @settings(max_examples=25)
 @given(st.integers(0, 2**32 - 1), st.integers(1, 6), st.integers(1, 4))
 def test_planted_junctions_are_split_with_the_same_floats(seed, count, splits):
@@ -78,17 +124,19 @@ def test_planted_junctions_are_split_with_the_same_floats(seed, count, splits):
     bases = world.triangle_count // (splits + 2)
     assert len(unshared_edges(fixed)) == 4 * bases
     assert len(unshared_edges(world)) == (6 + splits) * bases  # + the base's ab, the strips'
-    # every vertex of the repaired world is one of the input's floats, or a centroid
+    # every vertex of the repaired world is one of the input's floats (no new vertex), and each
+    # triangle became one piece more than it has junctions on its edges (the fewest)
     known = {tuple(v) for v in world.vertices}
-    new = [tuple(v) for v in fixed.vertices[np.unique(fixed.triangles)] if tuple(v) not in known]
-    assert len(new) == repair.added
+    assert all(tuple(v) in known for v in fixed.vertices[np.unique(fixed.triangles)])
+    pieces = np.bincount(repair.parent, minlength=world.triangle_count)
+    np.testing.assert_array_equal(pieces, 1 + junctions_per_triangle(world, tol))
 
 
 def test_a_world_without_junctions_is_unchanged(literal):
     world = literal.world([literal.rect(1, 0.0, (0, 4), (0, 4), 1),
                            literal.rect(0, 0.0, (0, 3), (0, 4), 1)])
     fixed, repair = repair_tjunctions(world)
-    assert repair.junctions == repair.split == repair.added == 0
+    assert repair.junctions == repair.split == 0
     assert (fixed.triangles == world.triangles).all() and fixed.digest() == world.digest()
 
 

@@ -13,11 +13,11 @@ Contract of `repair_tjunctions(world, tolerance=TOLERANCE)`:
   line lies strictly inside the segment by more than `tol`, and its distance from the line is
   at most `tol` = tolerance x the world box's diagonal. Every such (edge, vertex) pair is found
   (a spatial hash over the vertices, a numba walk along each edge: no O(n^2) pass).
-- Each triangle with junctions on its edges is replaced, in place (its pieces take its
-  position in the triangle order), by a fan: from the corner opposite the one edge holding
-  junctions, or, when two or three edges hold them, from a new vertex at its centroid (inside
-  the triangle, so on no other triangle's edge). The junction's corner in a piece is the SAME
-  vertex (same floats) as the existing vertex, so the edges along the crease are now shared.
+- Each triangle with k junctions on its edges is replaced, in place (its pieces take its
+  position in the triangle order), by k + 1 triangles over its corners and junctions, the
+  fewest that cover it (ear_clip: no new vertex, none degenerate). The junction's corner in a
+  piece is the SAME vertex (same floats) as the existing vertex, so the edges along the crease
+  are now shared.
 - Winding is kept (each piece faces as its parent did); the pieces' areas sum to the parent's
   up to the junctions' distance from the line (0 when they lie exactly on it, as in the thesis
   worlds); object ids follow the parent; per-corner UVs (`world.textures`) are interpolated.
@@ -44,14 +44,13 @@ class Repair:
 
     parent    : (T',) int64 original triangle id of each new triangle (non-decreasing)
     bary      : (T', 3, 3) float64 barycentric coordinates of each new corner in its parent
-    junctions : (edge, vertex) pairs found; split : triangles replaced; added : new vertices
+    junctions : (edge, vertex) pairs found; split : triangles replaced
     """
 
     parent: np.ndarray
     bary: np.ndarray
     junctions: int
     split: int
-    added: int
 
 
 @numba.njit(cache=True)
@@ -122,6 +121,32 @@ def _walk(points, edges, keys, starts, order, lo, h, n, tol):
     return out_e[:found], out_v[:found], out_t[:found]
 
 
+def ear_clip(lines) -> list:
+    """Triangles (index triples into the ring, its winding kept) covering a triangle's ring of
+    corners and junctions: lines[i] holds the ids of the triangle's edges ring vertex i lies on
+    (two for a corner, one for a junction). len(lines) - 2 triangles (a convex polygon's
+    fewest), none with its three vertices on one edge (degenerate): an ear is cut where its
+    three vertices share no edge and the ring left is not all on one edge (then the cut
+    vertex was the only one off it), so the ring left is a convex polygon again and an ear
+    remains until three vertices do."""
+    ring, out = list(range(len(lines))), []
+    while len(ring) > 3:
+        for pos in range(len(ring)):
+            u, v, w = ring[pos - 1], ring[pos], ring[(pos + 1) % len(ring)]
+            if lines[u] & lines[v] & lines[w]:
+                continue
+            rest = ring[:pos] + ring[pos + 1:]
+            if set.intersection(*(lines[r] for r in rest)):
+                continue
+            out.append((u, v, w))
+            ring = rest
+            break
+        else:  # cannot happen for a triangle's ring (docstring); fail loudly, never silently
+            raise AssertionError(f"no ear in a ring of {len(ring)}")
+    out.append(tuple(ring))
+    return out
+
+
 def find_tjunctions(points, edges, tol) -> tuple:
     """(edge (K,) int64, vertex (K,) int64, t (K,) float64) unique pairs: vertex `points[v]`
     lies within tol of edge e = (points[edges[e, 0]], points[edges[e, 1]]), strictly inside
@@ -172,7 +197,7 @@ def repair_tjunctions(world, tolerance: float = TOLERANCE) -> tuple:
     parent = np.arange(count, dtype=np.int64)
     bary = np.broadcast_to(np.eye(3), (count, 3, 3)).copy()
     if not len(hit_e):
-        return _rebuilt(world, vertices, tri, parent, bary, 0, 0, 0, World)
+        return _rebuilt(world, vertices, tri, parent, bary, 0, 0, World)
     # junctions per directed triangle edge (slot = 3 x triangle + corner), t along its direction
     by_edge = np.argsort(hit_e, kind="stable")
     hit_e, hit_v, hit_t = hit_e[by_edge], hit_v[by_edge], hit_t[by_edge]
@@ -180,19 +205,16 @@ def repair_tjunctions(world, tolerance: float = TOLERANCE) -> tuple:
     hi_hit = np.searchsorted(hit_e, edge_of, "right")
     flipped = directed[:, 0] != edges[edge_of, 0]
     touched = np.unique(np.flatnonzero(hi_hit > lo_hit) // 3)
-    pieces, piece_bary, piece_parent, added = [], [], [], []
-    next_vertex = len(vertices)
+    pieces, piece_bary, piece_parent = [], [], []
     for t_id in touched:
         corners = tri[t_id]
-        ring, ring_bary, holding = [], [], 0
+        ring, ring_bary, lines = [], [], []
         for k in range(3):
             slot = 3 * t_id + k
             ring.append(corners[k])
             ring_bary.append(np.eye(3)[k])
+            lines.append({(k + 2) % 3, k})  # a corner lies on the edges before and after it
             lo_k, hi_k = lo_hit[slot], hi_hit[slot]
-            if hi_k == lo_k:
-                continue
-            holding += 1
             ts = hit_t[lo_k:hi_k]
             ts = 1.0 - ts if flipped[slot] else ts
             for j in np.argsort(ts, kind="stable"):
@@ -201,29 +223,11 @@ def repair_tjunctions(world, tolerance: float = TOLERANCE) -> tuple:
                 b = np.zeros(3)
                 b[k], b[(k + 1) % 3] = 1.0 - s, s
                 ring_bary.append(b)
-        ring, ring_bary = np.asarray(ring, np.int64), np.asarray(ring_bary)
-        size = len(ring)
-        if holding == 1:
-            # fan from the corner opposite the edge holding the junctions (last in the ring)
-            k = next(k for k in range(3) if hi_hit[3 * t_id + k] > lo_hit[3 * t_id + k])
-            start = int(np.flatnonzero(ring == corners[(k + 2) % 3])[0])
-            ring, ring_bary = np.roll(ring, -start - 1), np.roll(ring_bary, -start - 1, axis=0)
-            idx = np.arange(size - 2)
-            fan = np.stack([np.full(size - 2, ring[-1]), ring[idx], ring[idx + 1]], axis=1)
-            fan_bary = np.stack([np.broadcast_to(ring_bary[-1], (size - 2, 3)),
-                                 ring_bary[idx], ring_bary[idx + 1]], axis=1)
-        else:
-            # fan from a new vertex at the centroid (interior: no other edge passes it)
-            added.append(vertices[corners].mean(axis=0))
-            idx = np.arange(size)
-            fan = np.stack([np.full(size, next_vertex), ring[idx], ring[(idx + 1) % size]],
-                           axis=1)
-            fan_bary = np.stack([np.full((size, 3), 1.0 / 3.0), ring_bary[idx],
-                                 ring_bary[(idx + 1) % size]], axis=1)
-            next_vertex += 1
-        pieces.append(fan)
-        piece_bary.append(fan_bary)
-        piece_parent.append(np.full(len(fan), t_id, np.int64))
+                lines.append({k})
+        pick = np.asarray(ear_clip(lines), np.int64)
+        pieces.append(np.asarray(ring, np.int64)[pick])
+        piece_bary.append(np.asarray(ring_bary)[pick])
+        piece_parent.append(np.full(len(pick), t_id, np.int64))
     keep = np.ones(count, bool)
     keep[touched] = False
     kept = np.flatnonzero(keep)
@@ -231,13 +235,11 @@ def repair_tjunctions(world, tolerance: float = TOLERANCE) -> tuple:
     order = np.argsort(all_parent, kind="stable")  # pieces take their parent's place
     new_tri = np.concatenate([tri[kept]] + pieces)[order]
     new_bary = np.concatenate([bary[kept]] + piece_bary)[order]
-    if added:
-        vertices = np.concatenate([vertices, np.asarray(added)])
     return _rebuilt(world, vertices, new_tri, all_parent[order], new_bary, len(hit_e),
-                    len(touched), len(added), World)
+                    len(touched), World)
 
 
-def _rebuilt(world, vertices, triangles, parent, bary, junctions, split, added, World):
+def _rebuilt(world, vertices, triangles, parent, bary, junctions, split, World):
     out = World(vertices, triangles, np.asarray(world.object_ids)[parent],
                 list(world.object_names), world.name)
     textures = getattr(world, "textures", None)
@@ -251,4 +253,4 @@ def _rebuilt(world, vertices, triangles, parent, bary, junctions, split, added, 
     out.repair = "tjunctions"
     if hasattr(world, "obj_source_bytes"):  # a PVS budget stays a share of the OBJ given
         out.obj_source_bytes = world.obj_source_bytes
-    return out, Repair(parent, bary, junctions, split, added)
+    return out, Repair(parent, bary, junctions, split)
