@@ -1,7 +1,8 @@
 """tools/pvs_crack_share.py's measure and tools/pvs_anchored.py's walk, on test_pvs_cracks's
 crease room (the slab's bottom shows only through the T-junction crease of the far wall and the
 floor): the bake's walk with the crack portals closed, all open and each open alone, and the
-anchored walk, which must keep what the crease shows as the bake's does."""
+anchored walk, which must keep what the crease shows as the bake's does (the sequence walk of
+tools/pvs_paths.py: tests/partition/test_pvs_sequences.py)."""
 import importlib.util
 import sys
 from pathlib import Path
@@ -72,32 +73,3 @@ def test_the_anchored_walk_keeps_what_the_crease_shows(crease):
     (union, anchored), (_, closed) = sets
     assert union[slab].all() and anchored[slab].all()  # cracks open: the slab kept
     assert not closed[slab].any()  # cracks closed: no line reaches it
-
-
-def test_the_sequence_walk_keeps_what_the_crease_shows(crease):
-    """tools/pvs_paths.py: its joined cells tile the grid's, and its sequence walk (exact, and
-    widened after one arrival per crossing) keeps the slab with the cracks open, not without."""
-    world, g, grow, tol, room = crease
-    tool = _module(ROOT / "tools" / "pvs_paths.py", "pvs_paths")
-    joined = tool.merge_cells(g, tol)
-    boxes = joined["cell_bounds"]
-    assert len(boxes) <= len(g["cell_bounds"])
-    volume = lambda b: np.prod(b[:, 1] - b[:, 0], axis=1).sum()  # noqa: E731
-    assert np.isclose(volume(boxes), volume(g["cell_bounds"]))
-    inside = boxes[joined["member"]]  # every grid cell lies in its joined cell
-    assert np.all(inside[:, 0] <= g["cell_bounds"][:, 0] + tol)
-    assert np.all(inside[:, 1] >= g["cell_bounds"][:, 1] - tol)
-    crack = tool.crack_flags(joined)
-    cell = int(joined["member"][room])
-    common = tool.walk_args(world, joined, cell, *g["cell_bounds"][room], grow, tol)
-    slab = np.arange(world.triangle_count - 2, world.triangle_count)
-    for exact in (np.iinfo(np.int64).max, 1):
-        for blocked, kept in ((np.zeros(len(crack), dtype=bool), True), (crack.copy(), False)):
-            visible = np.zeros(world.triangle_count, dtype=bool)
-            assert tool.sequences(*common, 10 ** 6, visible, crack, pvs_cracks.CRACK_SLOPE,
-                                  blocked, exact, -1) >= 0
-            assert visible[slab].all() == kept and visible[slab].any() == kept
-    capped = np.zeros(world.triangle_count, dtype=bool)  # no crack allowed: like closed
-    tool.sequences(*common, 10 ** 6, capped, crack, pvs_cracks.CRACK_SLOPE,
-                   np.zeros(len(crack), dtype=bool), np.iinfo(np.int64).max, 0)
-    assert not capped[slab].any()

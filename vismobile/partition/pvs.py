@@ -49,6 +49,7 @@ from . import pvs_cracks, pvs_kernels
 from .pvs_check import check_pvs  # noqa: F401 (checked on load by base.Partition.check)
 from .pvs_planes import SLAB, face_extras, source_slabs
 from .pvs_pool import fan_out
+from .pvs_sequences import sequence_grid, sequence_set
 
 MODES = ("conservative",)
 EXECUTOR_CHUNKS = 32  # source-cell chunks handed to a given executor (a progress step each)
@@ -172,15 +173,21 @@ def bake_cells(world, g, sources, grow, tol, budget=BUDGET, door_portals=()):
                                             slope, blocked | (in_plane & (plane_of != p)),
                                             crossed, slab)
             steps = -1 if more < 0 else steps + more
-        return visible, crossed, int(steps), more_visible & ~visible
+        return visible, crossed, int(steps), more_visible
 
     none = np.zeros(len(pcells), dtype=np.bool_)
+    joined = g.get("joined")
     for s in sources:
-        visible, crossed, steps, face = walk(s, none)
+        visible, crossed, steps, more = walk(s, none)
         if steps < 0:  # too many walks: every connected cell, whole
             for c in np.flatnonzero(_connected(int(s), pcells, cps, cp, cells)):
                 visible[tris[start[c]:start[c + 1]]] = True
-            face[:] = False
+            more = visible
+        elif joined is not None:  # both walks keep every line: so does what both mark
+            tight = sequence_set(world, joined, s, bounds[s, 0], bounds[s, 1], grow, tol)
+            if tight is not None:
+                visible &= tight
+        face = more & ~visible
         hidden = {}
         for d, ports in enumerate(door_portals):
             if steps < 0 or not crossed[ports].any():  # no line from the source crosses it
@@ -219,7 +226,7 @@ def with_solids(world, boxes, masks, grow) -> list:
 
 
 def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
-         cells=None, executor=None, doors=None, planes=True) -> tuple:
+         cells=None, executor=None, doors=None, planes=True, sequences=True) -> tuple:
     """The PVS extras (module docstring) of a partition of any kind, and bake statistics.
 
     The view cells are a portal grid of the PVS's own (pvs_cells.view_grid: about `cells`
@@ -237,6 +244,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
                door, what the door shut hides from the cell (door_sets; not for a BSP)
     planes   : False: no walks of the lines lying in a face's plane (pvs_planes.py; a
                diagnostic: the stage then falls back for eyes in those planes, no pvs_plane)
+    sequences : False: the union walk's sets alone (pvs_sequences.py: a diagnostic; with it
+               each cell keeps what both its union walk and its sequence walk mark)
     partition.params["fly"] "on": fly-over cells over an outdoor world's street cells
                (pvs_fly.py; ValueError when the world gets no street cells)
     partition.params["budget"]: a share of the OBJ's bytes the PVS may take; the sets are
@@ -283,6 +292,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     sealed = getattr(world, "repair", None) == "tjunctions"
     g = view_grid(world, cells, grow=grow, split=sealed, planes=planes)
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
+    if sequences:
+        g["joined"] = sequence_grid(g, tol)
     count = len(g["cell_bounds"])
     sources = np.arange(count)
     if doors is not None and partition.kind == "bsp":

@@ -1,0 +1,78 @@
+"""Per-sequence walks (partition/pvs_sequences.py): the joined cells tile the grid's, the walk keeps
+what a crack shows, and the bake's sets (what both walks mark) are within the union walk's and
+tighter on W1's repaired rooms."""
+import numpy as np
+import pytest
+
+from vismobile.files.loader import repaired
+from vismobile.partition import pvs, pvs_cells, pvs_cracks
+from vismobile.partition.pvs_sequences import (crack_flags, merge_cells, sequence_grid,
+                                               sequences)
+from vismobile.scenes import build_world
+
+
+@pytest.fixture(scope="module")
+def crease(literal):
+    """(world, view grid, grow, tol, room cell): the crease room's four view cells
+    (test_pvs_cracks: the slab's bottom shows only through the far wall's T-junction crease)."""
+    world = literal.crease_world()
+    edges = [np.array([0.0, 4.0]), np.array([0.0, 0.2, 3.0]), np.array([0.0, 4.0, 5.0])]
+    grow = pvs.bake_grow(world)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(pvs_cells, "paired_edges", lambda world, cells: edges)
+        g = pvs_cells.view_grid(world, grow=grow)
+    tol = pvs.TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
+    room = int(np.flatnonzero(np.all(np.isclose(g["cell_bounds"],
+                                                [[0, 0.2, 0], [4, 3, 4]]), axis=(1, 2)))[0])
+    return world, g, grow, tol, room
+
+
+def test_the_sequence_walk_keeps_what_the_crease_shows(crease):
+    """Joined cells tile the grid's; the walk (exact, and widened after one arrival per
+    crossing) keeps the slab with the cracks open, not without them or with no crack allowed."""
+    world, g, grow, tol, room = crease
+    joined = merge_cells(g, tol)
+    boxes = joined["cell_bounds"]
+    assert len(boxes) <= len(g["cell_bounds"])
+    volume = lambda b: np.prod(b[:, 1] - b[:, 0], axis=1).sum()  # noqa: E731
+    assert np.isclose(volume(boxes), volume(g["cell_bounds"]))
+    inside = boxes[joined["member"]]  # every grid cell lies in its joined cell
+    assert np.all(inside[:, 0] <= g["cell_bounds"][:, 0] + tol)
+    assert np.all(inside[:, 1] >= g["cell_bounds"][:, 1] - tol)
+    crack = crack_flags(joined)
+    start = joined["cell_start"]
+    common = (int(joined["member"][room]), *g["cell_bounds"][room], boxes,
+              joined["portal_cells"],
+              np.asarray(joined["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3),
+              joined["cell_portal_start"], joined["cell_portals"], start[:-1], start[1:],
+              joined["cell_tris"], world.corners, grow, tol)
+    slab = np.arange(world.triangle_count - 2, world.triangle_count)
+    for exact in (np.iinfo(np.int64).max, 1):
+        for blocked, kept in ((np.zeros(len(crack), dtype=bool), True), (crack.copy(), False)):
+            visible = np.zeros(world.triangle_count, dtype=bool)
+            assert sequences(*common, 10 ** 6, visible, crack, pvs_cracks.CRACK_SLOPE,
+                             blocked, exact, -1) >= 0
+            assert visible[slab].all() == kept and visible[slab].any() == kept
+    capped = np.zeros(world.triangle_count, dtype=bool)  # no crack allowed: like closed
+    sequences(*common, 10 ** 6, capped, crack, pvs_cracks.CRACK_SLOPE,
+              np.zeros(len(crack), dtype=bool), np.iinfo(np.int64).max, 0)
+    assert not capped[slab].any()
+
+
+def test_w1_repaired_rooms_keep_less_and_nothing_the_union_walk_drops():
+    """On W1 repaired (sealed cells), the bake's sets of its largest rooms are subsets of the
+    union walk's, and together at most 3/4 of them (measured: 0.58x)."""
+    world = repaired(build_world("w1"), "tjunctions")
+    grow = pvs.bake_grow(world)
+    tol = pvs.TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
+    g = pvs_cells.view_grid(world, grow=grow, split=True, planes=True)
+    bounds = g["cell_bounds"]
+    rooms = np.argsort(-np.prod(bounds[:, 1] - bounds[:, 0], axis=1))[:4]
+    union = pvs.bake_cells(world, g, rooms, grow, tol)
+    tight = pvs.bake_cells(world, {**g, "joined": sequence_grid(g, tol)}, rooms, grow, tol)
+    before = after = 0
+    for (u, _, _, _), (t, _, _, _) in zip(union, tight):
+        u, t = pvs.ids_of(u), pvs.ids_of(t)
+        assert np.isin(t, u).all()
+        before, after = before + len(u), after + len(t)
+    assert after <= 0.75 * before
