@@ -200,3 +200,30 @@ def test_a_partition_keeps_its_repair_and_refuses_the_other_world(tmp_path, lite
     assert not (tmp_path / "out").exists()
     assert main(["info", str(path), "--repair", "tjunctions"]) == 0
     assert f"-> {fixed.triangle_count:,} triangles" in capsys.readouterr().out
+
+
+def test_partition_repairs_for_a_conservative_pvs_unless_told_not_to(tmp_path, literal, capsys):
+    """partition's --repair auto (the default) repairs a world with T-junctions when it bakes
+    a conservative PVS, and says so; --repair none, or a structure without a PVS, keeps the
+    world as given; a bad value is refused (exit 2) and writes nothing."""
+    from vismobile.app.cli import main
+    from vismobile.partition import load_partition
+
+    path = tmp_path / "crease.obj"
+    world = literal.crease_world()
+    world.to_obj(path)
+    runs = {"auto": ["--structure", "grid:pvs=conservative"],
+            "none": ["--structure", "grid:pvs=conservative", "--repair", "none"],
+            "nopvs": ["--structure", "grid"]}
+    for name, argv in runs.items():
+        assert main(["partition", str(path), *argv, "-o", str(tmp_path / f"{name}.vmp")]) == 0
+        said = "repair      tjunctions (auto" in capsys.readouterr().out
+        loaded = load_partition(tmp_path / f"{name}.vmp")
+        assert said == (name == "auto") and (loaded.world.repair == "tjunctions") == said
+        assert (loaded.world.triangle_count > world.triangle_count) == said
+    with pytest.raises(SystemExit) as refused:  # argparse's choices
+        main(["partition", str(path), "--structure", "grid:pvs=conservative", "--repair",
+              "always", "-o", str(tmp_path / "bad.vmp")])
+    assert refused.value.code == 2
+    assert "argument --repair: invalid choice: 'always'" in capsys.readouterr().err
+    assert not (tmp_path / "bad.vmp").exists()

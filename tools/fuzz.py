@@ -7,7 +7,8 @@ issue 30); GLB node animations and JSON motion files (animglb, motion: issue 25)
 as play --motion takes it, --fps values and play --regional choices (playmotion, fps,
 regional: issue 25), play --page-budget values (budget: issue 30), GeoTIFFs built out of core,
 --memory values, paged Röttger files (tifstream, memory, vmrpages: issue 30, fuzz_tiled.py),
---repair values and OBJs repaired (repair, objrepair: issue 29, fuzz_repair.py), compare's and
+--repair values and OBJs repaired (repair, objrepair, partition's partrepair: issue 29,
+fuzz_repair.py), compare's and
 tune's --repair values (studyrepair: issue 29).
 The targets live by family: the option texts in fuzz_options.py, the mesh, scene and terrain
 files in fuzz_formats.py, issue 25's in fuzz_motion.py, issue 30's out-of-core ones in
@@ -28,7 +29,7 @@ Three modes:
   the target go to libFuzzer, e.g. -max_total_time=600 -rss_limit_mb=4096.
 
 Usage:
-  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps,regional,budget,tifstream,memory,vmrpages,repair,objrepair,studyrepair]
+  .venv/bin/python tools/fuzz.py mutate [--target obj,vmp,trajectory,glb,objmtl,cull,structure,selection,scheduler,ply,stl,off,gz,vmt,vmtplay,npy,tif,vmtiles,animglb,motion,playmotion,fps,regional,budget,tifstream,memory,vmrpages,repair,objrepair,partrepair,studyrepair]
                                         [--cases 300] [--seed 0]
   .venv/bin/python tools/fuzz.py hostile [CASE ...]
   .venv/bin/python tools/fuzz.py atheris obj|vmp|trajectory|glb|objmtl|cull|structure|selection|scheduler [-max_total_time=600 ...]

@@ -1,5 +1,6 @@
 """tools/fuzz.py's targets for the world repair (issue 29, world/tjunctions.py): `repair`, the
---repair option's text through `vismobile info`; `objrepair`, a mutated OBJ with T-junctions
+--repair option's text through `vismobile info`; `partrepair`, through `vismobile partition`
+baking a conservative PVS (its default, auto, repairs a world with T-junctions); `objrepair`, a mutated OBJ with T-junctions
 loaded with repair="tjunctions" and its contract checked (area per parent, winding, no
 vertex left inside an edge)."""
 from __future__ import annotations
@@ -11,10 +12,12 @@ TJUNCTION_OBJ = (b"v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\n"
                  b"v 1 0 2\nv 0 1 2\nv 1 1 2\nv 2 1 2\n"
                  b"o floor\nf 1 4 3\nf 1 3 2\no wall\nf 4 6 7\nf 4 7 5\nf 5 7 8\nf 5 8 3\n")
 REPAIR_TEXTS = [b"tjunctions", b"none"]
+PARTITION_REPAIR_TEXTS = [b"auto", b"none", b"tjunctions"]
 
 
 def repair_seeds() -> dict:
-    return {"repair": REPAIR_TEXTS, "objrepair": [TJUNCTION_OBJ]}
+    return {"repair": REPAIR_TEXTS, "objrepair": [TJUNCTION_OBJ],
+            "partrepair": PARTITION_REPAIR_TEXTS}
 
 
 def load_repair(path):
@@ -26,6 +29,19 @@ def load_repair(path):
     if not world.exists():
         world.write_bytes(TJUNCTION_OBJ)
     run_option(["info", str(world), f"--repair={text}"], "--repair", text)
+
+
+def load_partition_repair(path):
+    """partition's --repair value through the CLI, baking a conservative PVS of a small world
+    with T-junctions (fuzz_options.run_option)."""
+    from fuzz_options import run_option
+
+    text = path.read_bytes()[:256].decode("utf-8", errors="replace").replace("\x00", "")
+    world = path.with_name("tjunction.obj")
+    if not world.exists():
+        world.write_bytes(TJUNCTION_OBJ)
+    run_option(["partition", str(world), "--structure=grid:pvs=conservative",
+                f"--repair={text}", "-o", str(path.with_suffix(".vmp"))], "--repair", text)
 
 
 def load_obj_repair(path):
@@ -46,4 +62,5 @@ def load_obj_repair(path):
         fixed.digest()
 
 
-ENTRY = {"repair": (load_repair, ".txt"), "objrepair": (load_obj_repair, ".obj")}
+ENTRY = {"repair": (load_repair, ".txt"), "objrepair": (load_obj_repair, ".obj"),
+         "partrepair": (load_partition_repair, ".txt")}

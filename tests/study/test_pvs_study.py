@@ -138,7 +138,7 @@ def test_partition_bakes_over_dask_as_it_bakes_alone(tmp_path, world_file, world
 
     out = tmp_path / "p.vmp"
     rc = cli(["partition", str(world_file), "--structure", "portal:1,pvs=conservative",
-              "--scheduler", "dask", "--jobs", "2", "-o", str(out)])
+              "--scheduler", "dask", "--jobs", "2", "--repair", "none", "-o", str(out)])
     assert rc == 0 and "pvs         conservative" in capsys.readouterr().out
     alone = partition(world, "portal", depth=1, pvs="conservative")
     spread = load_partition(out)
