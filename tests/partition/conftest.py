@@ -81,3 +81,21 @@ def checks(literal):
     return types.SimpleNamespace(covered=partial(assert_covered, overlaps=literal.clip_overlaps),
                                  exact=partial(assert_exact, overlaps=literal.clip_overlaps),
                                  leaf_pairs=leaf_pairs)
+
+
+@pytest.fixture(scope="module")
+def crease(literal):
+    """(world, view grid, grow, tol, room cell): the crease room's four view cells
+    (test_pvs_cracks: the slab's bottom shows only through the far wall's T-junction crease)."""
+    from vismobile.partition import pvs, pvs_cells
+
+    world = literal.crease_world()
+    edges = [np.array([0.0, 4.0]), np.array([0.0, 0.2, 3.0]), np.array([0.0, 4.0, 5.0])]
+    grow = pvs.bake_grow(world)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(pvs_cells, "paired_edges", lambda world, cells: edges)
+        g = pvs_cells.view_grid(world, grow=grow)
+    tol = pvs.TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
+    room = int(np.flatnonzero(np.all(np.isclose(g["cell_bounds"],
+                                                [[0, 0.2, 0], [4, 3, 4]]), axis=(1, 2)))[0])
+    return world, g, grow, tol, room

@@ -8,9 +8,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
-from vismobile.partition import pvs, pvs_cells, pvs_cracks
+from vismobile.partition import pvs_cracks
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -21,21 +20,6 @@ def _module(path, name):
     sys.modules[name] = module  # numba's cache finds a kernel's module by name on load
     spec.loader.exec_module(module)
     return module
-
-
-@pytest.fixture(scope="module")
-def crease(literal):
-    """(world, view grid, grow, tol, room cell): the crease room's four view cells."""
-    world = literal.crease_world()
-    edges = [np.array([0.0, 4.0]), np.array([0.0, 0.2, 3.0]), np.array([0.0, 4.0, 5.0])]
-    grow = pvs.bake_grow(world)
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(pvs_cells, "paired_edges", lambda world, cells: edges)
-        g = pvs_cells.view_grid(world, grow=grow)
-    tol = pvs.TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
-    room = int(np.flatnonzero(np.all(np.isclose(g["cell_bounds"],
-                                                [[0, 0.2, 0], [4, 3, 4]]), axis=(1, 2)))[0])
-    return world, g, grow, tol, room
 
 
 def test_a_crack_alone_adds_what_only_it_shows(crease):

@@ -2,29 +2,12 @@
 what a crack shows, and the bake's sets (what both walks mark) are within the union walk's and
 tighter on W1's repaired rooms."""
 import numpy as np
-import pytest
 
 from vismobile.files.loader import repaired
 from vismobile.partition import pvs, pvs_cells, pvs_cracks
 from vismobile.partition.pvs_sequences import (crack_flags, merge_cells, sequence_grid,
                                                sequences)
 from vismobile.scenes import build_world
-
-
-@pytest.fixture(scope="module")
-def crease(literal):
-    """(world, view grid, grow, tol, room cell): the crease room's four view cells
-    (test_pvs_cracks: the slab's bottom shows only through the far wall's T-junction crease)."""
-    world = literal.crease_world()
-    edges = [np.array([0.0, 4.0]), np.array([0.0, 0.2, 3.0]), np.array([0.0, 4.0, 5.0])]
-    grow = pvs.bake_grow(world)
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(pvs_cells, "paired_edges", lambda world, cells: edges)
-        g = pvs_cells.view_grid(world, grow=grow)
-    tol = pvs.TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
-    room = int(np.flatnonzero(np.all(np.isclose(g["cell_bounds"],
-                                                [[0, 0.2, 0], [4, 3, 4]]), axis=(1, 2)))[0])
-    return world, g, grow, tol, room
 
 
 def test_the_sequence_walk_keeps_what_the_crease_shows(crease):
