@@ -195,7 +195,7 @@ def run(args) -> int:
 def _auto_repair(world):
     """world with its T-junctions repaired (world/tjunctions.py) when it has any, saying so: a
     conservative PVS lets sight lines through every crease's crack, which joins the rooms
-    through the hollow walls (W1's default bake sent 0.977x vfc+tbfc as built, 0.414x of the
+    through the hollow walls (W1's default bake sent 0.977x vfc+tbfc as built, 0.403x of the
     world as built's vfc+tbfc repaired)."""
     from ..world.tjunctions import repair_tjunctions
 
