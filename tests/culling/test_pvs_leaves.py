@@ -4,10 +4,12 @@ cameras in its leaves (inside, on faces, edges and corners, any pitch and fov, t
 arithmetic modes); an eye outside every cell falls back and says so."""
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from vismobile.culling import Culler
 from vismobile.partition import partition
-from vismobile.partition.pvs_leaves import clip, box_faces, leaf_regions
+from vismobile.partition.pvs_leaves import LATTICE, clip, box_faces, leaf_regions, on_lattice
 from vismobile.world.camera import Camera
 
 from .pvs_cases import (MODES, in_cell_cameras, in_face_plane, keeps_what_cameras_see,
@@ -67,3 +69,32 @@ def test_an_eye_outside_every_leaf_falls_back_and_says_so(baked):
     assert result.stats.get("pvs.fallbacks") == 1 and "pvs.cells" not in result.stats
     inside = Camera((low + high) / 2.0, yaw=0.0, aspect=4 / 3)
     assert "pvs.fallbacks" not in Culler(baked, "pvs,vfc").cull(inside).stats
+
+
+@settings(max_examples=50)
+@given(st.integers(0, 2**32 - 1), st.floats(-1e4, 1e4), st.sampled_from([1e-3, 0.039, 0.5, 3.0]))
+def test_stored_boxes_grow_outward_onto_the_lattice(seed, origin, step):
+    rng = np.random.default_rng(seed)
+    lo = origin + rng.uniform(0, 100, (20, 3))
+    boxes = np.stack([lo, lo + rng.uniform(0, 10, (20, 3))], axis=1)
+    out = on_lattice(boxes, np.full(3, origin), step)
+    assert (out[:, 0] <= boxes[:, 0]).all() and (out[:, 1] >= boxes[:, 1]).all()
+    assert (out[:, 0] >= boxes[:, 0] - 2 * step).all()
+    assert (out[:, 1] <= boxes[:, 1] + 2 * step).all()
+    k = (out - origin) / step
+    assert (np.abs(k - np.round(k)) <= 1e-6 * (1 + np.abs(k))).all()
+
+
+def test_the_leaves_stored_boxes_share_lattice_coordinates(baked):
+    """Each leaf's stored box holds its region's bounding box, on the lattice or at the
+    world's box grown by the bake's pad (never beyond: an eye there falls back)."""
+    _, regions, _ = leaf_regions(baked)
+    cells = baked.extras["pvs_cells"]
+    assert len(cells) == len(regions)
+    assert (cells[:, 0] <= regions[:, 0]).all() and (cells[:, 1] >= regions[:, 1]).all()
+    extent = np.asarray(baked.world.extent)
+    step = LATTICE * float(np.ptp(extent, axis=0).max())
+    k = (cells - extent[0]) / step
+    at_side = (cells < extent[0]) | (cells > extent[1])
+    assert (cells >= extent[0] - step).all() and (cells <= extent[1] + step).all()
+    assert np.allclose(k[~at_side], np.round(k[~at_side]), atol=1e-6)

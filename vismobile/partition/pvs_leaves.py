@@ -5,7 +5,9 @@ A leaf's region is the world's box cut by the half-spaces of the split planes on
 the union of the sets of the PVS's own view cells (pvs_cells.view_grid, baked as usual) that
 the region, grown by `pad`, may touch: a grid cell is left out only when its box lies wholly
 outside the grown leaf's bounding box, or wholly on the far side of one path plane by more
-than `pad`. The leaf's stored view cell is the grown bounding box of its region.
+than `pad`. The leaf's stored view cell is the grown bounding box of its region, grown on to
+a lattice of LATTICE x the world's largest side (on_lattice: few distinct coordinates) within
+the world's box grown by `pad`.
 
 Contract (conservative, inherits the grid bake's): every eye within `pad` of a leaf's region
 lies within `pad` of some grid cell the leaf takes, so the leaf's set holds what that eye may
@@ -16,6 +18,8 @@ includes the set of the leaf whose region holds it: looser boxes only add triang
 from __future__ import annotations
 
 import numpy as np
+
+LATTICE = 2.0 ** -10  # the stored boxes' lattice step, a share of the world's largest side
 
 
 def box_faces(low, high) -> list:
@@ -112,4 +116,22 @@ def leaf_sets(partition, cell_boxes, masks, pad) -> tuple:
             near &= best >= -pad * np.abs(n).sum()
         union = np.bitwise_or.reduce(packed[near], axis=0) if near.any() else packed[0] * 0
         sets.append(np.unpackbits(union, count=triangles).astype(bool))
-    return boxes, sets
+    extent = np.asarray(partition.world.extent, dtype=np.float64)
+    step = LATTICE * float(np.ptp(extent, axis=0).max())
+    # never past the world's box grown by pad: an eye beyond it is in no leaf's region's reach
+    lattice = on_lattice(boxes, extent[0], step)
+    return np.clip(lattice, extent[0] - pad, extent[1] + pad), sets
+
+
+def on_lattice(boxes, origin, step) -> np.ndarray:
+    """(L, 2, 3) float64 each box grown outward to the lattice origin + k x step (lo down, hi
+    up; never inside the box given, whatever the rounding). The stored boxes then share few
+    coordinates (pvs_codec codes each distinct one once: W4's 4,560 leaves' exact boxes took
+    0.365x the OBJ in the two PVS sections), and looser boxes only add triangles (module
+    docstring)."""
+    boxes = np.asarray(boxes, dtype=np.float64)
+    lo = origin + np.floor((boxes[:, 0] - origin) / step) * step
+    hi = origin + np.ceil((boxes[:, 1] - origin) / step) * step
+    lo = np.where(lo > boxes[:, 0], lo - step, lo)  # rounding past the box: one step more
+    hi = np.where(hi < boxes[:, 1], hi + step, hi)
+    return np.stack([lo, hi], axis=1)
