@@ -21,7 +21,7 @@ from numba import njit
 from .pvs_kernels import (MAX_PLANES, MAX_VERTS, _flat_rectangle, _mark, box_vertices,
                           exit_candidate, grow_box, separators)
 
-MAX_ROUNDS = 64
+MAX_ROUNDS = 64  # merge_cells: passes, each joining disjoint pairs of cells
 
 
 def _roots(parent):
