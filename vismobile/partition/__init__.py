@@ -28,7 +28,10 @@ def partition(world, kind: str, progress=None, **params) -> Partition:
                (pvs_fly.py); budget=F: the sets coarsened (cells merged, sets only grow)
                until the PVS takes at most F x the OBJ's bytes (pvs_coarsen.py); not given
                (None), pvs_coarsen.DEFAULT_BUDGET (0.25); budget="none" keeps the exact sets.
-               A conservative bake's params record it: the share, or "none"
+               A conservative bake's params record it: the share, or "none". The bake
+               takes the world as given: one with T-junctions (whose creases' cracks join
+               its rooms) bakes far tighter sets loaded with repair="tjunctions", which
+               `vismobile partition` does itself (--repair auto, docs/partition.md)
     progress : optional callable(done, total) for long builds
     An AnimatedWorld (world/animated.py) gives a dynamic.AnimatedPartition: its static
     triangles partitioned as asked (none: a one-node octree), its moving objects left to the
