@@ -245,7 +245,8 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     planes   : False: no walks of the lines lying in a face's plane (pvs_planes.py; a
                diagnostic: the stage then falls back for eyes in those planes, no pvs_plane)
     sequences : False: the union walk's sets alone (pvs_sequences.py: a diagnostic; with it
-               each cell keeps what both its union walk and its sequence walk mark)
+               each cell keeps what both its union walk and its sequence walk mark, on a
+               repaired world or one without crack portals)
     partition.params["fly"] "on": fly-over cells over an outdoor world's street cells
                (pvs_fly.py; ValueError when the world gets no street cells)
     partition.params["budget"]: a share of the OBJ's bytes the PVS may take; the sets are
@@ -292,7 +293,9 @@ def bake(partition, mode="conservative", progress=None, jobs=1, budget=BUDGET,
     sealed = getattr(world, "repair", None) == "tjunctions"
     g = view_grid(world, cells, grow=grow, split=sealed, planes=planes)
     tol = TOLERANCE * float(np.ptp(world.extent, axis=0).max()) + grow
-    if sequences:
+    if sequences and (sealed or not g.get("cracks")):
+        # a world as built with T-junction creases: every sequence walk passes its budget (the
+        # cracks join the hollow walls), so it would cost a quarter of the bake for nothing
         g["joined"] = sequence_grid(g, tol)
     count = len(g["cell_bounds"])
     sources = np.arange(count)
