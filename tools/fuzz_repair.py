@@ -1,8 +1,8 @@
 """tools/fuzz.py's targets for the world repair (issue 29, world/tjunctions.py): `repair`, the
 --repair option's text through `vismobile info`; `partrepair`, through `vismobile partition`
-baking a conservative PVS (its default, auto, repairs a world with T-junctions); `objrepair`, a mutated OBJ with T-junctions
-loaded with repair="tjunctions" and its contract checked (area per parent, winding, no
-vertex left inside an edge)."""
+baking a conservative PVS (its default, auto, repairs a world with T-junctions); `objrepair`,
+a mutated OBJ with T-junctions loaded with repair="tjunctions" and its contract checked (area
+per parent, winding, no vertex left inside an edge)."""
 from __future__ import annotations
 
 import numpy as np
@@ -20,28 +20,28 @@ def repair_seeds() -> dict:
             "partrepair": PARTITION_REPAIR_TEXTS}
 
 
-def load_repair(path):
-    """info's --repair value through the CLI on a small world (fuzz_options.run_option)."""
+def _repair_option(path, argv):
+    """The --repair value in path (its first 256 bytes as text) through the CLI command
+    argv(world, text) on a small world with T-junctions (fuzz_options.run_option)."""
     from fuzz_options import run_option
 
     text = path.read_bytes()[:256].decode("utf-8", errors="replace").replace("\x00", "")
     world = path.with_name("tjunction.obj")
     if not world.exists():
         world.write_bytes(TJUNCTION_OBJ)
-    run_option(["info", str(world), f"--repair={text}"], "--repair", text)
+    run_option(argv(str(world), text), "--repair", text)
+
+
+def load_repair(path):
+    """info's --repair value."""
+    _repair_option(path, lambda world, text: ["info", world, f"--repair={text}"])
 
 
 def load_partition_repair(path):
-    """partition's --repair value through the CLI, baking a conservative PVS of a small world
-    with T-junctions (fuzz_options.run_option)."""
-    from fuzz_options import run_option
-
-    text = path.read_bytes()[:256].decode("utf-8", errors="replace").replace("\x00", "")
-    world = path.with_name("tjunction.obj")
-    if not world.exists():
-        world.write_bytes(TJUNCTION_OBJ)
-    run_option(["partition", str(world), "--structure=grid:pvs=conservative",
-                f"--repair={text}", "-o", str(path.with_suffix(".vmp"))], "--repair", text)
+    """partition's --repair value, baking a conservative PVS."""
+    _repair_option(path, lambda world, text: [
+        "partition", world, "--structure=grid:pvs=conservative", f"--repair={text}", "-o",
+        str(path.with_suffix(".vmp"))])
 
 
 def load_obj_repair(path):

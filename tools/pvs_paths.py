@@ -34,18 +34,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from vismobile.partition import pvs, pvs_cracks  # noqa: E402
 from vismobile.partition.pvs_cells import view_grid  # noqa: E402
 from vismobile.partition.pvs_kernels import flow_from_cell  # noqa: E402
-from vismobile.partition.pvs_sequences import crack_flags, merge_cells, sequences  # noqa: E402
+from vismobile.partition.pvs_sequences import (crack_flags, merge_cells, sequences,  # noqa: E402
+                                               walk_args)
 from vismobile.scenes import build_world  # noqa: E402
-
-
-def walk_args(world, g, cell, lo, hi, grow, tol):
-    """The leading arguments of flow_from_cell and sequences for a source box in cell."""
-    start = g["cell_start"]
-    return (int(cell), np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64),
-            g["cell_bounds"], g["portal_cells"],
-            np.asarray(g["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3),
-            g["cell_portal_start"], g["cell_portals"], start[:-1], start[1:], g["cell_tris"],
-            world.corners, grow, tol)
 
 
 def main(argv=None):

@@ -6,7 +6,7 @@ import numpy as np
 from vismobile.files.loader import repaired
 from vismobile.partition import pvs, pvs_cells, pvs_cracks
 from vismobile.partition.pvs_sequences import (crack_flags, merge_cells, sequence_grid,
-                                               sequences)
+                                               sequences, walk_args)
 from vismobile.scenes import build_world
 
 
@@ -23,12 +23,7 @@ def test_the_sequence_walk_keeps_what_the_crease_shows(crease):
     assert np.all(inside[:, 0] <= g["cell_bounds"][:, 0] + tol)
     assert np.all(inside[:, 1] >= g["cell_bounds"][:, 1] - tol)
     crack = crack_flags(joined)
-    start = joined["cell_start"]
-    common = (int(joined["member"][room]), *g["cell_bounds"][room], boxes,
-              joined["portal_cells"],
-              np.asarray(joined["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3),
-              joined["cell_portal_start"], joined["cell_portals"], start[:-1], start[1:],
-              joined["cell_tris"], world.corners, grow, tol)
+    common = walk_args(world, joined, joined["member"][room], *g["cell_bounds"][room], grow, tol)
     slab = np.arange(world.triangle_count - 2, world.triangle_count)
     for exact in (np.iinfo(np.int64).max, 1):
         for blocked, kept in ((np.zeros(len(crack), dtype=bool), True), (crack.copy(), False)):

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .pvs_cracks import CRACK_SLOPE
 from .pvs_kernels import (MAX_PLANES, MAX_VERTS, _flat_rectangle, _mark, box_vertices,
                           exit_candidate, grow_box, separators)
 
@@ -292,27 +293,28 @@ def sequence_grid(g, eps) -> dict:
     only in their slab), its cells joined across wholly open faces (merge_cells)."""
     keep = len(g["portal_cells"]) - int(g.get("planes", 0))
     pcells = np.asarray(g["portal_cells"], dtype=np.int64).reshape(-1, 2)[:keep]
-    verts = np.asarray(g["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3)[:keep]
-    return merge_cells({**g, "portal_cells": pcells, "portal_vertices": verts.reshape(-1, 3),
-                        "planes": 0}, eps)
+    quads = np.asarray(g["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3)[:keep]
+    return merge_cells({**g, "portal_cells": pcells, "portal_vertices": quads, "planes": 0},
+                       eps)
 
 
-def sequence_set(world, joined, cell, lo, hi, grow, tol, blocked=None):
+def walk_args(world, g, cell, lo, hi, grow, tol) -> tuple:
+    """The leading arguments of sequences (and pvs_kernels.flow_from_cell) for the source box
+    [lo, hi] in cell of the grid g."""
+    start = g["cell_start"]
+    return (int(cell), np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64),
+            g["cell_bounds"], g["portal_cells"],
+            np.asarray(g["portal_vertices"], dtype=np.float64).reshape(-1, 4, 3),
+            g["cell_portal_start"], g["cell_portals"], start[:-1], start[1:], g["cell_tris"],
+            world.corners, grow, tol)
+
+
+def sequence_set(world, joined, cell, lo, hi, grow, tol):
     """(T,) bool what the sequences from the box [lo, hi] of the view cell `cell` (of the grid
-    joined was made from) reach, or None past SEQUENCE_BUDGET crossings; blocked: (P,) bool
-    portals of joined never crossed."""
-    from .pvs_cracks import CRACK_SLOPE
-
+    joined was made from) reach, or None past SEQUENCE_BUDGET crossings."""
     crack = crack_flags(joined)
-    start = joined["cell_start"]
     visible = np.zeros(world.triangle_count, dtype=np.bool_)
-    walks = sequences(int(joined["member"][cell]), np.asarray(lo, dtype=np.float64),
-                      np.asarray(hi, dtype=np.float64), joined["cell_bounds"],
-                      joined["portal_cells"], np.asarray(joined["portal_vertices"],
-                                                         dtype=np.float64).reshape(-1, 4, 3),
-                      joined["cell_portal_start"], joined["cell_portals"], start[:-1],
-                      start[1:], joined["cell_tris"], world.corners, grow, tol, SEQUENCE_BUDGET,
-                      visible, crack, CRACK_SLOPE,
-                      np.zeros(len(crack), dtype=np.bool_) if blocked is None else blocked,
-                      EXACT, -1)
+    walks = sequences(*walk_args(world, joined, joined["member"][cell], lo, hi, grow, tol),
+                      SEQUENCE_BUDGET, visible, crack, CRACK_SLOPE,
+                      np.zeros(len(crack), dtype=np.bool_), EXACT, -1)
     return None if walks < 0 else visible
